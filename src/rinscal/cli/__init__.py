@@ -1,0 +1,19 @@
+"""Command-line interface: thin commands over plain functions that return data.
+
+Each command module registers its commands on :data:`rinscal.cli._app.app`; library
+functions raise :class:`rinscal.errors.RinscalError` subclasses, which only this layer turns
+into a message and an exit code.
+"""
+
+from __future__ import annotations
+
+from rinscal.cli import calibrate, navigate, reproduce, simulate  # noqa: F401  (registers)
+from rinscal.cli._app import app
+
+
+def main() -> None:
+    """Entry point of the ``rinscal`` console script."""
+    app()
+
+
+__all__ = ["app", "main"]

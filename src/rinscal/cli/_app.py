@@ -1,0 +1,32 @@
+"""The Typer application shared by every command module, and the error boundary."""
+
+from __future__ import annotations
+
+import typer
+from rich.console import Console
+
+app = typer.Typer(
+    name="rinscal",
+    help="Thermal calibration of IMUs and its proof in a single-axis rotational INS.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+
+#: Messages and tables go to stderr-free stdout; errors to stderr.
+console = Console()
+err_console = Console(stderr=True)
+
+
+def fail(message: str, code: int = 2) -> typer.Exit:
+    """Print ``message`` as an error and return the exit to raise.
+
+    Parameters
+    ----------
+    message : str
+        What went wrong, naming the file, column or parameter.
+    code : int
+        Process exit code.
+    """
+    err_console.print(f"[bold red]error:[/] {message}", highlight=False, soft_wrap=True)
+    return typer.Exit(code)

@@ -1,0 +1,1 @@
+"""Navigation: Earth model, rotation schedules, trajectories, ideal IMU, strapdown, alignment."""
