@@ -1,0 +1,1 @@
+"""Thermal chamber and IMU simulator: chamber profiles, thermal network, IMU plant, protocols."""
