@@ -1,0 +1,683 @@
+"""Read and write calibration logs (CSV, TSV, Parquet); read foreign logs through a mapping.
+
+Verbs: ``read_*`` load and validate a file, ``write_*`` write one atomically (a temporary
+file in the same folder, then :func:`os.replace`), so a crash never leaves a half-written
+file under the final name.
+
+A foreign log (other column names, a µs or ms timestamp, tab separation, one shared
+temperature) is read through a :class:`ColumnMapping`, from a small TOML file
+(:func:`read_mapping`) or built from command-line options, never by editing the file::
+
+    # tofupilot_mapping.toml
+    separator = "tab"            # "tab", "comma", "semicolon" or "auto"
+    time = "timestamp"           # foreign time column ...
+    time_unit = "us"             # ... in s, ms or us; made relative to each run's first sample
+    temperature = "imu.temperature"   # one shared inner temperature -> temp_in
+    drop = ["imu.status"]        # columns to leave out
+    run = "thermal_cycle"        # run name when the log has no run column (default: file stem)
+
+    [columns]                    # foreign name -> canonical name
+    "imu.gyro.x" = "gyro_x"
+
+    [scale]                      # optional: multiply a channel by a factor after reading
+    gyro_x = 1.0
+
+    [units]                      # optional: units of the channels, for plots
+    gyro = "rad/s"
+    accel = "m/s^2"
+
+A log may carry sidecar metadata ``<log>.meta.json`` (units, latitude, rate, seed, ...),
+read with :func:`read_meta` and written with :func:`write_meta`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import json
+import math
+import os
+import tempfile
+import tomllib
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+import pandas as pd
+
+from rinscal.errors import ConfigError, LogError
+from rinscal.schema import (
+    CANONICAL,
+    CHANNELS,
+    RUN,
+    TEMP_IN,
+    TIME,
+    as_float,
+    temperature_column,
+    validate_log,
+)
+from rinscal.units import MS_TO_S, US_TO_S
+
+__all__ = [
+    "FORMATS",
+    "ColumnMapping",
+    "format_of",
+    "mapping_from_options",
+    "meta_path",
+    "read_log",
+    "read_mapping",
+    "read_meta",
+    "temperature_column",
+    "validate_log",
+    "write_log",
+    "write_meta",
+]
+
+Format = Literal["csv", "tsv", "parquet"]
+#: File formats of a log, by suffix.
+FORMATS: dict[str, Format] = {".csv": "csv", ".tsv": "tsv", ".parquet": "parquet", ".pq": "parquet"}
+#: Time units a mapping accepts, and their factor to seconds.
+TIME_UNITS: dict[str, float] = {"s": 1.0, "ms": MS_TO_S, "us": US_TO_S, "µs": US_TO_S}
+#: Separator names a mapping accepts.
+SEPARATORS: dict[str, str | None] = {
+    "auto": None,
+    "tab": "\t",
+    "comma": ",",
+    "semicolon": ";",
+    "\t": "\t",
+    ",": ",",
+    ";": ";",
+}
+_CHANNEL_GROUPS = {"gyro": CHANNELS[:3], "accel": CHANNELS[3:]}
+# pandas < 3 needs the round-trip float parser for a lossless CSV round trip; pandas 3
+# parses exactly by default and deprecates the option.
+_CSV_READ_KW: dict[str, Any] = (
+    {"float_precision": "round_trip"} if int(pd.__version__.split(".")[0]) < 3 else {}
+)
+
+
+# --------------------------------------------------------------------------- mapping
+
+
+@dataclass(frozen=True)
+class ColumnMapping:
+    """How to read a foreign log into the canonical schema.
+
+    Parameters
+    ----------
+    columns : mapping of str to str
+        Foreign column name -> canonical name (see :data:`rinscal.schema.CANONICAL`).
+    time : str, optional
+        Foreign time column, renamed to ``time_s``.
+    time_unit : {"s", "ms", "us"}
+        Unit of the time column; it is converted to seconds.
+    relative_time : bool
+        Make time relative to the first sample of each run (default), e.g. for an absolute
+        µs timestamp.
+    separator : {"auto", "tab", "comma", "semicolon"}, optional
+        Field separator of a text file; ``None`` (default) follows the suffix
+        (``.tsv`` tab, ``.csv`` comma); ``"auto"`` guesses from the header line.
+    temperature : str, optional
+        A single foreign temperature column shared by all sensors, renamed to ``temp_in``.
+    run : str, optional
+        Run name for a log without a run column (default: the file's stem).
+    scale : mapping of str to float
+        Canonical channel -> factor multiplying its values after reading.
+    drop : tuple of str
+        Foreign columns to leave out.
+    units : mapping of str to str
+        Canonical channel (or ``"gyro"``/``"accel"`` for all three) -> unit name of the
+        values after scaling, e.g. ``"rad/s"``; used for plot labels.
+    """
+
+    columns: Mapping[str, str] = field(default_factory=dict)
+    time: str | None = None
+    time_unit: str = "s"
+    relative_time: bool = True
+    separator: str | None = None
+    temperature: str | None = None
+    run: str | None = None
+    scale: Mapping[str, float] = field(default_factory=dict)
+    drop: tuple[str, ...] = ()
+    units: Mapping[str, str] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "columns", dict(self.columns))
+        object.__setattr__(self, "scale", dict(self.scale))
+        object.__setattr__(self, "drop", tuple(self.drop))
+        object.__setattr__(self, "units", dict(self.units))
+        for foreign, canon in self.columns.items():
+            if canon not in CANONICAL:
+                raise ConfigError(
+                    f"columns: {foreign!r} -> {canon!r}: {canon!r} is not a canonical column "
+                    f"(canonical: {', '.join(CANONICAL)})"
+                )
+        targets = list(self.columns.values())
+        if self.time is not None:
+            targets.append(TIME)
+        if self.temperature is not None:
+            targets.append(TEMP_IN)
+        dup = sorted({t for t in targets if targets.count(t) > 1})
+        if dup:
+            raise ConfigError(f"columns: several foreign columns map to {', '.join(dup)}")
+        if self.time_unit not in TIME_UNITS:
+            raise ConfigError(
+                f"time_unit: {self.time_unit!r} is not one of {', '.join(TIME_UNITS)}"
+            )
+        if self.separator is not None and self.separator not in SEPARATORS:
+            raise ConfigError(
+                f"separator: {self.separator!r} is not one of auto, tab, comma, semicolon"
+            )
+        for ch, k in self.scale.items():
+            if ch not in CHANNELS:
+                raise ConfigError(f"scale: {ch!r} is not a channel ({', '.join(CHANNELS)})")
+            if isinstance(k, bool) or not isinstance(k, int | float) or not math.isfinite(k):
+                raise ConfigError(f"scale.{ch}: {k!r} is not a finite number")
+        for key, unit in self.units.items():
+            if key not in CHANNELS and key not in _CHANNEL_GROUPS:
+                raise ConfigError(
+                    f"units: {key!r} is not a channel, 'gyro' or 'accel' ({', '.join(CHANNELS)})"
+                )
+            if not isinstance(unit, str):
+                raise ConfigError(f"units.{key}: {unit!r} is not a unit name")
+        if self.run is not None and (not isinstance(self.run, str) or not self.run):
+            raise ConfigError(f"run: {self.run!r} is not a run name")
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], source: str = "<mapping>") -> ColumnMapping:
+        """Build a mapping from parsed TOML (or any dict of the same keys).
+
+        Parameters
+        ----------
+        data : mapping
+            Keys as in the module docstring.
+        source : str
+            Named in error messages.
+
+        Raises
+        ------
+        ConfigError
+            Naming ``source`` and the offending key.
+        """
+        known = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(data) - known)
+        if unknown:
+            raise ConfigError(
+                f"{source}: unknown key(s) {', '.join(unknown)} (known: {', '.join(sorted(known))})"
+            )
+        kw = dict(data)
+        for key in ("columns", "scale", "units"):
+            if key in kw and not isinstance(kw[key], Mapping):
+                raise ConfigError(f"{source}: {key} must be a table")
+        if "drop" in kw:
+            drop = kw["drop"]
+            if isinstance(drop, str):
+                drop = [drop]
+            if not isinstance(drop, list | tuple) or not all(isinstance(d, str) for d in drop):
+                raise ConfigError(f"{source}: drop must be a list of column names")
+            kw["drop"] = tuple(drop)
+        for key in ("time", "time_unit", "separator", "temperature", "run"):
+            if key in kw and not isinstance(kw[key], str):
+                raise ConfigError(f"{source}: {key} must be a string, got {kw[key]!r}")
+        if "relative_time" in kw and not isinstance(kw["relative_time"], bool):
+            raise ConfigError(f"{source}: relative_time must be true or false")
+        try:
+            return cls(**kw)
+        except ConfigError as exc:
+            raise ConfigError(f"{source}: {exc}") from None
+
+    def unit_of(self, channel: str) -> str | None:
+        """Unit of ``channel`` declared in :attr:`units`, or ``None``."""
+        if channel in self.units:
+            return self.units[channel]
+        for group, chans in _CHANNEL_GROUPS.items():
+            if channel in chans and group in self.units:
+                return self.units[group]
+        return None
+
+    def foreign_columns(self) -> list[str]:
+        """Every foreign column the mapping names (and so the file must have)."""
+        cols = list(self.columns)
+        cols += [c for c in (self.time, self.temperature) if c is not None]
+        return cols
+
+
+def read_mapping(path: str | os.PathLike[str]) -> ColumnMapping:
+    """Read a :class:`ColumnMapping` from a TOML file.
+
+    Parameters
+    ----------
+    path : path-like
+        The TOML file (keys as in the module docstring).
+
+    Raises
+    ------
+    ConfigError
+        If the file is missing, not TOML, or has an unknown or invalid key (named).
+    """
+    p = Path(path)
+    try:
+        with p.open("rb") as fh:
+            data = tomllib.load(fh)
+    except FileNotFoundError:
+        raise ConfigError(f"{p}: mapping file not found") from None
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"{p}: not a valid TOML mapping file: {exc}") from None
+    return ColumnMapping.from_dict(data, source=str(p))
+
+
+def mapping_from_options(
+    base: ColumnMapping | None = None,
+    *,
+    columns: Sequence[str] = (),
+    time: str | None = None,
+    time_unit: str | None = None,
+    separator: str | None = None,
+    temperature: str | None = None,
+    run: str | None = None,
+    drop: Sequence[str] = (),
+    scale: Sequence[str] = (),
+) -> ColumnMapping | None:
+    """Build (or override) a mapping from command-line style options.
+
+    Parameters
+    ----------
+    base : ColumnMapping, optional
+        A mapping read from a file; the options override or extend it.
+    columns : sequence of str
+        ``"FOREIGN=canonical"`` pairs.
+    time, time_unit, separator, temperature, run : str, optional
+        As in :class:`ColumnMapping`.
+    drop : sequence of str
+        Foreign columns to leave out.
+    scale : sequence of str
+        ``"channel=factor"`` pairs.
+
+    Returns
+    -------
+    ColumnMapping or None
+        ``None`` when there is neither a base nor any option (read the log as canonical).
+
+    Raises
+    ------
+    ConfigError
+        For a malformed pair or value, naming the option.
+    """
+
+    def pairs(items: Sequence[str], option: str) -> dict[str, str]:
+        out = {}
+        for item in items:
+            key, sep, value = item.rpartition("=")
+            if not sep or not key or not value:
+                raise ConfigError(f"{option}: {item!r} is not of the form NAME=VALUE")
+            out[key] = value
+        return out
+
+    scale_values: dict[str, float] = {}
+    for ch, text in pairs(scale, "--scale").items():
+        try:
+            scale_values[ch] = float(text)
+        except ValueError:
+            raise ConfigError(f"--scale: {ch}={text!r} is not a number") from None
+    given = {
+        "time": time,
+        "time_unit": time_unit,
+        "separator": separator,
+        "temperature": temperature,
+        "run": run,
+    }
+    given = {k: v for k, v in given.items() if v is not None}
+    if base is None and not (given or columns or drop or scale):
+        return None
+    base = base or ColumnMapping()
+    return dataclasses.replace(
+        base,
+        columns={**base.columns, **pairs(columns, "--col")},
+        drop=(*base.drop, *drop),
+        scale={**base.scale, **scale_values},
+        **given,
+    )
+
+
+# --------------------------------------------------------------------------- reading
+
+
+def format_of(path: str | os.PathLike[str], fmt: str | None = None) -> Format:
+    """File format of a log: ``fmt`` if given, else from the suffix.
+
+    Raises
+    ------
+    LogError
+        For an unknown suffix or format name.
+    """
+    if fmt is not None:
+        f = fmt.lower().lstrip(".")
+        if f in ("csv", "tsv", "parquet"):
+            return f  # type: ignore[return-value]
+        raise LogError(f"{path}: unknown log format {fmt!r}; use csv, tsv or parquet")
+    suffix = Path(path).suffix.lower()
+    if suffix not in FORMATS:
+        raise LogError(
+            f"{path}: unknown log file suffix {suffix or '(none)'!r}; "
+            f"use {', '.join(FORMATS)} (or give the format explicitly)"
+        )
+    return FORMATS[suffix]
+
+
+def _sniff_text(p: Path) -> str:
+    """First line of a text table; refuse binary junk and JSON with a clear message."""
+    with p.open("rb") as fh:
+        head = fh.read(65536)
+    if not head.strip():
+        raise LogError(f"{p}: empty file, no header and no data")
+    if b"\x00" in head or head.startswith(b"PAR1"):
+        raise LogError(f"{p}: binary data, not a text table (CSV/TSV)")
+    try:
+        text = head.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        if exc.start < len(head) - 4:  # not just a character cut at the end of the block
+            raise LogError(
+                f"{p}: not a UTF-8 text table (undecodable byte at offset {exc.start})"
+            ) from None
+        text = head[: exc.start].decode("utf-8")
+    text = text.lstrip("\ufeff")
+    stripped = text.lstrip()
+    if stripped[:1] in ("{", "["):
+        raise LogError(f"{p}: looks like JSON, not a table (CSV/TSV with a header line)")
+    return stripped.splitlines()[0] if stripped else ""
+
+
+def _separator(p: Path, fmt: Format, mapping: ColumnMapping | None, header: str) -> str:
+    name = mapping.separator if mapping is not None else None
+    if name is None:
+        return "\t" if fmt == "tsv" else ","
+    sep = SEPARATORS[name]
+    if sep is None:  # auto: the most frequent candidate in the header line
+        counts = {s: header.count(s) for s in ("\t", ",", ";")}
+        sep = max(counts, key=counts.get)  # type: ignore[arg-type]
+        if counts[sep] == 0:
+            raise LogError(f"{p}: cannot guess the separator: header has no tab, comma or ';'")
+    return sep
+
+
+def _read_table(p: Path, fmt: Format, mapping: ColumnMapping | None) -> pd.DataFrame:
+    if fmt == "parquet":
+        with p.open("rb") as fh:
+            magic = fh.read(4)
+        if magic != b"PAR1":
+            raise LogError(f"{p}: not a Parquet file (no PAR1 magic number)")
+        try:
+            return pd.read_parquet(p)
+        except Exception as exc:  # pyarrow raises many types for a damaged file
+            raise LogError(f"{p}: unreadable Parquet file: {exc}") from None
+    header = _sniff_text(p)
+    sep = _separator(p, fmt, mapping, header)
+    run_name = RUN
+    if mapping is not None:
+        run_name = next((f for f, c in mapping.columns.items() if c == RUN), RUN)
+    try:
+        df = pd.read_csv(p, sep=sep, dtype={run_name: str}, encoding="utf-8-sig", **_CSV_READ_KW)
+    except pd.errors.EmptyDataError:
+        raise LogError(f"{p}: empty file, no header and no data") from None
+    except pd.errors.ParserError as exc:
+        raise LogError(f"{p}: not a well-formed table: {exc}") from None
+    except UnicodeDecodeError as exc:
+        raise LogError(f"{p}: not a UTF-8 text table: {exc}") from None
+    if df.shape[1] < 2:
+        seps = {"\t": "tab", ",": "comma", ";": "semicolon"}
+        found = [name for s, name in seps.items() if s != sep and s in header]
+        hint = f" (the header contains a {found[0]}: set the separator)" if found else ""
+        raise LogError(
+            f"{p}: not a table: only one column {str(df.columns[0])[:60]!r} with "
+            f"{seps.get(sep, repr(sep))} separation{hint}"
+        )
+    return df
+
+
+def _apply_mapping(
+    df: pd.DataFrame, mapping: ColumnMapping, p: Path
+) -> tuple[pd.DataFrame, dict[str, str]]:
+    cols = [str(c) for c in df.columns]
+    wanted = mapping.foreign_columns() + list(mapping.drop)
+    missing = [c for c in wanted if c not in cols]
+    if missing:
+        raise LogError(
+            f"{p}: column(s) {', '.join(map(repr, missing))} named in the mapping are not in "
+            f"the file (columns found: {', '.join(cols[:20])}{', ...' if len(cols) > 20 else ''})"
+        )
+    rename = dict(mapping.columns)
+    if mapping.time is not None:
+        rename[mapping.time] = TIME
+    if mapping.temperature is not None:
+        rename[mapping.temperature] = TEMP_IN
+    df = df.drop(columns=list(mapping.drop))
+    clash = [c for c in df.columns if c in rename.values() and c not in rename]
+    if clash:
+        raise LogError(
+            f"{p}: the mapping renames other columns to {', '.join(map(repr, clash))}, "
+            "which the file already has; drop or map them"
+        )
+    df = df.rename(columns=rename)
+    names = {canon: foreign for foreign, canon in rename.items()}
+    if RUN not in df.columns:
+        df[RUN] = mapping.run or p.stem
+    if TIME in df.columns:
+        t = df[TIME]
+        factor = TIME_UNITS[mapping.time_unit]
+        if pd.api.types.is_integer_dtype(t.dtype) and not pd.api.types.is_bool_dtype(t.dtype):
+            ti = t.to_numpy(dtype=np.int64)
+            if mapping.relative_time:
+                ti = ti - ti[_first_of_run(df[RUN])]  # exact in integers, then to seconds
+            x = ti.astype(np.float64)
+        else:
+            x = as_float(t, str(p), TIME, names)
+            if mapping.relative_time:
+                x = x - x[_first_of_run(df[RUN])]
+        df[TIME] = x * factor if factor != 1.0 else x
+    for ch, k in mapping.scale.items():
+        if ch in df.columns:
+            df[ch] = as_float(df[ch], str(p), ch, names) * k
+    return df, names
+
+
+def _first_of_run(run: pd.Series) -> np.ndarray:
+    """Index of the first row of each sample's run, per sample."""
+    codes, _ = pd.factorize(run, sort=False)
+    _, first = np.unique(codes, return_index=True)
+    return first[codes]
+
+
+def read_log(
+    path: str | os.PathLike[str],
+    mapping: ColumnMapping | None = None,
+    *,
+    fmt: str | None = None,
+) -> pd.DataFrame:
+    """Read and validate a calibration log.
+
+    Parameters
+    ----------
+    path : path-like
+        ``.csv``, ``.tsv`` or ``.parquet`` file.
+    mapping : ColumnMapping, optional
+        How to read a foreign log; ``None`` for a canonical one.
+    fmt : {"csv", "tsv", "parquet"}, optional
+        Format, overriding the suffix.
+
+    Returns
+    -------
+    DataFrame
+        The validated canonical log (see :func:`rinscal.schema.validate_log`), rows in file
+        order, RangeIndex.
+
+    Raises
+    ------
+    LogError
+        Naming the file, the column and the first offending data row.
+    """
+    p = Path(path)
+    f = format_of(p, fmt)
+    if not p.exists():
+        raise LogError(f"{p}: no such file")
+    if p.is_dir():
+        raise LogError(f"{p}: is a folder, not a log file")
+    df = _read_table(p, f, mapping)
+    names: dict[str, str] = {}
+    if mapping is not None:
+        df, names = _apply_mapping(df, mapping, p)
+    return validate_log(df, source=str(p), names=names)
+
+
+# --------------------------------------------------------------------------- writing
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
+    """Yield a temporary path beside ``path``; move it onto ``path`` if the block succeeds.
+
+    The temporary file keeps the suffix of ``path`` (writers that pick the format from it
+    work) and is removed if the block raises.
+    """
+    p = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=f".tmp{p.suffix}", dir=p.parent)
+    os.close(fd)
+    tmp_path = Path(tmp)
+    try:
+        yield tmp_path
+        # mkstemp makes the file private (0600); give it the permissions of a normal file
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp_path, 0o666 & ~umask)
+        os.replace(tmp_path, p)
+    finally:
+        with contextlib.suppress(FileNotFoundError):
+            tmp_path.unlink()
+
+
+def write_atomic(path: str | os.PathLike[str], writer: Callable[[Path], None]) -> None:
+    """Call ``writer(tmp_path)`` and move the result onto ``path`` atomically."""
+    with atomic_path(path) as tmp:
+        writer(tmp)
+
+
+def write_log(
+    df: pd.DataFrame,
+    path: str | os.PathLike[str],
+    *,
+    fmt: str | None = None,
+    validate: bool = True,
+) -> None:
+    """Write a calibration log atomically, losslessly.
+
+    Floats are written with full (shortest round-trip) precision, so CSV/TSV and Parquet
+    read back bit for bit; NaN becomes an empty cell in text files.
+
+    Parameters
+    ----------
+    df : DataFrame
+        The canonical log. The index is not written.
+    path : path-like
+        Destination; ``.csv``, ``.tsv`` or ``.parquet``.
+    fmt : {"csv", "tsv", "parquet"}, optional
+        Format, overriding the suffix.
+    validate : bool
+        Validate the log first (default) so that no invalid log is ever written.
+
+    Raises
+    ------
+    LogError
+        For an unknown format or an invalid log.
+    """
+    p = Path(path)
+    f = format_of(p, fmt)
+    if validate:
+        df = validate_log(df, source=f"log to write to {p}")
+    if not p.parent.is_dir():
+        raise LogError(f"{p}: folder {p.parent} does not exist")
+
+    def writer(tmp: Path) -> None:
+        if f == "parquet":
+            df.to_parquet(tmp, index=False)
+        else:
+            df.to_csv(
+                tmp,
+                sep="\t" if f == "tsv" else ",",
+                index=False,
+                float_format=None,
+                lineterminator="\n",
+            )
+
+    write_atomic(p, writer)
+
+
+# --------------------------------------------------------------------------- metadata
+
+
+def meta_path(logpath: str | os.PathLike[str]) -> Path:
+    """Sidecar metadata path of a log: ``<logpath>.meta.json``."""
+    p = Path(logpath)
+    return p.with_name(p.name + ".meta.json")
+
+
+def _json_default(obj: object) -> object:
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, Path):
+        return str(obj)
+    raise TypeError(f"{type(obj).__name__} is not JSON serialisable")
+
+
+def read_meta(logpath: str | os.PathLike[str]) -> dict[str, Any] | None:
+    """Read the sidecar metadata of a log, if it has one.
+
+    Parameters
+    ----------
+    logpath : path-like
+        The log (not the metadata file).
+
+    Returns
+    -------
+    dict or None
+        The metadata, e.g. ``{"units": {"gyro_x": "deg/h", ...}, "rate_hz": 100.0, ...}``;
+        ``None`` when there is no ``<logpath>.meta.json``.
+
+    Raises
+    ------
+    LogError
+        If the file is not a JSON object.
+    """
+    mp = meta_path(logpath)
+    if not mp.is_file():
+        return None
+    try:
+        meta = json.loads(mp.read_text(encoding="utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise LogError(f"{mp}: not valid JSON metadata: {exc}") from None
+    if not isinstance(meta, dict):
+        raise LogError(f"{mp}: metadata must be a JSON object, got {type(meta).__name__}")
+    return meta
+
+
+def write_meta(meta: Mapping[str, Any], logpath: str | os.PathLike[str]) -> Path:
+    """Write sidecar metadata beside a log, atomically.
+
+    Parameters
+    ----------
+    meta : mapping
+        JSON-serialisable (numpy scalars and arrays are converted).
+    logpath : path-like
+        The log the metadata describes.
+
+    Returns
+    -------
+    Path
+        The metadata file written, ``<logpath>.meta.json``.
+    """
+    mp = meta_path(logpath)
+    text = json.dumps(dict(meta), indent=2, default=_json_default, allow_nan=False) + "\n"
+    write_atomic(mp, lambda tmp: tmp.write_text(text, encoding="utf-8"))
+    return mp

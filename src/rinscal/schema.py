@@ -1,0 +1,355 @@
+"""The canonical calibration log: its columns and its validation.
+
+A calibration log is one table, one row per sample, several runs stacked:
+
+=================  ==========================================================================
+column             meaning
+=================  ==========================================================================
+``time_s``         seconds since this run's power-on; strictly increasing within a run [s]
+``run``            name of one continuous recording, e.g. ``soak_+07C`` (text)
+``gyro_x`` ...     the six sensor channels of :data:`CHANNELS`, raw output in any consistent
+                   unit (pulses, deg/h, µg, ...); NaN marks a dropped sample and is kept
+``temp_<channel>`` inner temperature of that sensor [°C]; or one shared ``temp_in`` [°C]
+``temp_out``       outer (package surface) temperature [°C], optional
+``chamber_temp``   chamber set point or reading [°C], optional
+=================  ==========================================================================
+
+Other columns are kept untouched. Rows are never dropped or reordered.
+
+Row numbers in error messages are *data row* numbers: 1-based, the header not counted, so
+data row 1 is the first sample (line 2 of a CSV/TSV file with a header line).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+import pandas as pd
+
+from rinscal.errors import LogError
+
+#: The six sensor channels, in the order used everywhere (arrays of shape (n, 6)).
+CHANNELS: tuple[str, ...] = ("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z")
+#: The gyroscope channels (first three of :data:`CHANNELS`).
+GYRO_CHANNELS: tuple[str, ...] = CHANNELS[:3]
+#: The accelerometer channels (last three of :data:`CHANNELS`).
+ACCEL_CHANNELS: tuple[str, ...] = CHANNELS[3:]
+
+#: Time since this run's power-on [s].
+TIME = "time_s"
+#: Run name (text).
+RUN = "run"
+#: Shared inner temperature [°C], used when there is no per-channel column.
+TEMP_IN = "temp_in"
+#: Outer (package surface) temperature [°C], optional.
+TEMP_OUT = "temp_out"
+#: Chamber temperature [°C], optional.
+CHAMBER = "chamber_temp"
+
+
+def temp_column(channel: str) -> str:
+    """Name of the per-channel inner temperature column of ``channel``.
+
+    Parameters
+    ----------
+    channel : str
+        One of :data:`CHANNELS`.
+
+    Returns
+    -------
+    str
+        ``"temp_<channel>"``, e.g. ``"temp_accel_x"``.
+    """
+    if channel not in CHANNELS:
+        raise ValueError(f"unknown channel {channel!r}; channels are {', '.join(CHANNELS)}")
+    return f"temp_{channel}"
+
+
+#: Per-channel inner temperature columns, in :data:`CHANNELS` order.
+TEMP_CHANNELS: tuple[str, ...] = tuple(f"temp_{c}" for c in CHANNELS)
+#: Columns every log must have.
+REQUIRED: tuple[str, ...] = (TIME, RUN, *CHANNELS)
+#: Every column name with a meaning in the canonical schema.
+CANONICAL: tuple[str, ...] = (*REQUIRED, *TEMP_CHANNELS, TEMP_IN, TEMP_OUT, CHAMBER)
+
+_ROWS = "data row numbers are 1-based, header not counted"
+_NAN_LIKE = frozenset({"nan", "+nan", "-nan"})
+
+
+def temperature_column(df: pd.DataFrame, channel: str) -> str:
+    """Column holding the inner temperature of ``channel`` in a log.
+
+    Parameters
+    ----------
+    df : DataFrame
+        A calibration log (validated or not).
+    channel : str
+        One of :data:`CHANNELS`.
+
+    Returns
+    -------
+    str
+        ``"temp_<channel>"`` if the log has it, else ``"temp_in"``.
+
+    Raises
+    ------
+    LogError
+        If the log has neither column.
+    """
+    col = temp_column(channel)
+    if col in df.columns:
+        return col
+    if TEMP_IN in df.columns:
+        return TEMP_IN
+    raise LogError(f"no inner temperature for {channel}: neither column {col!r} nor {TEMP_IN!r}")
+
+
+def temperature_columns(df: pd.DataFrame) -> list[str]:
+    """Every temperature column present in ``df``, in schema order.
+
+    Parameters
+    ----------
+    df : DataFrame
+        A calibration log.
+
+    Returns
+    -------
+    list of str
+        The present ones among ``temp_<channel>``, ``temp_in``, ``temp_out``,
+        ``chamber_temp``.
+    """
+    return [c for c in (*TEMP_CHANNELS, TEMP_IN, TEMP_OUT, CHAMBER) if c in df.columns]
+
+
+def _label(column: str, names: Mapping[str, str] | None) -> str:
+    """Column name for a message, with its name in the file when it was renamed."""
+    original = (names or {}).get(column)
+    if original and original != column:
+        return f"column {column!r} (from {original!r})"
+    return f"column {column!r}"
+
+
+def _fmt(value: object) -> str:
+    text = repr(value) if isinstance(value, str) else str(value)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+def as_float(
+    values: pd.Series,
+    source: str,
+    column: str,
+    names: Mapping[str, str] | None = None,
+    *,
+    copy: bool = True,
+) -> np.ndarray:
+    """Convert one column to float64, refusing any value that is not a number.
+
+    Empty cells and NaN stay NaN (callers decide whether NaN is allowed).
+
+    Parameters
+    ----------
+    values : Series
+        The column as read.
+    source : str
+        File (or other origin) named in the error message.
+    column : str
+        Column name named in the error message.
+    names : mapping, optional
+        Canonical name -> name in the file, for columns renamed by a mapping.
+    copy : bool
+        If false, a float64 column is returned without copying (read-only use).
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        The values as float64.
+
+    Raises
+    ------
+    LogError
+        Naming the file, the column, the first non-numeric value and its data row.
+    """
+    if pd.api.types.is_bool_dtype(values.dtype):
+        raise LogError(f"{source}: {_label(column, names)} holds true/false values, not numbers")
+    if values.dtype == np.float64:
+        return values.to_numpy(dtype=np.float64, copy=copy)
+    if pd.api.types.is_numeric_dtype(values.dtype) and not pd.api.types.is_complex_dtype(
+        values.dtype
+    ):
+        return values.to_numpy(dtype=np.float64, na_value=np.nan, copy=True)
+    coerced = pd.to_numeric(values, errors="coerce")
+    bad = coerced.isna().to_numpy() & values.notna().to_numpy()
+    if bad.any():
+        raw = values.to_numpy(dtype=object)
+        for pos in np.flatnonzero(bad):
+            val = raw[pos]
+            if isinstance(val, str) and val.strip().lower() in _NAN_LIKE:
+                continue
+            raise LogError(
+                f"{source}: {_label(column, names)}, data row {pos + 1}: non-numeric value "
+                f"{_fmt(val)} ({_ROWS})"
+            )
+    try:
+        return coerced.to_numpy(dtype=np.float64, na_value=np.nan, copy=True)
+    except (TypeError, ValueError) as exc:  # e.g. complex numbers
+        raise LogError(f"{source}: {_label(column, names)} is not real-valued: {exc}") from exc
+
+
+def _check_finite(
+    x: np.ndarray,
+    source: str,
+    column: str,
+    names: Mapping[str, str] | None,
+    allow_nan: bool,
+    why: str,
+) -> None:
+    bad = np.isinf(x) if allow_nan else ~np.isfinite(x)
+    if bad.any():
+        pos = int(np.argmax(bad))
+        what = "missing value (NaN or empty cell)" if np.isnan(x[pos]) else f"value {x[pos]}"
+        raise LogError(
+            f"{source}: {_label(column, names)}, data row {pos + 1}: {what}; {why} ({_ROWS})"
+        )
+
+
+def _run_codes(run: pd.Series) -> tuple[np.ndarray, np.ndarray]:
+    codes, uniques = pd.factorize(run, sort=False)
+    return codes.astype(np.int64, copy=False), np.asarray(uniques, dtype=object)
+
+
+def validate_log(
+    df: pd.DataFrame,
+    source: str = "<log>",
+    *,
+    names: Mapping[str, str] | None = None,
+) -> pd.DataFrame:
+    """Check a calibration log against the canonical schema and normalise its types.
+
+    Parameters
+    ----------
+    df : DataFrame
+        The log, canonical column names.
+    source : str
+        Name of the file (or other origin) used in error messages.
+    names : mapping, optional
+        Canonical column name -> name in the original file, for logs read through a
+        column mapping; only used to make error messages point at the file's columns.
+
+    Returns
+    -------
+    DataFrame
+        A new frame, same rows in the same order and same index: ``run`` as text, every
+        sensor and temperature column and ``time_s`` as float64, other columns untouched.
+
+    Raises
+    ------
+    LogError
+        Naming ``source``, the column and the first offending data row (1-based, header not
+        counted) for: a table with fewer than two columns (not a table), no rows, a missing
+        required column, a non-numeric value, NaN or inf in ``time_s`` or a temperature, inf
+        in a sensor channel, an empty run name, time not strictly increasing within a run,
+        a run with fewer than two samples. NaN in a sensor channel (a dropped sample) is
+        allowed and kept.
+    """
+    if not isinstance(df, pd.DataFrame):
+        raise LogError(f"{source}: not a table (got {type(df).__name__})")
+    cols = [str(c) for c in df.columns]
+    if len(cols) < 2:
+        found = f"one column {cols[0]!r}" if cols else "no columns"
+        raise LogError(
+            f"{source}: not a table: {found}; a calibration log has columns "
+            f"{', '.join(REQUIRED)} and temperatures (wrong separator, or not a log at all?)"
+        )
+    if len(set(cols)) != len(cols):
+        dup = sorted({c for c in cols if cols.count(c) > 1})
+        raise LogError(f"{source}: duplicate column(s) {', '.join(map(repr, dup))}")
+    missing = [c for c in REQUIRED if c not in cols]
+    if missing:
+        raise LogError(
+            f"{source}: missing required column(s) {', '.join(map(repr, missing))} "
+            f"(columns found: {', '.join(cols[:20])}{', ...' if len(cols) > 20 else ''}); "
+            "a foreign log needs a column mapping"
+        )
+    per_channel = [c for c in TEMP_CHANNELS if c in cols]
+    if len(per_channel) < len(TEMP_CHANNELS) and TEMP_IN not in cols:
+        absent = [c for c in TEMP_CHANNELS if c not in cols]
+        raise LogError(
+            f"{source}: missing inner temperature column(s) {', '.join(map(repr, absent))}; "
+            f"give one per channel or a shared {TEMP_IN!r}"
+        )
+    if len(df) == 0:
+        raise LogError(f"{source}: no data rows (only a header)")
+
+    # A shallow copy: columns already float64 are shared, not copied (pandas copy-on-write
+    # keeps the caller's frame unchanged), so validating a 7.5 M-row log costs no memory.
+    out = df.copy(deep=False)
+    out.columns = cols
+    run = out[RUN]
+    if run.isna().any():
+        pos = int(np.argmax(run.isna().to_numpy()))
+        raise LogError(
+            f"{source}: {_label(RUN, names)}, data row {pos + 1}: empty run name ({_ROWS})"
+        )
+    if not pd.api.types.is_string_dtype(run.dtype) or run.dtype == object:
+        out[RUN] = run.astype(str)
+
+    for col in CHANNELS:
+        x = as_float(out[col], source, col, names, copy=False)
+        _check_finite(
+            x, source, col, names, allow_nan=True, why="use an empty cell/NaN for a dropped sample"
+        )
+        if out[col].dtype != np.float64:
+            out[col] = x
+    for col in (TIME, *temperature_columns(out)):
+        x = as_float(out[col], source, col, names, copy=False)
+        why = "time must be finite" if col == TIME else "temperatures must be finite"
+        _check_finite(x, source, col, names, allow_nan=False, why=why)
+        if out[col].dtype != np.float64:
+            out[col] = x
+
+    _check_runs(out[TIME].to_numpy(), out[RUN], source, names)
+    return out
+
+
+def _check_runs(
+    t: np.ndarray, run: pd.Series, source: str, names: Mapping[str, str] | None
+) -> None:
+    """At least two samples per run, time strictly increasing within each run."""
+    codes, uniques = _run_codes(run)
+    counts = np.bincount(codes, minlength=len(uniques))
+    short = np.flatnonzero(counts < 2)
+    if short.size:
+        _, first = np.unique(codes, return_index=True)  # first row of each run, by code
+        k = int(short[np.argmin(first[short])])
+        raise LogError(
+            f"{source}: {_label(RUN, names)}, data row {first[k] + 1}: run {uniques[k]!r} "
+            f"has {counts[k]} sample(s); a run needs at least 2 ({_ROWS})"
+        )
+    n = len(t)
+    change = np.flatnonzero(codes[1:] != codes[:-1]) + 1
+    if change.size + 1 == len(uniques):  # every run is one contiguous block: plain diffs
+        order = None
+        same = np.ones(n - 1, dtype=bool)
+        same[change - 1] = False
+        tt = t
+    else:  # interleaved runs: compare each sample with the previous one of its run
+        order = np.argsort(codes, kind="stable")
+        cs = codes[order]
+        same = cs[1:] == cs[:-1]
+        tt = t[order]
+    bad = same & (tt[1:] <= tt[:-1])
+    if bad.any():
+        if order is None:
+            rows = np.flatnonzero(bad) + 1
+            prev = rows - 1
+        else:
+            idx = np.flatnonzero(bad)
+            rows, prev = order[idx + 1], order[idx]
+        j = int(np.argmin(rows))
+        r, p = int(rows[j]), int(prev[j])
+        raise LogError(
+            f"{source}: {_label(TIME, names)}, data row {r + 1}: time not strictly increasing "
+            f"within run {run.iloc[r]!r} ({t[r]!r} s after {t[p]!r} s at data row {p + 1}) "
+            f"({_ROWS})"
+        )
