@@ -87,7 +87,7 @@ def gravity_n(lat: ArrayLike, alt: ArrayLike = 0.0) -> NDArray[np.float64]:
         ``(0, 0, -g)``.
     """
     g = gravity(lat, alt)
-    out = np.zeros(g.shape + (3,))
+    out = np.zeros((*g.shape, 3))
     out[..., 2] = -g
     return out
 
@@ -106,7 +106,7 @@ def rate_n(lat: ArrayLike) -> NDArray[np.float64]:
         ``(0, Ω cos φ, Ω sin φ)``.
     """
     lat = np.asarray(lat, dtype=float)
-    out = np.zeros(lat.shape + (3,))
+    out = np.zeros((*lat.shape, 3))
     out[..., 1] = RATE * np.cos(lat)
     out[..., 2] = RATE * np.sin(lat)
     return out

@@ -447,7 +447,9 @@ def measure(
     """
     y = true_c + thermometer.noise_sd * rng.standard_normal(true_c.shape)
     if thermometer.resolution > 0:
-        y = np.round(y / thermometer.resolution) * thermometer.resolution
+        y = np.round(y / thermometer.resolution)
+        y *= thermometer.resolution
+    y += 0.0  # no negative zeros in the log
     return y
 
 
@@ -459,4 +461,3 @@ __all__ = [
     "measure",
     "simulate_field",
 ]
-

@@ -1,0 +1,542 @@
+"""The IMU thermal plant: the true thermal bias, noise and outliers of each sensor channel.
+
+This module is the truth that calibration models are judged against. It is written from the
+physics of the sensors, not shaped after any calibration model: each channel's thermal bias
+depends on its own inner temperature ``T``, the rate ``dT/dt``, the inside/outside gradient
+``ΔT``, their couplings, and a hidden slow package-stress state (see
+:mod:`rinscal.thermal.field`) that no thermometer sees. On top come a turn-on-to-turn-on
+offset, white noise, a bias random walk, and rare vibration outliers.
+
+Everything here is in SI (rad/s for gyros, m/s² for accelerometers) and resolved in the
+rotating IMU frame ``r``; the configuration file uses deg/h and µg (see
+``rinscal/data/navigation_grade.toml``).
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import asdict, dataclass, field, fields
+from importlib import resources
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from rinscal import units
+from rinscal.errors import ConfigError
+from rinscal.schema import CHANNELS
+from rinscal.thermal.field import ThermalField, ThermalNetworkConfig, ThermometerConfig
+
+#: Engineering unit of each channel in configuration files and physical-unit logs.
+ENGINEERING_UNITS = ("deg/h",) * 3 + ("ug",) * 3
+#: Factor from the engineering unit of each channel to SI [(rad/s)/(deg/h) or (m/s²)/µg].
+ENG_TO_SI = np.array([units.DPH_TO_RPS] * 3 + [units.UG_TO_MPS2] * 3)
+
+
+def _finite(name: str, value: float) -> float:
+    v = float(value)
+    if not math.isfinite(v):
+        raise ConfigError(f"{name} must be a finite number, got {value!r}")
+    return v
+
+
+def _nonneg(name: str, value: float) -> float:
+    v = _finite(name, value)
+    if v < 0:
+        raise ConfigError(f"{name} must be >= 0, got {value!r}")
+    return v
+
+
+@dataclass(frozen=True)
+class ChannelThermal:
+    """Thermal-bias coefficients of one channel, in engineering units (deg/h or µg).
+
+    ``b = b0 + Σ t[k]·x^(k+1) + Σ rate[k]·r^(k+1) + Σ grad[k]·d^(k+1) + t_grad·x·d
+    + t_rate·x·r + stress·s`` with ``x = T − t_ref`` [°C], ``r = dT/dt`` [°C/min],
+    ``d = ΔT`` [°C] and ``s`` the hidden stress state [°C].
+
+    Parameters
+    ----------
+    b0 : float [unit]
+        Thermal bias at the reference temperature, at rest, without gradient.
+    t : tuple of 3 float [unit/°C, unit/°C², unit/°C³]
+        Temperature polynomial.
+    rate : tuple of 2 float [unit/(°C/min), unit/(°C/min)²]
+        Temperature-rate polynomial (Shupe effect in FOGs, servo drift in accelerometers).
+    grad : tuple of 2 float [unit/°C, unit/°C²]
+        Inside/outside gradient polynomial.
+    t_grad : float [unit/°C²]
+        Coupling of temperature and gradient.
+    t_rate : float [unit/(°C·°C/min)]
+        Coupling of temperature and rate.
+    stress : float [unit/°C]
+        Sensitivity to the hidden package-stress state.
+    """
+
+    b0: float = 0.0
+    t: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    rate: tuple[float, float] = (0.0, 0.0)
+    grad: tuple[float, float] = (0.0, 0.0)
+    t_grad: float = 0.0
+    t_rate: float = 0.0
+    stress: float = 0.0
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            v = getattr(self, f.name)
+            vals = v if isinstance(v, tuple) else (v,)
+            for x in vals:
+                _finite(f"thermal.{f.name}", x)
+        for name, n in (("t", 3), ("rate", 2), ("grad", 2)):
+            if len(getattr(self, name)) != n:
+                raise ConfigError(f"thermal.{name} must have {n} coefficients")
+
+    def evaluate(
+        self,
+        x: NDArray[np.float64],
+        r: NDArray[np.float64],
+        d: NDArray[np.float64],
+        s: NDArray[np.float64],
+    ) -> NDArray[np.float64]:
+        """Thermal bias [unit] for temperature offset ``x`` [°C], rate ``r`` [°C/min],
+        gradient ``d`` [°C] and stress ``s`` [°C] (Horner form)."""
+        t1, t2, t3 = self.t
+        r1, r2 = self.rate
+        g1, g2 = self.grad
+        return (
+            self.b0
+            + x * (t1 + x * (t2 + x * t3))
+            + r * (r1 + r * r2)
+            + d * (g1 + d * g2)
+            + self.t_grad * x * d
+            + self.t_rate * x * r
+            + self.stress * s
+        )
+
+
+@dataclass(frozen=True)
+class NoiseConfig:
+    """Stochastic errors of the sensors (engineering units, as on a data sheet).
+
+    Parameters
+    ----------
+    gyro_arw_deg_rth : float [deg/√h]
+        Gyro angle random walk.
+    gyro_bias_rw_dph_rth : float [deg/h/√h]
+        Gyro bias random walk.
+    gyro_turn_on_dph : float [deg/h]
+        Gyro turn-on-to-turn-on bias repeatability, 1σ.
+    gyro_outlier_dph : float [deg/h]
+        Size (1σ) of a gyro vibration outlier.
+    accel_vrw_ug_rthz : float [µg/√Hz]
+        Accelerometer white-noise density.
+    accel_bias_rw_ug_rth : float [µg/√h]
+        Accelerometer bias random walk.
+    accel_turn_on_ug : float [µg]
+        Accelerometer turn-on-to-turn-on repeatability, 1σ.
+    accel_outlier_ug : float [µg]
+        Size (1σ) of an accelerometer vibration outlier.
+    outlier_rate_hz : float [1/s]
+        Mean rate of single-sample outliers per channel (torque-motor vibration).
+    """
+
+    gyro_arw_deg_rth: float = 0.001
+    gyro_bias_rw_dph_rth: float = 0.0003
+    gyro_turn_on_dph: float = 0.003
+    gyro_outlier_dph: float = 5.0
+    accel_vrw_ug_rthz: float = 10.0
+    accel_bias_rw_ug_rth: float = 0.5
+    accel_turn_on_ug: float = 15.0
+    accel_outlier_ug: float = 1000.0
+    outlier_rate_hz: float = 0.002
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            _nonneg(f"noise.{f.name}", getattr(self, f.name))
+
+    def white_density_si(self) -> NDArray[np.float64]:
+        """White-noise density per channel [rad/s/√Hz = rad/√s, m/s²/√Hz]."""
+        g = self.gyro_arw_deg_rth * units.DPRH_TO_RPRS
+        a = self.accel_vrw_ug_rthz * units.UG_TO_MPS2
+        return np.array([g] * 3 + [a] * 3)
+
+    def bias_rw_si(self) -> NDArray[np.float64]:
+        """Bias random-walk density per channel [rad/s/√s, m/s²/√s]."""
+        g = self.gyro_bias_rw_dph_rth * units.DPH_TO_RPS / math.sqrt(units.HOUR_TO_S)
+        a = self.accel_bias_rw_ug_rth * units.UG_TO_MPS2 / math.sqrt(units.HOUR_TO_S)
+        return np.array([g] * 3 + [a] * 3)
+
+    def turn_on_sd_si(self) -> NDArray[np.float64]:
+        """Turn-on repeatability (1σ) per channel [rad/s, m/s²]."""
+        g = self.gyro_turn_on_dph * units.DPH_TO_RPS
+        a = self.accel_turn_on_ug * units.UG_TO_MPS2
+        return np.array([g] * 3 + [a] * 3)
+
+    def outlier_sd_si(self) -> NDArray[np.float64]:
+        """Outlier size (1σ) per channel [rad/s, m/s²]."""
+        g = self.gyro_outlier_dph * units.DPH_TO_RPS
+        a = self.accel_outlier_ug * units.UG_TO_MPS2
+        return np.array([g] * 3 + [a] * 3)
+
+
+@dataclass(frozen=True)
+class OutputConfig:
+    """How the IMU reports: physical units or pulses.
+
+    Parameters
+    ----------
+    mode : {"physical", "pulses"}
+        ``physical``: mean rate per sample in deg/h and µg; ``pulses``: integer counts per
+        sample from an accumulator with carried remainder (FOG and I/F converter style).
+    gyro_pulse_arcsec : float [arcsec]
+        Angle weight of one gyro pulse.
+    accel_pulse_mps : float [m/s]
+        Velocity weight of one accelerometer pulse.
+    """
+
+    mode: Literal["physical", "pulses"] = "physical"
+    gyro_pulse_arcsec: float = 0.001
+    accel_pulse_mps: float = 1e-6
+
+    def __post_init__(self) -> None:
+        if self.mode not in ("physical", "pulses"):
+            raise ConfigError(f"output.mode must be 'physical' or 'pulses', got {self.mode!r}")
+        for name in ("gyro_pulse_arcsec", "accel_pulse_mps"):
+            if _finite(f"output.{name}", getattr(self, name)) <= 0:
+                raise ConfigError(f"output.{name} must be > 0")
+
+    def pulse_weight_si(self) -> NDArray[np.float64]:
+        """Increment weight of one pulse per channel [rad, m/s]."""
+        return np.array(
+            [self.gyro_pulse_arcsec * units.ARCSEC_TO_RAD] * 3 + [self.accel_pulse_mps] * 3
+        )
+
+
+@dataclass(frozen=True)
+class ImuConfig:
+    """Everything that defines a simulated IMU on its turntable in a chamber.
+
+    Parameters
+    ----------
+    name : str
+        Free text.
+    latitude_deg : float [deg]
+        Latitude of the turntable (Earth rate and gravity in the static outputs).
+    heading_deg : float [deg]
+        Azimuth of the IMU y axis at encoder zero, clockwise from north.
+    altitude_m : float [m]
+        Height above the ellipsoid.
+    t_ref_c : float [°C]
+        Reference temperature of the thermal-bias polynomial.
+    thermal : tuple of 6 ChannelThermal
+        Thermal-bias coefficients per channel (gyro x..z in deg/h, accel x..z in µg).
+    noise : NoiseConfig
+        Stochastic errors.
+    output : OutputConfig
+        Units of the log.
+    network : ThermalNetworkConfig
+        The lumped thermal network.
+    thermometer : ThermometerConfig
+        The temperature sensors.
+    """
+
+    name: str = "custom"
+    latitude_deg: float = 32.06
+    heading_deg: float = 0.0
+    altitude_m: float = 10.0
+    t_ref_c: float = 20.0
+    thermal: tuple[ChannelThermal, ...] = field(
+        default_factory=lambda: tuple(ChannelThermal() for _ in CHANNELS)
+    )
+    noise: NoiseConfig = field(default_factory=NoiseConfig)
+    output: OutputConfig = field(default_factory=OutputConfig)
+    network: ThermalNetworkConfig = field(default_factory=ThermalNetworkConfig)
+    thermometer: ThermometerConfig = field(default_factory=ThermometerConfig)
+
+    def __post_init__(self) -> None:
+        lat = _finite("imu.latitude_deg", self.latitude_deg)
+        if abs(lat) > 89.0:
+            raise ConfigError(f"imu.latitude_deg must be within ±89°, got {lat}")
+        _finite("imu.heading_deg", self.heading_deg)
+        _finite("imu.altitude_m", self.altitude_m)
+        _finite("imu.t_ref_c", self.t_ref_c)
+        if len(self.thermal) != len(CHANNELS):
+            raise ConfigError(f"thermal: need one table per channel {CHANNELS}")
+
+    # ------------------------------------------------------------------ construction
+    @classmethod
+    def from_dict(cls, data: dict[str, Any], source: str = "<dict>") -> ImuConfig:
+        """Build and validate a configuration from the nested TOML layout.
+
+        Unknown sections or keys raise :class:`ConfigError` naming them and ``source``.
+        """
+        known = {"imu", "output", "noise", "thermometer", "network", "thermal"}
+        extra = set(data) - known
+        if extra:
+            raise ConfigError(
+                f"{source}: unknown section(s) {sorted(extra)}; known {sorted(known)}"
+            )
+
+        def section(name: str, klass: type, allowed: set[str] | None = None) -> dict[str, Any]:
+            sec = data.get(name, {})
+            if not isinstance(sec, dict):
+                raise ConfigError(f"{source}: [{name}] must be a table")
+            names = allowed or {f.name for f in fields(klass)}
+            bad = set(sec) - names
+            if bad:
+                raise ConfigError(f"{source}: unknown key(s) {sorted(bad)} in [{name}]")
+            return dict(sec)
+
+        imu = section("imu", cls, {"name", "latitude_deg", "heading_deg", "altitude_m", "t_ref_c"})
+        thermal_sec = data.get("thermal", {})
+        if not isinstance(thermal_sec, dict):
+            raise ConfigError(f"{source}: [thermal] must be a table")
+        bad = set(thermal_sec) - set(CHANNELS)
+        if bad:
+            raise ConfigError(f"{source}: unknown channel(s) {sorted(bad)} in [thermal]")
+        thermal = []
+        for ch in CHANNELS:
+            sec = thermal_sec.get(ch, {})
+            bad = set(sec) - {f.name for f in fields(ChannelThermal)}
+            if bad:
+                raise ConfigError(f"{source}: unknown key(s) {sorted(bad)} in [thermal.{ch}]")
+            kw = {k: tuple(v) if isinstance(v, list) else v for k, v in sec.items()}
+            try:
+                thermal.append(ChannelThermal(**kw))
+            except ConfigError as e:
+                raise ConfigError(f"{source}: [thermal.{ch}] {e}") from None
+        net = section("network", ThermalNetworkConfig)
+        if "sensor_coupling" in net:
+            net["sensor_coupling"] = tuple(net["sensor_coupling"])
+        try:
+            return cls(
+                thermal=tuple(thermal),
+                noise=NoiseConfig(**section("noise", NoiseConfig)),
+                output=OutputConfig(**section("output", OutputConfig)),
+                network=ThermalNetworkConfig(**net),
+                thermometer=ThermometerConfig(**section("thermometer", ThermometerConfig)),
+                **imu,
+            )
+        except (TypeError, ConfigError) as e:
+            raise ConfigError(f"{source}: {e}") from None
+
+    @classmethod
+    def from_toml(cls, path: str | Path) -> ImuConfig:
+        """Read a configuration from a TOML file (layout of ``navigation_grade.toml``)."""
+        path = Path(path)
+        try:
+            with path.open("rb") as fh:
+                data = tomllib.load(fh)
+        except FileNotFoundError:
+            raise ConfigError(f"{path}: IMU configuration file not found") from None
+        except tomllib.TOMLDecodeError as e:
+            raise ConfigError(f"{path}: not valid TOML: {e}") from None
+        return cls.from_dict(data, source=str(path))
+
+    @classmethod
+    def navigation_grade(cls) -> ImuConfig:
+        """The built-in preset: a navigation-grade FOG + quartz RINS like the paper's."""
+        text = resources.files("rinscal.data").joinpath("navigation_grade.toml").read_text()
+        return cls.from_dict(tomllib.loads(text), source="navigation_grade.toml")
+
+    def to_dict(self) -> dict[str, Any]:
+        """The nested TOML layout (round-trips through :meth:`from_dict`)."""
+        return {
+            "imu": {
+                "name": self.name,
+                "latitude_deg": self.latitude_deg,
+                "heading_deg": self.heading_deg,
+                "altitude_m": self.altitude_m,
+                "t_ref_c": self.t_ref_c,
+            },
+            "output": asdict(self.output),
+            "noise": asdict(self.noise),
+            "thermometer": asdict(self.thermometer),
+            "network": {
+                k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self.network).items()
+            },
+            "thermal": {
+                ch: {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(c).items()}
+                for ch, c in zip(CHANNELS, self.thermal, strict=True)
+            },
+        }
+
+    # ------------------------------------------------------------------ derived
+    @property
+    def latitude(self) -> float:
+        """Latitude [rad]."""
+        return self.latitude_deg * units.DEG_TO_RAD
+
+    @property
+    def heading(self) -> float:
+        """Heading of the IMU y axis at encoder zero [rad]."""
+        return self.heading_deg * units.DEG_TO_RAD
+
+    def log_units(self) -> tuple[str, ...]:
+        """Unit of each channel in a log written with this configuration."""
+        return ("pulse",) * 6 if self.output.mode == "pulses" else ENGINEERING_UNITS
+
+
+# --------------------------------------------------------------------------- the plant
+def thermal_bias_eng(field: ThermalField, config: ImuConfig) -> NDArray[np.float64]:
+    """True thermal bias in engineering units.
+
+    Parameters
+    ----------
+    field : ThermalField
+        True temperatures at the sample times.
+    config : ImuConfig
+        The plant.
+
+    Returns
+    -------
+    ndarray, shape (n, 6) [deg/h for gyros, µg for accelerometers]
+        Thermal bias of each channel in the ``r`` frame (turn-on offset excluded).
+    """
+    x = field.sensor - config.t_ref_c
+    r = field.sensor_rate * units.MIN_TO_S  # °C/s -> °C/min
+    d = field.gradient
+    out = np.empty_like(x)
+    for j, coef in enumerate(config.thermal):
+        out[:, j] = coef.evaluate(x[:, j], r[:, j], d[:, j], field.stress[:, j])
+    return out
+
+
+def thermal_bias_r(field: ThermalField, config: ImuConfig) -> NDArray[np.float64]:
+    """True thermal bias in SI, resolved in the rotating IMU frame ``r``.
+
+    Returns
+    -------
+    ndarray, shape (n, 6) [rad/s for gyros, m/s² for accelerometers]
+        Thermal bias of each channel (turn-on offset excluded).
+    """
+    return thermal_bias_eng(field, config) * ENG_TO_SI
+
+
+def turn_on_offsets(config: ImuConfig, rng: np.random.Generator) -> NDArray[np.float64]:
+    """Draw the constant bias offsets of one power-on.
+
+    Returns
+    -------
+    ndarray, shape (6,) [rad/s, m/s²]
+    """
+    return config.noise.turn_on_sd_si() * rng.standard_normal(6)
+
+
+class SensorNoise:
+    """White noise, bias random walk and rare outliers, drawn chunk by chunk.
+
+    The random-walk state is carried from one call of :meth:`draw` to the next, so a run can
+    be generated in chunks of any size with bounded memory.
+
+    Parameters
+    ----------
+    config : ImuConfig
+        The plant.
+    rng : numpy.random.Generator
+        Source of randomness (seeded by the caller).
+    dt : float [s]
+        Sample interval.
+    """
+
+    def __init__(self, config: ImuConfig, rng: np.random.Generator, dt: float) -> None:
+        if not (math.isfinite(dt) and dt > 0):
+            raise ConfigError(f"dt must be > 0 s, got {dt}")
+        self.rng = rng
+        self.dt = dt
+        self.white_sd = config.noise.white_density_si() / math.sqrt(dt)
+        self.rw_step_sd = config.noise.bias_rw_si() * math.sqrt(dt)
+        self.outlier_sd = config.noise.outlier_sd_si()
+        self.outlier_p = min(1.0, config.noise.outlier_rate_hz * dt)
+        self.walk = np.zeros(6)
+
+    def draw(self, n: int) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+        """Errors of the next ``n`` samples.
+
+        Returns
+        -------
+        errors : ndarray, shape (n, 6) [rad/s, m/s²]
+            Mean error over each sample interval (white noise + random walk + outliers).
+        outlier : ndarray, shape (n, 6) of bool
+            Where an outlier was added.
+        """
+        rng = self.rng
+        e = rng.standard_normal((n, 6))
+        e *= self.white_sd
+        if np.any(self.rw_step_sd > 0):
+            walk = rng.standard_normal((n, 6))
+            walk *= self.rw_step_sd
+            np.cumsum(walk, axis=0, out=walk)
+            walk += self.walk
+            self.walk = walk[-1].copy()
+            e += walk
+        outlier = np.zeros((n, 6), dtype=bool)
+        if self.outlier_p > 0:
+            k = rng.binomial(n * 6, self.outlier_p)
+            if k:
+                flat = rng.choice(n * 6, size=k, replace=False)
+                outlier.ravel()[flat] = True
+                e.ravel()[flat] += rng.standard_normal(k) * self.outlier_sd[flat % 6]
+        return e, outlier
+
+
+def to_log_units(
+    values_si: NDArray[np.float64],
+    config: ImuConfig,
+    dt: float,
+    carry: NDArray[np.float64] | None = None,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Convert mean rates/specific forces per sample to the log's unit.
+
+    Parameters
+    ----------
+    values_si : ndarray, shape (n, 6) [rad/s, m/s²]
+        Mean output over each sample interval.
+    config : ImuConfig
+        ``config.output`` chooses physical units or pulses.
+    dt : float [s]
+        Sample interval.
+    carry : ndarray, shape (6,), optional [pulses]
+        Fractional pulses left over from the previous chunk (pulse mode).
+
+    Returns
+    -------
+    out : ndarray, shape (n, 6)
+        deg/h and µg, or integer pulse counts per sample.
+    carry : ndarray, shape (6,) [pulses]
+        Remainder to pass to the next chunk.
+    """
+    if config.output.mode == "physical":
+        out = values_si * (1.0 / ENG_TO_SI)
+        return out, np.zeros(6) if carry is None else carry
+    w = config.output.pulse_weight_si()
+    acc = np.cumsum(values_si * (dt / w), axis=0)
+    acc += np.zeros(6) if carry is None else carry
+    whole = np.floor(acc)
+    counts = np.diff(whole, axis=0, prepend=np.zeros((1, 6)))
+    return counts, acc[-1] - whole[-1]
+
+
+def log_units_to_si(config: ImuConfig, dt: float) -> NDArray[np.float64]:
+    """Factor from the log's unit to SI per channel [(rad/s or m/s²) per unit]."""
+    if config.output.mode == "physical":
+        return ENG_TO_SI.copy()
+    return config.output.pulse_weight_si() / dt
+
+
+__all__ = [
+    "ENGINEERING_UNITS",
+    "ENG_TO_SI",
+    "ChannelThermal",
+    "ImuConfig",
+    "NoiseConfig",
+    "OutputConfig",
+    "SensorNoise",
+    "log_units_to_si",
+    "thermal_bias_eng",
+    "thermal_bias_r",
+    "to_log_units",
+    "turn_on_offsets",
+]

@@ -1,0 +1,57 @@
+"""The paper's protocols: Table 3 set points, the ramp, the repeat start, reproducibility."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from rinscal.schema import CHANNELS, validate_log
+from rinscal.thermal.protocols import SOAK_SET_POINTS_C, protocol_runs, simulate_protocol
+
+
+def test_soak_runs_are_table_3() -> None:
+    runs = protocol_runs("soak")
+    assert [r.name for r in runs] == [f"soak_{c:+03.0f}C" for c in (0, 7, 14, 21, 28, 35, 42)]
+    assert all(r.duration_s == 3 * 3600 for r in runs)
+    assert SOAK_SET_POINTS_C == (0.0, 7.0, 14.0, 21.0, 28.0, 35.0, 42.0)
+
+
+def test_soak_log_is_canonical_and_starts_in_equilibrium() -> None:
+    log, truth, meta = simulate_protocol("soak", hours=1.0, rate_hz=1.0, seed=2)
+    validate_log(log, source="simulated")
+    assert len(log) == len(truth) == 7 * 3600
+    first = log.groupby("run", sort=False).head(1)
+    set_points = first["chamber_temp"].to_numpy()
+    np.testing.assert_allclose(first["temp_gyro_x"], set_points, atol=0.06)
+    np.testing.assert_allclose(first["temp_out"], set_points, atol=0.03)
+    last = log.groupby("run", sort=False).tail(1)
+    assert np.all(last["temp_gyro_x"].to_numpy() - set_points > 5.0)  # power-on heating
+    assert meta["units"]["gyro_x"] == "deg/h" and meta["units"]["accel_z"] == "ug"
+    assert set(meta["turn_on_offset"]) == set(log["run"])
+
+
+def test_ramp_follows_the_chamber_at_0_2_degrees_per_minute() -> None:
+    log, _, _ = simulate_protocol("ramp", rate_hz=0.2, seed=0)
+    assert log["time_s"].iloc[-1] == pytest.approx(52 / 0.2 * 60 + 1800, abs=5.0)
+    ch = log["chamber_temp"].to_numpy()
+    assert ch[0] == pytest.approx(-2.0 + 0.2 * 5 / 60) and ch[-1] == pytest.approx(50.0)
+    mid = (log["time_s"] > 3600) & (log["time_s"] < 3 * 3600)
+    slope = np.polyfit(log.loc[mid, "time_s"] / 60.0, log.loc[mid, "temp_out"], 1)[0]
+    assert slope == pytest.approx(0.2, rel=0.05)  # the housing lags but follows the ramp
+
+
+def test_same_seed_same_log_other_seed_other_log() -> None:
+    a, ta, _ = simulate_protocol("repeat", hours=0.2, rate_hz=5.0, seed=11)
+    b, tb, _ = simulate_protocol("repeat", hours=0.2, rate_hz=5.0, seed=11)
+    c, _, _ = simulate_protocol("repeat", hours=0.2, rate_hz=5.0, seed=12)
+    pd.testing.assert_frame_equal(a, b)
+    pd.testing.assert_frame_equal(ta, tb)
+    assert not np.allclose(a[list(CHANNELS)], c[list(CHANNELS)])
+
+
+def test_turn_on_offsets_differ_between_power_ons() -> None:
+    """Repetition priming: every power-on has its own constant offset (Figure 1a)."""
+    _, _, meta = simulate_protocol("soak", hours=0.05, rate_hz=1.0, seed=4)
+    offs = np.array([[v[c] for c in CHANNELS] for v in meta["turn_on_offset"].values()])
+    assert np.all(offs.std(axis=0) > 0)
