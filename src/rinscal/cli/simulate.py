@@ -1,5 +1,205 @@
-"""CLI commands: simulate."""
+"""CLI commands: simulate, plot."""
 
 from __future__ import annotations
 
-from rinscal.cli._app import app  # noqa: F401
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from rinscal.cli._app import app
+
+# ============================================================================ plot
+# `rinscal plot LOG --out FIG.png`: the paper's Figure 3 for any calibration log.
+# (Owned by the calibration-log developer; the `simulate` command lives in its own block.)
+
+_FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
+
+
+@app.command("plot")
+def plot(
+    log: Annotated[Path, typer.Argument(help="Calibration log (.csv, .tsv or .parquet).")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Figure to write (.png, .pdf or .svg).")],
+    map_file: Annotated[
+        Path | None, typer.Option("--map", help="Column mapping (TOML) for a foreign log.")
+    ] = None,
+    col: Annotated[
+        list[str] | None,
+        typer.Option("--col", help="Map a foreign column: FOREIGN=canonical (repeatable)."),
+    ] = None,
+    time_col: Annotated[str | None, typer.Option("--time-col", help="Foreign time column.")] = None,
+    time_unit: Annotated[
+        str | None, typer.Option("--time-unit", help="Time unit: s, ms or us.")
+    ] = None,
+    sep: Annotated[
+        str | None, typer.Option("--sep", help="Separator: tab, comma, semicolon or auto.")
+    ] = None,
+    temp_col: Annotated[
+        str | None,
+        typer.Option("--temp-col", help="Single shared temperature column (becomes temp_in)."),
+    ] = None,
+    drop: Annotated[
+        list[str] | None, typer.Option("--drop", help="Foreign column to ignore (repeatable).")
+    ] = None,
+    run_name: Annotated[
+        str | None, typer.Option("--run-name", help="Run name for a log without a run column.")
+    ] = None,
+    title: Annotated[str | None, typer.Option("--title", help="Figure title.")] = None,
+    max_bins: Annotated[
+        int,
+        typer.Option("--max-bins", min=10, help="Longer runs are drawn as this many bins."),
+    ] = 1000,
+    dpi: Annotated[int, typer.Option("--dpi", min=30, max=1200, help="PNG resolution.")] = 120,
+) -> None:
+    """Draw outputs and temperatures against time per run (the paper's Figure 3)."""
+    import os
+
+    from rich.progress import Progress
+
+    from rinscal.cli._app import console, fail
+    from rinscal.errors import RinscalError
+    from rinscal.io import atomic_path, mapping_from_options, meta_path, read_log, read_mapping
+    from rinscal.io import read_meta as _read_meta
+
+    suffix = out.suffix.lower()
+    if suffix not in _FIGURE_SUFFIXES:
+        raise fail(f"{out}: unknown figure suffix {suffix or '(none)'!r}; use .png, .pdf or .svg")
+    inputs = [log, meta_path(log)] + ([map_file] if map_file is not None else [])
+    for src in inputs:
+        same = out.resolve() == src.resolve()
+        if not same and out.exists() and src.exists():
+            same = os.path.samefile(out, src)
+        if same:
+            raise fail(f"{out}: refusing to overwrite the input {src}; choose another --out")
+    if not out.resolve().parent.is_dir():
+        raise fail(f"{out}: folder {out.resolve().parent} does not exist")
+
+    try:
+        with Progress(console=console, transient=True) as progress:
+            task = progress.add_task("reading log", total=3)
+            base = read_mapping(map_file) if map_file is not None else None
+            mapping = mapping_from_options(
+                base,
+                columns=col or (),
+                time=time_col,
+                time_unit=time_unit,
+                separator=sep,
+                temperature=temp_col,
+                run=run_name,
+                drop=drop or (),
+            )
+            df = read_log(log, mapping)
+            meta = _read_meta(log)
+            progress.update(task, advance=1, description="drawing")
+
+            from rinscal.report.logplot import plot_log, units_from_meta
+
+            units = {ch: u for ch in df.columns if mapping and (u := mapping.unit_of(ch))}
+            units.update(units_from_meta(meta))
+            fig = plot_log(df, units=units, title=title or log.name, max_bins=max_bins)
+            progress.update(task, advance=1, description="saving")
+            with atomic_path(out) as tmp:
+                fig.savefig(tmp, format=suffix.lstrip("."), dpi=dpi)
+            progress.update(task, advance=1)
+    except RinscalError as exc:
+        raise fail(str(exc)) from None
+    n_runs = df["run"].nunique()
+    console.print(f"wrote {out} ({n_runs} run(s), {len(df):,} samples)", highlight=False)
+
+
+# ========================================================================== end plot
+
+
+# ============================================================================ simulate
+# `rinscal simulate {soak,ramp,repeat} --out FILE`: a calibration log from the thermal
+# chamber + IMU simulator, its truth file and its sidecar metadata.
+
+
+@app.command("simulate")
+def simulate(
+    protocol: Annotated[
+        str, typer.Argument(help="Protocol: soak (Table 3), ramp (-2 -> 50 °C) or repeat (25 °C).")
+    ],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Log to write (.parquet, .csv, .tsv).")],
+    hours: Annotated[
+        float | None,
+        typer.Option("--hours", help="Length of each run [h] (soak/repeat 3 h, ramp 4.83 h)."),
+    ] = None,
+    rate: Annotated[float, typer.Option("--rate", help="Sample rate [Hz].")] = 10.0,
+    seed: Annotated[int, typer.Option("--seed", help="Seed of every random number.")] = 0,
+    imu: Annotated[
+        Path | None,
+        typer.Option("--imu", help="IMU configuration (TOML); default: navigation-grade preset."),
+    ] = None,
+    units: Annotated[
+        str | None,
+        typer.Option("--units", help="physical (deg/h, µg) or pulses; overrides the config."),
+    ] = None,
+) -> None:
+    """Simulate a thermal-chamber protocol into a calibration log, a truth file and metadata.
+
+    Beside LOG it writes LOG's stem + '.truth' + suffix (the true thermal bias of every
+    sample, in the log's unit) and LOG + '.meta.json' (units, site, offsets, seed).
+    """
+    from dataclasses import replace
+
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from rinscal.cli._app import console, fail
+    from rinscal.errors import RinscalError
+    from rinscal.io import LogStreamWriter, format_of, write_meta
+    from rinscal.thermal.plant import ImuConfig, OutputConfig
+    from rinscal.thermal.protocols import PROTOCOLS, iter_protocol, log_meta, protocol_runs
+
+    if protocol not in PROTOCOLS:
+        raise fail(f"protocol must be one of {', '.join(PROTOCOLS)}; got {protocol!r}")
+    if not rate > 0:
+        raise fail(f"--rate must be > 0 Hz, got {rate}")
+    try:
+        format_of(out)
+        config = ImuConfig.from_toml(imu) if imu is not None else ImuConfig.navigation_grade()
+        if units is not None:
+            config = replace(config, output=OutputConfig(**{**vars(config.output), "mode": units}))
+        specs = protocol_runs(protocol, hours)
+    except RinscalError as exc:
+        raise fail(str(exc)) from None
+    if imu is not None and out.resolve() == imu.resolve():
+        raise fail(f"{out}: refusing to overwrite the input {imu}")
+    truth_path = out.with_name(f"{out.stem}.truth{out.suffix}")
+    n_samples = sum(int(s.duration_s * rate) for s in specs)
+    console.print(
+        f"simulating {protocol}: {len(specs)} run(s), {n_samples:,} samples at {rate:g} Hz, "
+        f"seed {seed}",
+        highlight=False,
+    )
+    runs = []
+    try:
+        with (
+            LogStreamWriter(out, validate=False) as log_writer,
+            LogStreamWriter(truth_path, validate=False) as truth_writer,
+            Progress(
+                TextColumn("{task.description}"),
+                BarColumn(),
+                TextColumn("{task.completed}/{task.total} runs"),
+                TimeElapsedColumn(),
+                console=console,
+                transient=True,
+            ) as progress,
+        ):
+            task = progress.add_task(f"{protocol} runs", total=len(specs))
+            for run in iter_protocol(protocol, config, hours, rate, seed):
+                progress.update(task, description=f"run {run.name}")
+                log_writer.write(run.log)
+                truth_writer.write(run.truth)
+                runs.append(run.without_samples())
+                progress.advance(task)
+        rows = log_writer.rows
+        meta = log_meta(protocol, config, rate, seed, runs)
+        meta["truth_file"] = truth_path.name
+        meta_file = write_meta(meta, out)
+    except RinscalError as exc:
+        raise fail(str(exc)) from None
+    console.print(f"wrote {out} ({rows:,} rows), {truth_path.name}, {meta_file.name}")
+
+
+# ======================================================================== end simulate
