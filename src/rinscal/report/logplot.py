@@ -256,7 +256,7 @@ def plot_log(
         ax.grid(True, alpha=0.3)
     for p, (ptitle, lines) in enumerate(temp_panels):
         ax = axes[2, p]
-        ax.set_title(f"{ptitle}{note.replace(" and min–max band", "")}", fontsize=10)
+        ax.set_title(ptitle + note.replace(" and min–max band", ""), fontsize=10)
         ax.set_ylabel("temperature [°C]")
         ax.grid(True, alpha=0.3)
         if len(lines) > 1:
