@@ -78,8 +78,14 @@ __all__ = [
 Format = Literal["csv", "tsv", "parquet"]
 #: File formats of a log, by suffix.
 FORMATS: dict[str, Format] = {".csv": "csv", ".tsv": "tsv", ".parquet": "parquet", ".pq": "parquet"}
-#: Time units a mapping accepts, and their factor to seconds.
-TIME_UNITS: dict[str, float] = {"s": 1.0, "ms": MS_TO_S, "us": US_TO_S, "µs": US_TO_S}
+#: Time units a mapping accepts, and how many of them make a second (dividing by an exact
+#: integer rounds correctly: 1011327 µs -> 1.011327 s, where * 1e-6 would be off by an ulp).
+TIME_UNITS: dict[str, float] = {
+    "s": 1.0,
+    "ms": 1.0 / MS_TO_S,
+    "us": 1.0 / US_TO_S,
+    "µs": 1.0 / US_TO_S,
+}
 #: Separator names a mapping accepts.
 SEPARATORS: dict[str, str | None] = {
     "auto": None,
@@ -332,9 +338,12 @@ def mapping_from_options(
     if base is None and not (given or columns or drop or scale):
         return None
     base = base or ColumnMapping()
+    extra = pairs(columns, "--col")
+    # an option mapping a column onto a canonical name replaces the file's entry for it
+    kept = {f: c for f, c in base.columns.items() if c not in extra.values() and f not in extra}
     return dataclasses.replace(
         base,
-        columns={**base.columns, **pairs(columns, "--col")},
+        columns={**kept, **extra},
         drop=(*base.drop, *drop),
         scale={**base.scale, **scale_values},
         **given,
@@ -484,7 +493,7 @@ def _apply_mapping(
         df[RUN] = mapping.run or p.stem
     if TIME in df.columns:
         t = df[TIME]
-        factor = TIME_UNITS[mapping.time_unit]
+        per_second = TIME_UNITS[mapping.time_unit]
         if pd.api.types.is_integer_dtype(t.dtype) and not pd.api.types.is_bool_dtype(t.dtype):
             ti = t.to_numpy(dtype=np.int64)
             if mapping.relative_time:
@@ -494,7 +503,7 @@ def _apply_mapping(
             x = as_float(t, str(p), TIME, names)
             if mapping.relative_time:
                 x = x - x[_first_of_run(df[RUN])]
-        df[TIME] = x * factor if factor != 1.0 else x
+        df[TIME] = x / per_second if per_second != 1.0 else x
     for ch, k in mapping.scale.items():
         if ch in df.columns:
             df[ch] = as_float(df[ch], str(p), ch, names) * k
