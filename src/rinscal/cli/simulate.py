@@ -104,7 +104,9 @@ def plot(
     except RinscalError as exc:
         raise fail(str(exc)) from None
     n_runs = df["run"].nunique()
-    console.print(f"wrote {out} ({n_runs} run(s), {len(df):,} samples)", highlight=False)
+    console.print(
+        f"wrote {out} ({n_runs} run(s), {len(df):,} samples)", highlight=False, soft_wrap=True
+    )
 
 
 # ========================================================================== end plot
