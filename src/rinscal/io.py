@@ -768,10 +768,12 @@ class LogStreamWriter:
                 f"{self.path}: a run has columns {list(df.columns)}, not {self._columns}"
             )
         if self.fmt == "parquet":
-            df = df.assign(**{RUN: df[RUN].astype(str)})
+            if not isinstance(df[RUN].dtype, pd.CategoricalDtype):
+                df = df.assign(**{RUN: df[RUN].astype("category")})
             table = pa.Table.from_pandas(df, preserve_index=False)
             if self._writer is None:
-                self._writer = pq.ParquetWriter(self._tmp, table.schema)
+                # dictionary-encode the run names only: noisy floats do not compress
+                self._writer = pq.ParquetWriter(self._tmp, table.schema, use_dictionary=[RUN])
             self._writer.write_table(table)
         else:
             df.to_csv(

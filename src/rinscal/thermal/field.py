@@ -445,9 +445,13 @@ def measure(
     ndarray [°C]
         Readings of the same shape.
     """
-    y = true_c + thermometer.noise_sd * rng.standard_normal(true_c.shape)
+    # float32 draws are twice as fast and ample for a 0.004 °C noise
+    y = rng.standard_normal(true_c.shape, dtype=np.float32).astype(np.float64)
+    y *= thermometer.noise_sd
+    y += true_c
     if thermometer.resolution > 0:
-        y = np.round(y / thermometer.resolution)
+        y *= 1.0 / thermometer.resolution
+        np.rint(y, out=y)
         y *= thermometer.resolution
     y += 0.0  # no negative zeros in the log
     return y

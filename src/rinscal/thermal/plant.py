@@ -463,11 +463,10 @@ class SensorNoise:
             Where an outlier was added.
         """
         rng = self.rng
-        e = rng.standard_normal((n, 6))
-        e *= self.white_sd
+        # float32 normals are twice as fast to draw; scaled and summed in float64
+        e = rng.standard_normal((n, 6), dtype=np.float32) * self.white_sd
         if np.any(self.rw_step_sd > 0):
-            walk = rng.standard_normal((n, 6))
-            walk *= self.rw_step_sd
+            walk = rng.standard_normal((n, 6), dtype=np.float32) * self.rw_step_sd
             np.cumsum(walk, axis=0, out=walk)
             walk += self.walk
             self.walk = walk[-1].copy()

@@ -14,7 +14,7 @@ gravity for the configured latitude and heading, plus the sensor errors.
 from __future__ import annotations
 
 from collections.abc import Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pandas as pd
@@ -108,6 +108,8 @@ class SimulatedRun:
 
     Attributes
     ----------
+    name : str
+        Run name.
     log : pandas.DataFrame
         Canonical calibration-log rows of this run.
     truth : pandas.DataFrame
@@ -119,11 +121,15 @@ class SimulatedRun:
         Static output (Earth rate and gravity) in the log's unit.
     """
 
+    name: str
     log: pd.DataFrame
     truth: pd.DataFrame
     offset: NDArray[np.float64]
     static: NDArray[np.float64]
-    info: dict[str, object] = field(default_factory=dict)
+
+    def without_samples(self) -> SimulatedRun:
+        """The same run with empty tables (keeps what :func:`log_meta` needs)."""
+        return replace(self, log=self.log.iloc[:0], truth=self.truth.iloc[:0])
 
 
 def _run_rng(seed: int, protocol: str, index: int) -> np.random.Generator:
@@ -172,18 +178,26 @@ def simulate_run(
     static_si = np.concatenate([omega_r, f_r])
     offset = turn_on_offsets(config, rng)
     noise, _ = SensorNoise(config, rng, dt).draw(n)
-    bias = np.empty((n, 6))
-    for j in range(6):
-        bias[:, j] = np.interp(t_mid, coarse.t, bias_coarse[:, j])
-    out_si = noise
-    out_si += bias
-    out_si += static_si + offset
-    out, _ = to_log_units(out_si, config, dt)
     scale = log_units_to_si(config, dt)
     run = pd.Categorical.from_codes(np.zeros(n, dtype=np.int8), categories=[spec.name])
     cols: dict[str, object] = {"time_s": t, "run": run}
-    for j, ch in enumerate(CHANNELS):
-        cols[ch] = np.ascontiguousarray(out[:, j])
+    truth_cols: dict[str, object] = {"time_s": t, "run": run}
+    bias_cols = [np.interp(t_mid, coarse.t, bias_coarse[:, j]) for j in range(6)]
+    if config.output.mode == "physical":
+        # channel by channel: one strided pass over the noise, no (n, 6) temporaries
+        for j, ch in enumerate(CHANNELS):
+            col = noise[:, j] + bias_cols[j]
+            col += static_si[j] + offset[j]
+            col *= 1.0 / scale[j]
+            cols[ch] = col
+    else:
+        out_si = noise
+        out_si += np.stack(bias_cols, axis=1)
+        out_si += static_si + offset
+        out, _ = to_log_units(out_si, config, dt)
+        for j, ch in enumerate(CHANNELS):
+            cols[ch] = np.ascontiguousarray(out[:, j])
+    del noise
     for j, ch in enumerate(CHANNELS):
         cols[f"temp_{ch}"] = measure(
             np.interp(t, coarse.t, coarse.sensor[:, j]), config.thermometer, rng
@@ -191,11 +205,13 @@ def simulate_run(
     cols["temp_out"] = measure(np.interp(t, coarse.t, coarse.outer), config.thermometer, rng)
     cols["chamber_temp"] = spec.profile(t)
     log = pd.DataFrame(cols, copy=False)  # keep one block per column: no consolidation copy
-    truth_cols: dict[str, object] = {"time_s": t, "run": run}
     for j, ch in enumerate(CHANNELS):
-        truth_cols[f"bias_{ch}"] = bias[:, j] / scale[j]
+        bias_cols[j] *= 1.0 / scale[j]
+        truth_cols[f"bias_{ch}"] = bias_cols[j]
     truth = pd.DataFrame(truth_cols, copy=False)
-    return SimulatedRun(log=log, truth=truth, offset=offset / scale, static=static_si / scale)
+    return SimulatedRun(
+        name=spec.name, log=log, truth=truth, offset=offset / scale, static=static_si / scale
+    )
 
 
 def iter_protocol(
@@ -236,8 +252,7 @@ def log_meta(
         "seed": seed,
         "static_output": dict(zip(CHANNELS, runs[0].static.tolist(), strict=True)) if runs else {},
         "turn_on_offset": {
-            str(r.log["run"].iat[0]): dict(zip(CHANNELS, r.offset.tolist(), strict=True))
-            for r in runs
+            r.name: dict(zip(CHANNELS, r.offset.tolist(), strict=True)) for r in runs
         },
     }
 
