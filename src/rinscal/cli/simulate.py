@@ -167,6 +167,7 @@ def simulate(
         raise fail(str(exc)) from None
     if imu is not None and out.resolve() == imu.resolve():
         raise fail(f"{out}: refusing to overwrite the input {imu}")
+    out.parent.mkdir(parents=True, exist_ok=True)
     truth_path = out.with_name(f"{out.stem}.truth{out.suffix}")
     n_samples = sum(int(s.duration_s * rate) for s in specs)
     console.print(
