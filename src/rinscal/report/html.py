@@ -1,0 +1,169 @@
+"""A self-contained HTML report: figures embedded as PNG data, tables as HTML, no scripts.
+
+The page reads offline, reflows on a phone (tables scroll sideways inside their own box,
+figures shrink to the screen width) and prints cleanly (no figure or table split across
+pages where the browser can avoid it).
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import pandas as pd
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+_CSS = """
+:root { --fg: #1b1f24; --muted: #57606a; --line: #d0d7de; --accent: #0b5cad; --warn: #9a6700; }
+* { box-sizing: border-box; }
+body { font: 16px/1.5 system-ui, -apple-system, "Segoe UI", Roboto, sans-serif; color: var(--fg);
+       max-width: 1100px; margin: 0 auto; padding: 1rem; }
+h1 { font-size: 1.6rem; margin: .2rem 0 .6rem; }
+h2 { font-size: 1.3rem; border-bottom: 1px solid var(--line); padding-bottom: .2rem;
+     margin-top: 2rem; }
+h3 { font-size: 1.05rem; margin-bottom: .3rem; }
+p, li { max-width: 75ch; }
+.note { color: var(--muted); font-size: .92rem; }
+.banner { border-left: 4px solid var(--warn); background: #fff8c5; padding: .5rem .8rem; }
+figure { margin: 1rem 0; break-inside: avoid; page-break-inside: avoid; }
+figure img { max-width: 100%; height: auto; border: 1px solid var(--line); }
+figcaption { color: var(--muted); font-size: .9rem; }
+.table-wrap { overflow-x: auto; margin: .6rem 0 1rem; break-inside: avoid; }
+table { border-collapse: collapse; font-size: .88rem; font-variant-numeric: tabular-nums; }
+caption { text-align: left; font-weight: 600; padding: .3rem 0; }
+th, td { border: 1px solid var(--line); padding: .25rem .5rem; text-align: right;
+         white-space: nowrap; }
+th { background: #f6f8fa; }
+td:first-child, th:first-child { text-align: left; }
+.verdict-pass { color: #1a7f37; font-weight: 600; }
+.verdict-fail { color: #cf222e; font-weight: 600; }
+nav ol { columns: 2; font-size: .92rem; }
+@media (max-width: 600px) { body { font-size: 15px; padding: .6rem; } nav ol { columns: 1; } }
+@media print { body { max-width: none; } a { color: inherit; text-decoration: none; }
+               .table-wrap { overflow: visible; } }
+"""
+
+
+def figure_to_png(fig: Figure, dpi: int = 110) -> bytes:
+    """Render a matplotlib figure to PNG bytes (and close it)."""
+    import matplotlib.pyplot as plt
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi, bbox_inches="tight")
+    plt.close(fig)
+    return buf.getvalue()
+
+
+@dataclass
+class Block:
+    """One item of a section: a paragraph, a figure or a table."""
+
+    kind: str
+    html: str
+    ident: str = ""
+
+
+@dataclass
+class Section:
+    """A titled section of the report."""
+
+    title: str
+    ident: str
+    blocks: list[Block] = field(default_factory=list)
+
+    def text(self, text: str, css: str = "") -> None:
+        """Add a paragraph of plain text (escaped)."""
+        cls = f' class="{css}"' if css else ""
+        self.blocks.append(Block("text", f"<p{cls}>{html.escape(text)}</p>"))
+
+    def raw(self, fragment: str) -> None:
+        """Add trusted HTML made by this package (lists, verdicts)."""
+        self.blocks.append(Block("raw", fragment))
+
+    def figure(self, ident: str, png: bytes, caption: str) -> None:
+        """Add a PNG figure with a caption; ``ident`` names it for tests and links."""
+        data = base64.b64encode(png).decode("ascii")
+        cap = html.escape(caption)
+        self.blocks.append(
+            Block(
+                "figure",
+                f'<figure id="fig-{ident}" data-figure="{ident}"><img alt="{cap}" '
+                f'src="data:image/png;base64,{data}"><figcaption>{cap}</figcaption></figure>',
+                ident,
+            )
+        )
+
+    def table(
+        self, ident: str, df: pd.DataFrame, caption: str, float_format: str = "{:.4g}"
+    ) -> None:
+        """Add a table; ``ident`` names it for tests and for its CSV file."""
+
+        def fmt(v: object) -> str:
+            if isinstance(v, float):
+                return "" if pd.isna(v) else float_format.format(v)
+            return str(v)
+
+        head = "".join(f"<th>{html.escape(str(c))}</th>" for c in df.columns)
+        rows = []
+        for _, row in df.iterrows():
+            cells = "".join(f"<td>{html.escape(fmt(v))}</td>" for v in row.to_numpy())
+            rows.append(f"<tr>{cells}</tr>")
+        self.blocks.append(
+            Block(
+                "table",
+                f'<div class="table-wrap"><table id="tab-{ident}" data-table="{ident}">'
+                f"<caption>{html.escape(caption)}</caption><thead><tr>{head}</tr></thead>"
+                f"<tbody>{''.join(rows)}</tbody></table></div>",
+                ident,
+            )
+        )
+
+
+@dataclass
+class Report:
+    """A report under construction."""
+
+    title: str
+    subtitle: str = ""
+    sections: list[Section] = field(default_factory=list)
+
+    def section(self, title: str, ident: str) -> Section:
+        """Start a new section and return it."""
+        s = Section(title, ident)
+        self.sections.append(s)
+        return s
+
+    def figure_ids(self) -> list[str]:
+        """Identifiers of every figure, in order."""
+        return [b.ident for s in self.sections for b in s.blocks if b.kind == "figure"]
+
+    def table_ids(self) -> list[str]:
+        """Identifiers of every table, in order."""
+        return [b.ident for s in self.sections for b in s.blocks if b.kind == "table"]
+
+    def to_html(self) -> str:
+        """The whole page as one string."""
+        toc = "".join(
+            f'<li><a href="#{s.ident}">{html.escape(s.title)}</a></li>' for s in self.sections
+        )
+        body = []
+        for s in self.sections:
+            body.append(f'<section id="{s.ident}"><h2>{html.escape(s.title)}</h2>')
+            body.extend(b.html for b in s.blocks)
+            body.append("</section>")
+        sub = f'<p class="note">{html.escape(self.subtitle)}</p>' if self.subtitle else ""
+        return (
+            '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
+            '<meta name="viewport" content="width=device-width, initial-scale=1">'
+            f"<title>{html.escape(self.title)}</title><style>{_CSS}</style></head><body>"
+            f"<header><h1>{html.escape(self.title)}</h1>{sub}</header>"
+            f"<nav><ol>{toc}</ol></nav>{''.join(body)}</body></html>\n"
+        )
+
+
+__all__ = ["Report", "Section", "figure_to_png"]
