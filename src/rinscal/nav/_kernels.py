@@ -1,0 +1,685 @@
+"""Numba kernels of the navigation package (private; compiled once and cached on disk).
+
+Everything here works on plain float64 arrays and scalars in SI units, ENU navigation
+frame, r (rotating IMU) frame increments. The public wrappers live in
+:mod:`rinscal.nav.strapdown`, :mod:`rinscal.nav.imu`, :mod:`rinscal.nav.rotation` and
+:mod:`rinscal.nav.align`.
+
+State vector of the strapdown integrator (``STATE_SIZE`` float64)::
+
+    0 lat [rad]   1 lon [rad]   2 alt [m]
+    3 vE  4 vN  5 vU [m/s]
+    6..9  quaternion of C_nr (scalar first, v_n = q ⊗ v_r ⊗ q*)
+    10..12 previous angle increment [rad]    13..15 previous velocity increment [m/s]
+    16 previous-increment flag (0: none yet)
+    17 vertical-loop acceleration-error state [m/s²] (damped mode)
+    18..20 velocity change of the previous step in n [m/s] (mid-interval extrapolation)
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from rinscal.nav import earth
+
+# Constants copied into the compiled code (numba freezes module globals at compile time).
+_A = earth.A
+_E2 = earth.E2
+_F = earth.F
+_GE = earth.GE
+_K = earth.K_SOMIGLIANA
+_M = earth.M_RATIO
+_RATE = earth.RATE
+
+STATE_SIZE = 21
+#: Vertical-channel modes of :func:`strapdown`.
+VERTICAL_HOLD, VERTICAL_DAMPED, VERTICAL_FREE = 0, 1, 2
+#: Columns of the integrator's output rows: lat, lon, alt, vE, vN, vU, q0..q3.
+OUT_SIZE = 10
+
+#: Gauss-Legendre nodes on [-1, 1] and weights (4 points, exact to degree 7).
+GL_X = np.array([-0.8611363115940526, -0.3399810435848563, 0.3399810435848563, 0.8611363115940526])
+GL_W = np.array([0.3478548451374538, 0.6521451548625461, 0.6521451548625461, 0.3478548451374538])
+
+_jit = numba.njit(cache=True, fastmath=False, nogil=True)
+
+
+# --------------------------------------------------------------------------- small helpers
+@_jit
+def gravity_scalar(lat: float, alt: float) -> float:
+    """Normal gravity magnitude, same formula as :func:`rinscal.nav.earth.gravity` [m/s²]."""
+    s2 = math.sin(lat) ** 2
+    g0 = _GE * (1.0 + _K * s2) / math.sqrt(1.0 - _E2 * s2)
+    return g0 * (1.0 - 2.0 / _A * (1.0 + _F + _M - 2.0 * _F * s2) * alt + 3.0 * alt * alt / _A**2)
+
+
+@_jit
+def _exp_half(n2: float) -> tuple[float, float]:
+    """cos(|x|/2) and sin(|x|/2)/|x| from |x|² (series below 1e-4 rad²)."""
+    if n2 < 1e-4:
+        c = 1.0 - n2 / 8.0 + n2 * n2 / 384.0 - n2 * n2 * n2 / 46080.0
+        s = 0.5 - n2 / 48.0 + n2 * n2 / 3840.0 - n2 * n2 * n2 / 645120.0
+    else:
+        n = math.sqrt(n2)
+        c = math.cos(0.5 * n)
+        s = math.sin(0.5 * n) / n
+    return c, s
+
+
+@_jit
+def quat_from_rotvec(x: float, y: float, z: float) -> tuple[float, float, float, float]:
+    """Quaternion of the rotation vector (x, y, z) [rad]."""
+    c, s = _exp_half(x * x + y * y + z * z)
+    return c, s * x, s * y, s * z
+
+
+@_jit
+def quat_mul(
+    a0: float, a1: float, a2: float, a3: float, b0: float, b1: float, b2: float, b3: float
+) -> tuple[float, float, float, float]:
+    """Hamilton product a ⊗ b."""
+    return (
+        a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
+        a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
+        a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1,
+        a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0,
+    )
+
+
+@_jit
+def quat_rotate(
+    q0: float, q1: float, q2: float, q3: float, x: float, y: float, z: float
+) -> tuple[float, float, float]:
+    """q ⊗ v ⊗ q* for a unit quaternion q."""
+    # t = 2 u × v ; v' = v + q0 t + u × t
+    tx = 2.0 * (q2 * z - q3 * y)
+    ty = 2.0 * (q3 * x - q1 * z)
+    tz = 2.0 * (q1 * y - q2 * x)
+    return (
+        x + q0 * tx + (q2 * tz - q3 * ty),
+        y + q0 * ty + (q3 * tx - q1 * tz),
+        z + q0 * tz + (q1 * ty - q2 * tx),
+    )
+
+
+@_jit
+def _third_order(
+    t0: float,
+    t1: float,
+    t2: float,
+    w0: float,
+    w1: float,
+    w2: float,
+    u0: float,
+    u1: float,
+    u2: float,
+) -> tuple[float, float, float]:
+    """Add (1/6) Δθ × (Δθ × Δv): the second-order rotation term of the specific-force integral.
+
+    For a constant rate and specific force in r, ∫exp([ωτ×]) f dτ = f·dt + ½ ω×f dt²
+    + (1/6) ω×(ω×f) dt³; the last term matters when the IMU spins (turntable moves, turns).
+    """
+    c0 = t1 * w2 - t2 * w1
+    c1 = t2 * w0 - t0 * w2
+    c2 = t0 * w1 - t1 * w0
+    return (
+        u0 + (t1 * c2 - t2 * c1) / 6.0,
+        u1 + (t2 * c0 - t0 * c2) / 6.0,
+        u2 + (t0 * c1 - t1 * c0) / 6.0,
+    )
+
+
+# --------------------------------------------------------------------------- strapdown
+@_jit
+def strapdown(
+    state: np.ndarray,
+    dtheta: np.ndarray,
+    dv: np.ndarray,
+    dt: float,
+    alt_ref: np.ndarray,
+    vu_ref: np.ndarray,
+    vmode: int,
+    k_loop: np.ndarray,
+    out: np.ndarray,
+    out_every: int,
+    k0: int,
+    rot3: bool,
+) -> int:
+    """Integrate ``n`` angle and velocity increments in place (Savage-style, ENU).
+
+    Two-sample coning and sculling (previous-sample form), rotation compensation with its
+    second-order term, exact
+    exponential attitude updates of body and navigation frames, Coriolis and transport rate
+    at the mid-interval velocity, normal gravity, trapezoidal position update.
+
+    Parameters
+    ----------
+    state : ndarray, shape (STATE_SIZE,)
+        Integrator state, updated in place.
+    dtheta, dv : ndarray, shape (n, 3) [rad], [m/s]
+        r-frame angle and velocity increments over each interval of length ``dt``.
+    dt : float [s]
+        Sample interval.
+    alt_ref, vu_ref : ndarray, shape (n,) or (1,) [m], [m/s]
+        Reference altitude and vertical velocity at the end of each interval (hold and
+        damped modes); a length-1 array is used for every step.
+    vmode : int
+        ``VERTICAL_HOLD``, ``VERTICAL_DAMPED`` or ``VERTICAL_FREE``.
+    k_loop : ndarray, shape (3,)
+        Gains (k1 [1/s], k2 [1/s²], k3 [1/s³]) of the third-order damping loop.
+    out : ndarray, shape (m, OUT_SIZE)
+        Receives the state after every ``out_every``-th global step.
+    out_every : int
+        Output decimation.
+    k0 : int
+        Global index of the first step of this call (steps are numbered from 1 at its end).
+    rot3 : bool
+        Include the second-order rotation term (1/6) Δθ × (Δθ × Δv) of the specific-force
+        integral (False gives the classical two-sample algorithm, as in pyins).
+
+    Returns
+    -------
+    int
+        Number of rows written to ``out``.
+    """
+    n = dtheta.shape[0]
+    n_ref = alt_ref.shape[0]
+    lat = state[0]
+    lon = state[1]
+    alt = state[2]
+    vE = state[3]
+    vN = state[4]
+    vU = state[5]
+    q0 = state[6]
+    q1 = state[7]
+    q2 = state[8]
+    q3 = state[9]
+    pt0 = state[10]
+    pt1 = state[11]
+    pt2 = state[12]
+    pv0 = state[13]
+    pv1 = state[14]
+    pv2 = state[15]
+    have_prev = state[16] != 0.0
+    acc_err = state[17]
+    dvp0 = state[18]
+    dvp1 = state[19]
+    dvp2 = state[20]
+    k1 = k_loop[0]
+    k2 = k_loop[1]
+    k3 = k_loop[2]
+    n_out = 0
+    lat_cached = 1e300
+    sinL = 0.0
+    cosL = 1.0
+    for i in range(n):
+        t0 = dtheta[i, 0]
+        t1 = dtheta[i, 1]
+        t2 = dtheta[i, 2]
+        w0 = dv[i, 0]
+        w1 = dv[i, 1]
+        w2 = dv[i, 2]
+        if not have_prev:
+            pt0 = t0
+            pt1 = t1
+            pt2 = t2
+            pv0 = w0
+            pv1 = w1
+            pv2 = w2
+            have_prev = True
+        # coning (rotation vector of r over the interval)
+        r0 = t0 + (pt1 * t2 - pt2 * t1) / 12.0
+        r1 = t1 + (pt2 * t0 - pt0 * t2) / 12.0
+        r2 = t2 + (pt0 * t1 - pt1 * t0) / 12.0
+        # rotation compensation + sculling (velocity increment in r(k-1))
+        u0 = w0 + 0.5 * (t1 * w2 - t2 * w1) + ((pt1 * w2 - pt2 * w1) + (pv1 * t2 - pv2 * t1)) / 12.0
+        u1 = w1 + 0.5 * (t2 * w0 - t0 * w2) + ((pt2 * w0 - pt0 * w2) + (pv2 * t0 - pv0 * t2)) / 12.0
+        u2 = w2 + 0.5 * (t0 * w1 - t1 * w0) + ((pt0 * w1 - pt1 * w0) + (pv0 * t1 - pv1 * t0)) / 12.0
+        if rot3:
+            u0, u1, u2 = _third_order(t0, t1, t2, w0, w1, w2, u0, u1, u2)
+        pt0 = t0
+        pt1 = t1
+        pt2 = t2
+        pv0 = w0
+        pv1 = w1
+        pv2 = w2
+
+        # Earth quantities at the start of the interval
+        if lat != lat_cached:
+            sinL = math.sin(lat)
+            cosL = math.cos(lat)
+            lat_cached = lat
+        s2 = sinL * sinL
+        x = 1.0 - _E2 * s2
+        sx = math.sqrt(x)
+        Re = _A / sx
+        Rn = Re * (1.0 - _E2) / x
+        g = _GE * (1.0 + _K * s2) / sx
+        g = g * (1.0 - 2.0 / _A * (1.0 + _F + _M - 2.0 * _F * s2) * alt + 3.0 * alt * alt / _A**2)
+        ReH = Re + alt
+        RnH = Rn + alt
+        OmN = _RATE * cosL
+        OmU = _RATE * sinL
+        tanL = sinL / cosL
+
+        # mid-interval velocity, extrapolated from the previous step's change
+        mE = vE + 0.5 * dvp0
+        mN = vN + 0.5 * dvp1
+        mU = vU + 0.5 * dvp2
+        # ω_in^n = ω_ie^n + ω_en^n at mid-interval
+        wE = -mN / RnH
+        wN = OmN + mE / ReH
+        wU = OmU + mE * tanL / ReH
+        zE = wE * dt
+        zN = wN * dt
+        zU = wU * dt
+
+        # specific-force increment to n: C_n(k-1)r(k-1) u, then [I - ½ ζ×]
+        a0, a1, a2 = quat_rotate(q0, q1, q2, q3, u0, u1, u2)
+        fE = a0 - 0.5 * (zN * a2 - zU * a1)
+        fN = a1 - 0.5 * (zU * a0 - zE * a2)
+        fU = a2 - 0.5 * (zE * a1 - zN * a0)
+        # Coriolis + transport: (2 ω_ie + ω_en) × v_mid
+        cE = wE
+        cN = wN + OmN
+        cU = wU + OmU
+        dE = fE - (cN * mU - cU * mN) * dt
+        dN = fN - (cU * mE - cE * mU) * dt
+        dU = fU - (cE * mN - cN * mE) * dt - g * dt
+
+        vE_new = vE + dE
+        vN_new = vN + dN
+        j = i if n_ref > 1 else 0
+        if vmode == 0:
+            vU_new = vu_ref[j]
+            alt_new = alt_ref[j]
+        elif vmode == 1:
+            e = alt - alt_ref[j]
+            vU_new = vU + dU - (k2 * e + acc_err) * dt
+            acc_err += k3 * e * dt
+            alt_new = alt + (0.5 * (vU + vU_new) - k1 * e) * dt
+        else:
+            vU_new = vU + dU
+            alt_new = alt + 0.5 * (vU + vU_new) * dt
+        dvp0 = vE_new - vE
+        dvp1 = vN_new - vN
+        dvp2 = vU_new - vU
+
+        # position (trapezoid; radii at the start, cos at mid-latitude)
+        dlat = 0.5 * (vN + vN_new) * dt / (Rn + 0.5 * (alt + alt_new))
+        cos_mid = cosL - sinL * 0.5 * dlat
+        lon += 0.5 * (vE + vE_new) * dt / ((Re + 0.5 * (alt + alt_new)) * cos_mid)
+        lat += dlat
+        alt = alt_new
+        vE = vE_new
+        vN = vN_new
+        vU = vU_new
+
+        # attitude: q ← q(−ζ) ⊗ q ⊗ q(φ)
+        b0, b1, b2, b3 = quat_from_rotvec(r0, r1, r2)
+        c0, c1, c2, c3 = quat_mul(q0, q1, q2, q3, b0, b1, b2, b3)
+        n0, n1, n2, n3 = quat_from_rotvec(-zE, -zN, -zU)
+        q0, q1, q2, q3 = quat_mul(n0, n1, n2, n3, c0, c1, c2, c3)
+        qn = 1.0 / math.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
+        q0 *= qn
+        q1 *= qn
+        q2 *= qn
+        q3 *= qn
+
+        if out_every > 0 and (k0 + i + 1) % out_every == 0:
+            out[n_out, 0] = lat
+            out[n_out, 1] = lon
+            out[n_out, 2] = alt
+            out[n_out, 3] = vE
+            out[n_out, 4] = vN
+            out[n_out, 5] = vU
+            out[n_out, 6] = q0
+            out[n_out, 7] = q1
+            out[n_out, 8] = q2
+            out[n_out, 9] = q3
+            n_out += 1
+
+    state[0] = lat
+    state[1] = lon
+    state[2] = alt
+    state[3] = vE
+    state[4] = vN
+    state[5] = vU
+    state[6] = q0
+    state[7] = q1
+    state[8] = q2
+    state[9] = q3
+    state[10] = pt0
+    state[11] = pt1
+    state[12] = pt2
+    state[13] = pv0
+    state[14] = pv1
+    state[15] = pv2
+    state[16] = 1.0 if have_prev else 0.0
+    state[17] = acc_err
+    state[18] = dvp0
+    state[19] = dvp1
+    state[20] = dvp2
+    return n_out
+
+
+# --------------------------------------------------------------------------- schedules
+@_jit
+def schedule_locate(
+    t: float, starts: np.ndarray, period: float, t_start: float
+) -> tuple[int, float, float]:
+    """Segment index, local time and cycle number of time ``t`` [s].
+
+    ``period <= 0`` means a single, non-repeating set of segments (the last one extends
+    forever). Before ``t_start`` the table sits at the start of segment 0.
+    """
+    if t <= t_start:
+        return 0, 0.0, 0.0
+    tc = t - t_start
+    cyc = 0.0
+    if period > 0.0:
+        cyc = math.floor(tc / period)
+        tc = tc - cyc * period
+        if tc >= period:  # rounding
+            tc -= period
+            cyc += 1.0
+        if tc < 0.0:
+            tc = 0.0
+    m = starts.shape[0]
+    k = 0
+    while k + 1 < m and starts[k + 1] <= tc:
+        k += 1
+    return k, tc - starts[k], cyc
+
+
+@_jit
+def schedule_angle(
+    t: float,
+    starts: np.ndarray,
+    coefs: np.ndarray,
+    period: float,
+    offset: float,
+    t_start: float,
+) -> tuple[float, float, float]:
+    """Encoder angle [rad], rate [rad/s] and acceleration [rad/s²] at ``t`` [s]."""
+    k, tau, cyc = schedule_locate(t, starts, period, t_start)
+    c0 = coefs[k, 0]
+    c1 = coefs[k, 1]
+    c2 = coefs[k, 2]
+    if t <= t_start:
+        return c0, 0.0, 0.0
+    return cyc * offset + c0 + tau * (c1 + tau * c2), c1 + 2.0 * c2 * tau, 2.0 * c2
+
+
+@_jit
+def schedule_next_break(t: float, starts: np.ndarray, period: float, t_start: float) -> float:
+    """First break point of the schedule strictly after ``t`` (+1 ns) [s]."""
+    eps = 1e-9
+    if t < t_start - eps:
+        return t_start
+    tc = t - t_start
+    cyc = 0.0
+    if period > 0.0:
+        cyc = math.floor(tc / period)
+        tc = tc - cyc * period
+    m = starts.shape[0]
+    for k in range(m):
+        if starts[k] > tc + eps:
+            return t_start + cyc * period + starts[k]
+    if period > 0.0:
+        return t_start + (cyc + 1.0) * period
+    return 1e300
+
+
+@_jit
+def _lagrange4(xi: float, xs: np.ndarray) -> tuple[float, float, float, float]:
+    """Lagrange basis through the four points ``xs`` evaluated at ``xi``."""
+    l0 = (
+        (xi - xs[1])
+        * (xi - xs[2])
+        * (xi - xs[3])
+        / ((xs[0] - xs[1]) * (xs[0] - xs[2]) * (xs[0] - xs[3]))
+    )
+    l1 = (
+        (xi - xs[0])
+        * (xi - xs[2])
+        * (xi - xs[3])
+        / ((xs[1] - xs[0]) * (xs[1] - xs[2]) * (xs[1] - xs[3]))
+    )
+    l2 = (
+        (xi - xs[0])
+        * (xi - xs[1])
+        * (xi - xs[3])
+        / ((xs[2] - xs[0]) * (xs[2] - xs[1]) * (xs[2] - xs[3]))
+    )
+    l3 = (
+        (xi - xs[0])
+        * (xi - xs[1])
+        * (xi - xs[2])
+        / ((xs[3] - xs[0]) * (xs[3] - xs[1]) * (xs[3] - xs[2]))
+    )
+    return l0, l1, l2, l3
+
+
+@_jit
+def rotate_increments(
+    t_edges: np.ndarray,
+    w_b: np.ndarray,
+    f_b: np.ndarray,
+    starts: np.ndarray,
+    coefs: np.ndarray,
+    period: float,
+    offset: float,
+    t_start: float,
+    dtheta: np.ndarray,
+    dv: np.ndarray,
+    phi_end: np.ndarray,
+) -> None:
+    """r-frame increments of a body-frame motion seen through the turntable.
+
+    ``ω_ir^r = C_rb(φ) ω_ib^b + φ̇ z`` and ``f^r = C_rb(φ) f^b`` (IMU centre on the axis),
+    integrated exactly over each interval by 4-point Gauss-Legendre quadrature, the interval
+    split at every break point of the schedule; dwell pieces are integrated in closed form.
+
+    Parameters
+    ----------
+    t_edges : ndarray, shape (n+1,) [s]
+        Interval edges.
+    w_b, f_b : ndarray, shape (n, 4, 3) or (1, 4, 3)
+        Body angular rate ω_ib^b [rad/s] and specific force f^b [m/s²] at the four
+        Gauss-Legendre nodes of each interval; a leading dimension of 1 means constant.
+    starts, coefs, period, offset, t_start
+        The schedule (see :class:`rinscal.nav.rotation.RotationSchedule`).
+    dtheta, dv : ndarray, shape (n, 3)
+        Output increments [rad], [m/s].
+    phi_end : ndarray, shape (n,)
+        Output encoder angle at the end of each interval [rad].
+    """
+    n = t_edges.shape[0] - 1
+    const = w_b.shape[0] == 1
+    xs = np.empty(4)
+    for i in range(n):
+        ta = t_edges[i]
+        tb = t_edges[i + 1]
+        ii = 0 if const else i
+        h = 0.5 * (tb - ta)
+        mid = 0.5 * (ta + tb)
+        for m in range(4):
+            xs[m] = mid + h * GL_X[m]
+        s0 = 0.0
+        s1 = 0.0
+        s2 = 0.0
+        v0 = 0.0
+        v1 = 0.0
+        v2 = 0.0
+        a = ta
+        while a < tb:
+            b = schedule_next_break(a, starts, period, t_start)
+            if b > tb or b <= a:
+                b = tb
+            k, _tau_mid, _cyc = schedule_locate(0.5 * (a + b), starts, period, t_start)
+            c1 = coefs[k, 1]
+            c2 = coefs[k, 2]
+            if 0.5 * (a + b) <= t_start:
+                c1 = 0.0
+                c2 = 0.0
+            if c1 == 0.0 and c2 == 0.0 and const:
+                phi, _, _ = schedule_angle(0.5 * (a + b), starts, coefs, period, offset, t_start)
+                cp = math.cos(phi)
+                sp = math.sin(phi)
+                L = b - a
+                wx = w_b[0, 0, 0]
+                wy = w_b[0, 0, 1]
+                fx = f_b[0, 0, 0]
+                fy = f_b[0, 0, 1]
+                s0 += (cp * wx + sp * wy) * L
+                s1 += (-sp * wx + cp * wy) * L
+                s2 += w_b[0, 0, 2] * L
+                v0 += (cp * fx + sp * fy) * L
+                v1 += (-sp * fx + cp * fy) * L
+                v2 += f_b[0, 0, 2] * L
+            else:
+                hp = 0.5 * (b - a)
+                mp = 0.5 * (a + b)
+                whole = a == ta and b == tb
+                for m in range(4):
+                    tn = mp + hp * GL_X[m]
+                    wgt = GL_W[m] * hp
+                    phi, _rate, _ = schedule_angle(tn, starts, coefs, period, offset, t_start)
+                    cp = math.cos(phi)
+                    sp = math.sin(phi)
+                    if const:
+                        wx = w_b[0, 0, 0]
+                        wy = w_b[0, 0, 1]
+                        wz = w_b[0, 0, 2]
+                        fx = f_b[0, 0, 0]
+                        fy = f_b[0, 0, 1]
+                        fz = f_b[0, 0, 2]
+                    elif whole:
+                        wx = w_b[ii, m, 0]
+                        wy = w_b[ii, m, 1]
+                        wz = w_b[ii, m, 2]
+                        fx = f_b[ii, m, 0]
+                        fy = f_b[ii, m, 1]
+                        fz = f_b[ii, m, 2]
+                    else:
+                        l0, l1, l2, l3 = _lagrange4(tn, xs)
+                        wx = (
+                            l0 * w_b[ii, 0, 0]
+                            + l1 * w_b[ii, 1, 0]
+                            + l2 * w_b[ii, 2, 0]
+                            + l3 * w_b[ii, 3, 0]
+                        )
+                        wy = (
+                            l0 * w_b[ii, 0, 1]
+                            + l1 * w_b[ii, 1, 1]
+                            + l2 * w_b[ii, 2, 1]
+                            + l3 * w_b[ii, 3, 1]
+                        )
+                        wz = (
+                            l0 * w_b[ii, 0, 2]
+                            + l1 * w_b[ii, 1, 2]
+                            + l2 * w_b[ii, 2, 2]
+                            + l3 * w_b[ii, 3, 2]
+                        )
+                        fx = (
+                            l0 * f_b[ii, 0, 0]
+                            + l1 * f_b[ii, 1, 0]
+                            + l2 * f_b[ii, 2, 0]
+                            + l3 * f_b[ii, 3, 0]
+                        )
+                        fy = (
+                            l0 * f_b[ii, 0, 1]
+                            + l1 * f_b[ii, 1, 1]
+                            + l2 * f_b[ii, 2, 1]
+                            + l3 * f_b[ii, 3, 1]
+                        )
+                        fz = (
+                            l0 * f_b[ii, 0, 2]
+                            + l1 * f_b[ii, 1, 2]
+                            + l2 * f_b[ii, 2, 2]
+                            + l3 * f_b[ii, 3, 2]
+                        )
+                    s0 += wgt * (cp * wx + sp * wy)
+                    s1 += wgt * (-sp * wx + cp * wy)
+                    s2 += wgt * wz
+                    v0 += wgt * (cp * fx + sp * fy)
+                    v1 += wgt * (-sp * fx + cp * fy)
+                    v2 += wgt * fz
+            a = b
+        phi_a, _, _ = schedule_angle(ta, starts, coefs, period, offset, t_start)
+        phi_b, _, _ = schedule_angle(tb, starts, coefs, period, offset, t_start)
+        dtheta[i, 0] = s0
+        dtheta[i, 1] = s1
+        dtheta[i, 2] = s2 + (phi_b - phi_a)
+        dv[i, 0] = v0
+        dv[i, 1] = v1
+        dv[i, 2] = v2
+        phi_end[i] = phi_b
+
+
+# --------------------------------------------------------------------------- coarse alignment
+@_jit
+def inertial_accumulate(
+    q: np.ndarray, vsum: np.ndarray, prev: np.ndarray, dtheta: np.ndarray, dv: np.ndarray
+) -> None:
+    """Accumulate attitude of r relative to its initial (inertially frozen) orientation.
+
+    ``q`` (4,) is C_{r0 r} updated in place by coning-corrected increments; ``vsum`` (3,)
+    accumulates ∫ C_{r0 r} f^r dt with rotation compensation and sculling; ``prev`` (7,)
+    holds the previous increments and a flag.
+    """
+    q0 = q[0]
+    q1 = q[1]
+    q2 = q[2]
+    q3 = q[3]
+    pt0 = prev[0]
+    pt1 = prev[1]
+    pt2 = prev[2]
+    pv0 = prev[3]
+    pv1 = prev[4]
+    pv2 = prev[5]
+    have = prev[6] != 0.0
+    for i in range(dtheta.shape[0]):
+        t0 = dtheta[i, 0]
+        t1 = dtheta[i, 1]
+        t2 = dtheta[i, 2]
+        w0 = dv[i, 0]
+        w1 = dv[i, 1]
+        w2 = dv[i, 2]
+        if not have:
+            pt0, pt1, pt2, pv0, pv1, pv2 = t0, t1, t2, w0, w1, w2
+            have = True
+        r0 = t0 + (pt1 * t2 - pt2 * t1) / 12.0
+        r1 = t1 + (pt2 * t0 - pt0 * t2) / 12.0
+        r2 = t2 + (pt0 * t1 - pt1 * t0) / 12.0
+        u0 = w0 + 0.5 * (t1 * w2 - t2 * w1) + ((pt1 * w2 - pt2 * w1) + (pv1 * t2 - pv2 * t1)) / 12.0
+        u1 = w1 + 0.5 * (t2 * w0 - t0 * w2) + ((pt2 * w0 - pt0 * w2) + (pv2 * t0 - pv0 * t2)) / 12.0
+        u2 = w2 + 0.5 * (t0 * w1 - t1 * w0) + ((pt0 * w1 - pt1 * w0) + (pv0 * t1 - pv1 * t0)) / 12.0
+        u0, u1, u2 = _third_order(t0, t1, t2, w0, w1, w2, u0, u1, u2)
+        pt0, pt1, pt2, pv0, pv1, pv2 = t0, t1, t2, w0, w1, w2
+        a0, a1, a2 = quat_rotate(q0, q1, q2, q3, u0, u1, u2)
+        vsum[0] += a0
+        vsum[1] += a1
+        vsum[2] += a2
+        b0, b1, b2, b3 = quat_from_rotvec(r0, r1, r2)
+        q0, q1, q2, q3 = quat_mul(q0, q1, q2, q3, b0, b1, b2, b3)
+        qn = 1.0 / math.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
+        q0 *= qn
+        q1 *= qn
+        q2 *= qn
+        q3 *= qn
+    q[0] = q0
+    q[1] = q1
+    q[2] = q2
+    q[3] = q3
+    prev[0] = pt0
+    prev[1] = pt1
+    prev[2] = pt2
+    prev[3] = pv0
+    prev[4] = pv1
+    prev[5] = pv2
+    prev[6] = 1.0 if have else 0.0
