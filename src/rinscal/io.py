@@ -63,6 +63,7 @@ from rinscal.units import MS_TO_S, US_TO_S
 __all__ = [
     "FORMATS",
     "ColumnMapping",
+    "atomic_path",
     "format_of",
     "mapping_from_options",
     "meta_path",
@@ -71,6 +72,7 @@ __all__ = [
     "read_meta",
     "temperature_column",
     "validate_log",
+    "write_atomic",
     "write_log",
     "write_meta",
 ]
