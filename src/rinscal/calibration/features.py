@@ -1,0 +1,452 @@
+"""Model inputs built per run: inner temperature, its rate, the inside-outside gradient.
+
+For each sensor channel ``c`` and each sample of a calibration log the features are
+
+* ``T``  — the inner temperature of the sensor [°C] (``temp_<c>``, or the shared ``temp_in``),
+* ``Ṫ``  — its rate [°C/min], the slope of a least-squares line through the temperature
+  samples of a window of ``window_s`` seconds (centred for offline fitting, causal for real
+  time; see :mod:`rinscal.calibration._rate`), and
+* ``ΔT`` — the gradient ``T − temp_out`` [°C] between the sensor and the package surface
+  (absent, with a :class:`MissingGradientWarning`, when the log has no ``temp_out``).
+
+Features are computed run by run, never across a run boundary (the rate needs neighbouring
+samples of the *same* recording). Outliers of the sensor output (e.g. turntable-motor
+vibration, Section 3 of the paper) are *masked*, never removed: a running median of each
+channel within each run, then the robust spread ``1.4826 · MAD`` of the residuals about it;
+a sample further than ``threshold`` spreads from the running median is an outlier. The
+count per run and channel is reported in an :class:`OutlierReport`.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+import pandas as pd
+from scipy.ndimage import median_filter
+
+from rinscal.calibration._rate import causal_slope, centred_slope_run
+from rinscal.errors import ConfigError, LogError
+from rinscal.schema import CHAMBER, CHANNELS, RUN, TEMP_OUT, TIME, temperature_column
+from rinscal.units import MIN_TO_S
+
+__all__ = [
+    "FEATURE_NAMES",
+    "DerivativeConfig",
+    "Features",
+    "MissingGradientWarning",
+    "OutlierConfig",
+    "OutlierReport",
+    "build_features",
+    "outlier_mask",
+    "run_slices",
+    "set_points",
+    "temperature_rate",
+]
+
+#: Names of the model inputs, in the column order of every feature matrix.
+FEATURE_NAMES: tuple[str, str, str] = ("T", "Tdot", "dT")
+#: Units of the model inputs, in :data:`FEATURE_NAMES` order.
+FEATURE_UNITS: tuple[str, str, str] = ("degC", "degC/min", "degC")
+
+
+class MissingGradientWarning(UserWarning):
+    """The log has no outer temperature: the gradient feature ΔT drops out."""
+
+
+@dataclass(frozen=True)
+class DerivativeConfig:
+    """How the temperature rate is estimated.
+
+    Parameters
+    ----------
+    window_s : float [s]
+        Length ``W`` of the least-squares window.
+    kind : {"centred", "causal"}
+        ``"centred"``: window ``[t − W/2, t + W/2]`` (offline, no lag). ``"causal"``: window
+        ``[t − W, t]`` (real time; lags the centred estimate by ``W/2``).
+    """
+
+    window_s: float = 60.0
+    kind: Literal["centred", "causal"] = "centred"
+
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.window_s) and self.window_s > 0):
+            raise ConfigError(
+                f"derivative window_s must be a positive number of seconds, got {self.window_s!r}"
+            )
+        if self.kind not in ("centred", "causal"):
+            raise ConfigError(f"derivative kind must be 'centred' or 'causal', got {self.kind!r}")
+
+
+@dataclass(frozen=True)
+class OutlierConfig:
+    """Outlier masking by running median and MAD.
+
+    Parameters
+    ----------
+    window_s : float [s]
+        Length of the running-median window (converted to an odd number of samples with the
+        run's median sampling interval, at least 5).
+    threshold : float [-]
+        A sample is an outlier when ``|x − median| > threshold · 1.4826 · MAD``.
+    enabled : bool
+        False masks nothing (NaN samples stay masked).
+    """
+
+    window_s: float = 10.0
+    threshold: float = 6.0
+    enabled: bool = True
+
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.window_s) and self.window_s > 0):
+            raise ConfigError(f"outlier window_s must be positive, got {self.window_s!r}")
+        if not (np.isfinite(self.threshold) and self.threshold > 0):
+            raise ConfigError(f"outlier threshold must be positive, got {self.threshold!r}")
+
+
+@dataclass(frozen=True)
+class OutlierReport:
+    """Samples masked per run and channel.
+
+    Attributes
+    ----------
+    runs : tuple of str
+        Run names, in order of first appearance in the log.
+    channels : tuple of str
+        Channel names.
+    removed : ndarray of int, shape (n_runs, n_channels)
+        Outliers masked (NaN samples not counted).
+    missing : ndarray of int, shape (n_runs, n_channels)
+        NaN (dropped) samples.
+    samples : ndarray of int, shape (n_runs,)
+        Samples per run.
+    """
+
+    runs: tuple[str, ...]
+    channels: tuple[str, ...]
+    removed: np.ndarray
+    missing: np.ndarray
+    samples: np.ndarray
+
+    def to_frame(self) -> pd.DataFrame:
+        """One row per run and channel: ``run, channel, samples, removed, missing``."""
+        rows = [
+            {
+                "run": r,
+                "channel": c,
+                "samples": int(self.samples[i]),
+                "removed": int(self.removed[i, j]),
+                "missing": int(self.missing[i, j]),
+            }
+            for i, r in enumerate(self.runs)
+            for j, c in enumerate(self.channels)
+        ]
+        return pd.DataFrame(rows, columns=["run", "channel", "samples", "removed", "missing"])
+
+    def total(self, channel: str) -> int:
+        """Outliers masked in ``channel`` over all runs."""
+        return int(self.removed[:, self.channels.index(channel)].sum())
+
+
+@dataclass(frozen=True)
+class Features:
+    """Model inputs and fitting masks of a log, row for row.
+
+    Attributes
+    ----------
+    channels : tuple of str
+        Channels, the column order of the (n, m) arrays.
+    temp : ndarray, shape (n, m) [°C]
+        Inner temperature ``T`` per channel.
+    rate : ndarray, shape (n, m) [°C/min]
+        Temperature rate ``Ṫ``.
+    grad : ndarray, shape (n, m) [°C] or None
+        Gradient ``ΔT = T − temp_out``; None when the log has no ``temp_out``.
+    output : ndarray, shape (n, m) [log units]
+        The sensor output, NaN where dropped.
+    inlier : ndarray of bool, shape (n, m)
+        True where a sample may be used for fitting (finite and not an outlier).
+    run_codes : ndarray of int, shape (n,)
+        Index into ``runs`` of each row.
+    runs : tuple of str
+        Run names in order of first appearance.
+    time_s : ndarray, shape (n,) [s]
+        Time since the run's power-on.
+    derivative : DerivativeConfig
+        How ``rate`` was computed.
+    report : OutlierReport
+        Outliers masked.
+    """
+
+    channels: tuple[str, ...]
+    temp: np.ndarray
+    rate: np.ndarray
+    grad: np.ndarray | None
+    output: np.ndarray
+    inlier: np.ndarray
+    run_codes: np.ndarray
+    runs: tuple[str, ...]
+    time_s: np.ndarray
+    derivative: DerivativeConfig
+    report: OutlierReport
+
+    @property
+    def has_gradient(self) -> bool:
+        """Whether the gradient feature is present."""
+        return self.grad is not None
+
+    @property
+    def n_features(self) -> int:
+        """Number of model inputs: 3 with the gradient, 2 without."""
+        return 3 if self.grad is not None else 2
+
+    def matrix(self, channel: str | int) -> np.ndarray:
+        """Feature matrix of one channel.
+
+        Parameters
+        ----------
+        channel : str or int
+            Channel name or index.
+
+        Returns
+        -------
+        ndarray, shape (n, 2 or 3)
+            Columns ``T`` [°C], ``Ṫ`` [°C/min] and, if present, ``ΔT`` [°C].
+        """
+        j = self.channels.index(channel) if isinstance(channel, str) else int(channel)
+        cols = [self.temp[:, j], self.rate[:, j]]
+        if self.grad is not None:
+            cols.append(self.grad[:, j])
+        return np.column_stack(cols)
+
+
+def run_slices(run: pd.Series | np.ndarray) -> tuple[np.ndarray, tuple[str, ...], list[np.ndarray]]:
+    """Rows of each run, in log order.
+
+    Parameters
+    ----------
+    run : Series or ndarray, shape (n,)
+        The ``run`` column.
+
+    Returns
+    -------
+    codes : ndarray of int, shape (n,)
+        Run index of each row.
+    names : tuple of str
+        Run names in order of first appearance.
+    rows : list of ndarray of int
+        Row indices of each run, increasing.
+    """
+    codes, uniques = pd.factorize(pd.Series(np.asarray(run)), sort=False)
+    codes = codes.astype(np.int64, copy=False)
+    order = np.argsort(codes, kind="stable")
+    bounds = np.searchsorted(codes[order], np.arange(len(uniques) + 1))
+    rows = [order[bounds[k] : bounds[k + 1]] for k in range(len(uniques))]
+    return codes, tuple(str(u) for u in uniques), rows
+
+
+def temperature_rate(t: np.ndarray, temp: np.ndarray, derivative: DerivativeConfig) -> np.ndarray:
+    """Temperature rate of one run.
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,) [s]
+        Strictly increasing time of one run.
+    temp : ndarray, shape (n,) or (n, m) [°C]
+        Temperatures.
+    derivative : DerivativeConfig
+        Window and kind.
+
+    Returns
+    -------
+    ndarray, same shape as ``temp`` [°C/min]
+    """
+    temp = np.asarray(temp, dtype=np.float64)
+    x = temp.reshape(temp.shape[0], -1)
+    if derivative.kind == "causal":
+        slope = causal_slope(t, x, derivative.window_s)
+    else:
+        slope = centred_slope_run(t, x, derivative.window_s)
+    return (slope * MIN_TO_S).reshape(temp.shape)
+
+
+def _odd_window(t: np.ndarray, window_s: float) -> int:
+    dt = float(np.median(np.diff(t))) if t.size > 1 else 1.0
+    k = round(window_s / dt) if dt > 0 else 5
+    k = max(k, 5)
+    return k if k % 2 else k + 1
+
+
+def outlier_mask(t: np.ndarray, y: np.ndarray, config: OutlierConfig) -> np.ndarray:
+    """Outliers of one run of one or more channels, by running median and MAD.
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,) [s]
+        Time of one run (sets the window length in samples).
+    y : ndarray, shape (n,) or (n, m)
+        Sensor output; NaN samples are never outliers (they are missing).
+    config : OutlierConfig
+        Window and threshold.
+
+    Returns
+    -------
+    ndarray of bool, same shape as ``y``
+        True at outliers.
+    """
+    y = np.asarray(y, dtype=np.float64)
+    y2 = y.reshape(y.shape[0], -1)
+    out = np.zeros(y2.shape, dtype=bool)
+    if not config.enabled or y2.shape[0] < 5:
+        return out.reshape(y.shape)
+    k = min(_odd_window(t, config.window_s), y2.shape[0] - (1 - y2.shape[0] % 2))
+    for j in range(y2.shape[1]):
+        col = y2[:, j]
+        ok = np.isfinite(col)
+        if ok.sum() < 5:
+            continue
+        # fill missing samples by the nearest finite one so the running median is defined
+        filled = col
+        if not ok.all():
+            idx = np.flatnonzero(ok)
+            near = idx[np.clip(np.searchsorted(idx, np.arange(col.size)), 0, idx.size - 1)]
+            filled = col[near]
+        med = median_filter(filled, size=k, mode="nearest")
+        resid = np.abs(col - med)
+        mad = float(np.median(resid[ok]))
+        if mad > 0:
+            out[:, j] = ok & (resid > config.threshold * 1.4826 * mad)
+        else:  # quantised output: at least half the samples equal their running median
+            spread = float(np.std(resid[ok]))
+            if spread > 0:
+                out[:, j] = ok & (resid > config.threshold * spread)
+    return out.reshape(y.shape)
+
+
+def set_points(log: pd.DataFrame, decimals: int = 1) -> np.ndarray | None:
+    """Chamber set points of the runs of a log.
+
+    Parameters
+    ----------
+    log : DataFrame
+        Calibration log with a ``chamber_temp`` column.
+    decimals : int
+        Set points are the per-run medians of ``chamber_temp`` rounded to this many decimals.
+
+    Returns
+    -------
+    ndarray or None [°C]
+        Sorted distinct set points; None if there is no ``chamber_temp`` column.
+    """
+    if CHAMBER not in log.columns:
+        return None
+    med = log.groupby(RUN, sort=False)[CHAMBER].median().to_numpy(dtype=float)
+    return np.unique(np.round(med[np.isfinite(med)], decimals))
+
+
+def build_features(
+    log: pd.DataFrame,
+    derivative: DerivativeConfig | None = None,
+    outliers: OutlierConfig | None = None,
+    channels: Sequence[str] = CHANNELS,
+    *,
+    use_gradient: bool | None = None,
+) -> Features:
+    """Build the model inputs of every channel, run by run.
+
+    Parameters
+    ----------
+    log : DataFrame
+        A validated calibration log (see :func:`rinscal.schema.validate_log`).
+    derivative : DerivativeConfig, optional
+        Temperature-rate estimator (default: centred, 60 s).
+    outliers : OutlierConfig, optional
+        Outlier masking (default: 10 s running median, 6 robust spreads).
+    channels : sequence of str
+        Channels to build, default all of :data:`rinscal.schema.CHANNELS`.
+    use_gradient : bool, optional
+        None (default): use ΔT when the log has ``temp_out``, warn when it has not. True:
+        require ``temp_out``. False: leave ΔT out.
+
+    Returns
+    -------
+    Features
+
+    Raises
+    ------
+    LogError
+        If a required column is missing.
+
+    Warns
+    -----
+    MissingGradientWarning
+        When ``use_gradient`` is None and the log has no ``temp_out``.
+    """
+    derivative = derivative or DerivativeConfig()
+    outliers = outliers or OutlierConfig()
+    channels = tuple(channels)
+    for c in (TIME, RUN, *channels):
+        if c not in log.columns:
+            raise LogError(f"log has no column {c!r}")
+    has_out = TEMP_OUT in log.columns
+    if use_gradient is True and not has_out:
+        raise LogError(f"log has no {TEMP_OUT!r} column, needed for the gradient feature ΔT")
+    if use_gradient is None:
+        use_gradient = has_out
+        if not has_out:
+            warnings.warn(
+                f"log has no {TEMP_OUT!r} column: the gradient feature ΔT drops out; models use "
+                "T and dT/dt only",
+                MissingGradientWarning,
+                stacklevel=2,
+            )
+    n, m = len(log), len(channels)
+    t = log[TIME].to_numpy(dtype=np.float64)
+    tcols = [temperature_column(log, c) for c in channels]
+    uniq = list(dict.fromkeys(tcols))
+    tmat_u = np.column_stack([log[c].to_numpy(dtype=np.float64) for c in uniq])
+    col_of = np.array([uniq.index(c) for c in tcols])
+    temp = tmat_u[:, col_of]
+    output = np.column_stack([log[c].to_numpy(dtype=np.float64) for c in channels])
+    codes, runs, rows = run_slices(log[RUN])
+    rate_u = np.empty_like(tmat_u)
+    outl = np.zeros((n, m), dtype=bool)
+    removed = np.zeros((len(runs), m), dtype=np.int64)
+    missing = np.zeros((len(runs), m), dtype=np.int64)
+    for k, r in enumerate(rows):
+        tr = t[r]
+        rate_u[r] = temperature_rate(tr, tmat_u[r], derivative)
+        o = outlier_mask(tr, output[r], outliers)
+        outl[r] = o
+        removed[k] = o.sum(axis=0)
+        missing[k] = (~np.isfinite(output[r])).sum(axis=0)
+    rate = rate_u[:, col_of]
+    grad = None
+    if use_gradient:
+        tout = log[TEMP_OUT].to_numpy(dtype=np.float64)
+        grad = temp - tout[:, None]
+    inlier = np.isfinite(output) & ~outl
+    report = OutlierReport(
+        runs=runs,
+        channels=channels,
+        removed=removed,
+        missing=missing,
+        samples=np.array([r.size for r in rows], dtype=np.int64),
+    )
+    return Features(
+        channels=channels,
+        temp=temp,
+        rate=rate,
+        grad=grad,
+        output=output,
+        inlier=inlier,
+        run_codes=codes,
+        runs=runs,
+        time_s=t,
+        derivative=derivative,
+        report=report,
+    )
