@@ -228,6 +228,9 @@ def plot_log(
     columns = [df[c].to_numpy(dtype=np.float64) for c in sensor_cols + temp_cols]  # views
 
     max_step = 1
+    # y limits follow the bin means (the thermal trend), not rare outliers in the band
+    mean_lo = np.full(len(sensor_cols), np.inf)
+    mean_hi = np.full(len(sensor_cols), -np.inf)
     for k, rows in enumerate(_run_rows(codes, len(run_names))):
         t_run = t_all[rows]
         drawn = [decimate(t_run, y[rows], max_bins) for y in columns]
@@ -236,8 +239,11 @@ def plot_log(
         for j, d in enumerate(drawn[: len(sensor_cols)]):
             ax = axes[j // 3, j % 3]
             if d.step > 1:
-                ax.fill_between(td, d.lo, d.hi, color=colors[k], alpha=0.15, lw=0.0)
+                ax.fill_between(td, d.lo, d.hi, color=colors[k], alpha=0.06, lw=0.0)
             ax.plot(td, d.mean, color=colors[k], lw=0.9)
+            if np.any(np.isfinite(d.mean)):
+                mean_lo[j] = min(mean_lo[j], float(np.nanmin(d.mean)))
+                mean_hi[j] = max(mean_hi[j], float(np.nanmax(d.mean)))
         j = len(sensor_cols)
         for p, (_, lines) in enumerate(temp_panels):
             for _col, _lab, ls in lines:
@@ -246,17 +252,23 @@ def plot_log(
 
     note = ""
     if max_step > 1:
-        note = f"\n(decimated: mean and min–max band of bins of ≤{max_step:,} samples)"
+        note = f"\n(decimated: bin means of ≤{max_step:,} samples; min–max band clipped)"
     for j, ch in enumerate(sensor_cols):
         ax = axes[j // 3, j % 3]
         unit = pretty_unit(units.get(ch))
         kind = "accelerometer" if ch in ACCEL_CHANNELS else "gyroscope"
         ax.set_title(f"{ch} ({kind}){note}", fontsize=10)
         ax.set_ylabel(f"{ch} output [{unit}]")
+        if max_step > 1 and np.isfinite(mean_lo[j]) and mean_hi[j] >= mean_lo[j]:
+            pad = 0.15 * (mean_hi[j] - mean_lo[j]) or 1e-9 * max(1.0, abs(mean_hi[j]))
+            ax.set_ylim(mean_lo[j] - pad, mean_hi[j] + pad)
         ax.grid(True, alpha=0.3)
     for p, (ptitle, lines) in enumerate(temp_panels):
         ax = axes[2, p]
-        ax.set_title(ptitle + note.replace(" and min–max band", ""), fontsize=10)
+        ax.set_title(
+            ptitle + (f"\n(decimated: bin means of ≤{max_step:,} samples)" if note else ""),
+            fontsize=10,
+        )
         ax.set_ylabel("temperature [°C]")
         ax.grid(True, alpha=0.3)
         if len(lines) > 1:
