@@ -1,0 +1,82 @@
+"""Open a page in real headless Chromium (Debian's package) and read back what it rendered."""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+import subprocess
+import tempfile
+from pathlib import Path
+
+CHROMIUM_FLAGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--hide-scrollbars",
+]
+
+# Injected into a copy of the page: after load, list every figure (and whether its image
+# decoded) and every table (and its row count) into a <pre id="browser-check">.
+_CHECK_SCRIPT = """
+<script>
+window.addEventListener('load', () => {
+  const figs = [...document.querySelectorAll('figure[data-figure]')].map(f => {
+    const img = f.querySelector('img');
+    return {id: f.dataset.figure, width: img ? img.naturalWidth : 0,
+            shown: img ? img.getBoundingClientRect().width : 0};
+  });
+  const tabs = [...document.querySelectorAll('table[data-table]')].map(t => ({
+    id: t.dataset.table, rows: t.querySelectorAll('tbody tr').length}));
+  const pre = document.createElement('pre');
+  pre.id = 'browser-check';
+  pre.textContent = JSON.stringify({figures: figs, tables: tabs,
+                                    scrollWidth: document.documentElement.scrollWidth});
+  document.body.appendChild(pre);
+});
+</script>
+"""
+
+
+def chromium() -> str | None:
+    """Path of the Chromium binary, or None."""
+    return shutil.which("chromium") or shutil.which("chromium-browser")
+
+
+def rendered_inventory(page: Path, width: int = 1200) -> dict:
+    """Figures (decoded pixel width) and tables (row counts) as Chromium rendered them."""
+    exe = chromium()
+    assert exe is not None
+    html = page.read_text(encoding="utf-8")
+    probe = page.with_name(page.stem + ".browser-check.html")
+    probe.write_text(html.replace("</body>", _CHECK_SCRIPT + "</body>"), encoding="utf-8")
+    try:
+        with tempfile.TemporaryDirectory() as profile:
+            out = subprocess.run(
+                [exe, *CHROMIUM_FLAGS, f"--user-data-dir={profile}", f"--window-size={width},900",
+                 "--virtual-time-budget=10000", "--dump-dom", probe.resolve().as_uri()],
+                capture_output=True, text=True, timeout=120, check=True,
+            )  # fmt: skip
+    finally:
+        probe.unlink(missing_ok=True)
+    m = re.search(r'<pre id="browser-check">(.*?)</pre>', out.stdout, re.S)
+    assert m, "Chromium did not run the check: " + out.stderr[-2000:]
+    return json.loads(m.group(1).replace("&quot;", '"').replace("&amp;", "&"))
+
+
+def screenshot(page: Path, png: Path, width: int = 1200, height: int = 2400) -> Path:
+    """Save a screenshot of ``page`` as Chromium renders it at ``width`` x ``height``."""
+    exe = chromium()
+    assert exe is not None
+    with tempfile.TemporaryDirectory() as profile:
+        subprocess.run(
+            [exe, *CHROMIUM_FLAGS, f"--user-data-dir={profile}", f"--window-size={width},{height}",
+             f"--screenshot={png}", page.resolve().as_uri()],
+            capture_output=True, timeout=120, check=True,
+        )  # fmt: skip
+    return png
