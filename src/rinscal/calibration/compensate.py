@@ -1,0 +1,261 @@
+"""Compensation of IMU output with a thermal model (Eq. 10), in batch and sample by sample.
+
+``N' = N − (f(T, Ṫ, ΔT) − r)``: each sensor channel loses its modelled output ``f`` and
+keeps the static reference ``r`` (the Earth rate or gravity component the IMU read on the
+calibration table, from the model file), so a compensated log still reads Earth rate and
+gravity. When the model file has no static reference (the calibration log had no site
+metadata) ``r = 0`` and the result is Eq. 10 literally: the compensated output then
+scatters about zero.
+
+Every input row and column is kept, in order; each modelled channel is replaced by its
+compensated value, and a boolean column ``out_of_range`` flags rows where any input of any
+channel lies outside the training range. The policy decides what happens there: ``clamp``
+(inputs clipped to the training range), ``extrapolate`` (the model as is) or ``error``
+(:class:`~rinscal.errors.RangeError`). A dropped sample (NaN) stays NaN.
+
+:class:`StreamingCompensator` does the same one sample at a time with the causal rate; it
+equals :func:`compensate` with ``derivative_kind="causal"`` (same compiled rate kernel).
+"""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+import numpy as np
+import pandas as pd
+
+from rinscal.calibration._inference import predict_params
+from rinscal.calibration._rate import CausalSlope
+from rinscal.calibration.features import (
+    DerivativeConfig,
+    Features,
+    OutlierConfig,
+    build_features,
+)
+from rinscal.calibration.modelfile import POLICIES, ThermalModelFile
+from rinscal.errors import LogError, RangeError
+from rinscal.units import MIN_TO_S
+
+__all__ = [
+    "FLAG_COLUMN",
+    "StreamingCompensator",
+    "compensate",
+    "model_features",
+    "predict_log",
+]
+
+#: Name of the flag column added by :func:`compensate`.
+FLAG_COLUMN = "out_of_range"
+
+Policy = Literal["clamp", "extrapolate", "error"]
+
+
+def model_features(
+    log: pd.DataFrame,
+    model: ThermalModelFile,
+    derivative_kind: str | None = None,
+    outliers: OutlierConfig | None = None,
+) -> Features:
+    """Features of a log as the model defines them (window, kind, gradient).
+
+    Parameters
+    ----------
+    log : DataFrame
+        Validated calibration log.
+    model : ThermalModelFile
+        The model.
+    derivative_kind : {"centred", "causal"}, optional
+        Override the model's derivative kind (e.g. ``"causal"`` for real-time behaviour).
+    outliers : OutlierConfig, optional
+        Outlier masking (default: none; compensation keeps every sample).
+
+    Returns
+    -------
+    Features
+    """
+    deriv = DerivativeConfig(
+        window_s=model.derivative_window_s, kind=derivative_kind or model.derivative_kind
+    )
+    return build_features(
+        log,
+        deriv,
+        outliers or OutlierConfig(enabled=False),
+        model.channels,
+        use_gradient=model.use_gradient,
+    )
+
+
+def predict_log(
+    log: pd.DataFrame,
+    model: ThermalModelFile,
+    policy: Policy = "extrapolate",
+    derivative_kind: str | None = None,
+    features: Features | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Modelled output of every channel of a log.
+
+    Parameters
+    ----------
+    log : DataFrame
+        Validated calibration log.
+    model : ThermalModelFile
+        The model.
+    policy : {"clamp", "extrapolate", "error"}
+        Out-of-range handling.
+    derivative_kind : {"centred", "causal"}, optional
+        Override the model's derivative kind.
+    features : Features, optional
+        Precomputed :func:`model_features` of ``log``.
+
+    Returns
+    -------
+    f : ndarray, shape (n, m) [log units]
+        Modelled output per channel (:attr:`ThermalModelFile.channels` order).
+    out_of_range : ndarray of bool, shape (n, m)
+    """
+    feats = features or model_features(log, model, derivative_kind)
+    n, m = len(log), len(model.channels)
+    f = np.empty((n, m))
+    flags = np.zeros((n, m), dtype=bool)
+    for j, c in enumerate(model.channels):
+        x = feats.matrix(j)
+        try:
+            f[:, j], flags[:, j] = model.predict_channel(c, x, policy)
+        except RangeError as exc:
+            i = getattr(exc, "row", None)
+            if i is None:
+                raise
+            run = feats.runs[feats.run_codes[i]]
+            raise RangeError(
+                f"{exc} [data row {i + 1}, run {run!r}, time {feats.time_s[i]:.6g} s]"
+            ) from None
+    return f, flags
+
+
+def compensate(
+    log: pd.DataFrame,
+    model: ThermalModelFile,
+    policy: Policy = "clamp",
+    derivative_kind: str | None = None,
+) -> pd.DataFrame:
+    """Compensate a calibration log (Eq. 10).
+
+    Parameters
+    ----------
+    log : DataFrame
+        Validated calibration log (not modified).
+    model : ThermalModelFile
+        The model.
+    policy : {"clamp", "extrapolate", "error"}
+        Out-of-range handling (see the module docstring).
+    derivative_kind : {"centred", "causal"}, optional
+        Override the model's derivative kind.
+
+    Returns
+    -------
+    DataFrame
+        Same rows (order and index) and columns as ``log``, each modelled channel replaced by
+        ``N − (f − r)``, plus the boolean column ``out_of_range``.
+
+    Raises
+    ------
+    RangeError
+        Under policy ``error``, naming the channel, row, run and input.
+    """
+    if policy not in POLICIES:
+        raise ValueError(f"policy must be one of {', '.join(POLICIES)}, got {policy!r}")
+    missing = [c for c in model.channels if c not in log.columns]
+    if missing:
+        raise LogError(f"log has no column(s) {missing} that the model compensates")
+    f, flags = predict_log(log, model, policy, derivative_kind)
+    out = log.copy()
+    for j, c in enumerate(model.channels):
+        ref = model.models[c].static_reference or 0.0
+        out[c] = log[c].to_numpy(dtype=np.float64) - (f[:, j] - ref)
+    out[FLAG_COLUMN] = flags.any(axis=1)
+    return out
+
+
+class StreamingCompensator:
+    """Sample-by-sample compensation with the causal temperature rate.
+
+    Equals :func:`compensate` run with ``derivative_kind="causal"`` on the same samples
+    (to rounding: the rate comes from the same compiled kernel).
+
+    Parameters
+    ----------
+    model : ThermalModelFile
+        The model.
+    policy : {"clamp", "extrapolate", "error"}
+        Out-of-range handling.
+
+    Examples
+    --------
+    >>> comp = StreamingCompensator(model)                          # doctest: +SKIP
+    >>> for t, raw, temps, t_out in samples:                        # doctest: +SKIP
+    ...     corrected, flagged = comp.update(t, raw, temps, t_out)
+    """
+
+    def __init__(self, model: ThermalModelFile, policy: Policy = "clamp") -> None:
+        if policy not in POLICIES:
+            raise ValueError(f"policy must be one of {', '.join(POLICIES)}, got {policy!r}")
+        self.model = model
+        self.policy = policy
+        self._m = len(model.channels)
+        self._ref = np.array([model.models[c].static_reference or 0.0 for c in model.channels])
+        self.reset()
+
+    def reset(self) -> None:
+        """Start a new run (power-on): forget the temperature history."""
+        self._slope: CausalSlope | None = None
+        self._shared: bool | None = None
+
+    def update(
+        self,
+        time_s: float,
+        raw: Any,
+        temp: Any,
+        temp_out: float | None = None,
+    ) -> tuple[np.ndarray, bool]:
+        """Compensate one sample.
+
+        Parameters
+        ----------
+        time_s : float [s]
+            Time since power-on, increasing.
+        raw : array_like, shape (m,) [log units]
+            Raw output of the model's channels.
+        temp : float or array_like, shape (m,) [°C]
+            Inner temperature, shared or per channel (keep the same form within a run).
+        temp_out : float, optional [°C]
+            Outer temperature (needed if the model uses ΔT).
+
+        Returns
+        -------
+        compensated : ndarray, shape (m,) [log units]
+        out_of_range : bool
+        """
+        temps = np.atleast_1d(np.asarray(temp, dtype=np.float64))
+        shared = temps.size == 1
+        if self._slope is None:
+            self._shared = shared
+            self._slope = CausalSlope(self.model.derivative_window_s, temps.size)
+        elif shared != self._shared:
+            raise ValueError("give the temperature in the same form (shared or per channel)")
+        if not shared and temps.size != self._m:
+            raise ValueError(f"temp must be a scalar or have {self._m} entries")
+        slope = self._slope.update(np.array([float(time_s)]), temps[None, :])[0]
+        rate = slope * MIN_TO_S
+        if shared:
+            temps = np.repeat(temps, self._m)
+            rate = np.repeat(rate, self._m)
+        raw = np.asarray(raw, dtype=np.float64).reshape(self._m)
+        out = np.empty(self._m)
+        flag = False
+        for j, c in enumerate(self.model.channels):
+            x = self.model.feature_matrix(c, temps[j : j + 1], rate[j : j + 1], temp_out)
+            x, fl = self.model.apply_policy(c, x, self.policy)
+            f = predict_params(self.model.models[c].params, x)[0]
+            out[j] = raw[j] - (f - self._ref[j])
+            flag = flag or bool(fl[0])
+        return out, flag

@@ -1,0 +1,367 @@
+"""Fit one thermal model per sensor channel on a calibration log.
+
+:class:`ThermalModel` holds one estimator (:mod:`rinscal.calibration.estimators`) per channel,
+with the paper's defaults by sensor type:
+
+=============  ==============================  ==============================
+method         gyroscopes                      accelerometers
+=============  ==============================  ==============================
+``poly-t``     cubic in T                      cubic in T
+``sectional``  G0, T, Ṫ per segment (3)        A0, T, T², T³, Ṫ, Ṫ², Ṫ³ (7)
+``regression`` p = q = s = 1                   p = q = s = 3
+``neural``     n = 2 hidden neurons            n = 6 hidden neurons
+=============  ==============================  ==============================
+
+It builds the features run by run, masks outliers, fits each channel on its inlier samples,
+and produces a :class:`~rinscal.calibration.modelfile.ThermalModelFile` (units, static
+reference, training ranges and metrics included) with :meth:`ThermalModel.to_file`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from rinscal._version import __version__
+from rinscal.calibration.estimators import ESTIMATORS
+from rinscal.calibration.features import (
+    DerivativeConfig,
+    Features,
+    OutlierConfig,
+    build_features,
+    set_points,
+)
+from rinscal.calibration.modelfile import ChannelModel, ThermalModelFile
+from rinscal.errors import ConfigError
+from rinscal.schema import CHANNELS, GYRO_CHANNELS
+from rinscal.units import DEG_TO_RAD, SENSOR_UNITS
+
+__all__ = ["DEFAULTS", "ThermalModel", "site_reference", "unit_factors"]
+
+#: Hyper-parameters of each method by sensor type (``"gyro"``, ``"accel"``).
+DEFAULTS: dict[str, dict[str, dict[str, Any]]] = {
+    "poly-t": {"gyro": {"degree": 3}, "accel": {"degree": 3}},
+    "sectional": {
+        "gyro": {"t_order": 1, "rate_order": 1},
+        "accel": {"t_order": 3, "rate_order": 3},
+    },
+    "regression": {
+        "gyro": {"t_order": 1, "rate_order": 1, "grad_order": 1},
+        "accel": {"t_order": 3, "rate_order": 3, "grad_order": 3},
+    },
+    "neural": {"gyro": {"hidden": 2}, "accel": {"hidden": 6}},
+}
+
+
+def sensor_type(channel: str) -> str:
+    """``"gyro"`` or ``"accel"``."""
+    return "gyro" if channel in GYRO_CHANNELS else "accel"
+
+
+def unit_factors(
+    meta: Mapping[str, Any] | None, channels: Sequence[str] = CHANNELS
+) -> tuple[dict[str, str | None], dict[str, float | None]]:
+    """Units of the channels and their SI value, from a log's metadata.
+
+    ``meta["unit_to_si"][channel]`` wins; else ``meta["units"][channel]`` through
+    :data:`rinscal.units.SENSOR_UNITS`, or ``meta["pulse_scale"][channel]`` for ``"pulse"``.
+
+    Returns
+    -------
+    units : dict of str to str or None
+    unit_to_si : dict of str to float or None [SI per log unit]
+    """
+    meta = meta or {}
+    units_m = meta.get("units") or {}
+    to_si = meta.get("unit_to_si") or {}
+    pulse = meta.get("pulse_scale") or {}
+    units: dict[str, str | None] = {}
+    factors: dict[str, float | None] = {}
+    for c in channels:
+        u = units_m.get(c, units_m.get(sensor_type(c)))
+        units[c] = str(u) if u is not None else None
+        k = to_si.get(c)
+        if k is None and u is not None:
+            k = pulse.get(c) if u == "pulse" else SENSOR_UNITS.get(str(u))
+        ok = isinstance(k, (int, float)) and not isinstance(k, bool) and np.isfinite(k) and k > 0
+        factors[c] = float(k) if ok else None
+    return units, factors
+
+
+def site_reference(
+    meta: Mapping[str, Any] | None,
+    factors: Mapping[str, float | None],
+    channels: Sequence[str] = CHANNELS,
+) -> dict[str, float | None]:
+    """Static output (Earth rate, gravity) of a level IMU on the calibration table, log units.
+
+    Uses :func:`rinscal.nav.earth.static_outputs_r` with the metadata's ``latitude_deg``,
+    ``heading_deg`` and optional ``altitude_m``.
+
+    Returns
+    -------
+    dict of str to float or None
+        None for a channel whose unit, or the site, is unknown.
+    """
+    from rinscal.nav.earth import static_outputs_r
+
+    meta = meta or {}
+    lat, head = meta.get("latitude_deg"), meta.get("heading_deg")
+    if not all(isinstance(v, (int, float)) and np.isfinite(v) for v in (lat, head)):
+        return dict.fromkeys(channels)
+    alt = meta.get("altitude_m", 0.0)
+    alt = float(alt) if isinstance(alt, (int, float)) and np.isfinite(alt) else 0.0
+    omega, f = static_outputs_r(float(lat) * DEG_TO_RAD, float(head) * DEG_TO_RAD, alt)
+    si = dict(zip(CHANNELS, [*omega.tolist(), *f.tolist()], strict=True))
+    out: dict[str, float | None] = {}
+    for c in channels:
+        k = factors.get(c)
+        out[c] = None if k is None else si[c] / k
+    return out
+
+
+def _edges_from(points: np.ndarray | None) -> np.ndarray | None:
+    if points is None or points.size < 2:
+        return None
+    return 0.5 * (points[1:] + points[:-1])
+
+
+class ThermalModel:
+    """One thermal estimator per channel, fitted on a calibration log.
+
+    Parameters
+    ----------
+    method : {"poly-t", "sectional", "regression", "neural"}
+        Model form.
+    orders : tuple of int, optional
+        ``(p, q, s)`` for ``regression`` or ``(p, q)`` for ``sectional``, for every channel;
+        default by sensor type (see :data:`DEFAULTS`).
+    hidden : int, optional
+        Hidden neurons for ``neural``, every channel; default 2 (gyros) and 6 (accels).
+    edges : sequence of float, optional [°C]
+        Segment edges for ``sectional`` (default: midpoints between the chamber set points).
+    derivative : DerivativeConfig, optional
+        Temperature-rate estimator (default centred, 60 s).
+    outliers : OutlierConfig, optional
+        Outlier masking (default 10 s running median, 6 robust spreads).
+    use_gradient : bool, optional
+        None: use ``ΔT`` if the log has ``temp_out`` (warn if not).
+    channels : sequence of str
+        Channels to model.
+    random_state : int
+        Seed of the neural starts.
+    estimator_params : mapping, optional
+        Further hyper-parameters set on every channel's estimator (e.g.
+        ``{"max_samples": 20000}`` for ``neural``, ``{"t_ref": 25.0}`` for ``poly-t``).
+
+    Attributes
+    ----------
+    estimators_ : dict of str to estimator
+        Fitted estimator per channel.
+    features_ : Features
+        Training features (kept for diagnostics; not written to the model file).
+    """
+
+    def __init__(
+        self,
+        method: str,
+        *,
+        orders: Sequence[int] | None = None,
+        hidden: int | None = None,
+        edges: Sequence[float] | None = None,
+        derivative: DerivativeConfig | None = None,
+        outliers: OutlierConfig | None = None,
+        use_gradient: bool | None = None,
+        channels: Sequence[str] = CHANNELS,
+        random_state: int = 0,
+        estimator_params: Mapping[str, Any] | None = None,
+    ) -> None:
+        if method not in ESTIMATORS:
+            raise ConfigError(f"method must be one of {', '.join(ESTIMATORS)}, got {method!r}")
+        self.method = method
+        self.orders = None if orders is None else tuple(int(o) for o in orders)
+        self.hidden = hidden
+        self.edges = None if edges is None else tuple(float(e) for e in edges)
+        self.derivative = derivative or DerivativeConfig()
+        self.outliers = outliers or OutlierConfig()
+        self.use_gradient = use_gradient
+        self.channels = tuple(channels)
+        unknown = [c for c in self.channels if c not in CHANNELS]
+        if unknown or not self.channels:
+            raise ConfigError(f"channels must be among {CHANNELS}, got {list(channels)}")
+        self.random_state = int(random_state)
+        self.estimator_params = dict(estimator_params or {})
+        self._check_options()
+
+    def _check_options(self) -> None:
+        m = self.method
+        if self.orders is not None:
+            want = {"regression": 3, "sectional": 2, "poly-t": 1}.get(m)
+            if want is None:
+                raise ConfigError(f"orders apply to regression, sectional and poly-t, not {m}")
+            if len(self.orders) != want or any(o < 0 or o > 8 for o in self.orders):
+                raise ConfigError(
+                    f"orders for {m} must be {want} integer(s) in 0..8, got {self.orders}"
+                )
+        if self.hidden is not None and (m != "neural" or not 1 <= int(self.hidden) <= 64):
+            raise ConfigError(f"hidden applies to neural only and must be 1..64, got {self.hidden}")
+        if self.edges is not None and m != "sectional":
+            raise ConfigError(f"edges apply to sectional only, not {m}")
+
+    def estimator_for(self, channel: str, set_pts: np.ndarray | None = None) -> Any:
+        """The unfitted estimator of one channel, with its hyper-parameters.
+
+        Parameters
+        ----------
+        channel : str
+            Channel.
+        set_pts : ndarray, optional [°C]
+            Soak set points (``sectional`` segment edges when ``edges`` is None).
+        """
+        params = dict(DEFAULTS[self.method][sensor_type(channel)])
+        if self.orders is not None:
+            keys = {
+                "regression": ("t_order", "rate_order", "grad_order"),
+                "sectional": ("t_order", "rate_order"),
+                "poly-t": ("degree",),
+            }[self.method]
+            params.update(zip(keys, self.orders, strict=True))
+        if self.hidden is not None:
+            params["hidden"] = int(self.hidden)
+        if self.method == "neural":
+            params["random_state"] = self.random_state
+        if self.method == "sectional":
+            if self.edges is not None:
+                params["edges"] = list(self.edges)
+            elif set_pts is not None and set_pts.size >= 2:
+                params["set_points"] = set_pts.tolist()
+        est = ESTIMATORS[self.method]()
+        try:
+            est.set_params(**params, **self.estimator_params)
+        except ValueError as exc:
+            raise ConfigError(f"{self.method} estimator: {exc}") from None
+        return est
+
+    def _set_points(self, log: pd.DataFrame, feats: Features, j: int) -> np.ndarray | None:
+        sp = set_points(log)
+        if sp is not None and sp.size >= 2:
+            return sp
+        # no chamber column: the per-run median inner temperature of this channel
+        med = [np.median(feats.temp[feats.run_codes == k, j]) for k in range(len(feats.runs))]
+        pts = np.unique(np.round(np.asarray(med), 1))
+        return pts if pts.size >= 2 else None
+
+    def fit(
+        self,
+        log: pd.DataFrame,
+        meta: Mapping[str, Any] | None = None,
+        *,
+        features: Features | None = None,
+        on_channel: Callable[[str], None] | None = None,
+    ) -> ThermalModel:
+        """Fit every channel.
+
+        Parameters
+        ----------
+        log : DataFrame
+            Validated calibration log.
+        meta : mapping, optional
+            The log's sidecar metadata (units, latitude_deg, heading_deg), for units and the
+            static reference in the model file.
+        features : Features, optional
+            Precomputed features of ``log`` (built here if omitted).
+        on_channel : callable, optional
+            Called with each channel name once it is fitted (progress bars).
+
+        Returns
+        -------
+        ThermalModel
+        """
+        feats = features or build_features(
+            log, self.derivative, self.outliers, self.channels, use_gradient=self.use_gradient
+        )
+        self.features_ = feats
+        self.meta_ = dict(meta or {})
+        self.estimators_: dict[str, Any] = {}
+        self.set_points_: dict[str, np.ndarray | None] = {}
+        self.train_range_: dict[str, np.ndarray] = {}
+        self.metrics_: dict[str, dict[str, float]] = {}
+        for j, c in enumerate(self.channels):
+            x = feats.matrix(j)
+            ok = feats.inlier[:, j] & np.all(np.isfinite(x), axis=1)
+            if ok.sum() < 2:
+                raise ConfigError(f"{c}: fewer than 2 usable samples to fit")
+            sp = self._set_points(log, feats, j)
+            self.set_points_[c] = sp
+            est = self.estimator_for(c, sp)
+            try:
+                if self.method == "neural":
+                    est.fit(x[ok], feats.output[ok, j], groups=feats.run_codes[ok])
+                else:
+                    est.fit(x[ok], feats.output[ok, j])
+            except ValueError as exc:
+                raise ConfigError(f"{c}: {self.method} fit failed: {exc}") from None
+            self.estimators_[c] = est
+            k = {"poly-t": 1, "sectional": 2}.get(self.method, x.shape[1])
+            self.train_range_[c] = np.column_stack([x[ok, :k].min(axis=0), x[ok, :k].max(axis=0)])
+            resid = est.predict(x[ok]) - feats.output[ok, j]
+            codes = feats.run_codes[ok]
+            sums = np.bincount(codes, weights=resid, minlength=len(feats.runs))
+            cnts = np.bincount(codes, minlength=len(feats.runs))
+            about = resid - (sums / np.maximum(cnts, 1))[codes]
+            self.metrics_[c] = {
+                "rms_train": float(np.sqrt(np.mean(resid**2))),
+                "rms_train_about_run_mean": float(np.sqrt(np.mean(about**2))),
+                "n_train": float(ok.sum()),
+                "n_outliers": float(feats.report.total(c)),
+                "n_runs": float(np.count_nonzero(cnts)),
+            }
+            if on_channel is not None:
+                on_channel(c)
+        return self
+
+    def to_file(self, source: Mapping[str, Any] | None = None) -> ThermalModelFile:
+        """The fitted model as a model file object (save it with ``.save(path)``).
+
+        Parameters
+        ----------
+        source : mapping, optional
+            Extra provenance written under ``source`` (e.g. the log's file name).
+        """
+        if not hasattr(self, "estimators_"):
+            raise ConfigError("the thermal model is not fitted yet")
+        units, factors = unit_factors(self.meta_, self.channels)
+        ref = site_reference(self.meta_, factors, self.channels)
+        models = {}
+        for c in self.channels:
+            est = self.estimators_[c]
+            edges = getattr(est, "edges_", None)
+            if edges is None:
+                edges = _edges_from(self.set_points_.get(c))
+            models[c] = ChannelModel(
+                params=est.export_params(),
+                train_range=self.train_range_[c],
+                unit=units[c],
+                unit_to_si=factors[c],
+                static_reference=ref[c],
+                segment_edges=None if edges is None else np.asarray(edges, dtype=np.float64),
+                metrics=self.metrics_[c],
+            )
+        src: dict[str, Any] = {"runs": list(self.features_.runs)}
+        for key in ("latitude_deg", "heading_deg", "altitude_m", "protocol", "imu", "seed"):
+            if key in self.meta_:
+                src[key] = self.meta_[key]
+        src.update(source or {})
+        return ThermalModelFile(
+            method=self.method,
+            channels=self.channels,
+            models=models,
+            derivative_kind=self.derivative.kind,
+            derivative_window_s=self.derivative.window_s,
+            use_gradient=self.features_.has_gradient,
+            source=src,
+            created_by=f"rinscal {__version__}",
+        )

@@ -1,0 +1,729 @@
+"""The thermal model file: JSON, checksummed, validated on load, evaluated with numpy alone.
+
+Layout (``schema_version`` 1)::
+
+    {
+      "format": "rinscal-thermal-model",
+      "schema_version": 1,
+      "sha256": "<hex digest of the canonical JSON of payload>",
+      "payload": {
+        "method": "regression",                 # poly-t | sectional | regression | neural
+        "created_by": "rinscal 0.1.0",
+        "channels": ["gyro_x", ..., "accel_z"],
+        "features": {
+          "names": ["T", "Tdot", "dT"], "units": ["degC", "degC/min", "degC"],
+          "use_gradient": true,                 # ΔT = T_inner − temp_out is an input
+          "derivative": {"kind": "centred", "window_s": 60.0,
+                         "estimator": "windowed least-squares slope"}
+        },
+        "source": {"runs": [...], "latitude_deg": 45.0, "heading_deg": 0.0},
+        "channel_models": {
+          "gyro_x": {
+            "params": {...},                    # see rinscal.calibration._inference
+            "unit": "deg/h", "unit_to_si": 4.85e-06,
+            "static_reference": 7.3,            # Earth rate/gravity in log units, or null
+            "train_range": {"T": [lo, hi], "Tdot": [lo, hi], "dT": [lo, hi]},
+            "segment_edges": [3.5, ...],        # reference edges (set-point midpoints) or null
+            "metrics": {"rms_train": ..., "rms_train_about_run_mean": ..., "n_train": ...,
+                        "n_outliers": ..., "n_runs": ...}
+          }, ...
+        }
+      }
+    }
+
+The checksum is the SHA-256 of ``json.dumps(payload, sort_keys=True, separators=(",", ":"),
+ensure_ascii=True, allow_nan=False)``; floats are written in Python's shortest round-trip
+form, so a saved and reloaded model predicts bit for bit the same. Nothing is pickled.
+
+Loading checks everything (format, schema version, checksum, required keys, types, array
+shapes, finite numbers, consistency) and raises :class:`~rinscal.errors.ModelFileError`
+naming the file and the problem. Only numpy is needed to load and predict: this module
+never imports scikit-learn.
+
+Using a model (navigation and reproduction)
+-------------------------------------------
+>>> model = ThermalModelFile.load("model.json")                        # doctest: +SKIP
+>>> bias = model.predict_bias_si(temp_c, rate_c_per_min, temp_out_c)   # doctest: +SKIP
+
+``temp_c`` (n, 6) or (n,) inner temperatures [°C], ``rate_c_per_min`` their rates
+[°C/min] (a simulator's °C/s times 60), ``temp_out_c`` (n,) the outer temperature [°C]
+(ignored by a model fitted without it). The result (n, 6) is the thermal bias in SI
+(rad/s for gyros, m/s² for accelerometers): ``(f(T, Ṫ, ΔT) − static_reference) ·
+unit_to_si``, i.e. the modelled output minus the Earth rate and gravity the IMU read on
+the calibration table. The intercept also holds the mean turn-on offset of the
+calibration runs.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+
+from rinscal._version import __version__
+from rinscal.calibration._inference import METHODS, n_inputs, predict_params, validate_params
+from rinscal.errors import ModelFileError, RangeError
+
+__all__ = [
+    "FORMAT",
+    "POLICIES",
+    "SCHEMA_VERSION",
+    "ChannelModel",
+    "ThermalModelFile",
+    "payload_sha256",
+]
+
+#: Value of the ``format`` key.
+FORMAT = "rinscal-thermal-model"
+#: Schema version written and read by this rinscal.
+SCHEMA_VERSION = 1
+#: What to do with inputs outside the training range.
+POLICIES: tuple[str, ...] = ("clamp", "extrapolate", "error")
+#: Input names, in feature-matrix column order.
+INPUT_NAMES: tuple[str, str, str] = ("T", "Tdot", "dT")
+_CHANNELS = ("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z")
+_HEX64 = re.compile(r"[0-9a-f]{64}")
+
+Policy = Literal["clamp", "extrapolate", "error"]
+
+
+def _canonical(payload: Any) -> bytes:
+    return json.dumps(
+        payload, sort_keys=True, separators=(",", ":"), ensure_ascii=True, allow_nan=False
+    ).encode("ascii")
+
+
+def payload_sha256(payload: Mapping[str, Any]) -> str:
+    """SHA-256 hex digest of the canonical JSON of a model-file payload."""
+    return hashlib.sha256(_canonical(payload)).hexdigest()
+
+
+@dataclass(frozen=True)
+class ChannelModel:
+    """The fitted model of one channel, as stored in a model file.
+
+    Attributes
+    ----------
+    params : dict
+        Plain parameters (see :mod:`rinscal.calibration._inference`).
+    train_range : ndarray, shape (k, 2)
+        ``[min, max]`` of each input used (``T`` [°C], ``Ṫ`` [°C/min], ``ΔT`` [°C]) over the
+        training samples.
+    unit : str or None
+        Unit of the channel's output in the log (e.g. ``"deg/h"``, ``"ug"``, ``"pulse"``).
+    unit_to_si : float or None
+        SI value of one log unit [rad/s or m/s² per unit].
+    static_reference : float or None [log units]
+        Earth rate or gravity component this channel read at rest on the calibration table.
+    segment_edges : ndarray or None [°C]
+        Temperatures where a segment ends (the sectional model's edges; for the other
+        methods the midpoints between the calibration set points), for step checks.
+    metrics : dict
+        Training metrics.
+    """
+
+    params: dict[str, Any]
+    train_range: np.ndarray
+    unit: str | None = None
+    unit_to_si: float | None = None
+    static_reference: float | None = None
+    segment_edges: np.ndarray | None = None
+    metrics: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def n_inputs(self) -> int:
+        """Number of inputs the model uses (1: T; 2: T, Ṫ; 3: T, Ṫ, ΔT)."""
+        return n_inputs(self.params)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-able form."""
+        k = self.n_inputs
+        return {
+            "params": self.params,
+            "unit": self.unit,
+            "unit_to_si": self.unit_to_si,
+            "static_reference": self.static_reference,
+            "train_range": {
+                INPUT_NAMES[i]: [float(self.train_range[i, 0]), float(self.train_range[i, 1])]
+                for i in range(k)
+            },
+            "segment_edges": None
+            if self.segment_edges is None
+            else [float(e) for e in self.segment_edges],
+            "metrics": {key: float(v) for key, v in self.metrics.items()},
+        }
+
+
+@dataclass(frozen=True)
+class ThermalModelFile:
+    """A fitted thermal model of several channels, as read from or written to a model file.
+
+    Attributes
+    ----------
+    method : str
+        ``poly-t``, ``sectional``, ``regression`` or ``neural``.
+    channels : tuple of str
+        Channels modelled, the column order of :meth:`predict`.
+    models : dict of str to ChannelModel
+        One model per channel.
+    derivative_kind : {"centred", "causal"}
+        Temperature-rate estimator used for training.
+    derivative_window_s : float [s]
+        Its window.
+    use_gradient : bool
+        Whether ``ΔT`` is an input.
+    source : dict
+        Training runs, latitude and heading of the calibration table, log name.
+    created_by : str
+        Producer.
+    """
+
+    method: str
+    channels: tuple[str, ...]
+    models: dict[str, ChannelModel]
+    derivative_kind: str = "centred"
+    derivative_window_s: float = 60.0
+    use_gradient: bool = True
+    source: dict[str, Any] = field(default_factory=dict)
+    created_by: str = f"rinscal {__version__}"
+
+    # ------------------------------------------------------------------ serialisation
+
+    def payload(self) -> dict[str, Any]:
+        """The JSON-able payload (what the checksum covers)."""
+        k = 3 if self.use_gradient else 2
+        return {
+            "method": self.method,
+            "created_by": self.created_by,
+            "channels": list(self.channels),
+            "features": {
+                "names": list(INPUT_NAMES[:k]),
+                "units": ["degC", "degC/min", "degC"][:k],
+                "use_gradient": bool(self.use_gradient),
+                "derivative": {
+                    "kind": self.derivative_kind,
+                    "window_s": float(self.derivative_window_s),
+                    "estimator": "windowed least-squares slope",
+                },
+            },
+            "source": self.source,
+            "channel_models": {c: self.models[c].to_dict() for c in self.channels},
+        }
+
+    def to_dict(self) -> dict[str, Any]:
+        """The whole document: format, schema version, checksum and payload."""
+        payload = self.payload()
+        try:
+            digest = payload_sha256(payload)
+        except ValueError as exc:  # NaN or inf somewhere
+            raise ModelFileError(f"model cannot be written: {exc}") from None
+        return {
+            "format": FORMAT,
+            "schema_version": SCHEMA_VERSION,
+            "sha256": digest,
+            "payload": payload,
+        }
+
+    def dumps(self) -> str:
+        """The model file's text (indented JSON)."""
+        return json.dumps(self.to_dict(), indent=1, allow_nan=False) + "\n"
+
+    def save(self, path: str | os.PathLike[str]) -> Path:
+        """Write the model file atomically (temporary file in the same folder, then rename).
+
+        Parameters
+        ----------
+        path : path-like
+            Destination ``.json`` file.
+
+        Returns
+        -------
+        Path
+        """
+        from rinscal.io import write_atomic
+
+        p = Path(path)
+        text = self.dumps()
+        if not p.parent.is_dir():
+            raise ModelFileError(f"{p}: folder {p.parent} does not exist")
+        write_atomic(p, lambda tmp: tmp.write_text(text, encoding="utf-8"))
+        return p
+
+    @classmethod
+    def load(cls, path: str | os.PathLike[str]) -> ThermalModelFile:
+        """Read and validate a model file.
+
+        Raises
+        ------
+        ModelFileError
+            Naming the file and the problem (missing, not JSON, truncated, tampered, wrong
+            version, missing key, wrong shape, non-finite number, inconsistent content).
+        """
+        p = Path(path)
+        try:
+            raw = p.read_bytes()
+        except FileNotFoundError:
+            raise ModelFileError(f"{p}: no such model file") from None
+        except IsADirectoryError:
+            raise ModelFileError(f"{p}: is a folder, not a model file") from None
+        except OSError as exc:
+            raise ModelFileError(f"{p}: cannot read model file: {exc}") from None
+        return cls.loads(raw, source=str(p))
+
+    @classmethod
+    def loads(cls, text: str | bytes, source: str = "<model>") -> ThermalModelFile:
+        """Parse and validate the text of a model file (see :meth:`load`)."""
+        if isinstance(text, bytes):
+            try:
+                text = text.decode("utf-8")
+            except UnicodeDecodeError as exc:
+                raise ModelFileError(
+                    f"{source}: not a model file (not UTF-8 text: {exc})"
+                ) from None
+
+        def _no_constants(name: str) -> Any:
+            raise ValueError(f"non-finite number {name}")
+
+        try:
+            doc = json.loads(text, parse_constant=_no_constants)
+        except json.JSONDecodeError as exc:
+            raise ModelFileError(
+                f"{source}: not valid JSON ({exc.msg} at line {exc.lineno}, column "
+                f"{exc.colno}); the file is truncated or not a model file"
+            ) from None
+        except (ValueError, RecursionError) as exc:
+            raise ModelFileError(f"{source}: invalid JSON: {exc}") from None
+        return cls.from_dict(doc, source=source)
+
+    @classmethod
+    def from_dict(cls, doc: Any, source: str = "<model>") -> ThermalModelFile:
+        """Validate a parsed model document and build the model (see :meth:`load`)."""
+
+        def bad(msg: str) -> ModelFileError:
+            return ModelFileError(f"{source}: {msg}")
+
+        if not isinstance(doc, dict):
+            raise bad(f"not a model file: top level is a JSON {type(doc).__name__}, not an object")
+        if doc.get("format") != FORMAT:
+            raise bad(f"not a rinscal thermal model file (format {doc.get('format')!r})")
+        version = doc.get("schema_version")
+        if isinstance(version, bool) or not isinstance(version, int):
+            raise bad(f"schema_version must be an integer, got {version!r}")
+        if version != SCHEMA_VERSION:
+            raise bad(
+                f"unsupported schema_version {version} (this rinscal reads {SCHEMA_VERSION}); "
+                "refit the model or use a matching rinscal"
+            )
+        for key in ("sha256", "payload"):
+            if key not in doc:
+                raise bad(f"missing key {key!r}")
+        extra = set(doc) - {"format", "schema_version", "sha256", "payload"}
+        if extra:
+            raise bad(f"unexpected top-level key(s) {sorted(extra)}")
+        digest = doc["sha256"]
+        if not isinstance(digest, str) or not _HEX64.fullmatch(digest):
+            raise bad("sha256 must be 64 lowercase hex digits")
+        payload = doc["payload"]
+        if not isinstance(payload, dict):
+            raise bad("payload must be a JSON object")
+        try:
+            actual = payload_sha256(payload)
+        except (ValueError, TypeError) as exc:
+            raise bad(f"payload cannot be checksummed: {exc}") from None
+        if actual != digest:
+            raise bad(
+                "checksum mismatch: the payload's sha256 is "
+                f"{actual[:12]}..., the file says {digest[:12]}...; the file was modified or "
+                "corrupted after it was written"
+            )
+        try:
+            return cls._from_payload(payload)
+        except (ValueError, TypeError, KeyError) as exc:
+            raise bad(f"invalid model: {exc}") from None
+
+    @classmethod
+    def _from_payload(cls, p: dict[str, Any]) -> ThermalModelFile:
+        def req(d: Mapping[str, Any], key: str, where: str) -> Any:
+            if not isinstance(d, Mapping):
+                raise ValueError(f"{where} must be a JSON object")
+            if key not in d:
+                raise ValueError(f"missing key {where}.{key}")
+            return d[key]
+
+        method = req(p, "method", "payload")
+        if method not in METHODS:
+            raise ValueError(f"unknown method {method!r}; expected one of {', '.join(METHODS)}")
+        channels = req(p, "channels", "payload")
+        if (
+            not isinstance(channels, list)
+            or not channels
+            or not all(isinstance(c, str) and c in _CHANNELS for c in channels)
+            or len(set(channels)) != len(channels)
+        ):
+            raise ValueError(f"channels must be distinct names among {_CHANNELS}, got {channels!r}")
+        created_by = p.get("created_by", "")
+        if not isinstance(created_by, str):
+            raise ValueError("created_by must be text")
+        feats = req(p, "features", "payload")
+        use_gradient = req(feats, "use_gradient", "features")
+        if not isinstance(use_gradient, bool):
+            raise ValueError("features.use_gradient must be true or false")
+        k = 3 if use_gradient else 2
+        if req(feats, "names", "features") != list(INPUT_NAMES[:k]):
+            raise ValueError(f"features.names must be {list(INPUT_NAMES[:k])}")
+        deriv = req(feats, "derivative", "features")
+        kind = req(deriv, "kind", "features.derivative")
+        if kind not in ("centred", "causal"):
+            raise ValueError(f"features.derivative.kind must be centred or causal, got {kind!r}")
+        window = req(deriv, "window_s", "features.derivative")
+        if (
+            isinstance(window, bool)
+            or not isinstance(window, (int, float))
+            or not (np.isfinite(window) and window > 0)
+        ):
+            raise ValueError(
+                f"features.derivative.window_s must be a positive number, got {window!r}"
+            )
+        source = p.get("source", {})
+        if not isinstance(source, dict):
+            raise ValueError("source must be a JSON object")
+        cms = req(p, "channel_models", "payload")
+        if not isinstance(cms, dict) or set(cms) != set(channels):
+            raise ValueError("channel_models must hold exactly one entry per channel")
+        models = {}
+        for c in channels:
+            models[c] = _channel_from_dict(cms[c], c, method, k)
+        return cls(
+            method=method,
+            channels=tuple(channels),
+            models=models,
+            derivative_kind=kind,
+            derivative_window_s=float(window),
+            use_gradient=use_gradient,
+            source=source,
+            created_by=created_by,
+        )
+
+    # ------------------------------------------------------------------ inference
+
+    @property
+    def n_features(self) -> int:
+        """Feature columns the model expects: 3 with ``ΔT``, else 2."""
+        return 3 if self.use_gradient else 2
+
+    def feature_matrix(
+        self,
+        channel: str,
+        temp: np.ndarray,
+        rate: np.ndarray,
+        temp_out: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """Feature matrix of one channel from its temperature, rate and the outer temperature.
+
+        Parameters
+        ----------
+        channel : str
+            Channel name (its inner temperature is ``temp`` itself).
+        temp : ndarray, shape (n,) [°C]
+            Inner temperature of the channel.
+        rate : ndarray, shape (n,) [°C/min]
+            Its rate.
+        temp_out : ndarray, shape (n,), optional [°C]
+            Outer temperature; required if the model uses ``ΔT``.
+
+        Returns
+        -------
+        ndarray, shape (n, n_features)
+        """
+        temp = np.asarray(temp, dtype=np.float64).reshape(-1)
+        rate = np.broadcast_to(np.asarray(rate, dtype=np.float64), temp.shape)
+        if not self.use_gradient:
+            return np.column_stack([temp, rate])
+        if temp_out is None:
+            raise ModelFileError(
+                f"the {self.method} model of {channel} uses the gradient ΔT = T − temp_out: "
+                "give the outer temperature temp_out"
+            )
+        tout = np.broadcast_to(np.asarray(temp_out, dtype=np.float64).reshape(-1), temp.shape)
+        return np.column_stack([temp, rate, temp - tout])
+
+    def apply_policy(
+        self, channel: str, x: np.ndarray, policy: Policy = "extrapolate"
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Flag (and clamp, or refuse) inputs outside the training range of one channel.
+
+        Parameters
+        ----------
+        channel : str
+            Channel.
+        x : ndarray, shape (n, k)
+            Feature matrix.
+        policy : {"clamp", "extrapolate", "error"}
+            ``clamp`` clips every input to its training range, ``extrapolate`` evaluates the
+            model as it is, ``error`` raises :class:`~rinscal.errors.RangeError`.
+
+        Returns
+        -------
+        x : ndarray, shape (n, k)
+            The inputs to evaluate.
+        out_of_range : ndarray of bool, shape (n,)
+            True where any input the model uses lies outside its training range.
+        """
+        if policy not in POLICIES:
+            raise ValueError(f"policy must be one of {', '.join(POLICIES)}, got {policy!r}")
+        cm = self.models[channel]
+        k = cm.n_inputs
+        lo, hi = cm.train_range[:k, 0], cm.train_range[:k, 1]
+        xs = x[:, :k]
+        flags = np.any((xs < lo) | (xs > hi), axis=1)
+        if policy == "error" and flags.any():
+            i = int(np.argmax(flags))
+            which = [
+                f"{INPUT_NAMES[j]}={xs[i, j]:.6g} outside [{lo[j]:.6g}, {hi[j]:.6g}]"
+                for j in range(k)
+                if not lo[j] <= xs[i, j] <= hi[j]
+            ]
+            err = RangeError(
+                f"{channel}: sample {i} has {', '.join(which)} (the training range); use "
+                "policy clamp or extrapolate to compensate anyway"
+            )
+            err.row = i  # type: ignore[attr-defined]
+            raise err
+        if policy == "clamp" and flags.any():
+            x = x.copy()
+            x[:, :k] = np.clip(xs, lo, hi)
+        return x, flags
+
+    def predict_channel(
+        self, channel: str, x: np.ndarray, policy: Policy = "extrapolate"
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Modelled output of one channel from its feature matrix.
+
+        Parameters
+        ----------
+        channel : str
+            Channel.
+        x : ndarray, shape (n, k)
+            ``T`` [°C], ``Ṫ`` [°C/min] and, if used, ``ΔT`` [°C].
+        policy : {"clamp", "extrapolate", "error"}
+            Out-of-range handling (see :meth:`apply_policy`).
+
+        Returns
+        -------
+        f : ndarray, shape (n,) [log units]
+            ``f(T, Ṫ, ΔT)``.
+        out_of_range : ndarray of bool, shape (n,)
+        """
+        if channel not in self.models:
+            raise ModelFileError(f"the model has no channel {channel!r} (it has {self.channels})")
+        x = np.asarray(x, dtype=np.float64)
+        x, flags = self.apply_policy(channel, x, policy)
+        return predict_params(self.models[channel].params, x), flags
+
+    def _inputs(self, temp: Any, rate: Any) -> tuple[np.ndarray, np.ndarray]:
+        m = len(self.channels)
+        t = np.asarray(temp, dtype=np.float64)
+        r = np.asarray(rate, dtype=np.float64)
+        if t.ndim == 1:
+            t = np.repeat(t[:, None], m, axis=1)
+        if r.ndim == 1:
+            r = np.repeat(r[:, None], m, axis=1)
+        if t.ndim != 2 or t.shape[1] != m or r.shape != t.shape:
+            raise ValueError(
+                f"temp and rate must have shape (n,) or (n, {m}); got {np.shape(temp)} and "
+                f"{np.shape(rate)}"
+            )
+        return t, r
+
+    def predict(
+        self,
+        temp: Any,
+        rate: Any,
+        temp_out: Any = None,
+        *,
+        policy: Policy = "extrapolate",
+    ) -> np.ndarray:
+        """Modelled output of every channel, in log units.
+
+        Parameters
+        ----------
+        temp : array_like, shape (n, m) or (n,) [°C]
+            Inner temperature per channel (one column per channel in :attr:`channels`
+            order), or one temperature shared by all.
+        rate : array_like, same shape [°C/min]
+            Temperature rate.
+        temp_out : array_like, shape (n,), optional [°C]
+            Outer temperature (needed when :attr:`use_gradient`).
+        policy : {"clamp", "extrapolate", "error"}
+            Out-of-range handling.
+
+        Returns
+        -------
+        ndarray, shape (n, m) [log units]
+        """
+        t, r = self._inputs(temp, rate)
+        out = np.empty_like(t)
+        for j, c in enumerate(self.channels):
+            x = self.feature_matrix(c, t[:, j], r[:, j], temp_out)
+            out[:, j] = self.predict_channel(c, x, policy)[0]
+        return out
+
+    def predict_bias_si(
+        self,
+        temp: Any,
+        rate: Any,
+        temp_out: Any = None,
+        *,
+        policy: Policy = "extrapolate",
+    ) -> np.ndarray:
+        """Modelled thermal bias of every channel in SI: ``(f − static_reference) · unit_to_si``.
+
+        Parameters
+        ----------
+        temp : array_like, shape (n, m) or (n,) [°C]
+            Inner temperature per channel, or shared.
+        rate : array_like, same shape [°C/min]
+            Temperature rate (°C/s × 60).
+        temp_out : array_like, shape (n,), optional [°C]
+            Outer temperature.
+        policy : {"clamp", "extrapolate", "error"}
+            Out-of-range handling.
+
+        Returns
+        -------
+        ndarray, shape (n, m) [rad/s for gyros, m/s² for accelerometers]
+            The bias: model output minus the Earth rate or gravity component read on the
+            calibration table. It holds the thermal bias plus the mean turn-on offset of the
+            calibration runs.
+
+        Raises
+        ------
+        ModelFileError
+            When the file lacks the unit or the static reference of a channel (the log had
+            no metadata with units, latitude and heading).
+        """
+        for c in self.channels:
+            cm = self.models[c]
+            if cm.unit_to_si is None or cm.static_reference is None:
+                missing = "unit" if cm.unit_to_si is None else "static_reference"
+                raise ModelFileError(
+                    f"model of {c} has no {missing} (the calibration log had no metadata with "
+                    "units, latitude_deg and heading_deg); predict() gives the full output in "
+                    "log units"
+                )
+        f = self.predict(temp, rate, temp_out, policy=policy)
+        ref = np.array([self.models[c].static_reference for c in self.channels])
+        k = np.array([self.models[c].unit_to_si for c in self.channels])
+        return (f - ref) * k
+
+    def with_static_reference(
+        self, reference: Mapping[str, float], unit_to_si: Mapping[str, float] | None = None
+    ) -> ThermalModelFile:
+        """A copy with the static reference (and units) of some channels set."""
+        models = dict(self.models)
+        for c, v in reference.items():
+            cm = models[c]
+            k = cm.unit_to_si if unit_to_si is None else float(unit_to_si[c])
+            models[c] = ChannelModel(
+                params=cm.params,
+                train_range=cm.train_range,
+                unit=cm.unit,
+                unit_to_si=k,
+                static_reference=float(v),
+                segment_edges=cm.segment_edges,
+                metrics=cm.metrics,
+            )
+        return ThermalModelFile(
+            method=self.method,
+            channels=self.channels,
+            models=models,
+            derivative_kind=self.derivative_kind,
+            derivative_window_s=self.derivative_window_s,
+            use_gradient=self.use_gradient,
+            source=self.source,
+            created_by=self.created_by,
+        )
+
+
+def _finite(v: Any, what: str, positive: bool = False, allow_none: bool = True) -> float | None:
+    if v is None and allow_none:
+        return None
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v):
+        raise ValueError(
+            f"{what} must be a finite number{' or null' if allow_none else ''}, got {v!r}"
+        )
+    if positive and v <= 0:
+        raise ValueError(f"{what} must be positive, got {v!r}")
+    return float(v)
+
+
+def _channel_from_dict(d: Any, c: str, method: str, k: int) -> ChannelModel:
+    if not isinstance(d, dict):
+        raise ValueError(f"channel_models.{c} must be a JSON object")
+    for key in ("params", "train_range", "metrics"):
+        if key not in d:
+            raise ValueError(f"missing key channel_models.{c}.{key}")
+    params = d["params"]
+    try:
+        validate_params(params)
+    except ValueError as exc:
+        raise ValueError(f"channel_models.{c}.params: {exc}") from None
+    if params["method"] != method:
+        raise ValueError(f"channel_models.{c} is a {params['method']} model in a {method} file")
+    need = n_inputs(params)
+    if need > k:
+        raise ValueError(f"channel_models.{c} uses {need} inputs but the file's features have {k}")
+    tr = d["train_range"]
+    if not isinstance(tr, dict) or set(tr) != set(INPUT_NAMES[:need]):
+        raise ValueError(f"channel_models.{c}.train_range must give {list(INPUT_NAMES[:need])}")
+    rng = np.zeros((need, 2))
+    for j, name in enumerate(INPUT_NAMES[:need]):
+        pair = tr[name]
+        if not isinstance(pair, list) or len(pair) != 2:
+            raise ValueError(f"channel_models.{c}.train_range.{name} must be [min, max]")
+        lo = _finite(pair[0], f"channel_models.{c}.train_range.{name}", allow_none=False)
+        hi = _finite(pair[1], f"channel_models.{c}.train_range.{name}", allow_none=False)
+        assert lo is not None and hi is not None
+        if lo > hi:
+            raise ValueError(f"channel_models.{c}.train_range.{name} has min > max")
+        rng[j] = (lo, hi)
+    unit = d.get("unit")
+    if unit is not None and not isinstance(unit, str):
+        raise ValueError(f"channel_models.{c}.unit must be text or null")
+    k_si = _finite(d.get("unit_to_si"), f"channel_models.{c}.unit_to_si", positive=True)
+    ref = _finite(d.get("static_reference"), f"channel_models.{c}.static_reference")
+    edges = d.get("segment_edges")
+    e_arr = None
+    if edges is not None:
+        if not isinstance(edges, list) or not all(
+            isinstance(e, (int, float)) and not isinstance(e, bool) and np.isfinite(e)
+            for e in edges
+        ):
+            raise ValueError(f"channel_models.{c}.segment_edges must be a list of numbers or null")
+        e_arr = np.asarray(edges, dtype=np.float64)
+        if np.any(np.diff(e_arr) <= 0):
+            raise ValueError(f"channel_models.{c}.segment_edges must be strictly increasing")
+    metrics = d["metrics"]
+    if not isinstance(metrics, dict):
+        raise ValueError(f"channel_models.{c}.metrics must be a JSON object")
+    mvals = {}
+    for key, v in metrics.items():
+        fv = _finite(v, f"channel_models.{c}.metrics.{key}", allow_none=False)
+        assert fv is not None
+        mvals[str(key)] = fv
+    return ChannelModel(
+        params=params,
+        train_range=rng,
+        unit=unit,
+        unit_to_si=k_si,
+        static_reference=ref,
+        segment_edges=e_arr,
+        metrics=mvals,
+    )

@@ -1,0 +1,227 @@
+"""Choosing the polynomial orders or the hidden-layer size on runs the model never saw.
+
+Tables 5 and 7 of the paper give the calibration RMS on the training data only, which can
+only fall as the model grows. Here, per channel and setting (orders ``p = q = s = k`` for
+``regression``, ``k = 1..4``; ``n = 1..8`` hidden neurons for ``neural``), we report
+
+* ``rms_train``: RMS (Eq. 16) of the residual of a fit on all runs, over those runs, and
+* ``rms_heldout``: leave-one-run-out: for each run, fit on the others, predict it; the RMS
+  over all the held-out predictions.
+
+Both are taken **about each run's mean residual** (a turn-on offset per power-on is not
+thermal and not predictable), over inlier samples. The recommended setting is the smallest
+whose held-out RMS is within ``tolerance`` (2 % by default) of the best held-out RMS.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from rinscal.calibration.features import (
+    DerivativeConfig,
+    Features,
+    OutlierConfig,
+    build_features,
+)
+from rinscal.calibration.model import ThermalModel
+from rinscal.errors import ConfigError
+from rinscal.schema import CHANNELS
+
+__all__ = ["DEFAULT_SETTINGS", "SelectionResult", "select_model"]
+
+#: Settings tried by default: orders 1-4 (regression), 1-8 neurons (neural).
+DEFAULT_SETTINGS: dict[str, tuple[int, ...]] = {
+    "regression": (1, 2, 3, 4),
+    "neural": (1, 2, 3, 4, 5, 6, 7, 8),
+}
+
+
+@dataclass(frozen=True)
+class SelectionResult:
+    """Outcome of a model selection.
+
+    Attributes
+    ----------
+    method : str
+        ``regression`` or ``neural``.
+    table : DataFrame
+        ``channel, setting, rms_train, rms_heldout`` (log units), one row per channel and
+        setting.
+    recommended : dict of str to int
+        Smallest setting within the tolerance of the best held-out RMS, per channel.
+    best : dict of str to int
+        Setting with the lowest held-out RMS, per channel.
+    tolerance : float
+        Relative tolerance used.
+    runs : tuple of str
+        Runs (each held out once).
+    """
+
+    method: str
+    table: pd.DataFrame
+    recommended: dict[str, int]
+    best: dict[str, int]
+    tolerance: float
+    runs: tuple[str, ...]
+    units: dict[str, str | None] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-able form."""
+        return {
+            "method": self.method,
+            "setting": "orders p=q=s" if self.method == "regression" else "hidden neurons",
+            "rms": "Eq. 16 about each run's mean residual, log units",
+            "tolerance": self.tolerance,
+            "runs": list(self.runs),
+            "units": self.units,
+            "recommended": self.recommended,
+            "best": self.best,
+            "table": self.table.to_dict(orient="records"),
+        }
+
+
+def _rms_about_run_mean(resid: np.ndarray, codes: np.ndarray, n_runs: int) -> float:
+    sums = np.bincount(codes, weights=resid, minlength=n_runs)
+    cnts = np.bincount(codes, minlength=n_runs)
+    about = resid - (sums / np.maximum(cnts, 1))[codes]
+    return float(np.sqrt(np.mean(about**2)))
+
+
+def _fit_predict(
+    est: Any,
+    method: str,
+    channel: str,
+    x: np.ndarray,
+    y: np.ndarray,
+    codes: np.ndarray,
+    train: np.ndarray,
+    test: np.ndarray,
+) -> np.ndarray:
+    """Fit ``est`` on the ``train`` rows, return its residual on the ``test`` rows."""
+    try:
+        if method == "neural":
+            est.fit(x[train], y[train], groups=codes[train])
+        else:
+            est.fit(x[train], y[train])
+    except ValueError as exc:
+        raise ConfigError(f"{channel}: {method} fit failed: {exc}") from None
+    return est.predict(x[test]) - y[test]
+
+
+def select_model(
+    log: pd.DataFrame,
+    method: str,
+    settings: Sequence[int] | None = None,
+    tolerance: float = 0.02,
+    channels: Sequence[str] = CHANNELS,
+    derivative: DerivativeConfig | None = None,
+    outliers: OutlierConfig | None = None,
+    use_gradient: bool | None = None,
+    random_state: int = 0,
+    estimator_params: Mapping[str, Any] | None = None,
+    features: Features | None = None,
+    on_fit: Callable[[str, int], None] | None = None,
+) -> SelectionResult:
+    """Training and leave-one-run-out RMS per channel and setting; recommend one setting.
+
+    Parameters
+    ----------
+    log : DataFrame
+        Validated calibration log with at least two runs.
+    method : {"regression", "neural"}
+        Model family.
+    settings : sequence of int, optional
+        Orders ``k`` (``p = q = s = k``) or neuron counts to try.
+    tolerance : float
+        Relative tolerance on the best held-out RMS.
+    channels : sequence of str
+        Channels.
+    derivative, outliers, use_gradient, random_state, estimator_params
+        As for :class:`~rinscal.calibration.model.ThermalModel`.
+    features : Features, optional
+        Precomputed features of ``log``.
+    on_fit : callable, optional
+        Called ``on_fit(channel, setting)`` after each setting of each channel.
+
+    Returns
+    -------
+    SelectionResult
+    """
+    if method not in DEFAULT_SETTINGS:
+        raise ConfigError(f"selection supports regression and neural, not {method!r}")
+    settings = tuple(int(s) for s in (settings or DEFAULT_SETTINGS[method]))
+    if not settings or any(s < 1 for s in settings):
+        raise ConfigError(f"settings must be positive integers, got {settings}")
+    if not (np.isfinite(tolerance) and tolerance >= 0):
+        raise ConfigError(f"tolerance must be >= 0, got {tolerance!r}")
+    derivative = derivative or DerivativeConfig()
+    outliers = outliers or OutlierConfig()
+    feats = features or build_features(
+        log, derivative, outliers, channels, use_gradient=use_gradient
+    )
+    n_runs = len(feats.runs)
+    if n_runs < 2:
+        raise ConfigError(
+            f"leave-one-run-out needs at least 2 runs; the log has {n_runs} ({feats.runs})"
+        )
+    rows = []
+    recommended: dict[str, int] = {}
+    best: dict[str, int] = {}
+    for c in channels:
+        j = feats.channels.index(c)
+        x = feats.matrix(j)
+        ok = feats.inlier[:, j] & np.all(np.isfinite(x), axis=1)
+        y = feats.output[:, j]
+        codes = feats.run_codes
+        held: list[float] = []
+        for s in settings:
+            tm = ThermalModel(
+                method,
+                orders=(s, s, s) if method == "regression" else None,
+                hidden=s if method == "neural" else None,
+                channels=(c,),
+                derivative=derivative,
+                outliers=outliers,
+                random_state=random_state,
+                estimator_params=estimator_params,
+            )
+
+            data = (x, y, codes)
+            rms_tr = _rms_about_run_mean(
+                _fit_predict(tm.estimator_for(c), method, c, *data, ok, ok), codes[ok], n_runs
+            )
+            resid = np.empty(int(ok.sum()))
+            pos = np.flatnonzero(ok)
+            for k in range(n_runs):
+                test = ok & (codes == k)
+                if not test.any():
+                    continue
+                train = ok & (codes != k)
+                if train.sum() < 2:
+                    raise ConfigError(f"{c}: too few samples outside run {feats.runs[k]!r}")
+                resid[np.searchsorted(pos, np.flatnonzero(test))] = _fit_predict(
+                    tm.estimator_for(c), method, c, *data, train, test
+                )
+            rms_ho = _rms_about_run_mean(resid, codes[ok], n_runs)
+            held.append(rms_ho)
+            rows.append({"channel": c, "setting": s, "rms_train": rms_tr, "rms_heldout": rms_ho})
+            if on_fit is not None:
+                on_fit(c, s)
+        h = np.asarray(held)
+        b = int(np.argmin(h))
+        best[c] = settings[b]
+        within = [s for s, v in zip(settings, h, strict=True) if v <= h[b] * (1 + tolerance)]
+        recommended[c] = min(within)
+    return SelectionResult(
+        method=method,
+        table=pd.DataFrame(rows, columns=["channel", "setting", "rms_train", "rms_heldout"]),
+        recommended=recommended,
+        best=best,
+        tolerance=float(tolerance),
+        runs=feats.runs,
+    )
