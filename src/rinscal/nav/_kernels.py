@@ -376,7 +376,7 @@ def schedule_locate(
     ``period <= 0`` means a single, non-repeating set of segments (the last one extends
     forever). Before ``t_start`` the table sits at the start of segment 0.
     """
-    if t <= t_start:
+    if t < t_start:
         return 0, 0.0, 0.0
     tc = t - t_start
     cyc = 0.0
@@ -409,9 +409,26 @@ def schedule_angle(
     c0 = coefs[k, 0]
     c1 = coefs[k, 1]
     c2 = coefs[k, 2]
-    if t <= t_start:
+    if t < t_start:
         return c0, 0.0, 0.0
     return cyc * offset + c0 + tau * (c1 + tau * c2), c1 + 2.0 * c2 * tau, 2.0 * c2
+
+
+@_jit
+def schedule_eval_many(
+    t: np.ndarray,
+    starts: np.ndarray,
+    coefs: np.ndarray,
+    period: float,
+    offset: float,
+    t_start: float,
+    phi: np.ndarray,
+    rate: np.ndarray,
+    acc: np.ndarray,
+) -> None:
+    """:func:`schedule_angle` at every element of ``t`` (outputs filled in place)."""
+    for i in range(t.shape[0]):
+        phi[i], rate[i], acc[i] = schedule_angle(t[i], starts, coefs, period, offset, t_start)
 
 
 @_jit
@@ -523,7 +540,7 @@ def rotate_increments(
             k, _tau_mid, _cyc = schedule_locate(0.5 * (a + b), starts, period, t_start)
             c1 = coefs[k, 1]
             c2 = coefs[k, 2]
-            if 0.5 * (a + b) <= t_start:
+            if 0.5 * (a + b) < t_start:
                 c1 = 0.0
                 c2 = 0.0
             if c1 == 0.0 and c2 == 0.0 and const:

@@ -225,7 +225,7 @@ class RotationSchedule:
         phi = np.empty_like(t)
         rate = np.empty_like(t)
         acc = np.empty_like(t)
-        _evaluate(t, starts, coefs, period, offset, t_start, phi, rate, acc)
+        _kernels.schedule_eval_many(t, starts, coefs, period, offset, t_start, phi, rate, acc)
         return phi, rate, acc
 
     def angle(self, t: ArrayLike) -> NDArray[np.float64]:
@@ -251,14 +251,6 @@ class RotationSchedule:
                 break
             out.append(t)
         return np.asarray(out)
-
-
-@_kernels._jit
-def _evaluate(t, starts, coefs, period, offset, t_start, phi, rate, acc):  # type: ignore[no-untyped-def]
-    for i in range(t.shape[0]):
-        phi[i], rate[i], acc[i] = _kernels.schedule_angle(
-            t[i], starts, coefs, period, offset, t_start
-        )
 
 
 def schedule_from_name(name: str, **kwargs: float) -> RotationSchedule:

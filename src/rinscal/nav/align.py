@@ -1,0 +1,412 @@
+"""Self-alignment at a cold start: inertial-frame coarse alignment, then a Kalman filter.
+
+Coarse (analytic)
+    The inertial-frame method (Gaiffe; Qin): with the IMU centre at rest on the Earth, the
+    specific force integrated in the inertially frozen initial IMU frame ``r0``,
+    ``V_r0(t) = ∫ C_r0r f^r dτ`` (C_r0r from the gyros alone), equals
+    ``C_r0n0 V_n0(t)`` with ``V_n0(t) = ∫ C_n0n(τ) (0, 0, g) dτ`` known in closed form from
+    the Earth rate. Solving Wahba's problem over many times gives ``C_n0r0`` and hence
+    ``C_nr(t) = C_nn0(t) C_n0r0 C_r0r(t)``. Because the gyros follow every motion of the
+    IMU, this works on a swinging base and while the turntable turns.
+Fine (Kalman filter on zero velocity)
+    Error states (ENU, ``C̃_nr = (I − [φ×]) C_nr``): attitude error φ (3), horizontal
+    velocity error (2), gyro biases ε (3) and accelerometer biases ∇ (3) in ``r``::
+
+        φ̇  = −ω_ie^n × φ + δω_en^n(δv) − C_nr ε
+        δv̇ = (f^n × φ)_EN + (C_nr ∇)_EN − (2 ω_ie^n × δv)_EN
+
+    with ``f^n = (0, 0, g)``. The measurement is the INS horizontal velocity (the truth is
+    zero, the IMU centre being fixed even when the base swings). Estimates are fed back
+    after every update (closed loop); position is held at the known site. With the
+    turntable rotating, the horizontal biases become observable and are estimated too.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from rinscal import units
+from rinscal.errors import ConfigError
+from rinscal.nav import _kernels, earth
+from rinscal.nav.strapdown import Strapdown, VerticalMode, quat_to_dcm, rotvec_to_dcm
+
+
+@dataclass(frozen=True)
+class AlignConfig:
+    """Self-alignment settings.
+
+    Parameters
+    ----------
+    coarse_s : float [s]
+        Length of the inertial-frame coarse alignment.
+    fine_s : float [s]
+        Length of the Kalman-filter fine alignment that follows.
+    kf_interval_s : float [s]
+        Kalman filter update interval.
+    estimate_biases : bool
+        Estimate (and feed back) gyro and accelerometer biases in the fine alignment.
+    gyro_bias_sd : float [rad/s]
+        Prior standard deviation of each gyro bias.
+    accel_bias_sd : float [m/s²]
+        Prior standard deviation of each accelerometer bias.
+    gyro_noise_density : float [rad/√s]
+        Angle random walk used by the filter.
+    accel_noise_density : float [m/s²/√Hz]
+        Velocity random walk used by the filter.
+    level_sd, heading_sd : float [rad]
+        Prior standard deviation of the attitude error after the coarse stage.
+    velocity_meas_sd : float [m/s]
+        Standard deviation of the zero-velocity measurement.
+    """
+
+    coarse_s: float = 60.0
+    fine_s: float = 540.0
+    kf_interval_s: float = 0.5
+    estimate_biases: bool = True
+    gyro_bias_sd: float = 0.02 * units.DPH_TO_RPS
+    accel_bias_sd: float = 100.0 * units.UG_TO_MPS2
+    gyro_noise_density: float = 0.001 * units.DPRH_TO_RPRS
+    accel_noise_density: float = 10.0 * units.UG_TO_MPS2
+    level_sd: float = 2e-4
+    heading_sd: float = 1e-2
+    velocity_meas_sd: float = 1e-3
+
+    def __post_init__(self) -> None:
+        for name in ("coarse_s", "kf_interval_s", "level_sd", "heading_sd", "velocity_meas_sd"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v > 0):
+                raise ConfigError(f"alignment: {name} must be > 0, got {v}")
+        for name in (
+            "fine_s",
+            "gyro_bias_sd",
+            "accel_bias_sd",
+            "gyro_noise_density",
+            "accel_noise_density",
+        ):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v >= 0):
+                raise ConfigError(f"alignment: {name} must be >= 0, got {v}")
+
+    @property
+    def total_s(self) -> float:
+        """Coarse plus fine alignment time [s]."""
+        return self.coarse_s + self.fine_s
+
+
+# --------------------------------------------------------------------------- coarse
+def _earth_rotated_gravity_integral(
+    lat: float, alt: float, t: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """V_n0(t) = ∫_0^t exp(τ[ω_ie^n×]) (0, 0, g) dτ, closed form, shape (len(t), 3)."""
+    w = earth.rate_n(lat)
+    om = float(np.linalg.norm(w))
+    u = w / om
+    f = np.array([0.0, 0.0, float(earth.gravity(lat, alt))])
+    f_par = u * (u @ f)
+    f_perp = f - f_par
+    uxf = np.cross(u, f)
+    t = np.asarray(t, dtype=float)[:, None]
+    return f_par * t + np.sin(om * t) / om * f_perp + (1.0 - np.cos(om * t)) / om * uxf
+
+
+def wahba(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Rotation ``C`` minimising Σ |a_k − C b_k|² (SVD solution of Wahba's problem).
+
+    Parameters
+    ----------
+    a, b : ndarray, shape (m, 3)
+        Corresponding vectors in the two frames.
+
+    Returns
+    -------
+    ndarray, shape (3, 3)
+        ``C`` with ``a ≈ C b``.
+    """
+    B = a.T @ b
+    U, _, Vt = np.linalg.svd(B)
+    d = np.linalg.det(U) * np.linalg.det(Vt)
+    return U @ np.diag([1.0, 1.0, d]) @ Vt
+
+
+class InertialCoarseAlign:
+    """Streaming inertial-frame coarse alignment at a known site.
+
+    Parameters
+    ----------
+    lat : float [rad]
+        Latitude of the site.
+    alt : float [m]
+        Height of the site.
+    dt : float [s]
+        Sample interval.
+    """
+
+    def __init__(self, lat: float, alt: float, dt: float) -> None:
+        self.lat = float(lat)
+        self.alt = float(alt)
+        self.dt = float(dt)
+        self.q = np.array([1.0, 0.0, 0.0, 0.0])
+        self.vsum = np.zeros(3)
+        self.prev = np.zeros(7)
+        self.k = 0
+        self._every = max(1, int(round(1.0 / dt)))
+        self._t: list[float] = []
+        self._v: list[NDArray[np.float64]] = []
+
+    def feed(self, dtheta: NDArray[np.float64], dv: NDArray[np.float64]) -> None:
+        """Consume increments [rad], [m/s] (shape (n, 3))."""
+        n = dtheta.shape[0]
+        i = 0
+        while i < n:
+            j = min(n, i + self._every - (self.k % self._every))
+            _kernels.inertial_accumulate(
+                self.q,
+                self.vsum,
+                self.prev,
+                np.ascontiguousarray(dtheta[i:j]),
+                np.ascontiguousarray(dv[i:j]),
+            )
+            self.k += j - i
+            if self.k % self._every == 0:
+                self._t.append(self.k * self.dt)
+                self._v.append(self.vsum.copy())
+            i = j
+
+    def solve(self) -> NDArray[np.float64]:
+        """C_nr at the time of the last sample fed."""
+        if len(self._t) < 2:
+            raise ConfigError("coarse alignment: needs at least 2 s of data")
+        t = np.asarray(self._t)
+        v_r0 = np.asarray(self._v)
+        v_n0 = _earth_rotated_gravity_integral(self.lat, self.alt, t)
+        C_n0r0 = wahba(v_n0, v_r0)
+        T = self.k * self.dt
+        C_nn0 = rotvec_to_dcm(-earth.rate_n(self.lat) * T)
+        return C_nn0 @ C_n0r0 @ quat_to_dcm(self.q)
+
+
+# --------------------------------------------------------------------------- fine
+@dataclass(frozen=True)
+class AlignResult:
+    """Outcome of the self-alignment.
+
+    Attributes
+    ----------
+    C_nr : ndarray, shape (3, 3)
+        Attitude of the IMU frame at the end of the alignment.
+    gyro_bias : ndarray, shape (3,) [rad/s]
+        Estimated gyro biases in ``r`` (zero if not estimated).
+    accel_bias : ndarray, shape (3,) [m/s²]
+        Estimated accelerometer biases in ``r``.
+    attitude_sd : ndarray, shape (3,) [rad]
+        Filter standard deviation of the attitude error (E, N, U) at the end.
+    C_nr_coarse : ndarray, shape (3, 3)
+        Attitude at the end of the coarse stage.
+    """
+
+    C_nr: NDArray[np.float64]
+    gyro_bias: NDArray[np.float64]
+    accel_bias: NDArray[np.float64]
+    attitude_sd: NDArray[np.float64]
+    C_nr_coarse: NDArray[np.float64]
+
+
+class Aligner:
+    """Coarse then fine self-alignment at a known site, fed chunk by chunk.
+
+    Feed increments with :meth:`feed` until :attr:`done`; then :attr:`nav` is a strapdown
+    integrator ready for free navigation (velocity zero, position at the site) and
+    :attr:`gyro_bias`, :attr:`accel_bias` are the bias estimates to keep subtracting.
+
+    Parameters
+    ----------
+    lat, lon : float [rad]
+        Known site.
+    alt : float [m]
+        Known height.
+    dt : float [s]
+        Sample interval.
+    config : AlignConfig
+        Settings.
+    vertical : {"hold", "damped", "free"}
+        Vertical channel of the navigation that follows.
+    """
+
+    def __init__(
+        self,
+        lat: float,
+        lon: float,
+        alt: float,
+        dt: float,
+        config: AlignConfig,
+        vertical: VerticalMode = "hold",
+    ) -> None:
+        self.lat, self.lon, self.alt = float(lat), float(lon), float(alt)
+        self.dt = float(dt)
+        self.config = config
+        self.vertical = vertical
+        self.n_coarse = int(round(config.coarse_s / dt))
+        self.n_fine = int(round(config.fine_s / dt))
+        self.n_block = max(1, int(round(config.kf_interval_s / dt)))
+        self.k = 0
+        self.coarse = InertialCoarseAlign(lat, alt, dt)
+        self.nav: Strapdown | None = None
+        self.gyro_bias = np.zeros(3)
+        self.accel_bias = np.zeros(3)
+        self.C_nr_coarse: NDArray[np.float64] | None = None
+        self._result: AlignResult | None = None
+        self._init_filter()
+
+    @property
+    def n_total(self) -> int:
+        """Samples the alignment consumes."""
+        return self.n_coarse + self.n_fine
+
+    @property
+    def done(self) -> bool:
+        return self.k >= self.n_total
+
+    def _init_filter(self) -> None:
+        c = self.config
+        self.nx = 11
+        p = np.array(
+            [c.level_sd, c.level_sd, c.heading_sd, 0.01, 0.01]
+            + [c.gyro_bias_sd] * 3
+            + [c.accel_bias_sd] * 3
+        )
+        if not c.estimate_biases:
+            p[5:] = 0.0
+        self.P = np.diag(p**2)
+        self.x = np.zeros(self.nx)
+
+    def feed(self, dtheta: NDArray[np.float64], dv: NDArray[np.float64]) -> int:
+        """Consume up to the rest of the alignment from these increments.
+
+        Returns
+        -------
+        int
+            Number of samples consumed (the rest belong to navigation).
+        """
+        n = dtheta.shape[0]
+        used = 0
+        while used < n and not self.done:
+            if self.k < self.n_coarse:
+                m = min(n - used, self.n_coarse - self.k)
+                self.coarse.feed(dtheta[used : used + m], dv[used : used + m])
+                self.k += m
+                used += m
+                if self.k == self.n_coarse:
+                    self._start_fine()
+            else:
+                if self.nav is None:
+                    self._start_fine()
+                into = (self.k - self.n_coarse) % self.n_block
+                m = min(n - used, self.n_block - into, self.n_total - self.k)
+                self._propagate(dtheta[used : used + m], dv[used : used + m])
+                self.k += m
+                used += m
+                if (self.k - self.n_coarse) % self.n_block == 0 or self.done:
+                    self._update()
+        if self.done and self.nav is not None and self._result is None:
+            self.nav.reset(lat=self.lat, lon=self.lon, alt=self.alt, v_n=np.zeros(3))
+            self._result = self._snapshot()
+        return used
+
+    def _start_fine(self) -> None:
+        C_nr = self.coarse.solve()
+        self.C_nr_coarse = C_nr
+        self.nav = Strapdown(
+            self.lat, self.lon, self.alt, np.zeros(3), C_nr, self.dt, self.vertical
+        )
+        self.nav.k = self.k
+        self.nav.set_reference(self.alt, 0.0)
+        self._C_start = C_nr
+        self._block_t = 0.0
+
+    def _propagate(self, dtheta: NDArray[np.float64], dv: NDArray[np.float64]) -> None:
+        assert self.nav is not None
+        dt = self.dt
+        self.nav.run(dtheta - self.gyro_bias * dt, dv - self.accel_bias * dt)
+        self._block_t += dtheta.shape[0] * dt
+
+    def _update(self) -> None:
+        """Propagate the covariance over the block, update with zero velocity, feed back."""
+        assert self.nav is not None
+        c = self.config
+        T = self._block_t
+        if T <= 0:
+            return
+        C_end = self.nav.C_nr
+        C = 0.5 * (self._C_start + C_end)
+        lat, alt = self.lat, self.alt
+        rn, re = earth.principal_radii(lat)
+        rn, re = float(rn) + alt, float(re) + alt
+        g = float(earth.gravity(lat, alt))
+        OmN = earth.RATE * math.cos(lat)
+        OmU = earth.RATE * math.sin(lat)
+        F = np.zeros((11, 11))
+        # attitude
+        F[0, 1] = OmU
+        F[0, 2] = -OmN
+        F[1, 0] = -OmU
+        F[2, 0] = OmN
+        F[0, 4] = -1.0 / rn
+        F[1, 3] = 1.0 / re
+        F[2, 3] = math.tan(lat) / re
+        # velocity
+        F[3, 1] = -g
+        F[4, 0] = g
+        F[3, 4] = 2 * OmU
+        F[4, 3] = -2 * OmU
+        if c.estimate_biases:
+            F[0:3, 5:8] = -C
+            F[3:5, 8:11] = C[0:2, :]
+        Phi = np.eye(11) + F * T + 0.5 * (F @ F) * T * T
+        Qc = np.zeros(11)
+        Qc[0:3] = c.gyro_noise_density**2
+        Qc[3:5] = c.accel_noise_density**2
+        Q = np.diag(Qc) * T
+        Q = 0.5 * (Phi @ Q @ Phi.T + Q)
+        self.P = Phi @ self.P @ Phi.T + Q
+        # measurement: INS horizontal velocity (truth zero)
+        v = self.nav.v_n
+        H = np.zeros((2, 11))
+        H[0, 3] = 1.0
+        H[1, 4] = 1.0
+        R = np.eye(2) * c.velocity_meas_sd**2
+        S = H @ self.P @ H.T + R
+        K = self.P @ H.T @ np.linalg.inv(S)
+        x = K @ v[0:2]
+        IKH = np.eye(11) - K @ H
+        self.P = IKH @ self.P @ IKH.T + K @ R @ K.T
+        # feedback
+        self.nav.correct(phi_n=x[0:3], dv_n=np.array([x[3], x[4], 0.0]))
+        if c.estimate_biases:
+            self.gyro_bias += x[5:8]
+            self.accel_bias += x[8:11]
+        self.nav.reset(lat=self.lat, lon=self.lon, alt=self.alt)
+        self._C_start = self.nav.C_nr
+        self._block_t = 0.0
+
+    def result(self) -> AlignResult:
+        """The alignment outcome (once :attr:`done`)."""
+        if self._result is None:
+            raise ConfigError("alignment: not finished yet")
+        return self._result
+
+    def _snapshot(self) -> AlignResult:
+        assert self.nav is not None and self.C_nr_coarse is not None
+        return AlignResult(
+            C_nr=self.nav.C_nr,
+            gyro_bias=self.gyro_bias.copy(),
+            accel_bias=self.accel_bias.copy(),
+            attitude_sd=np.sqrt(np.diag(self.P)[0:3]),
+            C_nr_coarse=self.C_nr_coarse,
+        )
+
+
+__all__ = ["AlignConfig", "AlignResult", "Aligner", "InertialCoarseAlign", "wahba"]

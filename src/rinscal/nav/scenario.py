@@ -1,0 +1,586 @@
+"""Navigation scenarios: trajectory + turntable + thermal plant + compensation + alignment.
+
+A scenario runs chunk by chunk (bounded memory for runs of many hours)::
+
+    ideal r-frame increments (imu.py)
+      + sensor errors in r      errors_r(t) -> (n, 6) [rad/s, m/s²]   (thermal plant, noise)
+      − compensation in r       compensator(t) -> (n, 6) [rad/s, m/s²] (model file, oracle)
+      -> self-alignment (align.py) -> free strapdown navigation (strapdown.py)
+      -> position error against the true trajectory
+
+Several compensators ("variants") run side by side on the *same* erroneous increments, so
+their position errors differ only by the compensation.
+
+Calibration reference (the critical physics point): a calibration log recorded at rest
+contains Earth rate and gravity. A model fitted to such a log predicts the *whole* static
+output ``b(x) + s`` (thermal bias plus the static reference ``s`` of the calibration site and
+orientation). Navigation must subtract only the bias: the compensator subtracts
+``model(x) − s``, where ``s`` is recorded in the model file (Earth rate and gravity at the
+calibration latitude and heading, in log units) — see :class:`ModelCompensator`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from rinscal import units
+from rinscal.errors import ConfigError
+from rinscal.nav import earth
+from rinscal.nav.align import AlignConfig, Aligner, AlignResult
+from rinscal.nav.imu import ImuChunk, ImuSynthesizer
+from rinscal.nav.rotation import C_br, RotationSchedule
+from rinscal.nav.strapdown import Strapdown, VerticalMode, quat_to_dcm
+from rinscal.nav.trajectory import (
+    C_nb_from_euler,
+    StaticMotion,
+    SwingMotion,
+    Trajectory,
+    vehicle_route,
+)
+from rinscal.thermal.field import ChamberProfile, ThermalField, measure, simulate_field
+from rinscal.thermal.plant import ImuConfig, SensorNoise, thermal_bias_r, turn_on_offsets
+
+#: Sensor errors or their estimate at sample mid-times: ``f(t (n,) [s]) -> (n, 6)`` in SI
+#: (rad/s for gyros, m/s² for accelerometers), resolved in ``r``, mean over each sample.
+ErrorSource = Callable[[NDArray[np.float64]], NDArray[np.float64]]
+#: Same signature: what the navigation computer subtracts from the raw output.
+Compensator = ErrorSource
+
+#: Scenario names understood by :func:`preset`.
+SCENARIOS = ("quasi-static", "swing", "vehicle", "ramp")
+#: Default length of each scenario [h] (vehicle: driving time after the alignment).
+DEFAULT_HOURS = {"quasi-static": 4.0, "swing": 2.0, "vehicle": 1.9, "ramp": 4.5}
+#: Lab temperature of the quasi-static and swing cold starts [°C].
+LAB_C = 20.0
+#: Vehicle cold start: the cabin warms from this ambient [°C] ...
+VEHICLE_AMBIENT_C = 5.0
+#: ... to this temperature [°C] ...
+VEHICLE_CABIN_C = 20.0
+#: ... in this time [s] (heater on).
+VEHICLE_WARMUP_S = 3600.0
+
+
+# --------------------------------------------------------------------------- configuration
+@dataclass(frozen=True)
+class ScenarioConfig:
+    """Everything that defines a navigation run except the sensor errors.
+
+    Parameters
+    ----------
+    name : str
+        Scenario name (free text; the presets use :data:`SCENARIOS`).
+    trajectory : Trajectory
+        Carrier motion.
+    schedule : RotationSchedule
+        Turntable schedule.
+    duration_s : float [s]
+        Length of the run from power-on.
+    rate_hz : float [Hz]
+        IMU output rate.
+    align : AlignConfig or None
+        Self-alignment at the start; None starts navigation from the true state at t = 0.
+    chamber : ChamberProfile or None
+        Ambient (chamber or cabin) temperature for the thermal plant; None: no thermal run.
+    chunk_s : float [s]
+        Processing chunk length (memory bound).
+    out_dt_s : float [s]
+        Interval of the reported errors.
+    vertical : {"hold", "damped", "free"}
+        Vertical channel of the INS; held or damped towards the true altitude (stand-in for
+        an altimeter), which a marine or land RINS has.
+    """
+
+    name: str
+    trajectory: Trajectory
+    schedule: RotationSchedule
+    duration_s: float
+    rate_hz: float = 100.0
+    align: AlignConfig | None = field(default_factory=AlignConfig)
+    chamber: ChamberProfile | None = None
+    chunk_s: float = 60.0
+    out_dt_s: float = 1.0
+    vertical: VerticalMode = "hold"
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.duration_s) and self.duration_s > 0):
+            raise ConfigError(f"scenario: duration_s must be > 0, got {self.duration_s}")
+        if not (math.isfinite(self.rate_hz) and self.rate_hz > 0):
+            raise ConfigError(f"scenario: rate_hz must be > 0, got {self.rate_hz}")
+        if not (math.isfinite(self.chunk_s) and self.chunk_s > 0):
+            raise ConfigError(f"scenario: chunk_s must be > 0, got {self.chunk_s}")
+        out_every = self.out_dt_s * self.rate_hz
+        if not (out_every >= 1 and abs(out_every - round(out_every)) < 1e-9):
+            raise ConfigError(
+                f"scenario: out_dt_s ({self.out_dt_s} s) must be a whole number of samples "
+                f"at {self.rate_hz} Hz"
+            )
+        if self.align is not None:
+            if self.align.total_s >= self.duration_s:
+                raise ConfigError(
+                    f"scenario: alignment ({self.align.total_s} s) must end before the run "
+                    f"({self.duration_s} s)"
+                )
+            if self.align.total_s > self.trajectory.stationary_until + 1e-9:
+                raise ConfigError(
+                    f"scenario: the carrier moves at {self.trajectory.stationary_until} s, "
+                    f"before the alignment ends at {self.align.total_s} s"
+                )
+
+    @property
+    def dt(self) -> float:
+        """Sample interval [s]."""
+        return 1.0 / self.rate_hz
+
+    @property
+    def out_every(self) -> int:
+        """Samples between reported errors."""
+        return int(round(self.out_dt_s * self.rate_hz))
+
+    @property
+    def nav_start_s(self) -> float:
+        """Start of free navigation [s]."""
+        return 0.0 if self.align is None else self.align.total_s
+
+
+def preset(
+    name: str,
+    hours: float | None = None,
+    rate_hz: float = 100.0,
+    align: AlignConfig | None = None,
+    schedule: RotationSchedule | None = None,
+) -> ScenarioConfig:
+    """The paper's scenarios (Section 5.2).
+
+    ``quasi-static``
+        Turntable held at heading 45° (Table 9), cold start in the lab at 20 °C.
+    ``swing``
+        Heading/pitch/roll swinging 2°/2°/8° with periods 3/3/5 s (our reading of
+        Table 9), cold start in the lab at 20 °C.
+    ``vehicle``
+        Land vehicle (Section 5.2.2): stands still for the alignment, then drives the route
+        of :func:`rinscal.nav.trajectory.vehicle_route` for ``hours`` (default 1.9 h); cold
+        start in a cabin warming from 5 °C to 20 °C within the first hour.
+    ``ramp``
+        Quasi-static in the chamber ramping −2 → 50 °C at 0.2 °C/min (Figure 9); the unit
+        soaked at −2 °C cold-starts as the ramp begins.
+
+    All use the four-position modulation unless ``schedule`` is given.
+
+    Parameters
+    ----------
+    name : str
+        One of :data:`SCENARIOS`.
+    hours : float, optional [h]
+        Length of the run (vehicle: of the drive); default :data:`DEFAULT_HOURS`.
+    rate_hz : float [Hz]
+        IMU rate.
+    align : AlignConfig, optional
+        Alignment settings (default :class:`AlignConfig`).
+    schedule : RotationSchedule, optional
+        Turntable schedule (default four-position, 60 s dwell, 10 °/s).
+    """
+    if name not in SCENARIOS:
+        raise ConfigError(f"unknown scenario {name!r}; choose one of {', '.join(SCENARIOS)}")
+    hours = DEFAULT_HOURS[name] if hours is None else float(hours)
+    if not (math.isfinite(hours) and hours > 0):
+        raise ConfigError(f"hours must be > 0, got {hours}")
+    align = AlignConfig() if align is None else align
+    schedule = RotationSchedule.four_position() if schedule is None else schedule
+    duration = hours * units.HOUR_TO_S
+    if name == "quasi-static":
+        traj: Trajectory = StaticMotion()
+        chamber = ChamberProfile.constant(LAB_C)
+    elif name == "swing":
+        traj = SwingMotion()
+        chamber = ChamberProfile.constant(LAB_C)
+    elif name == "vehicle":
+        route = vehicle_route(duration_s=duration, stationary_s=align.total_s)
+        traj = route
+        duration = route.duration_s
+        chamber = ChamberProfile((0.0, VEHICLE_WARMUP_S), (VEHICLE_AMBIENT_C, VEHICLE_CABIN_C))
+    else:
+        traj = StaticMotion()
+        chamber = ChamberProfile.ramp(-2.0, 50.0, 0.2)
+    return ScenarioConfig(
+        name=name,
+        trajectory=traj,
+        schedule=schedule,
+        duration_s=duration,
+        rate_hz=rate_hz,
+        align=align,
+        chamber=chamber,
+    )
+
+
+# --------------------------------------------------------------------------- error sources
+def constant_errors(bias_r: NDArray[np.float64]) -> ErrorSource:
+    """Constant sensor biases in ``r`` [rad/s ×3, m/s² ×3] as an error source."""
+    b = np.asarray(bias_r, dtype=float).reshape(6)
+
+    def errors_r(t: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.broadcast_to(b, (np.shape(t)[0], 6))
+
+    return errors_r
+
+
+class ThermalPlant:
+    """The IMU plant of :mod:`rinscal.thermal` run alongside a navigation scenario.
+
+    The thermal field is simulated once on a 1 s grid over the whole run (cheap) and
+    interpolated at the sample times of each chunk; noise is drawn chunk by chunk.
+
+    Parameters
+    ----------
+    config : ImuConfig
+        The plant (thermal coefficients, noise, thermal network, thermometers).
+    chamber : ChamberProfile
+        Ambient temperature against time; the unit has soaked at its initial value and is
+        switched on at t = 0.
+    duration_s : float [s]
+        Length of the run.
+    rate_hz : float [Hz]
+        IMU rate.
+    seed : int
+        Seed; turn-on offsets, sensor noise and thermometer noise use independent streams
+        spawned from it, so switching one part off leaves the others unchanged.
+    thermal, noise, turn_on : bool
+        Which error parts to include.
+    """
+
+    def __init__(
+        self,
+        config: ImuConfig,
+        chamber: ChamberProfile,
+        duration_s: float,
+        rate_hz: float,
+        seed: int = 0,
+        thermal: bool = True,
+        noise: bool = True,
+        turn_on: bool = True,
+    ) -> None:
+        self.config = config
+        self.chamber = chamber
+        self.dt = 1.0 / rate_hz
+        self.field: ThermalField = simulate_field(
+            chamber, config.network, duration_s=duration_s + 2.0, dt_s=1.0, power_on_s=0.0
+        )
+        rng_on, rng_noise, rng_thermo = np.random.default_rng(seed).spawn(3)
+        self.offsets = turn_on_offsets(config, rng_on) if turn_on else np.zeros(6)
+        self.noise = SensorNoise(config, rng_noise, self.dt) if noise else None
+        self.thermal = thermal
+        self._rng_thermo = rng_thermo
+        # the bias on the field's 1 s grid, interpolated per chunk (6 interpolations instead
+        # of the field's 30; the bias varies on thermal time scales of minutes)
+        self._bias_grid = thermal_bias_r(self.field, config) if thermal else None
+
+    def thermal_bias(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
+        """True thermal bias at ``t`` [s], (n, 6) SI in ``r`` (zero if thermal is off)."""
+        t = np.asarray(t, dtype=float)
+        out = np.zeros((t.shape[0], 6))
+        if self._bias_grid is not None:
+            for j in range(6):
+                out[:, j] = np.interp(t, self.field.t, self._bias_grid[:, j])
+        return out
+
+    def errors_r(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
+        """All sensor errors at sample mid-times ``t`` (call chunks in time order)."""
+        e = self.thermal_bias(t)
+        e += self.offsets
+        if self.noise is not None:
+            e += self.noise.draw(np.shape(t)[0])[0]
+        return e
+
+    __call__ = errors_r
+
+    def measured_temperatures(self, t: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
+        """Thermometer readings at ``t``: inner (n, 6) and outer (n,) [°C]."""
+        f = self.field.at(np.asarray(t, dtype=float))
+        th = self.config.thermometer
+        return measure(f.sensor, th, self._rng_thermo), measure(f.outer, th, self._rng_thermo)
+
+
+def oracle_compensator(plant: ThermalPlant) -> Compensator:
+    """Compensation by the true thermal bias (the best any thermal model can do)."""
+    return plant.thermal_bias
+
+
+# --------------------------------------------------------------------------- results
+@dataclass
+class NavResult:
+    """Outcome of a navigation scenario.
+
+    Attributes
+    ----------
+    config : ScenarioConfig
+        What was run.
+    truth : pandas.DataFrame
+        True state at the reported times: ``time_s, lat_deg, lon_deg, alt_m, v_e, v_n,
+        v_u`` [s, deg, deg, m, m/s ×3], ``heading_deg, pitch_deg, roll_deg, encoder_deg``.
+    errors : dict of str to pandas.DataFrame
+        Per variant: ``time_s``, position error ``east_m, north_m, horizontal_m,
+        horizontal_nmi``, INS position ``lat_deg, lon_deg``, velocity error ``v_e_err,
+        v_n_err`` [m/s], attitude error of the body frame ``att_e, att_n, att_u`` [rad].
+    alignment : dict of str to AlignResult or None
+        Per variant.
+    """
+
+    config: ScenarioConfig
+    truth: pd.DataFrame
+    errors: dict[str, pd.DataFrame]
+    alignment: dict[str, AlignResult | None]
+
+    def max_error_m(self, variant: str) -> float:
+        """Maximum horizontal position error of a variant [m]."""
+        return float(self.errors[variant]["horizontal_m"].max())
+
+    def summary(self) -> dict[str, Any]:
+        """JSON-able summary: per variant max/final/RMS error [m, nmi] and alignment."""
+        c = self.config
+        out: dict[str, Any] = {
+            "scenario": c.name,
+            "duration_s": c.duration_s,
+            "rate_hz": c.rate_hz,
+            "rotation": c.schedule.name,
+            "alignment_s": None if c.align is None else c.align.total_s,
+            "navigation_start_s": c.nav_start_s,
+            "variants": {},
+        }
+        for name, df in self.errors.items():
+            h = df["horizontal_m"].to_numpy()
+            i = int(np.argmax(h)) if h.size else 0
+            v: dict[str, Any] = {
+                "max_error_m": float(h.max()) if h.size else float("nan"),
+                "max_error_nmi": float(h.max() / units.NMI_TO_M) if h.size else float("nan"),
+                "time_of_max_s": float(df["time_s"].iloc[i]) if h.size else float("nan"),
+                "final_error_m": float(h[-1]) if h.size else float("nan"),
+                "rms_error_m": float(np.sqrt(np.mean(h**2))) if h.size else float("nan"),
+            }
+            a = self.alignment.get(name)
+            if a is not None:
+                v["alignment"] = {
+                    "gyro_bias_dph": (a.gyro_bias / units.DPH_TO_RPS).tolist(),
+                    "accel_bias_ug": (a.accel_bias / units.UG_TO_MPS2).tolist(),
+                    "attitude_sd_arcsec": (a.attitude_sd / units.ARCSEC_TO_RAD).tolist(),
+                }
+                att = df[["att_e", "att_n", "att_u"]].to_numpy()
+                if att.shape[0]:
+                    v["alignment"]["attitude_error_arcsec"] = (
+                        att[0] / units.ARCSEC_TO_RAD
+                    ).tolist()
+            out["variants"][name] = v
+        if "none" in out["variants"]:
+            base = out["variants"]["none"]["max_error_m"]
+            for name, v in out["variants"].items():
+                if name != "none" and base > 0:
+                    v["improvement_vs_none_pct"] = 100.0 * (1.0 - v["max_error_m"] / base)
+        return out
+
+
+@dataclass
+class _Variant:
+    compensator: Compensator | None
+    aligner: Aligner | None
+    nav: Strapdown | None
+    gyro_bias: NDArray[np.float64]
+    accel_bias: NDArray[np.float64]
+    rows: list[NDArray[np.float64]]
+
+
+def _true_initial_nav(config: ScenarioConfig) -> Strapdown:
+    tr = config.trajectory
+    kin = tr.kinematics(np.zeros(1))
+    C_nr = C_nb_from_euler(kin.euler[0]) @ C_br(config.schedule.angle(0.0)[0])
+    return Strapdown(tr.lat0, tr.lon0, tr.alt0, kin.v_n[0], C_nr, config.dt, config.vertical)
+
+
+def _attitude_error(C_true: NDArray, C_est: NDArray) -> NDArray[np.float64]:
+    """Small-angle φ with C_est = (I − [φ×]) C_true, shape (m, 3) [rad]."""
+    M = np.einsum("mij,mkj->mik", C_true, C_est)
+    return 0.5 * np.stack(
+        [M[:, 2, 1] - M[:, 1, 2], M[:, 0, 2] - M[:, 2, 0], M[:, 1, 0] - M[:, 0, 1]], axis=1
+    )
+
+
+def run_scenario(
+    config: ScenarioConfig,
+    errors: ErrorSource | None = None,
+    compensators: Mapping[str, Compensator | None] | None = None,
+    progress: Callable[[float, float], None] | None = None,
+) -> NavResult:
+    """Run a navigation scenario.
+
+    Parameters
+    ----------
+    config : ScenarioConfig
+        The scenario (see :func:`preset`).
+    errors : callable, optional
+        Sensor errors in ``r`` at the sample mid-times, ``errors(t) -> (n, 6)`` SI
+        (e.g. a :class:`ThermalPlant` or :func:`constant_errors`); None for an ideal IMU.
+        Called once per chunk, in time order.
+    compensators : mapping of str to callable or None, optional
+        Variants to navigate side by side on the same raw output: each subtracts its
+        ``compensator(t) -> (n, 6)`` SI (None: no compensation). Default ``{"none": None}``.
+    progress : callable, optional
+        ``progress(done_s, total_s)`` after each chunk.
+
+    Returns
+    -------
+    NavResult
+    """
+    comps = {"none": None} if compensators is None else dict(compensators)
+    if not comps:
+        raise ConfigError("run_scenario: need at least one variant")
+    tr = config.trajectory
+    dt = config.dt
+    synth = ImuSynthesizer(tr, config.schedule, config.rate_hz)
+    variants: dict[str, _Variant] = {}
+    for name, comp in comps.items():
+        if config.align is not None:
+            al = Aligner(tr.lat0, tr.lon0, tr.alt0, dt, config.align, config.vertical)
+            variants[name] = _Variant(comp, al, None, np.zeros(3), np.zeros(3), [])
+        else:
+            variants[name] = _Variant(
+                comp, None, _true_initial_nav(config), np.zeros(3), np.zeros(3), []
+            )
+    n_align = 0 if config.align is None else int(round(config.align.total_s * config.rate_hz))
+    out_every = config.out_every
+    truth_rows: list[NDArray[np.float64]] = []
+
+    splits = () if config.align is None else (config.align.total_s,)
+    for ch in synth.chunks(config.duration_s, config.chunk_s, split_at=splits):
+        t_mid = ch.t - 0.5 * dt
+        raw_th = ch.dtheta
+        raw_v = ch.dv
+        if errors is not None:
+            e = np.asarray(errors(t_mid), dtype=float)
+            if e.shape != (ch.n, 6):
+                raise ConfigError(f"errors_r returned shape {e.shape}, expected ({ch.n}, 6)")
+            raw_th = raw_th + e[:, :3] * dt
+            raw_v = raw_v + e[:, 3:] * dt
+        gidx = ch.k0 + np.arange(1, ch.n + 1)
+        sel = (gidx % out_every == 0) & (gidx > n_align)
+        if np.any(sel):
+            truth_rows.append(_truth_rows(ch, sel))
+        for v in variants.values():
+            d_th, d_v = raw_th, raw_v
+            if v.compensator is not None:
+                c = np.asarray(v.compensator(t_mid), dtype=float)
+                d_th = d_th - c[:, :3] * dt
+                d_v = d_v - c[:, 3:] * dt
+            i0 = 0
+            if v.aligner is not None and not v.aligner.done:
+                i0 = v.aligner.feed(d_th, d_v)
+                if v.aligner.done:
+                    v.nav = v.aligner.nav
+                    v.gyro_bias = v.aligner.gyro_bias.copy()
+                    v.accel_bias = v.aligner.accel_bias.copy()
+            if i0 < ch.n:
+                assert v.nav is not None
+                out = v.nav.run(
+                    d_th[i0:] - v.gyro_bias * dt,
+                    d_v[i0:] - v.accel_bias * dt,
+                    alt_ref=ch.alt[i0:],
+                    vu_ref=ch.v_n[i0:, 2],
+                    out_every=out_every,
+                )
+                if out.shape[0]:
+                    v.rows.append(out)
+        if progress is not None:
+            progress(float(ch.t[-1]), config.duration_s)
+
+    truth = np.concatenate(truth_rows) if truth_rows else np.empty((0, 11))
+    truth_df = pd.DataFrame(
+        {
+            "time_s": truth[:, 0],
+            "lat_deg": truth[:, 1] / units.DEG_TO_RAD,
+            "lon_deg": truth[:, 2] / units.DEG_TO_RAD,
+            "alt_m": truth[:, 3],
+            "v_e": truth[:, 4],
+            "v_n": truth[:, 5],
+            "v_u": truth[:, 6],
+            "heading_deg": truth[:, 7] / units.DEG_TO_RAD,
+            "pitch_deg": truth[:, 8] / units.DEG_TO_RAD,
+            "roll_deg": truth[:, 9] / units.DEG_TO_RAD,
+            "encoder_deg": truth[:, 10] / units.DEG_TO_RAD,
+        }
+    )
+    err: dict[str, pd.DataFrame] = {}
+    for name, v in variants.items():
+        rows = np.concatenate(v.rows) if v.rows else np.empty((0, 10))
+        err[name] = _error_frame(truth, rows)
+    alignment = {
+        name: (v.aligner.result() if v.aligner is not None and v.aligner.done else None)
+        for name, v in variants.items()
+    }
+    return NavResult(config, truth_df, err, alignment)
+
+
+def _truth_rows(ch: ImuChunk, sel: NDArray[np.bool_]) -> NDArray[np.float64]:
+    return np.column_stack(
+        [
+            ch.t[sel],
+            ch.lat[sel],
+            ch.lon[sel],
+            ch.alt[sel],
+            ch.v_n[sel],
+            ch.euler[sel],
+            ch.encoder[sel],
+        ]
+    )
+
+
+def _error_frame(truth: NDArray[np.float64], ins: NDArray[np.float64]) -> pd.DataFrame:
+    if ins.shape[0] != truth.shape[0]:
+        raise AssertionError("internal: INS and truth rows differ")  # pragma: no cover
+    lat_t, lon_t, alt_t = truth[:, 1], truth[:, 2], truth[:, 3]
+    rn, re = earth.principal_radii(lat_t)
+    north = (ins[:, 0] - lat_t) * (rn + alt_t)
+    east = (ins[:, 1] - lon_t) * (re + alt_t) * np.cos(lat_t)
+    horiz = np.hypot(east, north)
+    C_true = C_nb_from_euler(truth[:, 7:10])
+    C_est = quat_to_dcm(ins[:, 6:10]) @ np.swapaxes(C_br(truth[:, 10]), -1, -2)  # C_nr C_rb
+    att = _attitude_error(C_true, C_est) if truth.shape[0] else np.empty((0, 3))
+    return pd.DataFrame(
+        {
+            "time_s": truth[:, 0],
+            "east_m": east,
+            "north_m": north,
+            "horizontal_m": horiz,
+            "horizontal_nmi": horiz / units.NMI_TO_M,
+            "lat_deg": ins[:, 0] / units.DEG_TO_RAD,
+            "lon_deg": ins[:, 1] / units.DEG_TO_RAD,
+            "v_e_err": ins[:, 3] - truth[:, 4],
+            "v_n_err": ins[:, 4] - truth[:, 5],
+            "att_e": att[:, 0],
+            "att_n": att[:, 1],
+            "att_u": att[:, 2],
+        }
+    )
+
+
+def with_duration(config: ScenarioConfig, duration_s: float) -> ScenarioConfig:
+    """A copy of ``config`` with another duration [s]."""
+    return replace(config, duration_s=duration_s)
+
+
+__all__ = [
+    "DEFAULT_HOURS",
+    "SCENARIOS",
+    "Compensator",
+    "ErrorSource",
+    "NavResult",
+    "ScenarioConfig",
+    "ThermalPlant",
+    "constant_errors",
+    "oracle_compensator",
+    "preset",
+    "run_scenario",
+    "with_duration",
+]
