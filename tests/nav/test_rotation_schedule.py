@@ -31,7 +31,7 @@ def test_four_position_visits_the_paper_positions_and_returns() -> None:
     dwell_mid = []
     t = 30.0
     starts = np.asarray(s.starts)
-    for k, (c0, c1, c2) in enumerate(s.coefs):
+    for k, (_c0, c1, c2) in enumerate(s.coefs):
         if c1 == 0 and c2 == 0:
             dwell_mid.append(starts[k] + 30.0)
     angles = s.angle(np.asarray(dwell_mid)) / D2R

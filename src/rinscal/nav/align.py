@@ -153,7 +153,7 @@ class InertialCoarseAlign:
         self.vsum = np.zeros(3)
         self.prev = np.zeros(7)
         self.k = 0
-        self._every = max(1, int(round(1.0 / dt)))
+        self._every = max(1, round(1.0 / dt))
         self._t: list[float] = []
         self._v: list[NDArray[np.float64]] = []
 
@@ -249,9 +249,9 @@ class Aligner:
         self.dt = float(dt)
         self.config = config
         self.vertical = vertical
-        self.n_coarse = int(round(config.coarse_s / dt))
-        self.n_fine = int(round(config.fine_s / dt))
-        self.n_block = max(1, int(round(config.kf_interval_s / dt)))
+        self.n_coarse = round(config.coarse_s / dt)
+        self.n_fine = round(config.fine_s / dt)
+        self.n_block = max(1, round(config.kf_interval_s / dt))
         self.k = 0
         self.coarse = InertialCoarseAlign(lat, alt, dt)
         self.nav: Strapdown | None = None

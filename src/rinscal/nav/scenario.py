@@ -141,7 +141,7 @@ class ScenarioConfig:
     @property
     def out_every(self) -> int:
         """Samples between reported errors."""
-        return int(round(self.out_dt_s * self.rate_hz))
+        return round(self.out_dt_s * self.rate_hz)
 
     @property
     def nav_start_s(self) -> float:
@@ -449,7 +449,7 @@ def run_scenario(
             variants[name] = _Variant(
                 comp, None, _true_initial_nav(config), np.zeros(3), np.zeros(3), []
             )
-    n_align = 0 if config.align is None else int(round(config.align.total_s * config.rate_hz))
+    n_align = 0 if config.align is None else round(config.align.total_s * config.rate_hz)
     out_every = config.out_every
     truth_rows: list[NDArray[np.float64]] = []
 
