@@ -1,5 +1,187 @@
-"""CLI commands: navigate."""
+"""CLI command: navigate (a single-axis RINS scenario with thermal compensation)."""
 
 from __future__ import annotations
 
-from rinscal.cli._app import app  # noqa: F401
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from rinscal.cli._app import app
+
+_OUTPUTS = (
+    "errors.csv",
+    "truth.csv",
+    "summary.json",
+    "position_error.png",
+    "trajectory.png",
+    "temperatures.png",
+)
+
+
+@app.command("navigate")
+def navigate(
+    scenario: Annotated[
+        str,
+        typer.Option(
+            "--scenario", "-s", help="quasi-static, swing, vehicle or ramp (paper Section 5.2)."
+        ),
+    ],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Output folder (created if needed).")],
+    model: Annotated[
+        list[Path] | None,
+        typer.Option(
+            "--model", "-m", help="Thermal model file (JSON) to compensate with; repeatable."
+        ),
+    ] = None,
+    hours: Annotated[
+        float | None,
+        typer.Option(help="Run length [h] (vehicle: driving time). Default 4, 2, 1.9, 4.5 h."),
+    ] = None,
+    rate: Annotated[float, typer.Option("--rate", help="IMU rate [Hz].")] = 100.0,
+    seed: Annotated[int, typer.Option(help="Seed of the sensor noise and turn-on offsets.")] = 0,
+    imu_config: Annotated[
+        Path | None,
+        typer.Option(
+            "--imu-config", help="IMU plant (TOML); default: the navigation-grade preset."
+        ),
+    ] = None,
+    rotation: Annotated[
+        str, typer.Option(help="Turntable: four-position, continuous or none.")
+    ] = "four-position",
+    align_s: Annotated[float, typer.Option("--align-s", help="Self-alignment time [s].")] = 600.0,
+    oracle: Annotated[
+        bool, typer.Option("--oracle/--no-oracle", help="Also navigate with the true thermal bias.")
+    ] = True,
+    policy: Annotated[
+        str,
+        typer.Option(help="Model inputs outside the training range: clamp, extrapolate, error."),
+    ] = "clamp",
+) -> None:
+    """Navigate a single-axis RINS through a cold start and report its position error.
+
+    Writes errors.csv (position error per variant over time), truth.csv, summary.json and
+    the figures position_error.png, trajectory.png and temperatures.png into --out.
+    """
+    import json
+    import os
+
+    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+
+    from rinscal import units
+    from rinscal.cli._app import console, fail
+    from rinscal.errors import RinscalError
+
+    models = list(model or [])
+    for src in [*models, *([imu_config] if imu_config else [])]:
+        if not src.is_file():
+            raise fail(f"{src}: file not found")
+    out_paths = [out / name for name in _OUTPUTS]
+    for dst in out_paths:
+        for src in [*models, *([imu_config] if imu_config else [])]:
+            if dst.resolve() == src.resolve() or (dst.exists() and os.path.samefile(dst, src)):
+                raise fail(f"{dst}: refusing to overwrite the input {src}; choose another --out")
+    if out.exists() and not out.is_dir():
+        raise fail(f"{out}: exists and is not a folder")
+    if not (rate > 0):
+        raise fail(f"--rate must be > 0 Hz, got {rate}")
+    if policy not in ("clamp", "extrapolate", "error"):
+        raise fail(f"--policy must be clamp, extrapolate or error, got {policy!r}")
+
+    try:
+        from rinscal.nav.align import AlignConfig
+        from rinscal.nav.rotation import schedule_from_name
+        from rinscal.nav.scenario import (
+            ThermalPlant,
+            model_compensator,
+            oracle_compensator,
+            preset,
+            run_scenario,
+            temperature_frame,
+        )
+        from rinscal.thermal.plant import ImuConfig
+
+        coarse = min(60.0, align_s / 3)
+        align = AlignConfig(coarse_s=coarse, fine_s=align_s - coarse)
+        cfg = preset(
+            scenario, hours=hours, rate_hz=rate, align=align, schedule=schedule_from_name(rotation)
+        )
+        imu = ImuConfig.from_toml(imu_config) if imu_config else ImuConfig.navigation_grade()
+        assert cfg.chamber is not None
+        plant = ThermalPlant(imu, cfg.chamber, cfg.duration_s, cfg.rate_hz, seed=seed)
+        comps: dict[str, object] = {"none": None}
+        if oracle:
+            comps["true"] = oracle_compensator(plant)
+        for path in models:
+            name = path.stem
+            while name in comps:
+                name += "_"
+            comps[name] = model_compensator(str(path), plant, policy=policy)
+
+        with Progress(
+            TextColumn("[progress.description]{task.description}"),
+            BarColumn(),
+            TextColumn("{task.completed:,.0f}/{task.total:,.0f} s"),
+            TimeRemainingColumn(),
+            console=console,
+            transient=True,
+        ) as progress:
+            task = progress.add_task(f"navigating {scenario}", total=cfg.duration_s)
+
+            def tick(done: float, total: float) -> None:
+                progress.update(task, completed=done)
+
+            result = run_scenario(cfg, plant, comps, progress=tick)  # type: ignore[arg-type]
+    except RinscalError as exc:
+        raise fail(str(exc)) from None
+
+    import pandas as pd
+
+    from rinscal.io import atomic_path
+    from rinscal.nav.plots import plot_position_error, plot_temperatures, plot_trajectory
+
+    out.mkdir(parents=True, exist_ok=True)
+    frames = []
+    for name, df in result.errors.items():
+        d = df.copy()
+        d.insert(0, "variant", name)
+        frames.append(d)
+    errors = pd.concat(frames, ignore_index=True)
+    summary = result.summary()
+    summary["seed"] = seed
+    summary["imu"] = imu.name
+    summary["models"] = {p.stem: str(p) for p in models}
+    summary["chamber"] = {
+        "times_s": list(cfg.chamber.times_s),
+        "temps_c": list(cfg.chamber.temps_c),
+    }
+
+    with atomic_path(out / "errors.csv") as tmp:
+        errors.to_csv(tmp, index=False, float_format="%.10g")
+    with atomic_path(out / "truth.csv") as tmp:
+        result.truth.to_csv(tmp, index=False, float_format="%.10g")
+    with atomic_path(out / "summary.json") as tmp:
+        tmp.write_text(json.dumps(summary, indent=2, allow_nan=False, default=float) + "\n")
+    figures = {
+        "position_error.png": plot_position_error(result),
+        "trajectory.png": plot_trajectory(result),
+        "temperatures.png": plot_temperatures(temperature_frame(plant)),
+    }
+    for fname, fig in figures.items():
+        with atomic_path(out / fname) as tmp:
+            fig.savefig(tmp, format="png", dpi=110)
+
+    for name, v in summary["variants"].items():
+        extra = ""
+        if "improvement_vs_none_pct" in v:
+            extra = f"  ({v['improvement_vs_none_pct']:+.1f} % vs uncompensated)"
+        console.print(
+            f"{name:>14}: max position error {v['max_error_m']:10.1f} m = "
+            f"{v['max_error_m'] / units.NMI_TO_M:7.3f} nmi{extra}",
+            highlight=False,
+            soft_wrap=True,
+        )
+    console.print(f"wrote {', '.join(_OUTPUTS)} to {out}", highlight=False, soft_wrap=True)
+
+
+__all__ = ["navigate"]

@@ -306,9 +306,86 @@ class ThermalPlant:
         return measure(f.sensor, th, self._rng_thermo), measure(f.outer, th, self._rng_thermo)
 
 
+def temperature_frame(plant: ThermalPlant, step_s: float = 10.0) -> pd.DataFrame:
+    """True temperatures of a plant's run for plots: ``time_s, chamber, outer,
+    sensor_<channel>`` [s, °C], every ``step_s``."""
+    from rinscal.schema import CHANNELS
+
+    t = np.arange(0.0, float(plant.field.t[-1]) + 1e-9, step_s)
+    f = plant.field.at(t)
+    df = pd.DataFrame({"time_s": t, "chamber": f.chamber, "outer": f.outer})
+    for j, c in enumerate(CHANNELS):
+        df[f"sensor_{c}"] = f.sensor[:, j]
+    return df
+
+
 def oracle_compensator(plant: ThermalPlant) -> Compensator:
     """Compensation by the true thermal bias (the best any thermal model can do)."""
     return plant.thermal_bias
+
+
+class ModelCompensator:
+    """Compensation by a thermal model file, as the navigation computer would run it.
+
+    The thermometers (inner per sensor, outer on the package) are read once per
+    ``update_s`` (noise and 0.01 °C quantisation of the plant's thermometer model), the
+    temperature rate is the model's causal windowed slope, and the model's bias estimate
+    ``(f(T, Ṫ, ΔT) − static_reference) · unit_to_si`` (see
+    :meth:`rinscal.calibration.modelfile.ThermalModelFile.predict_bias_si`) is held until
+    the next reading (causal). Channels the model lacks are not compensated.
+
+    Parameters
+    ----------
+    model : ThermalModelFile
+        A loaded model file with units and static references.
+    plant : ThermalPlant
+        The plant whose thermometers feed the model.
+    policy : {"clamp", "extrapolate", "error"}
+        Out-of-range handling of the model inputs.
+    update_s : float [s]
+        Thermometer reading and model update interval.
+    """
+
+    def __init__(
+        self,
+        model: Any,
+        plant: ThermalPlant,
+        policy: str = "clamp",
+        update_s: float = 1.0,
+    ) -> None:
+        from rinscal.calibration.features import DerivativeConfig, temperature_rate
+        from rinscal.schema import CHANNELS
+
+        if not (math.isfinite(update_s) and update_s > 0):
+            raise ConfigError(f"model compensator: update_s must be > 0, got {update_s}")
+        t_end = float(plant.field.t[-1])
+        grid = np.arange(0.0, t_end + 1e-9, update_s)
+        temp, t_out = plant.measured_temperatures(grid)
+        rate = temperature_rate(
+            grid, temp, DerivativeConfig(window_s=model.derivative_window_s, kind="causal")
+        )
+        idx = []
+        for c in model.channels:
+            if c not in CHANNELS:
+                raise ConfigError(f"model channel {c!r} is not one of {CHANNELS}")
+            idx.append(CHANNELS.index(c))
+        bias = np.zeros((grid.size, 6))
+        bias[:, idx] = model.predict_bias_si(temp[:, idx], rate[:, idx], t_out, policy=policy)
+        self.model = model
+        self.grid = grid
+        self.bias = bias
+        self.channels = tuple(model.channels)
+
+    def __call__(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
+        k = np.searchsorted(self.grid, np.asarray(t, dtype=float), side="right") - 1
+        return self.bias[np.clip(k, 0, self.grid.size - 1)]
+
+
+def model_compensator(path: str, plant: ThermalPlant, policy: str = "clamp") -> ModelCompensator:
+    """Load a model file (JSON) and build its :class:`ModelCompensator`."""
+    from rinscal.calibration.modelfile import ThermalModelFile
+
+    return ModelCompensator(ThermalModelFile.load(path), plant, policy=policy)
 
 
 # --------------------------------------------------------------------------- results
@@ -575,12 +652,15 @@ __all__ = [
     "SCENARIOS",
     "Compensator",
     "ErrorSource",
+    "ModelCompensator",
     "NavResult",
     "ScenarioConfig",
     "ThermalPlant",
     "constant_errors",
+    "model_compensator",
     "oracle_compensator",
     "preset",
     "run_scenario",
+    "temperature_frame",
     "with_duration",
 ]
