@@ -383,7 +383,15 @@ class Sectional(_ThermalEstimator):
             k = int(self.n_segments)
             if k < 1:
                 raise ValueError(f"n_segments must be at least 1, got {self.n_segments!r}")
-            e = np.unique(np.quantile(t, np.arange(1, k) / k, method="lower"))
+            q = np.unique(np.quantile(t, np.arange(1, k) / k, method="lower"))
+            # keep only edges that leave a training sample in every segment
+            kept: list[float] = []
+            prev = -np.inf
+            for edge in q[q < t.max()]:
+                if np.any((t > prev) & (t <= edge)):
+                    kept.append(float(edge))
+                    prev = edge
+            e = np.asarray(kept)
         if not np.all(np.isfinite(e)) or np.any(np.diff(e) <= 0):
             raise ValueError(f"segment edges must be finite and strictly increasing, got {e}")
         return e
