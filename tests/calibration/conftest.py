@@ -20,3 +20,49 @@ def repeat_small() -> tuple[pd.DataFrame, pd.DataFrame, dict]:
     from rinscal.thermal.protocols import simulate_protocol
 
     return simulate_protocol("repeat", hours=2.0, rate_hz=0.5, seed=12)
+
+
+@pytest.fixture(scope="session")
+def quiet_config():
+    """The navigation-grade plant without noise, outliers, offsets or thermometer error."""
+    from dataclasses import fields, replace
+
+    from rinscal.thermal.field import ThermometerConfig
+    from rinscal.thermal.plant import ImuConfig, NoiseConfig
+
+    cfg = ImuConfig.navigation_grade()
+    zero = NoiseConfig(**{f.name: 0.0 for f in fields(NoiseConfig)})
+    return replace(cfg, noise=zero, thermometer=ThermometerConfig(0.0, 0.0))
+
+
+@pytest.fixture(scope="session")
+def soak_quiet(quiet_config):
+    """Noise-free soak protocol, 1.5 h per run at 0.5 Hz."""
+    from rinscal.thermal.protocols import simulate_protocol
+
+    return simulate_protocol("soak", hours=1.5, rate_hz=0.5, seed=21, config=quiet_config)
+
+
+@pytest.fixture(scope="session")
+def repeat_quiet(quiet_config):
+    """Noise-free repetition-priming cold start at 25 °C, 2 h at 0.5 Hz."""
+    from rinscal.thermal.protocols import simulate_protocol
+
+    return simulate_protocol("repeat", hours=2.0, rate_hz=0.5, seed=22, config=quiet_config)
+
+
+#: Light neural settings for tests (the defaults are for real data sets).
+NEURAL_FAST = {"max_samples": 2000, "n_init": 1, "max_iter": 300, "refine_max_nfev": 30}
+
+
+@pytest.fixture(scope="session")
+def fitted_models(soak_small):
+    """A model file of every method, fitted on the small soak log."""
+    from rinscal.calibration.model import ThermalModel
+
+    log, _, meta = soak_small
+    out = {}
+    for method in ("poly-t", "sectional", "regression", "neural"):
+        params = NEURAL_FAST if method == "neural" else None
+        out[method] = ThermalModel(method, estimator_params=params).fit(log, meta).to_file()
+    return out

@@ -444,7 +444,7 @@ class ThermalModelFile:
         """
         temp = np.asarray(temp, dtype=np.float64).reshape(-1)
         rate = np.broadcast_to(np.asarray(rate, dtype=np.float64), temp.shape)
-        if not self.use_gradient:
+        if not self.use_gradient or self.models[channel].n_inputs < 3:
             return np.column_stack([temp, rate])
         if temp_out is None:
             raise ModelFileError(
