@@ -204,6 +204,10 @@ class AlignResult:
         Estimated accelerometer biases in ``r``.
     attitude_sd : ndarray, shape (3,) [rad]
         Filter standard deviation of the attitude error (E, N, U) at the end.
+    gyro_bias_sd : ndarray, shape (3,) [rad/s]
+        Filter standard deviation of the gyro bias estimates.
+    accel_bias_sd : ndarray, shape (3,) [m/s²]
+        Filter standard deviation of the accelerometer bias estimates.
     C_nr_coarse : ndarray, shape (3, 3)
         Attitude at the end of the coarse stage.
     """
@@ -212,6 +216,8 @@ class AlignResult:
     gyro_bias: NDArray[np.float64]
     accel_bias: NDArray[np.float64]
     attitude_sd: NDArray[np.float64]
+    gyro_bias_sd: NDArray[np.float64]
+    accel_bias_sd: NDArray[np.float64]
     C_nr_coarse: NDArray[np.float64]
 
 
@@ -405,6 +411,8 @@ class Aligner:
             gyro_bias=self.gyro_bias.copy(),
             accel_bias=self.accel_bias.copy(),
             attitude_sd=np.sqrt(np.diag(self.P)[0:3]),
+            gyro_bias_sd=np.sqrt(np.diag(self.P)[5:8]),
+            accel_bias_sd=np.sqrt(np.diag(self.P)[8:11]),
             C_nr_coarse=self.C_nr_coarse,
         )
 

@@ -1,0 +1,103 @@
+"""The thermal plant in the navigation loop: what compensation is worth in position error."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from rinscal.errors import ModelFileError
+from rinscal.nav.scenario import (
+    ModelCompensator,
+    ThermalPlant,
+    model_compensator,
+    oracle_compensator,
+    preset,
+    run_scenario,
+)
+from rinscal.thermal.plant import ImuConfig
+
+IMU = ImuConfig.navigation_grade()
+
+
+@pytest.fixture(scope="module")
+def cold_start():  # type: ignore[no-untyped-def]
+    cfg = preset("quasi-static", hours=4.0, rate_hz=10.0)
+    assert cfg.chamber is not None
+    return cfg
+
+
+def _plant(cfg, seed: int = 2, **kw) -> ThermalPlant:  # type: ignore[no-untyped-def]
+    return ThermalPlant(IMU, cfg.chamber, cfg.duration_s, cfg.rate_hz, seed=seed, **kw)
+
+
+def test_true_bias_compensation_equals_an_imu_without_thermal_errors(cold_start) -> None:  # type: ignore[no-untyped-def]
+    """Quasi-static cold start (20 °C lab, power-on heating, four-position modulation).
+
+    Subtracting the true thermal bias leaves noise and turn-on offset only: the position
+    error equals that of the same IMU (same seed) without thermal errors; without
+    compensation the error is clearly larger.
+    """
+    plant = _plant(cold_start)
+    r = run_scenario(cold_start, plant, {"none": None, "true": oracle_compensator(plant)})
+    ref = run_scenario(cold_start, _plant(cold_start, thermal=False))
+    e_true = r.errors["true"]["horizontal_m"].to_numpy()
+    e_ref = ref.errors["none"]["horizontal_m"].to_numpy()
+    np.testing.assert_allclose(e_true, e_ref, atol=1e-5)
+    assert r.max_error_m("none") > 2.5 * r.max_error_m("true")
+    # and the thermal bias really did change during the run (cold start)
+    b = plant.thermal_bias(np.array([0.0, 3600.0]))
+    assert np.all(np.abs(b[1, 3:] - b[0, 3:]) > 1e-5)  # > 1 µg on every accelerometer
+
+
+@pytest.fixture(scope="module")
+def regression_model(tmp_path_factory):  # type: ignore[no-untyped-def]
+    from rinscal.calibration.model import ThermalModel
+    from rinscal.thermal.protocols import simulate_protocol
+
+    log, _, meta = simulate_protocol("soak", hours=3.0, rate_hz=1.0, seed=5, config=IMU)
+    path = tmp_path_factory.mktemp("model") / "regression.json"
+    ThermalModel("regression").fit(log, meta).to_file().save(path)
+    return path
+
+
+def test_model_file_compensation_subtracts_only_the_thermal_bias(  # type: ignore[no-untyped-def]
+    cold_start, regression_model
+) -> None:
+    """A regression model fitted on a simulated soak calibration (Table 3 set points) cuts
+    the cold-start position error; its file's static reference (Earth rate and gravity at
+    the calibration site) must be subtracted, or navigation is destroyed."""
+    from rinscal.calibration.modelfile import ThermalModelFile
+
+    plant = _plant(cold_start)
+    comp = model_compensator(str(regression_model), plant)
+    model = ThermalModelFile.load(regression_model)
+    ref = np.array(
+        [model.models[c].static_reference * model.models[c].unit_to_si for c in model.channels]
+    )
+    assert ref[5] == pytest.approx(9.79, abs=0.01)  # gravity on accel_z of a level table
+
+    def without_reference(t: np.ndarray) -> np.ndarray:  # the mistake the design avoids
+        return comp(t) + ref
+
+    r = run_scenario(
+        cold_start, plant, {"none": None, "model": comp, "no-reference": without_reference}
+    )
+    assert r.max_error_m("model") < 0.6 * r.max_error_m("none")
+    assert r.max_error_m("no-reference") > 10 * r.max_error_m("none")
+    # the compensation is causal: held between thermometer readings
+    t = np.array([100.0, 100.5, 100.999])
+    np.testing.assert_array_equal(comp(t)[0], comp(t)[2])
+
+
+def test_model_without_static_reference_is_refused(cold_start, regression_model) -> None:  # type: ignore[no-untyped-def]
+    from rinscal.calibration.modelfile import ThermalModelFile
+
+    m = ThermalModelFile.load(regression_model)
+    models = {c: m.models[c] for c in m.channels}
+    import dataclasses
+
+    bare = dataclasses.replace(
+        m, models={c: dataclasses.replace(cm, static_reference=None) for c, cm in models.items()}
+    )
+    with pytest.raises(ModelFileError, match="static_reference"):
+        ModelCompensator(bare, _plant(cold_start))
