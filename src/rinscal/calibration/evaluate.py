@@ -11,10 +11,12 @@ Step at a segment edge (the paper's Figure 7)
     by least squares to the output over ``window_s`` seconds just before the crossing and
     another over ``window_s`` seconds just after; the step is the difference of the two
     lines at the crossing time. The local trends are thus extrapolated to the crossing, and
-    the step is what they do not explain. The largest absolute step per run and channel is
-    reported, for the raw output (a control: a smooth output has none) and for the
-    compensated output. The edges are the sectional model's own, or, for the other methods,
-    the midpoints between the calibration set points stored in the model file.
+    the step is what they do not explain; for a smooth output the quadratic terms of the two
+    one-sided extrapolations cancel and only a third-order term (``~ y''' h³``) remains.
+    The largest absolute step per run and channel is reported, for the raw output (a
+    control: a smooth output has none) and for the compensated output. The edges are the
+    sectional model's own, or, for the other methods, the midpoints between the
+    calibration set points stored in the model file.
 """
 
 from __future__ import annotations
