@@ -116,7 +116,7 @@ def to_px4_params(model: ThermalModelFile, gyro_id: int = 0, accel_id: int = 0) 
         tref = float(np.mean([ax[1] for ax in axes]))
         put(f"TC_{tag}_ENABLE", 1, 6)
         put(f"TC_{tag}0_ID", int(dev), 6)
-        coefs = [poly_shift(coef, tref - t_ref, 1.0) for coef, t_ref, _, _ in axes]
+        coefs = [poly_shift(coef, t_ref - tref, 1.0) for coef, t_ref, _, _ in axes]
         for k in (3, 2, 1, 0):
             for i, coef in enumerate(coefs):
                 put(f"TC_{tag}0_X{k}_{i}", float(coef[k]))
@@ -157,7 +157,7 @@ def to_ardupilot_parm(model: ThermalModelFile, imu: int = 1) -> str:
         axes = _poly_t_si(model, sensor)
         per_axis = []
         for coef, t_ref, lo, hi in axes:
-            about35 = poly_shift(coef, ARDUPILOT_TREF_C - t_ref, 1.0)
+            about35 = poly_shift(coef, t_ref - ARDUPILOT_TREF_C, 1.0)
             per_axis.append(about35)
             tmin, tmax = max(tmin, lo), min(tmax, hi)
         blocks[tag] = per_axis
@@ -232,7 +232,7 @@ def to_c_header(model: ThermalModelFile, prefix: str = "rinscal") -> str:
         " * f(T, Tdot, dT): T inner temperature [degC], Tdot its rate [degC/min]",
         f" * ({model.derivative_kind} least-squares slope over {model.derivative_window_s:g} s),",
         " * dT = T - T_outer [degC]. Returns the modelled output in the log's units;",
-        " * compensated = raw - (f - STATIC_REF). No clamping: see the *_MIN/*_MAX macros. */",
+        " * compensated = raw - (f - STATIC_REF). No clamping: see the _MIN and _MAX macros. */",
         f"#ifndef {guard}",
         f"#define {guard}",
         "#include <math.h>",
@@ -253,7 +253,6 @@ def to_c_header(model: ThermalModelFile, prefix: str = "rinscal") -> str:
         body: list[str] = []
         if p["method"] == "poly-t":
             coef = [float(v) for v in p["coef"]]
-            lines.append(_carr(f"{fn}_coef", np.asarray(coef)))
             body.append(f"  const double d = T - {_c(p['t_ref'])};")
             if len(coef) == 1:
                 body.append(f"  return {_c(coef[0])};")
