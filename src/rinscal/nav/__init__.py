@@ -1,1 +1,24 @@
-"""Navigation: Earth model, rotation schedules, trajectories, ideal IMU, strapdown, alignment."""
+"""Navigation: Earth model, rotation schedules, trajectories, ideal IMU, strapdown, alignment.
+
+Modules
+-------
+:mod:`~rinscal.nav.earth`
+    WGS84 radii, normal gravity, Earth rate (ENU).
+:mod:`~rinscal.nav.rotation`
+    The rotating IMU frame ``r`` on the turntable (axis = body z, encoder angle φ) and its
+    schedules: four-position, continuous, none (paper Eqs. 1-9).
+:mod:`~rinscal.nav.trajectory`
+    Carrier motions: quasi-static, swinging base (Table 9), land-vehicle route (5.2.2).
+:mod:`~rinscal.nav.imu`
+    Exact ideal-IMU synthesis of r-frame angle and velocity increments, chunk by chunk.
+:mod:`~rinscal.nav.strapdown`
+    The strapdown integrator (numba kernel in :mod:`~rinscal.nav._kernels`).
+:mod:`~rinscal.nav.align`
+    Inertial-frame coarse alignment and zero-velocity Kalman fine alignment.
+:mod:`~rinscal.nav.scenario`
+    Scenarios with the thermal plant alongside, compensation variants, position errors.
+:mod:`~rinscal.nav.plots`
+    Figures 9, 11, 12, 15, 16 of the paper for a run.
+
+Nothing is imported here, so importing :mod:`rinscal.nav` loads no numba kernel.
+"""

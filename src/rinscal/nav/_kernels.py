@@ -491,6 +491,7 @@ def rotate_increments(
     period: float,
     offset: float,
     t_start: float,
+    const: bool,
     dtheta: np.ndarray,
     dv: np.ndarray,
     phi_end: np.ndarray,
@@ -507,16 +508,17 @@ def rotate_increments(
         Interval edges.
     w_b, f_b : ndarray, shape (n, 4, 3) or (1, 4, 3)
         Body angular rate ω_ib^b [rad/s] and specific force f^b [m/s²] at the four
-        Gauss-Legendre nodes of each interval; a leading dimension of 1 means constant.
+        Gauss-Legendre nodes of each interval.
     starts, coefs, period, offset, t_start
         The schedule (see :class:`rinscal.nav.rotation.RotationSchedule`).
+    const : bool
+        The body signals are constant: only ``w_b[0, 0]`` and ``f_b[0, 0]`` are used.
     dtheta, dv : ndarray, shape (n, 3)
         Output increments [rad], [m/s].
     phi_end : ndarray, shape (n,)
         Output encoder angle at the end of each interval [rad].
     """
     n = t_edges.shape[0] - 1
-    const = w_b.shape[0] == 1
     xs = np.empty(4)
     for i in range(n):
         ta = t_edges[i]

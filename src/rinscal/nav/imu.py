@@ -194,7 +194,7 @@ class ImuSynthesizer:
         phi = np.empty(n)
         starts, coefs, period, offset, t_start = self._sched
         _kernels.rotate_increments(
-            edges, w_b, f_b, starts, coefs, period, offset, t_start, dtheta, dv, phi
+            edges, w_b, f_b, starts, coefs, period, offset, t_start, tr.is_static, dtheta, dv, phi
         )
         self._k = k0 + n
         return ImuChunk(k0, edges[1:], dtheta, dv, phi, lat, lon, alt, v_n, euler)

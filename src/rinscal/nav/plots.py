@@ -62,6 +62,7 @@ def plot_position_error(result: NavResult, title: str | None = None) -> Figure:
             transform=ax.get_xaxis_transform(),
             ha="center",
             va="bottom",
+            rotation=90,
             fontsize=8,
         )
     ax.set_xlim(0, c.duration_s / units.HOUR_TO_S)

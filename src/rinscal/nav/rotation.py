@@ -160,7 +160,7 @@ class RotationSchedule:
         Parameters
         ----------
         dwell_s : float [s]
-            Time at rest at each position.
+            Time at rest at each position (0, or at least 1 ns).
         rate_dps : float [deg/s]
             Cruise rate of a move.
         accel_dps2 : float or None [deg/s²]
@@ -187,7 +187,7 @@ class RotationSchedule:
         t = 0.0
         for i, p in enumerate(pos):
             nxt = pos[(i + 1) % len(pos)]
-            if dwell_s > 0:
+            if dwell_s > 1e-9:  # dwells shorter than 1 ns are ignored
                 starts.append(t)
                 coefs.append((p, 0.0, 0.0))
                 t += dwell_s
