@@ -89,10 +89,10 @@ def navigate(
         raise fail(f"--policy must be clamp, extrapolate or error, got {policy!r}")
 
     try:
-        from rinscal.nav.align import AlignConfig
         from rinscal.nav.rotation import schedule_from_name
         from rinscal.nav.scenario import (
             ThermalPlant,
+            align_for,
             model_compensator,
             oracle_compensator,
             preset,
@@ -101,12 +101,11 @@ def navigate(
         )
         from rinscal.thermal.plant import ImuConfig
 
-        coarse = min(60.0, align_s / 3)
-        align = AlignConfig(coarse_s=coarse, fine_s=align_s - coarse)
+        imu = ImuConfig.from_toml(imu_config) if imu_config else ImuConfig.navigation_grade()
+        align = align_for(imu, total_s=align_s)
         cfg = preset(
             scenario, hours=hours, rate_hz=rate, align=align, schedule=schedule_from_name(rotation)
         )
-        imu = ImuConfig.from_toml(imu_config) if imu_config else ImuConfig.navigation_grade()
         assert cfg.chamber is not None
         plant = ThermalPlant(imu, cfg.chamber, cfg.duration_s, cfg.rate_hz, seed=seed)
         comps: dict[str, object] = {"none": None}

@@ -219,6 +219,30 @@ def preset(
     )
 
 
+def align_for(imu: ImuConfig, total_s: float = 600.0, coarse_s: float = 60.0) -> AlignConfig:
+    """Alignment settings whose filter noise matches an IMU plant.
+
+    Parameters
+    ----------
+    imu : ImuConfig
+        The plant (its white-noise densities set the filter's process noise).
+    total_s : float [s]
+        Coarse plus fine alignment time.
+    coarse_s : float [s]
+        Coarse stage (at most a third of ``total_s``).
+    """
+    if not (math.isfinite(total_s) and total_s > 0):
+        raise ConfigError(f"alignment time must be > 0 s, got {total_s}")
+    coarse = min(coarse_s, total_s / 3)
+    wd = imu.noise.white_density_si()
+    return AlignConfig(
+        coarse_s=coarse,
+        fine_s=total_s - coarse,
+        gyro_noise_density=float(wd[0]),
+        accel_noise_density=float(wd[3]),
+    )
+
+
 # --------------------------------------------------------------------------- error sources
 def constant_errors(bias_r: NDArray[np.float64]) -> ErrorSource:
     """Constant sensor biases in ``r`` [rad/s ×3, m/s² ×3] as an error source."""
@@ -656,6 +680,7 @@ __all__ = [
     "NavResult",
     "ScenarioConfig",
     "ThermalPlant",
+    "align_for",
     "constant_errors",
     "model_compensator",
     "oracle_compensator",
