@@ -155,8 +155,8 @@ def test_tampered_coefficient_breaks_the_checksum(saved) -> None:
 @pytest.mark.parametrize(
     ("edit", "message"),
     [
-        (lambda p: p["channel_models"]["gyro_y"].pop("train_range"), "missing key.*train_range"),
-        (lambda p: p.pop("method"), "missing key payload.method"),
+        (lambda p: p["channel_models"]["gyro_y"].pop("train_range"), r"missing key.*train_range"),
+        (lambda p: p.pop("method"), r"missing key\(s\) payload.method"),
         (lambda p: p["channel_models"]["gyro_y"]["params"]["coef"].pop(), "coef"),
         (
             lambda p: p["channel_models"]["gyro_y"]["params"].__setitem__("edges", [5.0, 1.0]),

@@ -48,6 +48,14 @@ METHODS: tuple[str, ...] = ("poly-t", "sectional", "regression", "neural")
 
 _CHUNK = 1 << 15
 
+#: The keys of each method's parameter dictionary (exactly these).
+PARAM_KEYS: dict[str, tuple[str, ...]] = {
+    "poly-t": ("method", "t_ref", "coef"),
+    "regression": ("method", "orders", "center", "scale", "intercept", "coef"),
+    "sectional": ("method", "orders", "edges", "center", "scale", "intercept", "coef"),
+    "neural": ("method", "x_mean", "x_scale", "W", "b", "v", "b_out", "y_mean", "y_scale"),
+}
+
 
 def _horner(z: np.ndarray, coef: Sequence[float]) -> np.ndarray:
     """``Σ_{k=1..K} coef[k−1] z^k`` (no constant term)."""
@@ -320,6 +328,13 @@ def validate_params(params: Any) -> None:
     method = params.get("method")
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}; expected one of {', '.join(METHODS)}")
+    keys = set(PARAM_KEYS[method])
+    missing = sorted(keys - set(params))
+    if missing:
+        raise ValueError(f"missing key(s) {missing} of a {method} model")
+    extra = sorted(set(params) - keys)
+    if extra:
+        raise ValueError(f"unexpected key(s) {extra} in a {method} model")
     if method == "poly-t":
         _num(params, "t_ref")
         c = _arr(params, "coef", (None,))

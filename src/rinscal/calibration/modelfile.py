@@ -88,6 +88,22 @@ SCHEMA_VERSION = 1
 POLICIES: tuple[str, ...] = ("clamp", "extrapolate", "error")
 #: Input names, in feature-matrix column order.
 INPUT_NAMES: tuple[str, str, str] = ("T", "Tdot", "dT")
+#: Input units, in :data:`INPUT_NAMES` order.
+INPUT_UNITS: tuple[str, str, str] = ("degC", "degC/min", "degC")
+#: Name of the temperature-rate estimator (see :mod:`rinscal.calibration._rate`).
+RATE_ESTIMATOR = "windowed least-squares slope"
+#: Keys of the payload, of a channel's entry and of its metrics (exactly these).
+PAYLOAD_KEYS = ("method", "created_by", "channels", "features", "source", "channel_models")
+CHANNEL_KEYS = (
+    "params",
+    "unit",
+    "unit_to_si",
+    "static_reference",
+    "train_range",
+    "segment_edges",
+    "metrics",
+)
+METRIC_KEYS = ("rms_train", "rms_train_about_run_mean", "n_train", "n_outliers", "n_runs")
 _CHANNELS = ("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z")
 _HEX64 = re.compile(r"[0-9a-f]{64}")
 
@@ -205,12 +221,12 @@ class ThermalModelFile:
             "channels": list(self.channels),
             "features": {
                 "names": list(INPUT_NAMES[:k]),
-                "units": ["degC", "degC/min", "degC"][:k],
+                "units": list(INPUT_UNITS[:k]),
                 "use_gradient": bool(self.use_gradient),
                 "derivative": {
                     "kind": self.derivative_kind,
                     "window_s": float(self.derivative_window_s),
-                    "estimator": "windowed least-squares slope",
+                    "estimator": RATE_ESTIMATOR,
                 },
             },
             "source": self.source,
@@ -357,6 +373,7 @@ class ThermalModelFile:
                 raise ValueError(f"missing key {where}.{key}")
             return d[key]
 
+        _exact(p, PAYLOAD_KEYS, "payload")
         method = req(p, "method", "payload")
         if method not in METHODS:
             raise ValueError(f"unknown method {method!r}; expected one of {', '.join(METHODS)}")
@@ -368,17 +385,23 @@ class ThermalModelFile:
             or len(set(channels)) != len(channels)
         ):
             raise ValueError(f"channels must be distinct names among {_CHANNELS}, got {channels!r}")
-        created_by = p.get("created_by", "")
+        created_by = p["created_by"]
         if not isinstance(created_by, str):
             raise ValueError("created_by must be text")
         feats = req(p, "features", "payload")
+        _exact(feats, ("names", "units", "use_gradient", "derivative"), "features")
         use_gradient = req(feats, "use_gradient", "features")
         if not isinstance(use_gradient, bool):
             raise ValueError("features.use_gradient must be true or false")
         k = 3 if use_gradient else 2
         if req(feats, "names", "features") != list(INPUT_NAMES[:k]):
             raise ValueError(f"features.names must be {list(INPUT_NAMES[:k])}")
+        if req(feats, "units", "features") != list(INPUT_UNITS[:k]):
+            raise ValueError(f"features.units must be {list(INPUT_UNITS[:k])}")
         deriv = req(feats, "derivative", "features")
+        _exact(deriv, ("kind", "window_s", "estimator"), "features.derivative")
+        if deriv["estimator"] != RATE_ESTIMATOR:
+            raise ValueError(f"features.derivative.estimator must be {RATE_ESTIMATOR!r}")
         kind = req(deriv, "kind", "features.derivative")
         if kind not in ("centred", "causal"):
             raise ValueError(f"features.derivative.kind must be centred or causal, got {kind!r}")
@@ -391,7 +414,7 @@ class ThermalModelFile:
             raise ValueError(
                 f"features.derivative.window_s must be a positive number, got {window!r}"
             )
-        source = p.get("source", {})
+        source = p["source"]
         if not isinstance(source, dict):
             raise ValueError("source must be a JSON object")
         cms = req(p, "channel_models", "payload")
@@ -652,6 +675,18 @@ class ThermalModelFile:
         )
 
 
+def _exact(d: Any, keys: tuple[str, ...], where: str) -> None:
+    """``d`` must be an object with exactly ``keys``."""
+    if not isinstance(d, dict):
+        raise ValueError(f"{where} must be a JSON object")
+    missing = [k for k in keys if k not in d]
+    if missing:
+        raise ValueError(f"missing key(s) {', '.join(f'{where}.{k}' for k in missing)}")
+    extra = sorted(set(d) - set(keys))
+    if extra:
+        raise ValueError(f"unexpected key(s) {', '.join(f'{where}.{k}' for k in extra)}")
+
+
 def _finite(v: Any, what: str, positive: bool = False, allow_none: bool = True) -> float | None:
     if v is None and allow_none:
         return None
@@ -665,11 +700,7 @@ def _finite(v: Any, what: str, positive: bool = False, allow_none: bool = True) 
 
 
 def _channel_from_dict(d: Any, c: str, method: str, k: int) -> ChannelModel:
-    if not isinstance(d, dict):
-        raise ValueError(f"channel_models.{c} must be a JSON object")
-    for key in ("params", "train_range", "metrics"):
-        if key not in d:
-            raise ValueError(f"missing key channel_models.{c}.{key}")
+    _exact(d, CHANNEL_KEYS, f"channel_models.{c}")
     params = d["params"]
     try:
         validate_params(params)
@@ -694,12 +725,12 @@ def _channel_from_dict(d: Any, c: str, method: str, k: int) -> ChannelModel:
         if lo > hi:
             raise ValueError(f"channel_models.{c}.train_range.{name} has min > max")
         rng[j] = (lo, hi)
-    unit = d.get("unit")
+    unit = d["unit"]
     if unit is not None and not isinstance(unit, str):
         raise ValueError(f"channel_models.{c}.unit must be text or null")
-    k_si = _finite(d.get("unit_to_si"), f"channel_models.{c}.unit_to_si", positive=True)
-    ref = _finite(d.get("static_reference"), f"channel_models.{c}.static_reference")
-    edges = d.get("segment_edges")
+    k_si = _finite(d["unit_to_si"], f"channel_models.{c}.unit_to_si", positive=True)
+    ref = _finite(d["static_reference"], f"channel_models.{c}.static_reference")
+    edges = d["segment_edges"]
     e_arr = None
     if edges is not None:
         if not isinstance(edges, list) or not all(
@@ -711,8 +742,7 @@ def _channel_from_dict(d: Any, c: str, method: str, k: int) -> ChannelModel:
         if np.any(np.diff(e_arr) <= 0):
             raise ValueError(f"channel_models.{c}.segment_edges must be strictly increasing")
     metrics = d["metrics"]
-    if not isinstance(metrics, dict):
-        raise ValueError(f"channel_models.{c}.metrics must be a JSON object")
+    _exact(metrics, METRIC_KEYS, f"channel_models.{c}.metrics")
     mvals = {}
     for key, v in metrics.items():
         fv = _finite(v, f"channel_models.{c}.metrics.{key}", allow_none=False)
