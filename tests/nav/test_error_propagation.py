@@ -121,3 +121,28 @@ def test_constant_horizontal_biases_are_modulated_z_gyro_is_not() -> None:
     rot_z = _run(z, 4.0, 20.0, four, traj=traj)["horizontal_m"].to_numpy()
     assert still_z[-1] > 500.0
     assert 0.9 < rot_z[-1] / still_z[-1] < 1.1
+
+
+def test_vertical_channel_free_diverges_damped_holds() -> None:
+    """Free vertical channel with a vertical accelerometer bias ∇: δḧ = k δh + ∇ with the
+    gravity gradient k = 2g(1 + f + m − 2f sin²L)/a, so δh = (∇/k)(cosh(√k t) − 1)
+    (time constant ~ 570 s). The third-order damping loop keeps it bounded."""
+    b = 10 * UG
+    traj = SITE
+    bias = np.array([0, 0, 0, 0, 0, b])
+    kw = dict(align=None, out_dt_s=10.0)
+    free = ScenarioConfig("v", traj, RotationSchedule.none(), 3600.0, 10.0, vertical="free", **kw)
+    e = run_scenario(free, constant_errors(bias)).errors["none"]
+    t = e["time_s"].to_numpy()
+    s2 = math.sin(traj.lat0) ** 2
+    g0 = float(earth.gravity(traj.lat0, 0.0))
+    k = 2 * g0 * (1 + earth.F + earth.M_RATIO - 2 * earth.F * s2) / earth.A
+    pred = b / k * (np.cosh(math.sqrt(k) * t) - 1)
+    assert pred[-1] > 100.0
+    np.testing.assert_allclose(e["up_m"].to_numpy(), pred, rtol=0.02, atol=1e-3)
+    damped = ScenarioConfig(
+        "v", traj, RotationSchedule.none(), 3600.0, 10.0, vertical="damped", **kw
+    )
+    up = run_scenario(damped, constant_errors(bias)).errors["none"]["up_m"].to_numpy()
+    assert np.max(np.abs(up)) < 2.0
+    assert abs(up[-1]) < 0.1 * np.max(np.abs(up))  # the loop's integrator absorbs the bias

@@ -426,7 +426,7 @@ class NavResult:
         v_u`` [s, deg, deg, m, m/s ×3], ``heading_deg, pitch_deg, roll_deg, encoder_deg``.
     errors : dict of str to pandas.DataFrame
         Per variant: ``time_s``, position error ``east_m, north_m, horizontal_m,
-        horizontal_nmi``, INS position ``lat_deg, lon_deg``, velocity error ``v_e_err,
+        horizontal_nmi, up_m``, INS position ``lat_deg, lon_deg``, velocity error ``v_e_err,
         v_n_err`` [m/s], attitude error of the body frame ``att_e, att_n, att_u`` [rad].
     alignment : dict of str to AlignResult or None
         Per variant.
@@ -655,6 +655,7 @@ def _error_frame(truth: NDArray[np.float64], ins: NDArray[np.float64]) -> pd.Dat
             "north_m": north,
             "horizontal_m": horiz,
             "horizontal_nmi": horiz / units.NMI_TO_M,
+            "up_m": ins[:, 2] - alt_t,
             "lat_deg": ins[:, 0] / units.DEG_TO_RAD,
             "lon_deg": ins[:, 1] / units.DEG_TO_RAD,
             "v_e_err": ins[:, 3] - truth[:, 4],
