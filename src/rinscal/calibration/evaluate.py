@@ -163,6 +163,7 @@ def evaluate(
     derivative_kind: str | None = None,
     step: StepConfig | None = None,
     outliers: OutlierConfig | None = None,
+    edges: np.ndarray | list[float] | None = None,
 ) -> pd.DataFrame:
     """RMS before/after compensation and the largest step at a segment edge, per run and channel.
 
@@ -180,6 +181,10 @@ def evaluate(
         Step measurement.
     outliers : OutlierConfig, optional
         Masking of outliers from the statistics (default: as for fitting).
+    edges : array_like, optional [°C]
+        Segment edges to check for steps, for every channel (default: each channel's
+        ``segment_edges`` from the model file), e.g. a sectional model's edges to check
+        another model at the same temperatures.
 
     Returns
     -------
@@ -220,10 +225,11 @@ def evaluate(
                 "max_step_time_s": np.nan,
                 "max_step_edge_c": np.nan,
             }
-            if cm.segment_edges is not None and cm.segment_edges.size:
+            e = cm.segment_edges if edges is None else np.asarray(edges, dtype=np.float64)
+            if e is not None and e.size:
                 tr, temp = feats.time_s[r], feats.temp[r, j]
-                sa = edge_steps(tr, comp[r], temp, cm.segment_edges, step, feats.inlier[r, j])
-                sb = edge_steps(tr, y[r], temp, cm.segment_edges, step, feats.inlier[r, j])
+                sa = edge_steps(tr, comp[r], temp, e, step, feats.inlier[r, j])
+                sb = edge_steps(tr, y[r], temp, e, step, feats.inlier[r, j])
                 row["crossings"] = len(sa)
                 if sa:
                     i = int(np.argmax([abs(s[2]) for s in sa]))
