@@ -417,12 +417,17 @@ def build_features(
     outl = np.zeros((n, m), dtype=bool)
     removed = np.zeros((len(runs), m), dtype=np.int64)
     missing = np.zeros((len(runs), m), dtype=np.int64)
-    for k, r in enumerate(rows):
+    for k, idx in enumerate(rows):
+        # a run stored as one block (the usual case) is handled through views, not copies
+        r: slice | np.ndarray = idx
+        if idx.size and idx[-1] - idx[0] + 1 == idx.size:
+            r = slice(int(idx[0]), int(idx[-1]) + 1)
         tr = t[r]
         rate_u[r] = temperature_rate(tr, tmat_u[r], derivative)
-        o = outlier_mask(tr, output[r], outliers)
-        outl[r] = o
-        removed[k] = o.sum(axis=0)
+        if outliers.enabled:
+            o = outlier_mask(tr, output[r], outliers)
+            outl[r] = o
+            removed[k] = o.sum(axis=0)
         missing[k] = (~np.isfinite(output[r])).sum(axis=0)
     rate = rate_u[:, col_of]
     grad = None
