@@ -598,9 +598,17 @@ class Neural(_ThermalEstimator):
         -------
         Neural
         """
-        from sklearn.neural_network import MLPRegressor
+        from threadpoolctl import threadpool_limits
 
         X, y = self._validate_fit(X, y)
+        # the matrices are tiny (rows x a few neurons): one BLAS thread is fastest, and
+        # threads spinning on a busy machine made training 25 times slower
+        with threadpool_limits(limits=1, user_api="blas"):
+            return self._fit(X, y, groups)
+
+    def _fit(self, X: np.ndarray, y: np.ndarray, groups: Any) -> Neural:
+        from sklearn.neural_network import MLPRegressor
+
         n_hidden = int(self.hidden)
         if n_hidden < 1:
             raise ValueError(f"hidden must be at least 1, got {self.hidden!r}")
