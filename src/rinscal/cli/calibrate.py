@@ -144,7 +144,9 @@ def fit(
         str | None,
         typer.Option("--edges", help="sectional: segment edges in °C, e.g. 3.5,10.5,17.5."),
     ] = None,
-    window: Annotated[float, typer.Option("--window", help="Temperature-rate window [s].")] = 60.0,
+    window: Annotated[
+        float, typer.Option("--window", help="Temperature-rate window, seconds.")
+    ] = 60.0,
     causal: Annotated[
         bool, typer.Option("--causal", help="Causal temperature rate (for real-time use).")
     ] = False,
@@ -268,7 +270,9 @@ def select(
         str | None,
         typer.Option("--settings", help="Orders or neuron counts to try, e.g. 1,2,3,4."),
     ] = None,
-    window: Annotated[float, typer.Option("--window", help="Temperature-rate window [s].")] = 60.0,
+    window: Annotated[
+        float, typer.Option("--window", help="Temperature-rate window, seconds.")
+    ] = 60.0,
     max_samples: Annotated[
         int | None,
         typer.Option("--max-samples", help="neural: decimate training to this many rows."),
@@ -355,7 +359,7 @@ def select(
             if r["setting"] == res.best[c]:
                 mark.append("best")
             table.add_row(
-                f"{c} [{units.get(c) or '?'}]",
+                f"{c} ({units.get(c) or '?'})",
                 str(int(r["setting"])),
                 _fmt(r["rms_train"], 5),
                 _fmt(r["rms_heldout"], 5),
@@ -438,7 +442,7 @@ def evaluate_cmd(
         bool, typer.Option("--causal", help="Use the causal temperature rate.")
     ] = False,
     step_window: Annotated[
-        float, typer.Option("--step-window", help="Fit window on each side of an edge [s].")
+        float, typer.Option("--step-window", help="Fit window on each side of an edge, seconds.")
     ] = 120.0,
     as_json: JsonOpt = False,
     map_file: MapOpt = None,
@@ -500,7 +504,7 @@ def evaluate_cmd(
     for _, r in res.iterrows():
         table.add_row(
             str(r["run"]),
-            f"{r['channel']} [{r['unit'] or '?'}]",
+            f"{r['channel']} ({r['unit'] or '?'})",
             _fmt(r["rms_before"]),
             _fmt(r["rms_after"]),
             _fmt(r["ratio"], 3),
