@@ -1,5 +1,109 @@
-"""CLI commands: reproduce."""
+"""CLI command: ``rinscal reproduce`` — the paper's Section 5 end to end, one report."""
 
 from __future__ import annotations
 
-from rinscal.cli._app import app  # noqa: F401
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from rinscal.cli._app import app
+
+#: Measured wall time of the full reproduction on 2 cores with --jobs 2 [min] (see README).
+FULL_EXPECTED_MIN = 12
+
+
+@app.command("reproduce")
+def reproduce(
+    out: Annotated[Path, typer.Option("--out", "-o", help="Folder for report.html, PNG, CSV.")],
+    quick: Annotated[
+        bool, typer.Option("--quick", help="Shorter runs, lower rates (under 3 min on 2 cores).")
+    ] = False,
+    jobs: Annotated[
+        int, typer.Option("--jobs", "-j", min=1, help="Parallel processes for navigation runs.")
+    ] = 1,
+    seed: Annotated[int, typer.Option("--seed", help="Seed of every random number.")] = 0,
+) -> None:
+    """Re-run every experiment of the paper's Section 5 on the built-in plant.
+
+    Writes OUT/report.html (self-contained), OUT/figures/*.png, OUT/tables/*.csv,
+    OUT/models/*.json (the fitted models) and OUT/metrics.json.
+    """
+    import json
+    import time
+
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from rinscal.cli._app import console, fail
+    from rinscal.errors import RinscalError
+    from rinscal.experiments.paper import (
+        ReproConfig,
+        calibration_stage,
+        claims,
+        navigation_jobs,
+        navigation_stage,
+    )
+    from rinscal.io import write_atomic
+    from rinscal.report.paper_report import write_reproduction
+
+    cfg = ReproConfig.quick_preset(seed, jobs) if quick else ReproConfig.full(seed, jobs)
+    if out.exists() and not out.is_dir():
+        raise fail(f"{out}: exists and is not a folder")
+    n_nav = len(navigation_jobs(cfg))
+    if quick:
+        console.print(f"quick reproduction, seed {seed}: expect about 2 minutes", highlight=False)
+    else:
+        console.print(
+            f"full reproduction, seed {seed}, {jobs} process(es): expect about "
+            f"{FULL_EXPECTED_MIN * 2 // max(1, min(jobs, 2))} minutes on a 2-core machine "
+            "(use --quick for a 2-minute version)",
+            highlight=False,
+        )
+    timings: dict[str, float] = {}
+    t_all = time.perf_counter()
+    columns = (
+        TextColumn("{task.description}"),
+        BarColumn(),
+        TextColumn("{task.fields[what]}"),
+        TimeElapsedColumn(),
+    )
+    try:
+        with Progress(*columns, console=console) as progress:
+            t0 = time.perf_counter()
+            cal_task = progress.add_task("calibration", total=9, what="")
+
+            def cal_step(what: str) -> None:
+                progress.update(cal_task, advance=1, what=what)
+
+            cal = calibration_stage(cfg, step=cal_step)
+            progress.update(cal_task, completed=9, what="done")
+            timings["calibration (simulate, fit, select, held-out)"] = time.perf_counter() - t0
+
+            t0 = time.perf_counter()
+            nav_task = progress.add_task("navigation", total=n_nav, what="")
+
+            def nav_done(r: object) -> None:
+                job = r.job  # type: ignore[attr-defined]
+                progress.update(nav_task, advance=1, what=f"{job.scenario} {job.index}")
+
+            nav = navigation_stage(cfg, cal.models, done=nav_done)
+            timings["navigation (all runs)"] = time.perf_counter() - t0
+
+            t0 = time.perf_counter()
+            rep_task = progress.add_task("report", total=1, what="figures, tables, html")
+            written = write_reproduction(out, cfg, cal, nav, timings)
+            progress.update(rep_task, advance=1, what="done")
+    except RinscalError as exc:
+        raise fail(str(exc)) from None
+    timings["report"] = time.perf_counter() - t0
+    total = time.perf_counter() - t_all
+    checked = claims(cal, written.maxerr)
+    metrics = json.loads(written.metrics_path.read_text())
+    metrics["timings_s"] = {**timings, "total": total}
+    text = json.dumps(metrics, indent=2, allow_nan=True) + "\n"
+    write_atomic(written.metrics_path, lambda tmp: tmp.write_text(text))
+    console.print(f"wrote {out / 'report.html'} in {total:.0f} s", highlight=False)
+    for c in checked.values():
+        mark = "[green]holds[/]" if c["holds"] else "[red]does not hold[/]"
+        tag = "asserted" if c["asserted"] else "reported"
+        console.print(f"  {mark} ({tag}) {c['what']}", highlight=False)

@@ -40,6 +40,7 @@ th, td { border: 1px solid var(--line); padding: .25rem .5rem; text-align: right
          white-space: nowrap; }
 th { background: #f6f8fa; }
 td:first-child, th:first-child { text-align: left; }
+td.wrap { white-space: normal; text-align: left; min-width: 18ch; max-width: 44ch; }
 .verdict-pass { color: #1a7f37; font-weight: 600; }
 .verdict-fail { color: #cf222e; font-weight: 600; }
 nav ol { columns: 2; font-size: .92rem; }
@@ -111,7 +112,12 @@ class Section:
         head = "".join(f"<th>{html.escape(str(c))}</th>" for c in df.columns)
         rows = []
         for _, row in df.iterrows():
-            cells = "".join(f"<td>{html.escape(fmt(v))}</td>" for v in row.to_numpy())
+            cells = "".join(
+                f'<td class="wrap">{html.escape(fmt(v))}</td>'
+                if isinstance(v, str) and len(v) > 28
+                else f"<td>{html.escape(fmt(v))}</td>"
+                for v in row.to_numpy()
+            )
             rows.append(f"<tr>{cells}</tr>")
         self.blocks.append(
             Block(

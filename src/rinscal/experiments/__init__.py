@@ -1,0 +1,1 @@
+"""The paper's experiments, one function per table or figure."""
