@@ -97,7 +97,7 @@ def reproduce(
         raise fail(str(exc)) from None
     timings["report"] = time.perf_counter() - t0
     total = time.perf_counter() - t_all
-    checked = claims(cal, written.maxerr)
+    checked = claims(cal, written.maxerr, written.tables["thermal_part"])
     metrics = json.loads(written.metrics_path.read_text())
     metrics["timings_s"] = {**timings, "total": total}
     text = json.dumps(metrics, indent=2, allow_nan=True) + "\n"
