@@ -93,6 +93,37 @@ def test_run_names_that_look_like_numbers_stay_text(tmp_path):
     assert read_log(tmp_path / "r.csv")["run"].unique().tolist() == ["007", "1e3"]
 
 
+@pytest.mark.parametrize("suffix", [".csv", ".tsv"])
+def test_run_names_that_look_missing_stay_text(tmp_path, suffix):
+    # pandas reads "NA", "None", "nan", "null" as missing by default (found by the
+    # round-trip property test); in the run column they are names, only an empty cell is not
+    names = ("NA", "None", "nan", "null", "N/A")
+    df = make_log(runs=names)
+    path = tmp_path / f"r{suffix}"
+    write_log(df, path)
+    back = read_log(path)
+    assert back["run"].unique().tolist() == list(names)
+    assert_same_log(df, back)  # the dropout in gyro_y is still NaN
+    # an empty run cell is still refused, with its row
+    sep = "\t" if suffix == ".tsv" else ","
+    lines = path.read_text().splitlines()
+    cells = lines[2].split(sep)
+    assert cells[1] == "NA"
+    cells[1] = ""
+    lines[2] = sep.join(cells)
+    bad = write_text(tmp_path, f"e{suffix}", "\n".join(lines) + "\n")
+    with pytest.raises(LogError, match=r"'run', data row 2: empty run name"):
+        read_log(bad)
+
+
+def test_an_empty_string_run_name_is_refused_before_writing(tmp_path):
+    df = make_log()
+    df.loc[4, "run"] = ""
+    with pytest.raises(LogError, match=r"data row 5: empty run name"):
+        write_log(df, tmp_path / "x.csv")
+    assert not (tmp_path / "x.csv").exists()
+
+
 def test_explicit_format_overrides_suffix(tmp_path):
     df = make_log()
     write_log(df, tmp_path / "log.dat", fmt="tsv")

@@ -104,6 +104,12 @@ _CHANNEL_GROUPS = {"gyro": CHANNELS[:3], "accel": CHANNELS[3:]}
 _CSV_READ_KW: dict[str, Any] = (
     {"float_precision": "round_trip"} if int(pd.__version__.split(".")[0]) < 3 else {}
 )
+# pandas' default missing-value strings (documented for read_csv). They apply to every column
+# but the run name: a run called "NA", "None" or "nan" is a name, only an empty cell is missing.
+_NA_STRINGS = (
+    "", "#N/A", "#N/A N/A", "#NA", "-1.#IND", "-1.#QNAN", "-NaN", "-nan", "1.#IND", "1.#QNAN",
+    "<NA>", "N/A", "NA", "NULL", "NaN", "None", "n/a", "nan", "null",
+)  # fmt: skip
 
 
 # --------------------------------------------------------------------------- mapping
@@ -448,7 +454,17 @@ def _read_table(p: Path, fmt: Format, mapping: ColumnMapping | None) -> pd.DataF
     if mapping is not None:
         run_name = next((f for f, c in mapping.columns.items() if c == RUN), RUN)
     try:
-        df = pd.read_csv(p, sep=sep, dtype={run_name: str}, encoding="utf-8-sig", **_CSV_READ_KW)
+        header_cols = pd.read_csv(p, sep=sep, nrows=0, encoding="utf-8-sig").columns
+        na = {c: [""] if c == run_name else list(_NA_STRINGS) for c in header_cols}
+        df = pd.read_csv(
+            p,
+            sep=sep,
+            dtype={run_name: str},
+            encoding="utf-8-sig",
+            keep_default_na=False,
+            na_values=na,
+            **_CSV_READ_KW,
+        )
     except pd.errors.EmptyDataError:
         raise LogError(f"{p}: empty file, no header and no data") from None
     except pd.errors.ParserError as exc:

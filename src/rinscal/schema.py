@@ -286,8 +286,9 @@ def validate_log(
     out = df.copy(deep=False)
     out.columns = cols
     run = out[RUN]
-    if run.isna().any():
-        pos = int(np.argmax(run.isna().to_numpy()))
+    empty = run.isna().to_numpy() | (run == "").to_numpy(dtype=bool, na_value=False)
+    if empty.any():
+        pos = int(np.argmax(empty))
         raise LogError(
             f"{source}: {_label(RUN, names)}, data row {pos + 1}: empty run name ({_ROWS})"
         )
