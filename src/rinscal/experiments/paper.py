@@ -30,8 +30,8 @@ import numpy as np
 import pandas as pd
 
 from rinscal import units
-from rinscal.calibration.compensate import model_features, predict_log
-from rinscal.calibration.evaluate import StepConfig, edge_steps, evaluate
+from rinscal.calibration.compensate import predict_log
+from rinscal.calibration.evaluate import evaluate
 from rinscal.calibration.model import ThermalModel
 from rinscal.calibration.modelfile import ThermalModelFile
 from rinscal.calibration.selection import SelectionResult, select_model
@@ -229,97 +229,55 @@ def _fit(
     return model.fit(log, meta).to_file(source={"log": f"simulated soak, seed {cfg.seed}"})
 
 
-def heldout_residuals(
+def heldout_tables(
     models: Mapping[str, ThermalModelFile],
     logs: Mapping[str, pd.DataFrame],
     truths: Mapping[str, pd.DataFrame],
-) -> pd.DataFrame:
-    """Held-out thermal residual: RMS of (predicted − true bias), each run's mean removed.
+) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Held-out thermal residual and segment-edge steps, from
+    :func:`rinscal.experiments.calibration_tables.heldout_table`.
 
-    The static output and the turn-on offset are constants per run, so removing each run's
-    mean leaves exactly the part of the thermal bias a model gets wrong over time. The
-    ``uncompensated`` row is the true thermal bias itself (its variation over the run).
+    The residual is ``predicted − true`` thermal bias with each run's mean removed (the
+    static output and the turn-on offset are constants per run); its RMS is the part of the
+    thermal bias a model gets wrong over time. The ``none`` row is the true thermal bias
+    itself. Steps: where the inner temperature crosses one of the sectional model's edges,
+    the jump of that residual (``model_step``: the truth is smooth, so this is the model's
+    own jump, free of sensor noise) and of the compensated output as
+    :func:`rinscal.calibration.evaluate.evaluate` measures it (``output_step``: noisy).
 
     Returns
     -------
-    DataFrame
-        ``log, method, <channel>...`` in log units (deg/h, µg).
+    residual : DataFrame
+        ``log, method, <channel>...`` [log units: deg/h, µg].
+    steps : DataFrame
+        ``log, method, channel, crossings, model_step, output_step`` [log units].
     """
-    rows = []
+    from rinscal.experiments.calibration_tables import heldout_table
+
+    res_rows, step_rows = [], []
+    edges = np.asarray(models["sectional"].models["accel_x"].segment_edges, dtype=float)
     for name, log in logs.items():
-        truth = truths[name]
-        tb = truth[[f"bias_{c}" for c in CHANNELS]].to_numpy()
-        codes = pd.factorize(log["run"])[0]
-
-        def rms_about_run_mean(r: np.ndarray, codes: np.ndarray = codes) -> np.ndarray:
-            out = np.empty(r.shape[1])
-            for j in range(r.shape[1]):
-                ok = np.isfinite(r[:, j])
-                means = np.bincount(codes[ok], r[ok, j]) / np.maximum(np.bincount(codes[ok]), 1)
-                d = r[ok, j] - means[codes[ok]]
-                out[j] = float(np.sqrt(np.mean(d**2)))
-            return out
-
-        rows.append(
-            {
-                "log": name,
-                "method": "none",
-                **dict(zip(CHANNELS, rms_about_run_mean(tb), strict=True)),
-            }
-        )
+        long = heldout_table(log, log, truths[name], models=models, policy="clamp")
+        long["method"] = long["method"].replace({"uncompensated": "none"})
+        rms = long.pivot_table(index="method", columns="channel", values="rms", sort=False)
+        for method, row in rms.iterrows():
+            res_rows.append({"log": name, "method": method, **{c: row[c] for c in CHANNELS}})
         for method, model in models.items():
-            f, _ = predict_log(log, model, policy="clamp")
-            order = [model.channels.index(c) for c in CHANNELS]
-            r = f[:, order] - tb
-            rows.append(
-                {
-                    "log": name,
-                    "method": method,
-                    **dict(zip(CHANNELS, rms_about_run_mean(r), strict=True)),
-                }
-            )
-    return pd.DataFrame(rows)
-
-
-def edge_step_table(
-    models: Mapping[str, ThermalModelFile], log: pd.DataFrame, edges: np.ndarray
-) -> pd.DataFrame:
-    """Steps at the sectional model's segment edges on one log.
-
-    Two measures per method and channel, at every crossing of an edge by the inner
-    temperature: ``model_step``, the jump of the model's own output (its prediction, so no
-    sensor noise), and ``output_step``, the jump of the compensated output as
-    :func:`rinscal.calibration.evaluate.evaluate` measures it (noisy). Both are after minus
-    before, from line fits over 2 min on each side; the largest in magnitude is reported.
-
-    Returns
-    -------
-    DataFrame
-        ``method, channel, crossings, model_step, output_step`` in log units.
-    """
-    step = StepConfig()
-    rows = []
-    for method, model in models.items():
-        feats = model_features(log, model)
-        f, _ = predict_log(log, model, policy="clamp", features=feats)
-        ev = evaluate(log, model, policy="clamp", edges=edges)
-        for j, c in enumerate(model.channels):
-            steps: list[float] = []
-            for k in range(len(feats.runs)):
-                r = np.flatnonzero(feats.run_codes == k)
-                s = edge_steps(feats.time_s[r], f[r, j], feats.temp[r, j], edges, step)
-                steps += [abs(x[2]) for x in s]
-            out = ev.loc[ev["channel"] == c, "max_step_after"]
-            rows.append(
-                {
-                    "method": method,
-                    "channel": c,
-                    "crossings": len(steps),
-                    "model_step": max(steps) if steps else float("nan"),
-                    "output_step": float(out.max()) if out.notna().any() else float("nan"),
-                }
-            )
-    return pd.DataFrame(rows)
+            ev = evaluate(log, model, policy="clamp", edges=edges)
+            for c in CHANNELS:
+                sel = long[(long["method"] == method) & (long["channel"] == c)]
+                out = ev.loc[ev["channel"] == c, "max_step_after"]
+                step_rows.append(
+                    {
+                        "log": name,
+                        "method": method,
+                        "channel": c,
+                        "crossings": int(sel["crossings"].sum()),
+                        "model_step": float(sel["max_step"].max()),
+                        "output_step": float(out.max()) if out.notna().any() else float("nan"),
+                    }
+                )
+    return pd.DataFrame(res_rows), pd.DataFrame(step_rows)
 
 
 _INPUTS = ("T", "Ṫ", "ΔT")
@@ -435,13 +393,14 @@ def calibration_stage(
     res.tables.update(coefficient_tables(models))
     res.tables["table5"] = selection_table(sel_reg)
     res.tables["table7"] = selection_table(sel_nn)
-    res.tables["heldout_residual"] = heldout_residuals(
+    residual, steps = heldout_tables(
         models,
         {"repeat": logs["repeat"], "ramp": logs["ramp"]},
         {"repeat": truths["repeat"], "ramp": truths["ramp"]},
     )
-    edges = np.asarray(models["sectional"].models["accel_x"].segment_edges, dtype=float)
-    res.tables["repeat_steps"] = edge_step_table(models, logs["repeat"], edges)
+    res.tables["heldout_residual"] = residual
+    res.tables["repeat_steps"] = steps[steps["log"] == "repeat"].drop(columns="log")
+    res.tables["ramp_steps"] = steps[steps["log"] == "ramp"].drop(columns="log")
     res.repeat_curves = repeat_curves(models, logs["repeat"])
     return res
 
@@ -852,7 +811,7 @@ __all__ = [
     "ReproConfig",
     "calibration_stage",
     "claims",
-    "heldout_residuals",
+    "heldout_tables",
     "max_error_table",
     "navigation_jobs",
     "navigation_stage",

@@ -293,6 +293,12 @@ def build_report(
         "Steps at the sectional segment edges on the repeat run: the model's own jump "
         "(noise-free) and the compensated output's (line fits, noisy)",
     )
+    s.table(
+        "ramp_steps",
+        tables["ramp_steps"],
+        "The same on the chamber ramp (every ramp sample lies outside the soak training range "
+        "in ΔT; inputs are clamped to it)",
+    )
     s.figure("repeat", figures["repeat"], "Figures 7 and 8: repeat cold start at 25 °C")
 
     s = rep.section("Navigation in the chamber ramp (Figure 9)", "ramp")
