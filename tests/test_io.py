@@ -22,19 +22,10 @@ from rinscal.io import (
     write_meta,
 )
 from rinscal.schema import CHANNELS
+from tests._shared import real_log_path
 
 REPO = Path(__file__).resolve().parents[1]
 EXAMPLE_MAPPING = REPO / "examples" / "tofupilot_mapping.toml"
-REAL_NAME = "tofupilot_imu_thermal_cycle.tsv"
-
-
-def real_log_dir() -> Path:
-    """``shared/data/real`` beside the repository, or under $RINSCAL_SHARED."""
-    env = os.environ.get("RINSCAL_SHARED")
-    if env:
-        base = Path(env)
-        return base / "data" / "real" if (base / "data").is_dir() else base
-    return REPO.parent / "shared" / "data" / "real"
 
 
 def make_log(n: int = 6, runs: tuple[str, ...] = ("soak_+07C", "soak_+14C")) -> pd.DataFrame:
@@ -392,7 +383,7 @@ def test_mapping_from_cli_options_overrides_a_file(tmp_path):
 
 
 def test_real_thermal_cycle_log_loads_through_the_example_mapping():
-    path = real_log_dir() / REAL_NAME
+    path = real_log_path()
     if not path.is_file():
         pytest.skip(f"real log not found at {path} (set RINSCAL_SHARED)")
     mapping = read_mapping(EXAMPLE_MAPPING)

@@ -15,6 +15,7 @@ from rinscal.cli import app
 from rinscal.io import read_log, write_log, write_meta
 from rinscal.report.logplot import decimate, plot_log, pretty_unit, units_from_meta
 from rinscal.schema import CHANNELS, TEMP_CHANNELS
+from tests._shared import real_log_path
 
 REPO = Path(__file__).resolve().parents[1]
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -221,12 +222,9 @@ def _write_canonical(tmp_path: Path) -> Path:
 
 
 def test_plot_command_on_the_real_log(tmp_path):
-    shared = os.environ.get("RINSCAL_SHARED")
-    base = Path(shared) if shared else REPO.parent / "shared"
-    real_dir = base / "data" / "real" if (base / "data").is_dir() else base
-    real = real_dir / "tofupilot_imu_thermal_cycle.tsv"
+    real = real_log_path()
     if not real.is_file():
-        pytest.skip(f"real log not found at {real}")
+        pytest.skip(f"real log not found at {real} (set RINSCAL_SHARED)")
     out = tmp_path / "real.png"
     res = invoke(
         str(real), "--map", str(REPO / "examples" / "tofupilot_mapping.toml"), "--out", str(out)

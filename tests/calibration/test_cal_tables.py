@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -15,10 +13,9 @@ from rinscal.experiments.calibration_tables import (
     wide,
 )
 from rinscal.io import read_log
+from tests._shared import real_log_path
 
-REAL = (
-    Path(__file__).resolve().parents[2].parent / "shared/data/real/tofupilot_imu_thermal_cycle.tsv"
-)
+REAL = real_log_path()
 
 
 def test_heldout_table_on_the_quiet_plant(soak_quiet, repeat_quiet) -> None:
@@ -38,7 +35,7 @@ def test_heldout_table_on_the_quiet_plant(soak_quiet, repeat_quiet) -> None:
     assert (steps["sectional"][acc] > 20 * steps["regression"][acc]).all()
 
 
-@pytest.mark.skipif(not REAL.is_file(), reason="real log not present")
+@pytest.mark.skipif(not REAL.is_file(), reason=f"real log not found at {REAL} (set RINSCAL_SHARED)")
 def test_real_log_is_cut_at_its_turning_points() -> None:
     log = real_log_legs(read_log(REAL, tofupilot_mapping()))
     legs = log.groupby("run", sort=False)["temp_in"].agg(["first", "last", "min", "max", "size"])
@@ -50,7 +47,7 @@ def test_real_log_is_cut_at_its_turning_points() -> None:
     assert legs.loc["leg3_cool", "max"] == pytest.approx(73.9, abs=0.2)
 
 
-@pytest.mark.skipif(not REAL.is_file(), reason="real log not present")
+@pytest.mark.skipif(not REAL.is_file(), reason=f"real log not found at {REAL} (set RINSCAL_SHARED)")
 def test_real_log_table_fits_on_two_legs_and_judges_the_third() -> None:
     tab, models = real_log_table(REAL, methods=("poly-t", "regression"))
     assert set(tab["run"]) == {"leg3_cool"} and set(tab["method"]) == {"poly-t", "regression"}
