@@ -121,7 +121,7 @@ class ReproConfig:
     repeat_hours: float = 3.0
     neural_max_samples: int = 20000
     selection_neural_params: Mapping[str, Any] = field(
-        default_factory=lambda: {"max_samples": 4000, "n_init": 2, "refine_max_nfev": 100}
+        default_factory=lambda: {"max_samples": 2000, "n_init": 1, "refine_max_nfev": 50}
     )
     nav_rate_hz: float = 100.0
     swing_rate_hz: float = 100.0
@@ -411,7 +411,8 @@ def repeat_curves(
     """x-axis outputs of the repeat run before and after each compensation, in bins of
     ``bin_s`` [s] (Figures 7 and 8): ``time_s, temp_<ch>, raw_<ch>, <method>_<ch>``."""
     t = log["time_s"].to_numpy()
-    bins = np.floor(t / bin_s).astype(int)
+    # time stamps end their sample interval: (t − ε) keeps the last sample in the last bin
+    bins = np.floor((t - 1e-9) / bin_s).astype(int)
     cols: dict[str, np.ndarray] = {}
 
     def binned(y: np.ndarray) -> np.ndarray:
