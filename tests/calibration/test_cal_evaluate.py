@@ -17,8 +17,11 @@ def test_crossings_count_once_with_hysteresis() -> None:
     crossings = edge_crossings(temp, 23.0, hysteresis=0.2)
     assert crossings.size == 2
     up, down = crossings
-    assert temp[up] > 23.0 >= temp[up - 1] or temp[up - 1] <= 23.0
-    assert temp[down] <= 23.0
+    # the first sample on the new side (segment rule edges[k-1] < T <= edges[k]) ...
+    assert temp[up] > 23.0 >= temp[up - 1]
+    assert temp[down] <= 23.0 < temp[down - 1]
+    # ... near where the noise-free curve crosses: sin(pi t / 2000) = 1/2
+    assert abs(up - 2000 / 6) < 30 and abs(down - 2000 * 5 / 6) < 30
     # without hysteresis the thermometer noise makes the edge chatter
     assert edge_crossings(temp, 23.0, hysteresis=0.0).size > 2
 

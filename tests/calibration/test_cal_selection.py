@@ -59,14 +59,26 @@ def test_tolerance_picks_the_smallest_good_setting() -> None:
     assert loose.recommended["accel_z"] == 1
 
 
-def test_neural_selection_runs_on_held_out_runs(soak_small) -> None:
-    log, _, _ = soak_small
+def test_neural_selection_needs_more_neurons_for_more_curvature() -> None:
+    # quadratics in T, Ṫ and ΔT at once: one sigmoid neuron bends along a single direction
+    # and misses most of it on held-out runs; two capture most, three nearly all
+    log, feats = _quadratic_log()
     res = select_model(
-        log, "neural", settings=(1, 2), channels=("accel_x",), estimator_params=NEURAL_FAST
+        log,
+        "neural",
+        settings=(1, 2, 3),
+        features=feats,
+        channels=("accel_x",),
+        estimator_params=NEURAL_FAST,
     )
-    assert list(res.table["setting"]) == [1, 2]
-    assert np.all(np.isfinite(res.table[["rms_train", "rms_heldout"]].to_numpy()))
-    assert res.recommended["accel_x"] in (1, 2)
+    y, codes = feats.output[:, 3], feats.run_codes
+    spread = np.sqrt(np.mean((y - (np.bincount(codes, y) / np.bincount(codes))[codes]) ** 2))
+    held = res.table.set_index("setting")["rms_heldout"]
+    assert list(held.index) == [1, 2, 3]
+    assert held[1] > 0.1 * spread  # one neuron: a poor model of this surface
+    assert held[2] < 0.25 * held[1] and held[3] < held[2]
+    assert held[3] < 0.05 * spread
+    assert res.recommended["accel_x"] == res.best["accel_x"] == 3
 
 
 def test_selection_needs_two_runs_and_a_known_method(soak_small) -> None:
