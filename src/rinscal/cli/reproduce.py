@@ -9,8 +9,9 @@ import typer
 
 from rinscal.cli._app import app
 
-#: Measured wall time of the full reproduction on 2 cores with --jobs 2 [min] (see README).
-FULL_EXPECTED_MIN = 12
+#: Measured wall time of the full reproduction on a 2-core machine [min] (4 min 7 s with
+#: --jobs 2; the calibration stage, which runs in one process, is most of it).
+FULL_EXPECTED_MIN = 5
 
 
 @app.command("reproduce")
@@ -55,8 +56,8 @@ def reproduce(
     else:
         console.print(
             f"full reproduction, seed {seed}, {jobs} process(es): expect about "
-            f"{FULL_EXPECTED_MIN * 2 // max(1, min(jobs, 2))} minutes on a 2-core machine "
-            "(use --quick for a 2-minute version)",
+            f"{FULL_EXPECTED_MIN if jobs > 1 else FULL_EXPECTED_MIN + 1} minutes on a 2-core "
+            "machine (use --quick for a 2-minute version)",
             highlight=False,
         )
     timings: dict[str, float] = {}
