@@ -252,7 +252,7 @@ def plot_log(
 
     note = ""
     if max_step > 1:
-        note = f"\n(decimated: bin means of ≤{max_step:,} samples; min–max band clipped)"
+        note = f"\n(decimated: means of ≤{max_step:,} samples)"
     for j, ch in enumerate(sensor_cols):
         ax = axes[j // 3, j % 3]
         unit = pretty_unit(units.get(ch))
@@ -266,7 +266,7 @@ def plot_log(
     for p, (ptitle, lines) in enumerate(temp_panels):
         ax = axes[2, p]
         ax.set_title(
-            ptitle + (f"\n(decimated: bin means of ≤{max_step:,} samples)" if note else ""),
+            ptitle + note,
             fontsize=10,
         )
         ax.set_ylabel("temperature [°C]")
