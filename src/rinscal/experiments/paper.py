@@ -451,43 +451,18 @@ class NavJob:
 def navigation_jobs(cfg: ReproConfig) -> list[NavJob]:
     """Every navigation run of the reproduction, numbered as in the paper."""
     jobs = [NavJob("ramp", "ramp", 1, None, cfg.ramp_hours, cfg.nav_rate_hz, cfg.seed + 100)]
-    n = len(cfg.lab_temps_c)
-    for i, temp in enumerate(cfg.lab_temps_c):
-        jobs.append(
-            NavJob(
-                "lab",
-                "quasi-static",
-                i + 1,
-                temp,
-                cfg.qs_hours,
-                cfg.nav_rate_hz,
-                cfg.seed + 200 + i,
-            )
-        )
-    for i, temp in enumerate(cfg.lab_temps_c):
-        jobs.append(
-            NavJob(
-                "lab",
-                "swing",
-                n + i + 1,
-                temp,
-                cfg.swing_hours,
-                cfg.swing_rate_hz,
-                cfg.seed + 300 + i,
-            )
-        )
-    for i, temp in enumerate(cfg.vehicle_ambient_c):
-        jobs.append(
-            NavJob(
-                "vehicle",
-                "vehicle",
-                i + 1,
-                temp,
-                cfg.vehicle_hours,
-                cfg.nav_rate_hz,
-                cfg.seed + 400 + i,
-            )
-        )
+    n_lab = len(cfg.lab_temps_c)
+    # (experiment, scenario, ambients, hours, rate, seed offset, first experiment number - 1)
+    groups = (
+        ("lab", "quasi-static", cfg.lab_temps_c, cfg.qs_hours, cfg.nav_rate_hz, 200, 0),
+        ("lab", "swing", cfg.lab_temps_c, cfg.swing_hours, cfg.swing_rate_hz, 300, n_lab),
+        ("vehicle", "vehicle", cfg.vehicle_ambient_c, cfg.vehicle_hours, cfg.nav_rate_hz, 400, 0),
+    )
+    for exp, scen, temps, hours, rate, seed_offset, first in groups:
+        jobs += [
+            NavJob(exp, scen, first + i + 1, t, hours, rate, cfg.seed + seed_offset + i)
+            for i, t in enumerate(temps)
+        ]
     return jobs
 
 
