@@ -8,36 +8,28 @@ atomically. Library errors become messages and exit code 2.
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
 from rinscal.cli._app import app
+from rinscal.cli._options import (
+    ColOpt,
+    LogArg,
+    MapOpt,
+    SepOpt,
+    TempColOpt,
+    TimeColOpt,
+    TimeUnitOpt,
+    refuse_inputs,
+)
 
 if TYPE_CHECKING:
     import pandas as pd
 
 _METHODS = ("poly-t", "sectional", "regression", "neural")
 
-LogArg = Annotated[Path, typer.Argument(help="Calibration log (.csv, .tsv or .parquet).")]
-MapOpt = Annotated[
-    Path | None, typer.Option("--map", help="Column mapping (TOML) for a foreign log.")
-]
-ColOpt = Annotated[
-    list[str] | None,
-    typer.Option("--col", help="Map a foreign column: FOREIGN=canonical (repeatable)."),
-]
-TimeColOpt = Annotated[str | None, typer.Option("--time-col", help="Foreign time column.")]
-TimeUnitOpt = Annotated[str | None, typer.Option("--time-unit", help="Time unit: s, ms or us.")]
-SepOpt = Annotated[
-    str | None, typer.Option("--sep", help="Separator: tab, comma, semicolon or auto.")
-]
-TempColOpt = Annotated[
-    str | None,
-    typer.Option("--temp-col", help="Single shared temperature column (becomes temp_in)."),
-]
 ModelOpt = Annotated[Path, typer.Option("--model", "-m", help="Thermal model file (JSON).")]
 PolicyOpt = Annotated[
     str,
@@ -76,19 +68,6 @@ def _read(
             meta["units"] = units
     meta.setdefault("log", log.name)
     return df, meta
-
-
-def _refuse_inputs(out: Path, inputs: list[Path]) -> None:
-    from rinscal.cli._app import fail
-
-    for src in inputs:
-        same = out.resolve() == src.resolve()
-        if not same and out.exists() and src.exists():
-            same = os.path.samefile(out, src)
-        if same:
-            raise fail(f"{out}: refusing to overwrite the input {src}; choose another --out")
-    if not out.resolve().parent.is_dir():
-        raise fail(f"{out}: folder {out.resolve().parent} does not exist")
 
 
 def _ints(text: str | None, option: str) -> tuple[int, ...] | None:
@@ -183,7 +162,7 @@ def fit(
     if method not in _METHODS:
         raise fail(f"--method must be one of {', '.join(_METHODS)}, got {method!r}")
     inputs = [log] + ([map_file] if map_file is not None else [])
-    _refuse_inputs(out, inputs)
+    refuse_inputs(out, inputs)
     params: dict[str, Any] = {}
     if max_samples is not None:
         params["max_samples"] = max_samples
@@ -401,7 +380,7 @@ def compensate_cmd(
     if policy not in POLICIES:
         raise fail(f"--policy must be one of {', '.join(POLICIES)}, got {policy!r}")
     inputs = [log, meta_path(log), model] + ([map_file] if map_file is not None else [])
-    _refuse_inputs(out, inputs)
+    refuse_inputs(out, inputs)
     try:
         with Progress(console=err_console, transient=True) as progress:
             task = progress.add_task("reading", total=3)
@@ -534,7 +513,7 @@ def export_cmd(
 
     if fmt not in ("px4", "ardupilot", "c"):
         raise fail(f"--format must be px4, ardupilot or c, got {fmt!r}")
-    _refuse_inputs(out, [model])
+    refuse_inputs(out, [model])
     try:
         mf = ThermalModelFile.load(model)
         if fmt == "px4":

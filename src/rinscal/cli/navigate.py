@@ -8,6 +8,7 @@ from typing import Annotated
 import typer
 
 from rinscal.cli._app import app
+from rinscal.cli._options import is_same_file
 
 _OUTPUTS = (
     "errors.csv",
@@ -64,7 +65,6 @@ def navigate(
     the figures position_error.png, trajectory.png and temperatures.png into --out.
     """
     import json
-    import os
 
     from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
@@ -79,7 +79,7 @@ def navigate(
     out_paths = [out / name for name in _OUTPUTS]
     for dst in out_paths:
         for src in [*models, *([imu_config] if imu_config else [])]:
-            if dst.resolve() == src.resolve() or (dst.exists() and os.path.samefile(dst, src)):
+            if is_same_file(dst, src):
                 raise fail(f"{dst}: refusing to overwrite the input {src}; choose another --out")
     if out.exists() and not out.is_dir():
         raise fail(f"{out}: exists and is not a folder")

@@ -8,6 +8,19 @@ from typing import Annotated
 import typer
 
 from rinscal.cli._app import app
+from rinscal.cli._options import (
+    ColOpt,
+    DropOpt,
+    LogArg,
+    MapOpt,
+    RunNameOpt,
+    SepOpt,
+    TempColOpt,
+    TimeColOpt,
+    TimeUnitOpt,
+    is_same_file,
+    refuse_inputs,
+)
 
 # ============================================================================ plot
 # `rinscal plot LOG --out FIG.png`: the paper's Figure 3 for any calibration log.
@@ -18,32 +31,16 @@ _FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
 
 @app.command("plot")
 def plot(
-    log: Annotated[Path, typer.Argument(help="Calibration log (.csv, .tsv or .parquet).")],
+    log: LogArg,
     out: Annotated[Path, typer.Option("--out", "-o", help="Figure to write (.png, .pdf or .svg).")],
-    map_file: Annotated[
-        Path | None, typer.Option("--map", help="Column mapping (TOML) for a foreign log.")
-    ] = None,
-    col: Annotated[
-        list[str] | None,
-        typer.Option("--col", help="Map a foreign column: FOREIGN=canonical (repeatable)."),
-    ] = None,
-    time_col: Annotated[str | None, typer.Option("--time-col", help="Foreign time column.")] = None,
-    time_unit: Annotated[
-        str | None, typer.Option("--time-unit", help="Time unit: s, ms or us.")
-    ] = None,
-    sep: Annotated[
-        str | None, typer.Option("--sep", help="Separator: tab, comma, semicolon or auto.")
-    ] = None,
-    temp_col: Annotated[
-        str | None,
-        typer.Option("--temp-col", help="Single shared temperature column (becomes temp_in)."),
-    ] = None,
-    drop: Annotated[
-        list[str] | None, typer.Option("--drop", help="Foreign column to ignore (repeatable).")
-    ] = None,
-    run_name: Annotated[
-        str | None, typer.Option("--run-name", help="Run name for a log without a run column.")
-    ] = None,
+    map_file: MapOpt = None,
+    col: ColOpt = None,
+    time_col: TimeColOpt = None,
+    time_unit: TimeUnitOpt = None,
+    sep: SepOpt = None,
+    temp_col: TempColOpt = None,
+    drop: DropOpt = None,
+    run_name: RunNameOpt = None,
     title: Annotated[str | None, typer.Option("--title", help="Figure title.")] = None,
     max_bins: Annotated[
         int,
@@ -52,8 +49,6 @@ def plot(
     dpi: Annotated[int, typer.Option("--dpi", min=30, max=1200, help="PNG resolution.")] = 120,
 ) -> None:
     """Draw outputs and temperatures against time per run (the paper's Figure 3)."""
-    import os
-
     from rich.progress import Progress
 
     from rinscal.cli._app import console, fail
@@ -64,15 +59,7 @@ def plot(
     suffix = out.suffix.lower()
     if suffix not in _FIGURE_SUFFIXES:
         raise fail(f"{out}: unknown figure suffix {suffix or '(none)'!r}; use .png, .pdf or .svg")
-    inputs = [log, meta_path(log)] + ([map_file] if map_file is not None else [])
-    for src in inputs:
-        same = out.resolve() == src.resolve()
-        if not same and out.exists() and src.exists():
-            same = os.path.samefile(out, src)
-        if same:
-            raise fail(f"{out}: refusing to overwrite the input {src}; choose another --out")
-    if not out.resolve().parent.is_dir():
-        raise fail(f"{out}: folder {out.resolve().parent} does not exist")
+    refuse_inputs(out, [log, meta_path(log)] + ([map_file] if map_file is not None else []))
 
     try:
         with Progress(console=console, transient=True) as progress:
@@ -165,7 +152,7 @@ def simulate(
         specs = protocol_runs(protocol, hours)
     except RinscalError as exc:
         raise fail(str(exc)) from None
-    if imu is not None and out.resolve() == imu.resolve():
+    if imu is not None and is_same_file(out, imu):
         raise fail(f"{out}: refusing to overwrite the input {imu}")
     out.parent.mkdir(parents=True, exist_ok=True)
     truth_path = out.with_name(f"{out.stem}.truth{out.suffix}")

@@ -1,0 +1,51 @@
+"""Options and guards shared by the commands: reading a foreign log, never overwriting inputs."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+LogArg = Annotated[Path, typer.Argument(help="Calibration log (.csv, .tsv or .parquet).")]
+MapOpt = Annotated[
+    Path | None, typer.Option("--map", help="Column mapping (TOML) for a foreign log.")
+]
+ColOpt = Annotated[
+    list[str] | None,
+    typer.Option("--col", help="Map a foreign column: FOREIGN=canonical (repeatable)."),
+]
+TimeColOpt = Annotated[str | None, typer.Option("--time-col", help="Foreign time column.")]
+TimeUnitOpt = Annotated[str | None, typer.Option("--time-unit", help="Time unit: s, ms or us.")]
+SepOpt = Annotated[
+    str | None, typer.Option("--sep", help="Separator: tab, comma, semicolon or auto.")
+]
+TempColOpt = Annotated[
+    str | None,
+    typer.Option("--temp-col", help="Single shared temperature column (becomes temp_in)."),
+]
+DropOpt = Annotated[
+    list[str] | None, typer.Option("--drop", help="Foreign column to ignore (repeatable).")
+]
+RunNameOpt = Annotated[
+    str | None, typer.Option("--run-name", help="Run name for a log without a run column.")
+]
+
+
+def is_same_file(a: Path, b: Path) -> bool:
+    """Whether two paths name the same file (also through links and relative paths)."""
+    if a.resolve() == b.resolve():
+        return True
+    return a.exists() and b.exists() and os.path.samefile(a, b)
+
+
+def refuse_inputs(out: Path, inputs: list[Path]) -> None:
+    """Exit with a message if ``out`` is one of ``inputs`` or its folder does not exist."""
+    from rinscal.cli._app import fail
+
+    for src in inputs:
+        if is_same_file(out, src):
+            raise fail(f"{out}: refusing to overwrite the input {src}; choose another --out")
+    if not out.resolve().parent.is_dir():
+        raise fail(f"{out}: folder {out.resolve().parent} does not exist")
