@@ -4,9 +4,12 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 LogArg = Annotated[Path, typer.Argument(help="Calibration log (.csv, .tsv or .parquet).")]
 MapOpt = Annotated[
@@ -49,3 +52,43 @@ def refuse_inputs(out: Path, inputs: list[Path]) -> None:
             raise fail(f"{out}: refusing to overwrite the input {src}; choose another --out")
     if not out.resolve().parent.is_dir():
         raise fail(f"{out}: folder {out.resolve().parent} does not exist")
+
+
+def read_foreign_log(
+    log: Path,
+    map_file: Path | None = None,
+    col: list[str] | None = None,
+    time_col: str | None = None,
+    time_unit: str | None = None,
+    sep: str | None = None,
+    temp_col: str | None = None,
+    drop: list[str] | None = None,
+    run_name: str | None = None,
+) -> tuple[pd.DataFrame, dict[str, Any]]:
+    """Read a log through a mapping file and/or options, with its metadata.
+
+    The metadata is the log's sidecar ``.meta.json``; where it gives no units, the mapping's
+    units are used. ``meta["log"]`` is the log's file name.
+    """
+    from rinscal.io import mapping_from_options, read_log, read_mapping, read_meta
+    from rinscal.schema import CHANNELS
+
+    base = read_mapping(map_file) if map_file is not None else None
+    mapping = mapping_from_options(
+        base,
+        columns=col or (),
+        time=time_col,
+        time_unit=time_unit,
+        separator=sep,
+        temperature=temp_col,
+        run=run_name,
+        drop=drop or (),
+    )
+    df = read_log(log, mapping)
+    meta = dict(read_meta(log) or {})
+    if "units" not in meta and mapping is not None:
+        units = {c: u for c in CHANNELS if (u := mapping.unit_of(c))}
+        if units:
+            meta["units"] = units
+    meta.setdefault("log", log.name)
+    return df, meta

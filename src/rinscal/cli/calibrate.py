@@ -22,6 +22,7 @@ from rinscal.cli._options import (
     TempColOpt,
     TimeColOpt,
     TimeUnitOpt,
+    read_foreign_log,
     refuse_inputs,
 )
 
@@ -48,26 +49,7 @@ def _read(
     temp_col: str | None,
 ) -> tuple[pd.DataFrame, dict[str, Any]]:
     """Read a log and its metadata (units from the mapping when there is no sidecar)."""
-    from rinscal.io import mapping_from_options, read_log, read_mapping, read_meta
-    from rinscal.schema import CHANNELS
-
-    base = read_mapping(map_file) if map_file is not None else None
-    mapping = mapping_from_options(
-        base,
-        columns=col or (),
-        time=time_col,
-        time_unit=time_unit,
-        separator=sep,
-        temperature=temp_col,
-    )
-    df = read_log(log, mapping)
-    meta = dict(read_meta(log) or {})
-    if "units" not in meta and mapping is not None:
-        units = {c: u for c in CHANNELS if (u := mapping.unit_of(c))}
-        if units:
-            meta["units"] = units
-    meta.setdefault("log", log.name)
-    return df, meta
+    return read_foreign_log(log, map_file, col, time_col, time_unit, sep, temp_col)
 
 
 def _ints(text: str | None, option: str) -> tuple[int, ...] | None:

@@ -19,6 +19,7 @@ from rinscal.cli._options import (
     TimeColOpt,
     TimeUnitOpt,
     is_same_file,
+    read_foreign_log,
     refuse_inputs,
 )
 
@@ -53,8 +54,7 @@ def plot(
 
     from rinscal.cli._app import console, fail
     from rinscal.errors import RinscalError
-    from rinscal.io import atomic_path, mapping_from_options, meta_path, read_log, read_mapping
-    from rinscal.io import read_meta as _read_meta
+    from rinscal.io import atomic_path, meta_path
 
     suffix = out.suffix.lower()
     if suffix not in _FIGURE_SUFFIXES:
@@ -64,26 +64,16 @@ def plot(
     try:
         with Progress(console=console, transient=True) as progress:
             task = progress.add_task("reading log", total=3)
-            base = read_mapping(map_file) if map_file is not None else None
-            mapping = mapping_from_options(
-                base,
-                columns=col or (),
-                time=time_col,
-                time_unit=time_unit,
-                separator=sep,
-                temperature=temp_col,
-                run=run_name,
-                drop=drop or (),
+            df, meta = read_foreign_log(
+                log, map_file, col, time_col, time_unit, sep, temp_col, drop, run_name
             )
-            df = read_log(log, mapping)
-            meta = _read_meta(log)
             progress.update(task, advance=1, description="drawing")
 
             from rinscal.report.logplot import plot_log, units_from_meta
 
-            units = {ch: u for ch in df.columns if mapping and (u := mapping.unit_of(ch))}
-            units.update(units_from_meta(meta))
-            fig = plot_log(df, units=units, title=title or log.name, max_bins=max_bins)
+            fig = plot_log(
+                df, units=units_from_meta(meta), title=title or log.name, max_bins=max_bins
+            )
             progress.update(task, advance=1, description="saving")
             with atomic_path(out) as tmp:
                 fig.savefig(tmp, format=suffix.lstrip("."), dpi=dpi)
