@@ -132,6 +132,47 @@ def _third_order(
     )
 
 
+@_jit
+def _coning_sculling(
+    t0: float,
+    t1: float,
+    t2: float,
+    w0: float,
+    w1: float,
+    w2: float,
+    pt0: float,
+    pt1: float,
+    pt2: float,
+    pv0: float,
+    pv1: float,
+    pv2: float,
+) -> tuple[float, float, float, float, float, float]:
+    """Two-sample coning and sculling (previous-sample form) with rotation compensation.
+
+    From the increments Δθ = (t0, t1, t2) [rad], Δv = (w0, w1, w2) [m/s] and those of the
+    previous interval (pt, pv): the rotation vector of r over the interval,
+    ``φ = Δθ + (1/12) Δθ_prev × Δθ``, and the velocity increment in r(k-1),
+    ``Δv + ½ Δθ × Δv + (1/12) (Δθ_prev × Δv + Δv_prev × Δθ)``, returned as
+    (φ0, φ1, φ2, u0, u1, u2).
+    """
+    r0 = t0 + (pt1 * t2 - pt2 * t1) / 12.0
+    r1 = t1 + (pt2 * t0 - pt0 * t2) / 12.0
+    r2 = t2 + (pt0 * t1 - pt1 * t0) / 12.0
+    u0 = w0 + 0.5 * (t1 * w2 - t2 * w1) + ((pt1 * w2 - pt2 * w1) + (pv1 * t2 - pv2 * t1)) / 12.0
+    u1 = w1 + 0.5 * (t2 * w0 - t0 * w2) + ((pt2 * w0 - pt0 * w2) + (pv2 * t0 - pv0 * t2)) / 12.0
+    u2 = w2 + 0.5 * (t0 * w1 - t1 * w0) + ((pt0 * w1 - pt1 * w0) + (pv0 * t1 - pv1 * t0)) / 12.0
+    return r0, r1, r2, u0, u1, u2
+
+
+@_jit
+def _quat_normalize(
+    q0: float, q1: float, q2: float, q3: float
+) -> tuple[float, float, float, float]:
+    """q / |q|."""
+    qn = 1.0 / math.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
+    return q0 * qn, q1 * qn, q2 * qn, q3 * qn
+
+
 # --------------------------------------------------------------------------- strapdown
 @_jit
 def strapdown(
@@ -230,14 +271,11 @@ def strapdown(
             pv1 = w1
             pv2 = w2
             have_prev = True
-        # coning (rotation vector of r over the interval)
-        r0 = t0 + (pt1 * t2 - pt2 * t1) / 12.0
-        r1 = t1 + (pt2 * t0 - pt0 * t2) / 12.0
-        r2 = t2 + (pt0 * t1 - pt1 * t0) / 12.0
-        # rotation compensation + sculling (velocity increment in r(k-1))
-        u0 = w0 + 0.5 * (t1 * w2 - t2 * w1) + ((pt1 * w2 - pt2 * w1) + (pv1 * t2 - pv2 * t1)) / 12.0
-        u1 = w1 + 0.5 * (t2 * w0 - t0 * w2) + ((pt2 * w0 - pt0 * w2) + (pv2 * t0 - pv0 * t2)) / 12.0
-        u2 = w2 + 0.5 * (t0 * w1 - t1 * w0) + ((pt0 * w1 - pt1 * w0) + (pv0 * t1 - pv1 * t0)) / 12.0
+        # coning (rotation vector of r over the interval), rotation compensation + sculling
+        # (velocity increment in r(k-1))
+        r0, r1, r2, u0, u1, u2 = _coning_sculling(
+            t0, t1, t2, w0, w1, w2, pt0, pt1, pt2, pv0, pv1, pv2
+        )
         if rot3:
             u0, u1, u2 = _third_order(t0, t1, t2, w0, w1, w2, u0, u1, u2)
         pt0 = t0
@@ -323,11 +361,7 @@ def strapdown(
         c0, c1, c2, c3 = quat_mul(q0, q1, q2, q3, b0, b1, b2, b3)
         n0, n1, n2, n3 = quat_from_rotvec(-zE, -zN, -zU)
         q0, q1, q2, q3 = quat_mul(n0, n1, n2, n3, c0, c1, c2, c3)
-        qn = 1.0 / math.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
-        q0 *= qn
-        q1 *= qn
-        q2 *= qn
-        q3 *= qn
+        q0, q1, q2, q3 = _quat_normalize(q0, q1, q2, q3)
 
         if out_every > 0 and (k0 + i + 1) % out_every == 0:
             out[n_out, 0] = lat
@@ -672,12 +706,9 @@ def inertial_accumulate(
         if not have:
             pt0, pt1, pt2, pv0, pv1, pv2 = t0, t1, t2, w0, w1, w2
             have = True
-        r0 = t0 + (pt1 * t2 - pt2 * t1) / 12.0
-        r1 = t1 + (pt2 * t0 - pt0 * t2) / 12.0
-        r2 = t2 + (pt0 * t1 - pt1 * t0) / 12.0
-        u0 = w0 + 0.5 * (t1 * w2 - t2 * w1) + ((pt1 * w2 - pt2 * w1) + (pv1 * t2 - pv2 * t1)) / 12.0
-        u1 = w1 + 0.5 * (t2 * w0 - t0 * w2) + ((pt2 * w0 - pt0 * w2) + (pv2 * t0 - pv0 * t2)) / 12.0
-        u2 = w2 + 0.5 * (t0 * w1 - t1 * w0) + ((pt0 * w1 - pt1 * w0) + (pv0 * t1 - pv1 * t0)) / 12.0
+        r0, r1, r2, u0, u1, u2 = _coning_sculling(
+            t0, t1, t2, w0, w1, w2, pt0, pt1, pt2, pv0, pv1, pv2
+        )
         u0, u1, u2 = _third_order(t0, t1, t2, w0, w1, w2, u0, u1, u2)
         pt0, pt1, pt2, pv0, pv1, pv2 = t0, t1, t2, w0, w1, w2
         a0, a1, a2 = quat_rotate(q0, q1, q2, q3, u0, u1, u2)
@@ -686,11 +717,7 @@ def inertial_accumulate(
         vsum[2] += a2
         b0, b1, b2, b3 = quat_from_rotvec(r0, r1, r2)
         q0, q1, q2, q3 = quat_mul(q0, q1, q2, q3, b0, b1, b2, b3)
-        qn = 1.0 / math.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
-        q0 *= qn
-        q1 *= qn
-        q2 *= qn
-        q3 *= qn
+        q0, q1, q2, q3 = _quat_normalize(q0, q1, q2, q3)
     q[0] = q0
     q[1] = q1
     q[2] = q2
