@@ -516,6 +516,17 @@ def _lagrange4(xi: float, xs: np.ndarray) -> tuple[float, float, float, float]:
 
 
 @_jit
+def _lagrange_sum(
+    l0: float, l1: float, l2: float, l3: float, a: np.ndarray, i: int, c: int
+) -> float:
+    """``Σ_m l_m a[i, m, c]``: component ``c`` of row ``i`` of ``a`` (n, 4, 3) interpolated.
+
+    The weights ``l0 .. l3`` come from :func:`_lagrange4`.
+    """
+    return l0 * a[i, 0, c] + l1 * a[i, 1, c] + l2 * a[i, 2, c] + l3 * a[i, 3, c]
+
+
+@_jit
 def rotate_increments(
     t_edges: np.ndarray,
     w_b: np.ndarray,
@@ -620,42 +631,12 @@ def rotate_increments(
                         fz = f_b[ii, m, 2]
                     else:
                         l0, l1, l2, l3 = _lagrange4(tn, xs)
-                        wx = (
-                            l0 * w_b[ii, 0, 0]
-                            + l1 * w_b[ii, 1, 0]
-                            + l2 * w_b[ii, 2, 0]
-                            + l3 * w_b[ii, 3, 0]
-                        )
-                        wy = (
-                            l0 * w_b[ii, 0, 1]
-                            + l1 * w_b[ii, 1, 1]
-                            + l2 * w_b[ii, 2, 1]
-                            + l3 * w_b[ii, 3, 1]
-                        )
-                        wz = (
-                            l0 * w_b[ii, 0, 2]
-                            + l1 * w_b[ii, 1, 2]
-                            + l2 * w_b[ii, 2, 2]
-                            + l3 * w_b[ii, 3, 2]
-                        )
-                        fx = (
-                            l0 * f_b[ii, 0, 0]
-                            + l1 * f_b[ii, 1, 0]
-                            + l2 * f_b[ii, 2, 0]
-                            + l3 * f_b[ii, 3, 0]
-                        )
-                        fy = (
-                            l0 * f_b[ii, 0, 1]
-                            + l1 * f_b[ii, 1, 1]
-                            + l2 * f_b[ii, 2, 1]
-                            + l3 * f_b[ii, 3, 1]
-                        )
-                        fz = (
-                            l0 * f_b[ii, 0, 2]
-                            + l1 * f_b[ii, 1, 2]
-                            + l2 * f_b[ii, 2, 2]
-                            + l3 * f_b[ii, 3, 2]
-                        )
+                        wx = _lagrange_sum(l0, l1, l2, l3, w_b, ii, 0)
+                        wy = _lagrange_sum(l0, l1, l2, l3, w_b, ii, 1)
+                        wz = _lagrange_sum(l0, l1, l2, l3, w_b, ii, 2)
+                        fx = _lagrange_sum(l0, l1, l2, l3, f_b, ii, 0)
+                        fy = _lagrange_sum(l0, l1, l2, l3, f_b, ii, 1)
+                        fz = _lagrange_sum(l0, l1, l2, l3, f_b, ii, 2)
                     s0 += wgt * (cp * wx + sp * wy)
                     s1 += wgt * (-sp * wx + cp * wy)
                     s2 += wgt * wz
