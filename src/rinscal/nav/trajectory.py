@@ -134,9 +134,34 @@ def body_rate_from_euler(euler: ArrayLike, euler_rate: ArrayLike) -> NDArray[np.
     return np.stack([pd * cr + hd * sr * cp, rd - hd * sp, pd * sr - hd * cr * cp], axis=-1)
 
 
+# --------------------------------------------------------------------------- motions
+class _Site:
+    """Start position (:class:`Trajectory` ``lat0``, ``lon0``, ``alt0``) of the motions below.
+
+    The motions are dataclasses with the fields ``lat_deg``, ``lon_deg`` [deg] and
+    ``alt_m`` [m]; this base class only converts them.
+    """
+
+    lat_deg: float
+    lon_deg: float
+    alt_m: float
+
+    @property
+    def lat0(self) -> float:
+        return self.lat_deg * units.DEG_TO_RAD
+
+    @property
+    def lon0(self) -> float:
+        return self.lon_deg * units.DEG_TO_RAD
+
+    @property
+    def alt0(self) -> float:
+        return float(self.alt_m)
+
+
 # --------------------------------------------------------------------------- static and swing
 @dataclass(frozen=True)
-class StaticMotion:
+class StaticMotion(_Site):
     """A body at rest on the Earth with a fixed attitude (the quasi-static turntable).
 
     Parameters
@@ -164,18 +189,6 @@ class StaticMotion:
             raise ConfigError(f"static motion: lat_deg must be within ±89°, got {self.lat_deg}")
 
     @property
-    def lat0(self) -> float:
-        return self.lat_deg * units.DEG_TO_RAD
-
-    @property
-    def lon0(self) -> float:
-        return self.lon_deg * units.DEG_TO_RAD
-
-    @property
-    def alt0(self) -> float:
-        return float(self.alt_m)
-
-    @property
     def euler0(self) -> NDArray[np.float64]:
         """Heading, pitch, roll [rad]."""
         return np.array([self.heading_deg, self.pitch_deg, self.roll_deg]) * units.DEG_TO_RAD
@@ -187,7 +200,7 @@ class StaticMotion:
 
 
 @dataclass(frozen=True)
-class SwingMotion:
+class SwingMotion(_Site):
     """A swinging base: heading, pitch and roll oscillate about a mean attitude.
 
     The IMU centre stays fixed (the turntable's axes cross at it), so the velocity is zero.
@@ -225,18 +238,6 @@ class SwingMotion:
             raise ConfigError(f"swing motion: period_s must be > 0, got {self.period_s}")
         if abs(self.mean_deg[1]) + abs(self.amplitude_deg[1]) >= 80.0:
             raise ConfigError("swing motion: pitch would come within 10° of the vertical")
-
-    @property
-    def lat0(self) -> float:
-        return self.lat_deg * units.DEG_TO_RAD
-
-    @property
-    def lon0(self) -> float:
-        return self.lon_deg * units.DEG_TO_RAD
-
-    @property
-    def alt0(self) -> float:
-        return float(self.alt_m)
 
     def kinematics(self, t: NDArray[np.float64]) -> Kinematics:
         t = np.asarray(t, dtype=float)
@@ -302,7 +303,7 @@ class StepChannel:
 
 
 @dataclass(frozen=True)
-class VehicleMotion:
+class VehicleMotion(_Site):
     """A land vehicle: speed, heading and road grade change by smooth steps.
 
     The body y axis points along the velocity (no side slip), pitch equals the road grade
@@ -330,18 +331,6 @@ class VehicleMotion:
     stationary_until: float = 0.0
 
     is_static = False
-
-    @property
-    def lat0(self) -> float:
-        return self.lat_deg * units.DEG_TO_RAD
-
-    @property
-    def lon0(self) -> float:
-        return self.lon_deg * units.DEG_TO_RAD
-
-    @property
-    def alt0(self) -> float:
-        return float(self.alt_m)
 
     def kinematics(self, t: NDArray[np.float64]) -> Kinematics:
         t = np.asarray(t, dtype=float)
