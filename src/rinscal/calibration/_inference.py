@@ -40,6 +40,7 @@ __all__ = [
     "poly_shift",
     "predict_params",
     "raw_polynomial",
+    "segment_params",
     "validate_params",
 ]
 
@@ -106,6 +107,18 @@ def _eval_regression(p: Mapping[str, Any], x: np.ndarray) -> np.ndarray:
     return out
 
 
+def segment_params(params: Mapping[str, Any], k: int) -> dict[str, Any]:
+    """Segment ``k`` of a ``sectional`` model as the parameters of a ``regression`` model."""
+    return {
+        "method": "regression",
+        "orders": params["orders"],
+        "center": params["center"][k],
+        "scale": params["scale"][k],
+        "intercept": params["intercept"][k],
+        "coef": params["coef"][k],
+    }
+
+
 def _eval_sectional(p: Mapping[str, Any], x: np.ndarray) -> np.ndarray:
     edges = np.asarray(p["edges"], dtype=np.float64)
     seg = np.searchsorted(edges, x[:, 0], side="left")
@@ -114,14 +127,7 @@ def _eval_sectional(p: Mapping[str, Any], x: np.ndarray) -> np.ndarray:
         sel = seg == k
         if not sel.any():
             continue
-        sub = {
-            "orders": p["orders"],
-            "center": p["center"][k],
-            "scale": p["scale"][k],
-            "intercept": p["intercept"][k],
-            "coef": p["coef"][k],
-        }
-        out[sel] = _eval_regression(sub, x[sel])
+        out[sel] = _eval_regression(segment_params(p, k), x[sel])
     return out
 
 
@@ -243,15 +249,7 @@ def raw_polynomial(params: Mapping[str, Any]) -> dict[str, Any]:
     if method == "sectional":
         segs = []
         for k in range(len(params["intercept"])):
-            sub = {
-                "method": "regression",
-                "orders": params["orders"],
-                "center": params["center"][k],
-                "scale": params["scale"][k],
-                "intercept": params["intercept"][k],
-                "coef": params["coef"][k],
-            }
-            segs.append(raw_polynomial(sub))
+            segs.append(raw_polynomial(segment_params(params, k)))
         return {"edges": list(params["edges"]), "segments": segs}
     if method != "regression":
         raise ValueError(f"{method} models have no polynomial form")

@@ -32,7 +32,7 @@ import re
 
 import numpy as np
 
-from rinscal.calibration._inference import poly_shift
+from rinscal.calibration._inference import poly_shift, segment_params
 from rinscal.calibration.modelfile import INPUT_NAMES, ThermalModelFile
 from rinscal.errors import ConfigError
 
@@ -270,15 +270,8 @@ def to_c_header(model: ThermalModelFile, prefix: str = "rinscal") -> str:
             body.append(f"  while (k < {len(edges)} && T > {fn}_edges[k]) k++;")
             body.append("  switch (k) {")
             for k in range(len(edges) + 1):
-                sub = {
-                    "orders": p["orders"],
-                    "center": p["center"][k],
-                    "scale": p["scale"][k],
-                    "intercept": p["intercept"][k],
-                    "coef": p["coef"][k],
-                }
                 body.append(f"  case {k}:")
-                body += _regression_c(sub, "f", "    ")
+                body += _regression_c(segment_params(p, k), "f", "    ")
                 body.append("    break;")
             body.append("  default: f = 0.0;")
             body.append("  }")
