@@ -80,7 +80,7 @@ def test_four_position_alignment_estimates_horizontal_biases(traj) -> None:  # t
     dt = 1 / 50
     white = np.array([0.001 * units.DPRH_TO_RPRS] * 3 + [10 * UG] * 3) / math.sqrt(dt)
 
-    def errors(t: np.ndarray) -> np.ndarray:
+    def errors(t: np.ndarray, *_signal: np.ndarray) -> np.ndarray:
         return BIAS + white * rng.standard_normal((t.shape[0], 6))
 
     att, res = _align(traj, RotationSchedule.four_position(), errors)

@@ -76,8 +76,8 @@ def test_model_file_compensation_subtracts_only_the_thermal_bias(  # type: ignor
     )
     assert ref[5] == pytest.approx(9.79, abs=0.01)  # gravity on accel_z of a level table
 
-    def without_reference(t: np.ndarray) -> np.ndarray:  # the mistake the design avoids
-        return comp(t) + ref
+    def without_reference(t: np.ndarray, *signal: np.ndarray) -> np.ndarray:  # the mistake
+        return comp(t, *signal) + ref  # the design avoids
 
     r = run_scenario(
         cold_start, plant, {"none": None, "model": comp, "no-reference": without_reference}

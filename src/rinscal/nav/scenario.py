@@ -3,8 +3,8 @@
 A scenario runs chunk by chunk (bounded memory for runs of many hours)::
 
     ideal r-frame increments (imu.py)
-      + sensor errors in r      errors_r(t) -> (n, 6) [rad/s, m/s²]   (thermal plant, noise)
-      − compensation in r       compensator(t) -> (n, 6) [rad/s, m/s²] (model file, oracle)
+      + sensor errors in r      errors(t, ω, f) -> (n, 6) [rad/s, m/s²]  (thermal plant, noise)
+      − compensation in r       compensator(t, ω̃, f̃) -> (n, 6)          (model file, oracle)
       -> self-alignment (align.py) -> free strapdown navigation (strapdown.py)
       -> position error against the true trajectory
 
@@ -36,6 +36,14 @@ from rinscal.nav import earth
 from rinscal.nav.align import AlignConfig, Aligner, AlignResult
 from rinscal.nav.imu import ImuChunk, ImuSynthesizer
 from rinscal.nav.rotation import C_br, RotationSchedule
+from rinscal.nav.sensors import (
+    Compensator,
+    ErrorSource,
+    ThermalPlant,
+    constant_errors,
+    oracle_compensator,
+    temperature_frame,
+)
 from rinscal.nav.strapdown import Strapdown, VerticalMode, quat_to_dcm
 from rinscal.nav.trajectory import (
     C_nb_from_euler,
@@ -44,14 +52,8 @@ from rinscal.nav.trajectory import (
     Trajectory,
     vehicle_route,
 )
-from rinscal.thermal.field import ChamberProfile, ThermalField, measure, simulate_field
-from rinscal.thermal.plant import ImuConfig, SensorNoise, thermal_bias_r, turn_on_offsets
-
-#: Sensor errors or their estimate at sample mid-times: ``f(t (n,) [s]) -> (n, 6)`` in SI
-#: (rad/s for gyros, m/s² for accelerometers), resolved in ``r``, mean over each sample.
-ErrorSource = Callable[[NDArray[np.float64]], NDArray[np.float64]]
-#: Same signature: what the navigation computer subtracts from the raw output.
-Compensator = ErrorSource
+from rinscal.thermal.field import ChamberProfile
+from rinscal.thermal.plant import ImuConfig
 
 #: Scenario names understood by :func:`preset`.
 SCENARIOS = ("quasi-static", "swing", "vehicle", "ramp")
@@ -243,111 +245,7 @@ def align_for(imu: ImuConfig, total_s: float = 600.0, coarse_s: float = 60.0) ->
     )
 
 
-# --------------------------------------------------------------------------- error sources
-def constant_errors(bias_r: NDArray[np.float64]) -> ErrorSource:
-    """Constant sensor biases in ``r`` [rad/s ×3, m/s² ×3] as an error source."""
-    b = np.asarray(bias_r, dtype=float).reshape(6)
-
-    def errors_r(t: NDArray[np.float64]) -> NDArray[np.float64]:
-        return np.broadcast_to(b, (np.shape(t)[0], 6))
-
-    return errors_r
-
-
-class ThermalPlant:
-    """The IMU plant of :mod:`rinscal.thermal` run alongside a navigation scenario.
-
-    The thermal field is simulated once on a 1 s grid over the whole run (cheap) and
-    interpolated at the sample times of each chunk; noise is drawn chunk by chunk.
-
-    Parameters
-    ----------
-    config : ImuConfig
-        The plant (thermal coefficients, noise, thermal network, thermometers).
-    chamber : ChamberProfile
-        Ambient temperature against time; the unit has soaked at its initial value and is
-        switched on at t = 0.
-    duration_s : float [s]
-        Length of the run.
-    rate_hz : float [Hz]
-        IMU rate.
-    seed : int
-        Seed; turn-on offsets, sensor noise and thermometer noise use independent streams
-        spawned from it, so switching one part off leaves the others unchanged.
-    thermal, noise, turn_on : bool
-        Which error parts to include.
-    """
-
-    def __init__(
-        self,
-        config: ImuConfig,
-        chamber: ChamberProfile,
-        duration_s: float,
-        rate_hz: float,
-        seed: int = 0,
-        thermal: bool = True,
-        noise: bool = True,
-        turn_on: bool = True,
-    ) -> None:
-        self.config = config
-        self.chamber = chamber
-        self.dt = 1.0 / rate_hz
-        self.field: ThermalField = simulate_field(
-            chamber, config.network, duration_s=duration_s + 2.0, dt_s=1.0, power_on_s=0.0
-        )
-        rng_on, rng_noise, rng_thermo = np.random.default_rng(seed).spawn(3)
-        self.offsets = turn_on_offsets(config, rng_on) if turn_on else np.zeros(6)
-        self.noise = SensorNoise(config, rng_noise, self.dt) if noise else None
-        self.thermal = thermal
-        self._rng_thermo = rng_thermo
-        # the bias on the field's 1 s grid, interpolated per chunk (6 interpolations instead
-        # of the field's 30; the bias varies on thermal time scales of minutes)
-        self._bias_grid = thermal_bias_r(self.field, config) if thermal else None
-
-    def thermal_bias(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
-        """True thermal bias at ``t`` [s], (n, 6) SI in ``r`` (zero if thermal is off)."""
-        t = np.asarray(t, dtype=float)
-        out = np.zeros((t.shape[0], 6))
-        if self._bias_grid is not None:
-            for j in range(6):
-                out[:, j] = np.interp(t, self.field.t, self._bias_grid[:, j])
-        return out
-
-    def errors_r(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
-        """All sensor errors at sample mid-times ``t`` (call chunks in time order)."""
-        e = self.thermal_bias(t)
-        e += self.offsets
-        if self.noise is not None:
-            e += self.noise.draw(np.shape(t)[0])[0]
-        return e
-
-    __call__ = errors_r
-
-    def measured_temperatures(self, t: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
-        """Thermometer readings at ``t``: inner (n, 6) and outer (n,) [°C]."""
-        f = self.field.at(np.asarray(t, dtype=float))
-        th = self.config.thermometer
-        return measure(f.sensor, th, self._rng_thermo), measure(f.outer, th, self._rng_thermo)
-
-
-def temperature_frame(plant: ThermalPlant, step_s: float = 10.0) -> pd.DataFrame:
-    """True temperatures of a plant's run for plots: ``time_s, chamber, outer,
-    sensor_<channel>`` [s, °C], every ``step_s``."""
-    from rinscal.schema import CHANNELS
-
-    t = np.arange(0.0, float(plant.field.t[-1]) + 1e-9, step_s)
-    f = plant.field.at(t)
-    df = pd.DataFrame({"time_s": t, "chamber": f.chamber, "outer": f.outer})
-    for j, c in enumerate(CHANNELS):
-        df[f"sensor_{c}"] = f.sensor[:, j]
-    return df
-
-
-def oracle_compensator(plant: ThermalPlant) -> Compensator:
-    """Compensation by the true thermal bias (the best any thermal model can do)."""
-    return plant.thermal_bias
-
-
+# --------------------------------------------------------------------------- compensators
 class ModelCompensator:
     """Compensation by a thermal model file, as the navigation computer would run it.
 
@@ -400,7 +298,13 @@ class ModelCompensator:
         self.bias = bias
         self.channels = tuple(model.channels)
 
-    def __call__(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
+    def __call__(
+        self,
+        t: NDArray[np.float64],
+        omega_r: NDArray | None = None,
+        f_r: NDArray | None = None,
+    ) -> NDArray[np.float64]:
+        """Bias estimate held from the last thermometer reading at ``t`` [s], (n, 6) SI."""
         k = np.searchsorted(self.grid, np.asarray(t, dtype=float), side="right") - 1
         return self.bias[np.clip(k, 0, self.grid.size - 1)]
 
@@ -522,12 +426,15 @@ def run_scenario(
     config : ScenarioConfig
         The scenario (see :func:`preset`).
     errors : callable, optional
-        Sensor errors in ``r`` at the sample mid-times, ``errors(t) -> (n, 6)`` SI
-        (e.g. a :class:`ThermalPlant` or :func:`constant_errors`); None for an ideal IMU.
-        Called once per chunk, in time order.
+        Sensor errors in ``r``, ``errors(t, omega_r, f_r) -> (n, 6)`` SI at the sample
+        mid-times from the true mean rate and specific force of each sample (see
+        :mod:`rinscal.nav.sensors`; e.g. a :class:`ThermalPlant` or
+        :func:`constant_errors`); None for an ideal IMU. Called once per chunk, in time
+        order.
     compensators : mapping of str to callable or None, optional
         Variants to navigate side by side on the same raw output: each subtracts its
-        ``compensator(t) -> (n, 6)`` SI (None: no compensation). Default ``{"none": None}``.
+        ``compensator(t, omega_raw, f_raw) -> (n, 6)`` SI, called with the raw (measured)
+        signal (None: no compensation). Default ``{"none": None}``.
     progress : callable, optional
         ``progress(done_s, total_s)`` after each chunk.
 
@@ -560,7 +467,7 @@ def run_scenario(
         raw_th = ch.dtheta
         raw_v = ch.dv
         if errors is not None:
-            e = np.asarray(errors(t_mid), dtype=float)
+            e = np.asarray(errors(t_mid, ch.dtheta / dt, ch.dv / dt), dtype=float)
             if e.shape != (ch.n, 6):
                 raise ConfigError(f"errors_r returned shape {e.shape}, expected ({ch.n}, 6)")
             raw_th = raw_th + e[:, :3] * dt
@@ -572,7 +479,7 @@ def run_scenario(
         for v in variants.values():
             d_th, d_v = raw_th, raw_v
             if v.compensator is not None:
-                c = np.asarray(v.compensator(t_mid), dtype=float)
+                c = np.asarray(v.compensator(t_mid, raw_th / dt, raw_v / dt), dtype=float)
                 d_th = d_th - c[:, :3] * dt
                 d_v = d_v - c[:, 3:] * dt
             i0 = 0

@@ -336,10 +336,22 @@ class ImuConfig:
         return cls.from_dict(data, source=str(path))
 
     @classmethod
+    def preset(cls, name: str) -> ImuConfig:
+        """A built-in preset by name (see :data:`PRESETS`)."""
+        if name not in PRESETS:
+            raise ConfigError(f"unknown IMU preset {name!r}; choose one of {', '.join(PRESETS)}")
+        text = resources.files("rinscal.data").joinpath(f"{name}.toml").read_text()
+        return cls.from_dict(tomllib.loads(text), source=f"preset {name} ({name}.toml)")
+
+    @classmethod
     def navigation_grade(cls) -> ImuConfig:
-        """The built-in preset: a navigation-grade FOG + quartz RINS like the paper's."""
-        text = resources.files("rinscal.data").joinpath("navigation_grade.toml").read_text()
-        return cls.from_dict(tomllib.loads(text), source="navigation_grade.toml")
+        """The built-in preset: a navigation-grade FOG + quartz RINS (our own unit)."""
+        return cls.preset("navigation_grade")
+
+    @classmethod
+    def paper(cls) -> ImuConfig:
+        """The built-in preset of the paper's own IMU (Tables 4 and 6 converted)."""
+        return cls.preset("paper")
 
     def to_dict(self) -> dict[str, Any]:
         """The nested TOML layout (round-trips through :meth:`from_dict`)."""
@@ -377,6 +389,24 @@ class ImuConfig:
     def log_units(self) -> tuple[str, ...]:
         """Unit of each channel in a log written with this configuration."""
         return ("pulse",) * 6 if self.output.mode == "pulses" else ENGINEERING_UNITS
+
+
+#: Built-in IMU presets, chosen by name wherever an IMU is accepted.
+PRESETS = ("paper", "navigation_grade")
+#: The preset the reproduction runs by default: the paper's own IMU.
+DEFAULT_PRESET = "paper"
+
+
+def load_imu(spec: str | Path) -> ImuConfig:
+    """An IMU configuration from a preset name (:data:`PRESETS`) or a TOML file path."""
+    if isinstance(spec, str) and spec in PRESETS:
+        return ImuConfig.preset(spec)
+    path = Path(spec)
+    if path.suffix.lower() != ".toml" and not path.exists():
+        raise ConfigError(
+            f"IMU {str(spec)!r} is neither a preset ({', '.join(PRESETS)}) nor a TOML file"
+        )
+    return ImuConfig.from_toml(path)
 
 
 # --------------------------------------------------------------------------- the plant
@@ -526,13 +556,16 @@ def log_units_to_si(config: ImuConfig, dt: float) -> NDArray[np.float64]:
 
 
 __all__ = [
+    "DEFAULT_PRESET",
     "ENGINEERING_UNITS",
     "ENG_TO_SI",
+    "PRESETS",
     "ChannelThermal",
     "ImuConfig",
     "NoiseConfig",
     "OutputConfig",
     "SensorNoise",
+    "load_imu",
     "log_units_to_si",
     "thermal_bias_eng",
     "thermal_bias_r",

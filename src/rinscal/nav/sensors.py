@@ -1,0 +1,193 @@
+"""Sensor errors in the navigation loop: the thermal plant run alongside a scenario.
+
+An *error source* gives the sensor errors of each sample from the time and the true
+signal, ``errors(t, omega_r, f_r) -> (n, 6)``:
+
+- ``t``: sample mid-times, shape (n,) [s] (since power-on);
+- ``omega_r``: true mean angular rate ω_ir^r over each sample, shape (n, 3) [rad/s];
+- ``f_r``: true mean specific force f^r over each sample, shape (n, 3) [m/s²];
+- result: the mean error of each sample, gyros then accelerometers, resolved in ``r``
+  [rad/s ×3, m/s² ×3].
+
+A *compensator* has the same signature, called with the raw (measured) signal, which is
+all a navigation computer has: it returns what the computer subtracts.
+
+Error sources are called once per chunk, chunks in time order (noise, hysteresis and the
+lever-arm rate difference carry state from one chunk to the next).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from rinscal.errors import ConfigError
+from rinscal.nav.rotation import RotationSchedule
+from rinscal.schema import CHANNELS
+from rinscal.thermal.field import ChamberProfile, ThermalField, measure, simulate_field
+from rinscal.thermal.plant import ImuConfig, SensorNoise, thermal_bias_r, turn_on_offsets
+
+if TYPE_CHECKING:
+    from rinscal.nav.scenario import ScenarioConfig
+
+#: ``errors(t, omega_r, f_r) -> (n, 6)`` SI in ``r`` (see the module docstring).
+ErrorSource = Callable[
+    [NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]
+]
+#: Same signature, called with the raw signal: what the navigation computer subtracts.
+Compensator = ErrorSource
+
+
+def constant_errors(bias_r: NDArray[np.float64]) -> ErrorSource:
+    """Constant sensor biases in ``r`` [rad/s ×3, m/s² ×3] as an error source."""
+    b = np.asarray(bias_r, dtype=float).reshape(6)
+
+    def errors_r(
+        t: NDArray[np.float64], omega_r: NDArray | None = None, f_r: NDArray | None = None
+    ) -> NDArray[np.float64]:
+        return np.broadcast_to(b, (np.shape(t)[0], 6))
+
+    return errors_r
+
+
+class ThermalPlant:
+    """The IMU plant of :mod:`rinscal.thermal` run alongside a navigation scenario.
+
+    The thermal field is simulated once on a 1 s grid over the whole run (cheap) and
+    interpolated at the sample times of each chunk; noise is drawn chunk by chunk.
+
+    Parameters
+    ----------
+    config : ImuConfig
+        The plant (thermal coefficients, noise, thermal network, thermometers).
+    chamber : ChamberProfile
+        Ambient temperature against time; the unit has soaked at its initial value and is
+        switched on at t = 0.
+    duration_s : float [s]
+        Length of the run.
+    rate_hz : float [Hz]
+        IMU rate.
+    seed : int
+        Seed; turn-on offsets, sensor noise and thermometer noise use independent streams
+        spawned from it, so switching one part off leaves the others unchanged.
+    thermal, noise, turn_on : bool
+        Which error parts to include.
+    schedule : RotationSchedule, optional
+        The turntable schedule: heat fixed in the body reaches each sensor according to the
+        encoder angle. None: the table holds at encoder zero.
+    """
+
+    def __init__(
+        self,
+        config: ImuConfig,
+        chamber: ChamberProfile,
+        duration_s: float,
+        rate_hz: float,
+        seed: int = 0,
+        thermal: bool = True,
+        noise: bool = True,
+        turn_on: bool = True,
+        schedule: RotationSchedule | None = None,
+    ) -> None:
+        self.config = config
+        self.schedule = schedule
+        self.chamber = chamber
+        self.dt = 1.0 / rate_hz
+        self.field: ThermalField = simulate_field(
+            chamber, config.network, duration_s=duration_s + 2.0, dt_s=1.0, power_on_s=0.0
+        )
+        rng_on, rng_noise, rng_thermo = np.random.default_rng(seed).spawn(3)
+        self.offsets = turn_on_offsets(config, rng_on) if turn_on else np.zeros(6)
+        self.noise = SensorNoise(config, rng_noise, self.dt) if noise else None
+        self.thermal = thermal
+        self._rng_thermo = rng_thermo
+        # the bias on the field's 1 s grid, interpolated per chunk (6 interpolations instead
+        # of the field's 30; the bias varies on thermal time scales of minutes)
+        self._bias_grid = thermal_bias_r(self.field, config) if thermal else None
+
+    @classmethod
+    def for_scenario(
+        cls,
+        config: ImuConfig,
+        scenario: ScenarioConfig,
+        seed: int = 0,
+        thermal: bool = True,
+        noise: bool = True,
+        turn_on: bool = True,
+    ) -> ThermalPlant:
+        """The plant of a navigation scenario: its chamber, duration, rate and turntable."""
+        if scenario.chamber is None:
+            raise ConfigError(f"scenario {scenario.name!r} has no chamber profile")
+        return cls(
+            config,
+            scenario.chamber,
+            scenario.duration_s,
+            scenario.rate_hz,
+            seed=seed,
+            thermal=thermal,
+            noise=noise,
+            turn_on=turn_on,
+            schedule=scenario.schedule,
+        )
+
+    def thermal_bias(
+        self,
+        t: NDArray[np.float64],
+        omega_r: NDArray | None = None,
+        f_r: NDArray | None = None,
+    ) -> NDArray[np.float64]:
+        """True thermal error at ``t`` [s], (n, 6) SI in ``r`` (zero if thermal is off)."""
+        t = np.asarray(t, dtype=float)
+        out = np.zeros((t.shape[0], 6))
+        if self._bias_grid is not None:
+            for j in range(6):
+                out[:, j] = np.interp(t, self.field.t, self._bias_grid[:, j])
+        return out
+
+    def errors_r(
+        self, t: NDArray[np.float64], omega_r: NDArray[np.float64], f_r: NDArray[np.float64]
+    ) -> NDArray[np.float64]:
+        """All sensor errors at sample mid-times ``t`` (call chunks in time order)."""
+        e = self.thermal_bias(t, omega_r, f_r)
+        e += self.offsets
+        if self.noise is not None:
+            e += self.noise.draw(np.shape(t)[0])[0]
+        return e
+
+    __call__ = errors_r
+
+    def measured_temperatures(self, t: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
+        """Thermometer readings at ``t``: inner (n, 6) and outer (n,) [°C]."""
+        f = self.field.at(np.asarray(t, dtype=float))
+        th = self.config.thermometer
+        return measure(f.sensor, th, self._rng_thermo), measure(f.outer, th, self._rng_thermo)
+
+
+def temperature_frame(plant: ThermalPlant, step_s: float = 10.0) -> pd.DataFrame:
+    """True temperatures of a plant's run for plots: ``time_s, chamber, outer,
+    sensor_<channel>`` [s, °C], every ``step_s``."""
+    t = np.arange(0.0, float(plant.field.t[-1]) + 1e-9, step_s)
+    f = plant.field.at(t)
+    df = pd.DataFrame({"time_s": t, "chamber": f.chamber, "outer": f.outer})
+    for j, c in enumerate(CHANNELS):
+        df[f"sensor_{c}"] = f.sensor[:, j]
+    return df
+
+
+def oracle_compensator(plant: ThermalPlant) -> Compensator:
+    """Compensation by the true thermal error (the best any thermal model can do)."""
+    return plant.thermal_bias
+
+
+__all__ = [
+    "Compensator",
+    "ErrorSource",
+    "ThermalPlant",
+    "constant_errors",
+    "oracle_compensator",
+    "temperature_frame",
+]
