@@ -13,8 +13,10 @@ progress bars and the report):
    Table 10); every method navigates on the *same* raw IMU output of each run.
 3. :func:`summary_table` — each of the paper's headline numbers beside ours.
 
-Everything is simulation: the plant is :func:`rinscal.thermal.plant.ImuConfig.navigation_grade`
-and is never tuned to agree with the paper.
+Everything is simulation on one plant, chosen by :attr:`ReproConfig.imu` (a preset of
+:data:`rinscal.thermal.plant.PRESETS`, by default :data:`~rinscal.thermal.plant.DEFAULT_PRESET`,
+or a TOML file) and loaded once by :func:`load_plant`: the calibration protocols and every
+navigation run simulate that same IMU. No plant is tuned to agree with the paper.
 """
 
 from __future__ import annotations
@@ -38,7 +40,7 @@ from rinscal.calibration.selection import SelectionResult, select_model
 from rinscal.errors import ConfigError
 from rinscal.schema import ACCEL_CHANNELS, CHANNELS
 from rinscal.thermal.field import ChamberProfile
-from rinscal.thermal.plant import ImuConfig
+from rinscal.thermal.plant import DEFAULT_PRESET, PRESETS, ImuConfig, load_imu
 from rinscal.thermal.protocols import simulate_protocol
 
 #: The calibration methods, in the paper's order, and the field's baseline.
@@ -109,7 +111,12 @@ class ReproConfig:
     vehicle_ambient_c : tuple of float [°C]
         Ambient temperature at the three vehicle cold starts (the cabin warms to 20 °C).
     align_s : float [s]
-        Self-alignment time of the cold starts.
+        Self-alignment time of the cold starts (coarse plus fine).
+    align_start_s : float [s]
+        Time after power-on at which the alignment starts (0: at power-on).
+    imu : str
+        The plant: a preset name (:data:`rinscal.thermal.plant.PRESETS`) or the path of an
+        IMU TOML file; see :func:`load_plant`.
     jobs : int
         Parallel processes for the navigation runs.
     """
@@ -132,17 +139,25 @@ class ReproConfig:
     lab_temps_c: tuple[float, ...] = (18.0, 20.0, 22.0, 24.0, 26.0)
     vehicle_ambient_c: tuple[float, ...] = (5.0, 0.0, 10.0)
     align_s: float = 600.0
+    align_start_s: float = 0.0
+    imu: str = DEFAULT_PRESET
     jobs: int = 1
 
     @classmethod
-    def full(cls, seed: int = 0, jobs: int = 1) -> ReproConfig:
-        """The paper's sizes: 3 h soaks at 10 Hz, navigation at 100 Hz, full durations."""
-        return cls(seed=seed, jobs=jobs)
+    def full(cls, seed: int = 0, jobs: int = 1, **overrides: Any) -> ReproConfig:
+        """The paper's sizes: 3 h soaks at 10 Hz, navigation at 100 Hz, full durations.
+
+        ``overrides`` sets other fields (``imu``, ``align_s``, ``align_start_s``).
+        """
+        return cls(seed=seed, jobs=jobs, **overrides)
 
     @classmethod
-    def quick_preset(cls, seed: int = 0, jobs: int = 1) -> ReproConfig:
-        """Shorter runs at lower rates; the same experiments (about 2 minutes on 2 cores)."""
-        return cls(
+    def quick_preset(cls, seed: int = 0, jobs: int = 1, **overrides: Any) -> ReproConfig:
+        """Shorter runs at lower rates; the same experiments (about 2 minutes on 2 cores).
+
+        ``overrides`` sets other fields (``imu``, ``align_s``, ``align_start_s``).
+        """
+        kw: dict[str, Any] = dict(
             seed=seed,
             quick=True,
             cal_rate_hz=2.0,
@@ -160,6 +175,8 @@ class ReproConfig:
             ramp_hours=4.5,
             jobs=jobs,
         )
+        kw.update(overrides)
+        return cls(**kw)
 
     def __post_init__(self) -> None:
         for name in (
@@ -177,10 +194,54 @@ class ReproConfig:
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
                 raise ConfigError(f"reproduction: {name} must be > 0, got {v}")
+        if not (math.isfinite(self.align_start_s) and self.align_start_s >= 0):
+            raise ConfigError(f"reproduction: align_start_s must be >= 0, got {self.align_start_s}")
         if self.jobs < 1:
             raise ConfigError(f"reproduction: jobs must be >= 1, got {self.jobs}")
         if len(self.lab_temps_c) < 1 or len(self.vehicle_ambient_c) < 1:
             raise ConfigError("reproduction: need at least one lab and one vehicle run")
+
+
+def load_plant(spec: str) -> ImuConfig:
+    """The IMU the whole reproduction simulates, from a preset name or a TOML file path.
+
+    Raises
+    ------
+    ConfigError
+        Naming the presets, when ``spec`` is neither a preset nor a readable IMU file (a
+        preset whose data file is missing from the installation included).
+    """
+    try:
+        return load_imu(spec)
+    except ConfigError as e:
+        raise ConfigError(f"--imu: {e}") from None
+    except OSError as e:
+        raise ConfigError(
+            f"--imu {spec!r}: cannot read it ({e.strerror or e}); presets: {', '.join(PRESETS)}"
+        ) from None
+
+
+def plant_info(spec: str, imu: ImuConfig) -> dict[str, Any]:
+    """Which plant ran, for the report and metrics.json.
+
+    Returns
+    -------
+    dict
+        ``spec`` (as given), ``kind`` (``"preset"`` or ``"file"``), ``name`` (the
+        configuration's own name), ``presets`` and ``other_presets`` (the built-in ones not
+        run), ``run_other`` (the option to pass to run another preset).
+    """
+    kind = "preset" if spec in PRESETS else "file"
+    others = [p for p in PRESETS if p != spec]
+    return {
+        "spec": str(spec),
+        "kind": kind,
+        "name": imu.name,
+        "presets": list(PRESETS),
+        "default_preset": DEFAULT_PRESET,
+        "other_presets": others,
+        "run_other": [f"--imu {p}" for p in others],
+    }
 
 
 # --------------------------------------------------------------------------- calibration
@@ -204,6 +265,8 @@ class CalibrationResult:
         Every table of the stage (see :func:`calibration_stage`).
     repeat_curves : DataFrame
         The repeat run's x-axis outputs before and after each compensation, for Figures 7-8.
+    imu : ImuConfig or None
+        The plant the calibration data were simulated on.
     """
 
     logs: dict[str, pd.DataFrame]
@@ -213,6 +276,7 @@ class CalibrationResult:
     selection: dict[str, SelectionResult]
     tables: dict[str, pd.DataFrame] = field(default_factory=dict)
     repeat_curves: pd.DataFrame | None = None
+    imu: ImuConfig | None = None
 
 
 def _fit(
@@ -226,7 +290,8 @@ def _fit(
     if method == "neural":
         params["max_samples"] = cfg.neural_max_samples
     model = ThermalModel(method, random_state=cfg.seed, estimator_params=params)
-    return model.fit(log, meta).to_file(source={"log": f"simulated soak, seed {cfg.seed}"})
+    source = {"log": f"simulated soak, IMU {cfg.imu}, seed {cfg.seed}"}
+    return model.fit(log, meta).to_file(source=source)
 
 
 def heldout_tables(
@@ -365,7 +430,7 @@ def calibration_stage(
     residual on the repeat and ramp runs, per method), ``repeat_steps`` (steps at the
     segment edges on the repeat run).
     """
-    imu = imu or ImuConfig.navigation_grade()
+    imu = imu or load_plant(cfg.imu)
     note = step or (lambda _msg: None)
     logs, truths, metas = {}, {}, {}
     for name, hours in (("soak", cfg.soak_hours), ("repeat", cfg.repeat_hours), ("ramp", None)):
@@ -388,7 +453,9 @@ def calibration_stage(
             random_state=cfg.seed,
             estimator_params=dict(cfg.selection_neural_params),
         )
-    res = CalibrationResult(logs, truths, metas, models, {"regression": sel_reg, "neural": sel_nn})
+    res = CalibrationResult(
+        logs, truths, metas, models, {"regression": sel_reg, "neural": sel_nn}, imu=imu
+    )
     note("held-out residuals and steps")
     res.tables.update(coefficient_tables(models))
     res.tables["table5"] = selection_table(sel_reg)
@@ -477,13 +544,38 @@ class NavRunResult:
     temperatures: pd.DataFrame  # time_s, chamber, outer, sensor_gyro_z ... [°C]
 
 
+def alignment_config(imu: ImuConfig, total_s: float, start_s: float = 0.0) -> Any:
+    """Alignment settings of the cold starts: :func:`rinscal.nav.scenario.align_for` with the
+    plant's noise, ``total_s`` [s] of coarse plus fine alignment starting ``start_s`` [s]
+    after power-on."""
+    import inspect
+
+    from rinscal.nav.scenario import align_for
+
+    if start_s == 0.0:
+        return align_for(imu, total_s=total_s)
+    if "start_s" not in inspect.signature(align_for).parameters:
+        raise ConfigError(
+            "--align-start-s: this version of rinscal.nav cannot start the alignment after "
+            "power-on (align_for has no start_s)"
+        )
+    return align_for(imu, total_s=total_s, start_s=start_s)
+
+
 def run_navigation_job(
-    job: NavJob, model_texts: Mapping[str, str], align_s: float, out_dt_s: float = 10.0
+    job: NavJob,
+    model_texts: Mapping[str, str],
+    imu: ImuConfig,
+    align_s: float = 600.0,
+    align_start_s: float = 0.0,
+    out_dt_s: float = 10.0,
 ) -> NavRunResult:
     """Run one navigation job with every variant on the same raw IMU output.
 
     ``model_texts`` maps a method to its model file's JSON text (so that worker processes
-    need nothing but strings).
+    need nothing but strings and the plant's configuration). ``imu`` is the plant the
+    calibration data came from; the navigation plant is built from it for the scenario
+    (its chamber, duration, rate and turntable schedule) with the job's seed.
     """
     from rinscal.nav.scenario import (
         LAB_C,
@@ -491,17 +583,14 @@ def run_navigation_job(
         VEHICLE_WARMUP_S,
         ModelCompensator,
         ThermalPlant,
-        align_for,
         oracle_compensator,
         preset,
         run_scenario,
         temperature_frame,
     )
 
-    imu = ImuConfig.navigation_grade()
-    cfg = preset(
-        job.scenario, hours=job.hours, rate_hz=job.rate_hz, align=align_for(imu, total_s=align_s)
-    )
+    align = alignment_config(imu, align_s, align_start_s)
+    cfg = preset(job.scenario, hours=job.hours, rate_hz=job.rate_hz, align=align)
     if job.scenario in ("quasi-static", "swing"):
         cfg = replace(cfg, chamber=ChamberProfile.constant(job.ambient_c or LAB_C))
     elif job.scenario == "vehicle" and job.ambient_c is not None:
@@ -510,7 +599,7 @@ def run_navigation_job(
         )
     out_every = max(1, round(out_dt_s * job.rate_hz))
     cfg = replace(cfg, out_dt_s=out_every / job.rate_hz)
-    plant = ThermalPlant(imu, cfg.chamber, cfg.duration_s, cfg.rate_hz, seed=job.seed)
+    plant = ThermalPlant.for_scenario(imu, cfg, seed=job.seed)
     comps: dict[str, Any] = {"none": None}
     for m in METHODS:
         comps[m] = ModelCompensator(ThermalModelFile.loads(model_texts[m], m), plant)
@@ -549,16 +638,24 @@ def navigation_stage(
     cfg: ReproConfig,
     models: Mapping[str, ThermalModelFile],
     done: Callable[[NavRunResult], None] | None = None,
+    imu: ImuConfig | None = None,
 ) -> list[NavRunResult]:
-    """Run every navigation job, in parallel processes when ``cfg.jobs > 1``."""
+    """Run every navigation job, in parallel processes when ``cfg.jobs > 1``.
+
+    ``imu`` is the plant (default: :func:`load_plant` of ``cfg.imu``); pass the one the
+    calibration stage simulated so that both stages run the same IMU.
+    """
     import json
 
+    imu = imu or load_plant(cfg.imu)
     texts = {m: json.dumps(models[m].to_dict()) for m in METHODS}
     jobs = navigation_jobs(cfg)
+    alignment_config(imu, cfg.align_s, cfg.align_start_s)  # refuse bad settings before forking
+    args = (texts, imu, cfg.align_s, cfg.align_start_s)
     results: list[NavRunResult] = []
     if cfg.jobs == 1:
         for job in jobs:
-            r = run_navigation_job(job, texts, cfg.align_s)
+            r = run_navigation_job(job, *args)
             results.append(r)
             if done:
                 done(r)
@@ -567,7 +664,7 @@ def navigation_stage(
 
         ctx = mp.get_context("spawn")  # no fork of a process that may hold numba threads
         with ProcessPoolExecutor(max_workers=cfg.jobs, mp_context=ctx) as pool:
-            futures = [pool.submit(run_navigation_job, j, texts, cfg.align_s) for j in jobs]
+            futures = [pool.submit(run_navigation_job, j, *args) for j in jobs]
             for fut in futures:
                 r = fut.result()
                 results.append(r)
@@ -627,51 +724,110 @@ def decrease_pct(a: float | np.ndarray, b: float | np.ndarray) -> float | np.nda
     return 100.0 * (np.asarray(a) - np.asarray(b)) / np.asarray(a)
 
 
-def summary_table(cal: CalibrationResult, maxerr: pd.DataFrame) -> pd.DataFrame:
-    """The paper's headline numbers beside ours (simulation), with a verdict column."""
-    rows: list[dict[str, Any]] = []
+def spread(values: Sequence[float] | np.ndarray | pd.Series) -> dict[str, float]:
+    """Mean and run-to-run spread of finite values: ``n``, ``mean``, ``sd`` (sample standard
+    deviation, NaN for fewer than two runs), ``min``, ``max``."""
+    x = np.asarray(values, dtype=float)
+    x = x[np.isfinite(x)]
+    if x.size == 0:
+        nan = float("nan")
+        return {"n": 0, "mean": nan, "sd": nan, "min": nan, "max": nan}
+    return {
+        "n": int(x.size),
+        "mean": float(x.mean()),
+        "sd": float(x.std(ddof=1)) if x.size > 1 else float("nan"),
+        "min": float(x.min()),
+        "max": float(x.max()),
+    }
 
-    def add(what: str, paper: float | str, ours: float | str, note: str = "") -> None:
-        rows.append({"quantity": what, "paper": paper, "rinscal (simulation)": ours, "note": note})
+
+def _per_run(values: Sequence[float] | np.ndarray | pd.Series, fmt: str = "{:.1f}") -> str:
+    return " / ".join(fmt.format(float(v)) for v in values)
+
+
+#: Columns of the headline table (:func:`summary_table`): the means and spreads first, the
+#: best cases last and labelled as maxima.
+SUMMARY_COLUMNS = (
+    "quantity",
+    "n runs",
+    "paper: mean",
+    "rinscal: mean",
+    "rinscal: sd",
+    "rinscal: min",
+    "rinscal: max",
+    "paper: maximum ('up to')",
+    "note",
+)
+
+
+def summary_table(cal: CalibrationResult, maxerr: pd.DataFrame) -> pd.DataFrame:
+    """The paper's headline numbers beside ours (simulation).
+
+    One row per headline quantity, computed per run: our mean over the runs with its
+    spread (sample standard deviation, min and max, number of runs), the paper's mean where
+    it publishes one and its maximum (the "up to" figures of the abstract and Section 5 are
+    the best run). Our maximum is labelled as one too. Blank: not published. Percentages
+    are the decrease of the maximum position error of a run from one method to another
+    (:func:`decrease_pct`); the Table 10 rows are maximum position errors [nmi]. The
+    training-RMS trends of Tables 5 and 7 are in :func:`selection_summary_table`.
+    """
+    rows: list[dict[str, Any]] = []
+    nan = float("nan")
+
+    def add(what: str, ours: Any, paper_mean: float, paper_max: float, note: str) -> None:
+        st = spread(ours)
+        values = (what, st["n"], paper_mean, st["mean"], st["sd"], st["min"], st["max"])
+        rows.append(dict(zip(SUMMARY_COLUMNS, (*values, paper_max, note), strict=True)))
 
     lab = maxerr[maxerr["experiment"] == "lab"]
     for scen, key12, key23 in (
         ("quasi-static", "lab_qs_m1_to_m2_pct", "lab_qs_m2_to_m3_pct"),
         ("swing", "lab_swing_m1_to_m2_pct", "lab_swing_m2_to_m3_pct"),
     ):
-        s = lab[lab["scenario"] == scen]
-        d12 = decrease_pct(s["sectional"], s["regression"])
-        d23 = decrease_pct(s["regression"], s["neural"])
-        add(
-            f"lab {scen}: best decrease of max position error, method 1 → 2 [%]",
-            PAPER[key12],
-            float(np.max(d12)),
-            f"mean over {len(s)} runs {np.mean(d12):.1f} %",
-        )
-        add(
-            f"lab {scen}: best decrease of max position error, method 2 → 3 [%]",
-            PAPER[key23],
-            float(np.max(d23)),
-            f"mean over {len(s)} runs {np.mean(d23):.1f} %",
-        )
+        sc = lab[lab["scenario"] == scen]
+        for a, b, key, what in (
+            ("sectional", "regression", key12, "method 1 → 2"),
+            ("regression", "neural", key23, "method 2 → 3"),
+        ):
+            d = np.asarray(decrease_pct(sc[a], sc[b]), dtype=float)
+            add(
+                f"lab {scen}: decrease of max position error, {what} [%]",
+                d,
+                nan,
+                PAPER[key],
+                f"per run: {_per_run(d)}; the paper gives only its best run ('up to')",
+            )
     veh = maxerr[maxerr["experiment"] == "vehicle"]
-    d13 = decrease_pct(veh["sectional"], veh["neural"])
-    add(
-        "vehicle: best decrease of max position error, method 1 → 3 [%]",
-        PAPER["vehicle_m1_to_m3_max_pct"],
-        float(np.max(d13)),
+    d13 = np.asarray(decrease_pct(veh["sectional"], veh["neural"]), dtype=float)
+    paper_d13 = decrease_pct(
+        np.array(PAPER["table10_nmi"]["sectional"]), np.array(PAPER["table10_nmi"]["neural"])
     )
     add(
-        "vehicle: mean decrease of max position error, method 1 → 3 [%]",
+        "vehicle: decrease of max position error, method 1 → 3 [%]",
+        d13,
         PAPER["vehicle_m1_to_m3_mean_pct"],
-        float(np.mean(d13)),
+        PAPER["vehicle_m1_to_m3_max_pct"],
+        f"per run: {_per_run(d13)}; paper (Table 10): {_per_run(paper_d13)}",
     )
     for m in ("sectional", "regression", "neural"):
+        paper = np.array(PAPER["table10_nmi"][m], dtype=float)
         add(
             f"vehicle: max position error, {LABELS[m]} [nmi]",
-            " / ".join(f"{x:.3f}" for x in PAPER["table10_nmi"][m]),
-            " / ".join(f"{x:.3f}" for x in veh[m]),
+            veh[m].to_numpy(dtype=float),
+            float(paper.mean()),
+            float(paper.max()),
+            f"per run: {_per_run(veh[m], '{:.3f}')}; paper (Table 10): {_per_run(paper, '{:.3f}')}",
         )
+    return pd.DataFrame(rows, columns=list(SUMMARY_COLUMNS))
+
+
+def selection_summary_table(cal: CalibrationResult) -> pd.DataFrame:
+    """Training RMS of Tables 5 and 7, the paper's (pulses) beside ours (µg, °/h)."""
+    rows: list[dict[str, Any]] = []
+
+    def add(what: str, paper: str, ours: str, note: str) -> None:
+        rows.append({"quantity": what, "paper": paper, "rinscal (simulation)": ours, "note": note})
+
     t5 = cal.selection["regression"].table
     t7 = cal.selection["neural"].table
     for c, key, unit in (("accel_x", "table5_accel_x", "µg"), ("gyro_x", "table5_gyro_x", "°/h")):
@@ -692,6 +848,109 @@ def summary_table(cal: CalibrationResult, maxerr: pd.DataFrame) -> pd.DataFrame:
             "units differ; compare the trend",
         )
     return pd.DataFrame(rows)
+
+
+def heading_error_table(results: Sequence[NavRunResult]) -> pd.DataFrame:
+    """Heading error at the start of free navigation per run and variant [arcsec].
+
+    Read from each run's navigation summary (``attitude_error_at_nav_start``); NaN where
+    the summary does not report it.
+    """
+    rows = []
+    for r in results:
+        row: dict[str, Any] = {
+            "experiment": r.job.experiment,
+            "scenario": r.job.scenario,
+            "number": r.job.index,
+        }
+        variants = r.summary.get("variants", {})
+        for v in VARIANTS:
+            att = variants.get(v, {}).get("attitude_error_at_nav_start") or {}
+            h = att.get("heading_arcsec")
+            row[v] = float(h) if h is not None else float("nan")
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+#: Groups of navigation runs the per-method statistics are given for.
+NAV_GROUPS = (
+    ("lab + vehicle", ("lab", "vehicle"), None),
+    ("lab quasi-static", ("lab",), "quasi-static"),
+    ("lab swing", ("lab",), "swing"),
+    ("vehicle", ("vehicle",), None),
+)
+
+
+def _group(table: pd.DataFrame, experiments: Sequence[str], scenario: str | None) -> pd.DataFrame:
+    sel = table["experiment"].isin(list(experiments))
+    if scenario is not None:
+        sel &= table["scenario"] == scenario
+    return table[sel]
+
+
+def nav_method_table(maxerr: pd.DataFrame, heading: pd.DataFrame) -> pd.DataFrame:
+    """Per group of runs and variant: the maximum position error [nmi] and the absolute
+    heading error at the start of navigation [arcsec], each as mean, sample standard
+    deviation, min and max over the runs."""
+    rows = []
+    for group, exps, scen in NAV_GROUPS:
+        me = _group(maxerr, exps, scen)
+        he = _group(heading, exps, scen)
+        if me.empty:
+            continue
+        for v in VARIANTS:
+            e = spread(me[v])
+            h = spread(np.abs(he[v].to_numpy(dtype=float)))
+            rows.append(
+                {
+                    "runs": group,
+                    "variant": v,
+                    "method": LABELS[v],
+                    "n runs": e["n"],
+                    "max error mean [nmi]": e["mean"],
+                    "max error sd [nmi]": e["sd"],
+                    "max error min [nmi]": e["min"],
+                    "max error max [nmi]": e["max"],
+                    "|heading error| mean [arcsec]": h["mean"],
+                    "|heading error| sd [arcsec]": h["sd"],
+                    "|heading error| min [arcsec]": h["min"],
+                    "|heading error| max [arcsec]": h["max"],
+                    "n heading": h["n"],
+                }
+            )
+    return pd.DataFrame(rows)
+
+
+def uncompensated_wins_heldout(residual: pd.DataFrame, log: str) -> dict[str, list[str]]:
+    """Per method, the channels of a held-out log on which no compensation beats it: the
+    true thermal bias (``none`` row) has a smaller RMS than the method's residual."""
+    rep = residual[residual["log"] == log].set_index("method")
+    if "none" not in rep.index:
+        return {}
+    out: dict[str, list[str]] = {}
+    for m in rep.index:
+        if m == "none":
+            continue
+        lost = [c for c in CHANNELS if c in rep.columns and rep.loc[m, c] > rep.loc["none", c]]
+        if lost:
+            out[str(m)] = lost
+    return out
+
+
+def uncompensated_wins_nav(maxerr: pd.DataFrame) -> dict[str, dict[str, tuple[float, float]]]:
+    """Per group of runs (:data:`NAV_GROUPS`), the methods whose mean maximum position error
+    is larger than the uncompensated run's: ``{group: {method: (none_mean, method_mean)}}``
+    [nmi]; the oracle is not a method and is left out."""
+    out: dict[str, dict[str, tuple[float, float]]] = {}
+    for group, exps, scen in NAV_GROUPS:
+        g = _group(maxerr, exps, scen)
+        if g.empty or "none" not in g:
+            continue
+        base = float(g["none"].mean())
+        lost = {m: (base, float(g[m].mean())) for m in METHODS if m in g and g[m].mean() > base}
+        if lost:
+            out[group] = lost
+    return out
 
 
 def claims(
@@ -787,12 +1046,20 @@ __all__ = [
     "ReproConfig",
     "calibration_stage",
     "claims",
+    "heading_error_table",
     "heldout_tables",
+    "load_plant",
     "max_error_table",
+    "nav_method_table",
     "navigation_jobs",
     "navigation_stage",
+    "plant_info",
     "run_navigation_job",
+    "selection_summary_table",
+    "spread",
     "summary_table",
     "thermal_part_m",
     "thermal_part_table",
+    "uncompensated_wins_heldout",
+    "uncompensated_wins_nav",
 ]

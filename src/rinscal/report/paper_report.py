@@ -208,6 +208,96 @@ def _verdict(ok: bool) -> str:
     )
 
 
+# --------------------------------------------------------------------------- words
+_LOG_WORDS = {"repeat": "the held-out repeat start", "ramp": "the held-out chamber ramp"}
+
+
+def _join(items: Sequence[str]) -> str:
+    items = list(items)
+    if len(items) <= 1:
+        return "".join(items)
+    return ", ".join(items[:-1]) + " and " + items[-1]
+
+
+def words_uncompensated_heldout(residual: pd.DataFrame, log: str) -> str:
+    """One sentence, from the numbers, saying on which channels of a held-out log no
+    compensation beats each method (or that every method beats it everywhere)."""
+    from rinscal.experiments.paper import uncompensated_wins_heldout
+
+    where = _LOG_WORDS.get(log, f"the held-out run {log!r}")
+    wins = uncompensated_wins_heldout(residual, log)
+    if not wins:
+        return (
+            f"On {where}, every method has a smaller thermal residual than no compensation "
+            "on every channel."
+        )
+    parts = [f"{LABELS[m]} on {_join(chans)}" for m, chans in wins.items()]
+    return (
+        f"On {where}, no compensation beats {'; '.join(parts)}: there the model's residual "
+        "RMS is larger than the whole thermal variation it should remove, so compensating "
+        "with it makes that output worse."
+    )
+
+
+def words_uncompensated_nav(maxerr: pd.DataFrame) -> str:
+    """Sentences, from the numbers, saying where the uncompensated run has a smaller mean
+    maximum position error than a method (or that every method beats it)."""
+    from rinscal.experiments.paper import NAV_GROUPS, _group, uncompensated_wins_nav
+
+    wins = uncompensated_wins_nav(maxerr)
+    if not wins:
+        return (
+            "In navigation, every method has a smaller mean maximum position error than no "
+            "compensation, in every group of runs."
+        )
+    out = []
+    for group, exps, scen in NAV_GROUPS:
+        if group not in wins:
+            continue
+        n = len(_group(maxerr, exps, scen))
+        base = next(iter(wins[group].values()))[0]
+        beaten = [f"{LABELS[m]} at {mm:.3f} nmi" for m, (_b, mm) in wins[group].items()]
+        out.append(
+            f"In navigation over the {group} runs (n = {n}), no compensation has a smaller "
+            f"mean maximum position error ({base:.3f} nmi) than {_join(beaten)}."
+        )
+    return " ".join(out)
+
+
+def _max_words(r: NavRunResult, variants: Sequence[str] = VARIANTS) -> str:
+    """'uncompensated 0.718, ... nmi; smallest among the models: X' for one run."""
+    v = r.summary["variants"]
+    vals = {k: float(v[k]["max_error_nmi"]) for k in variants if k in v}
+    models = {k: x for k, x in vals.items() if k in METHODS}
+    text = "maximum errors " + ", ".join(f"{LABELS[k]} {x:.3f}" for k, x in vals.items())
+    if models:
+        best = min(models, key=models.__getitem__)
+        worst = max(models, key=models.__getitem__)
+        text += f" nmi; smallest among the models: {LABELS[best]}, largest: {LABELS[worst]}"
+        if "none" in vals:
+            beaten = [LABELS[k] for k, x in models.items() if x > vals["none"]]
+            if beaten:
+                text += f"; no compensation beats {_join(beaten)} on this run"
+    return text
+
+
+def _plant_html(plant: Mapping[str, Any]) -> str:
+    import html
+
+    kind = "preset" if plant["kind"] == "preset" else "IMU file"
+    others = " or ".join(f"<code>{html.escape(o)}</code>" for o in plant["run_other"])
+    other = (
+        f" To run the other built-in plant, add {others} to the command."
+        if others
+        else f" Built-in presets: {', '.join(plant['presets'])}."
+    )
+    return (
+        f"Plant: <b>{html.escape(plant['name'])}</b> ({kind} "
+        f"<code>{html.escape(plant['spec'])}</code>, chosen with "
+        f"<code>--imu</code>).{other}"
+    )
+
+
 def build_report(
     cfg: ReproConfig,
     cal: CalibrationResult,
@@ -216,22 +306,34 @@ def build_report(
     claims: Mapping[str, Any],
     figures: Mapping[str, bytes],
     timings: Mapping[str, float],
+    plant: Mapping[str, Any] | None = None,
 ) -> Report:
-    """Assemble the report: every table and figure, the paper's numbers beside ours."""
+    """Assemble the report: every table and figure, the paper's numbers beside ours.
+
+    ``plant`` is :func:`rinscal.experiments.paper.plant_info` of the IMU that ran (default:
+    from ``cfg.imu`` and ``cal.imu``).
+    """
+    from rinscal.experiments.paper import load_plant, plant_info
+
+    if plant is None:
+        plant = plant_info(cfg.imu, cal.imu or load_plant(cfg.imu))
     mode = "quick" if cfg.quick else "full"
     rep = Report(
         "rinscal: the paper's Section 5, reproduced in simulation",
         subtitle=(
-            f"Wang, Cheng, Du, Sensors 2020. Mode {mode}, seed {cfg.seed}. Every number "
-            "of ours comes from the simulated navigation-grade plant; none is the paper's."
+            f"Wang, Cheng, Du, Sensors 2020. Mode {mode}, seed {cfg.seed}, plant "
+            f"{plant['name']!r} (--imu {plant['spec']}). Every number of ours comes from "
+            "that simulated plant; none is the paper's."
         ),
     )
     s = rep.section("Summary: the paper's numbers beside ours", "summary")
     s.raw(
-        '<p class="banner">All of our figures are <b>simulation</b>: a navigation-grade FOG + '
-        "quartz RINS (rinscal's built-in plant), soak-calibrated as in Table 3 and navigated "
-        "as in Section 5.2. The plant was written from the physics and never tuned to agree "
-        "with the paper. Where we disagree, the table says so.</p>"
+        '<p class="banner">All of our figures are <b>simulation</b>: one simulated IMU plant '
+        "on its turntable, soak-calibrated as in Table 3 and navigated as in Section 5.2; the "
+        "calibration data and every navigation run come from the same plant. "
+        + _plant_html(plant)
+        + " No plant was tuned to agree with the paper. Where we disagree, the tables say "
+        "so.</p>"
     )
     items = []
     for c in claims.values():
@@ -240,13 +342,64 @@ def build_report(
             f"<li>{_verdict(c['holds'])} ({tag}): {c['what']}: <code>{_fmt_values(c)}</code></li>"
         )
     s.raw("<h3>The paper's claims, checked on held-out data</h3><ul>" + "".join(items) + "</ul>")
-    s.table("summary", tables["summary"], "The paper's headline numbers and ours")
+    s.text(
+        "The headline numbers, per run: our mean over the runs comes first with its spread "
+        "(sample standard deviation, smallest and largest run, number of runs). The paper's "
+        "percentages in its abstract and Section 5 are 'up to' figures, i.e. its best run: "
+        "they stand in the column of maxima, beside our own largest run. Blank: the paper "
+        "publishes no such figure."
+    )
+    s.table("summary", tables["summary"], "The paper's headline numbers and ours (per run)")
+    h = tables["heldout_residual"]
+    words = [words_uncompensated_heldout(h, log) for log in dict.fromkeys(h["log"])]
+    words.append(words_uncompensated_nav(_maxerr_from(tables)))
+    s.raw(
+        "<h3>Where no compensation beats a model</h3><ul>"
+        + "".join(f"<li>{_esc(w)}</li>" for w in words)
+        + "</ul>"
+    )
+    nbm = tables["nav_by_method"]
+    heading_known = bool(nbm["n heading"].sum() > 0)
+    s.text(
+        "Per method: the maximum horizontal position error of each run and the absolute "
+        "heading error the alignment hands over at the start of free navigation, as mean, "
+        "standard deviation, min and max over the runs. A heading error δψ at the start "
+        "grows a position error of about R·Ω·cos(L)·δψ·t, so a model that biases the "
+        "alignment shows up here before its drift does."
+        + (
+            ""
+            if heading_known
+            else " The heading error is blank: this version of the navigation summary does "
+            "not report the attitude error at the start of navigation."
+        )
+    )
+    s.table(
+        "nav_by_method",
+        nbm.drop(columns="variant"),
+        "Maximum position error [nmi] and |heading error| at the start of navigation "
+        "[arcsec] per method: mean, sd, min, max over the runs",
+    )
+    s.table(
+        "selection_vs_paper",
+        tables["selection_vs_paper"],
+        "Tables 5 and 7: training RMS, the paper's beside ours (units differ)",
+    )
 
     s = rep.section("Calibration data (Table 3, Figure 3)", "calibration-data")
     s.text(
         f"Seven soak cold starts at 0, 7, 14, 21, 28, 35, 42 °C, {cfg.soak_hours:g} h each at "
         f"{cfg.cal_rate_hz:g} Hz, no rotation; the unit had soaked before each power-on. "
         "Held out: a repetition-priming cold start at 25 °C and the −2 → 50 °C chamber ramp."
+    )
+    soak = cal.logs["soak"]
+    tcols = [c for c in soak.columns if c.startswith("temp_") and c != "temp_out"]
+    t_lo, t_hi = float(soak[tcols].min().min()), float(soak[tcols].max().max())
+    s.text(
+        "The figure below shows every output and temperature of the seven soak runs, the "
+        "only data any model is fitted to: each output drifts as the unit warms after its "
+        f"power-on, and the inner temperatures span {t_lo:.1f} to {t_hi:.1f} °C. What a "
+        "model never sees here (other rates of warming, other gradients) is what the "
+        "held-out runs below test."
     )
     s.figure("soak", figures["soak"], "Figure 3: outputs and temperatures of the soak runs")
 
@@ -276,6 +429,17 @@ def build_report(
             tables[f"table8_{c}"],
             f"Table 8 ({c}): weights on standardised inputs and output",
         )
+    rec = {
+        m: ", ".join(f"{c} {v}" for c, v in cal.selection[m].recommended.items())
+        for m in ("regression", "neural")
+    }
+    s.text(
+        "The figure below draws Tables 5 and 7 as curves, to show whether a larger model "
+        "generalises: training RMS (solid) can only fall as the model grows, the "
+        "leave-one-run-out RMS (dashed) is what a new run would see; the star marks the "
+        f"setting recommended on held-out RMS (regression order: {rec['regression']}; "
+        f"hidden neurons: {rec['neural']})."
+    )
     s.figure("selection", figures["selection"], "Tables 5 and 7 as curves")
 
     s = rep.section("Held-out runs: repeat start and chamber ramp (Figures 7, 8)", "heldout")
@@ -287,6 +451,8 @@ def build_report(
     s.table(
         "heldout_residual", tables["heldout_residual"], "Held-out thermal residual RMS per channel"
     )
+    for w in words[:-1]:
+        s.text(w)
     s.table(
         "repeat_steps",
         tables["repeat_steps"],
@@ -299,30 +465,79 @@ def build_report(
         "The same on the chamber ramp (every ramp sample lies outside the soak training range "
         "in ΔT; inputs are clamped to it)",
     )
+    s.text(_repeat_words(tables["repeat_steps"]))
     s.figure("repeat", figures["repeat"], "Figures 7 and 8: repeat cold start at 25 °C")
 
+    ramp = [r for r in nav if r.job.experiment == "ramp"]
     s = rep.section("Navigation in the chamber ramp (Figure 9)", "ramp")
+    if ramp:
+        r = ramp[0]
+        ch = r.temperatures["chamber"]
+        s.text(
+            f"The figure below shows the horizontal position error against time of the "
+            f"quasi-static RINS while the chamber goes from {ch.min():.0f} to "
+            f"{ch.max():.0f} °C ({r.job.hours:g} h). It is there to test extrapolation: the "
+            "soak runs never see such gradients, so every model works outside its training "
+            f"range and clamps its inputs. On this run: {_max_words(r)}."
+        )
     s.figure("nav_ramp", figures["nav_ramp"], "Figure 9: quasi-static RINS, chamber −2 → 50 °C")
+    s.table("ramp_max", tables["ramp_max"], "Chamber ramp: maximum position error [nmi]")
 
     s = rep.section("Lab cold starts: quasi-static and swing (Figures 11-13)", "lab")
+    start = f" starting {cfg.align_start_s:g} s after power-on" if cfg.align_start_s else ""
     s.text(
         "Each run: cold start, self-alignment (coarse, then a Kalman filter on zero "
-        f"velocity, {cfg.align_s:g} s), then free navigation with four-position modulation. "
-        "All methods navigate on the same raw IMU output of a run."
+        f"velocity, {cfg.align_s:g} s{start}), then free navigation with four-position "
+        "modulation. All methods navigate on the same raw IMU output of a run, so the gaps "
+        "between the curves of a run are the compensation alone."
     )
-    s.figure("nav_qs", figures["nav_qs"], "Figure 11: quasi-static, experiment 1")
-    s.figure("nav_swing", figures["nav_swing"], "Figure 12: swing, experiment 6")
+    for key, exp, scen, what in (
+        ("nav_qs", "lab", "quasi-static", "the first quasi-static cold start"),
+        ("nav_swing", "lab", "swing", "the first swing cold start"),
+    ):
+        r = next((x for x in nav if x.job.experiment == exp and x.job.scenario == scen), None)
+        if r is not None:
+            s.text(
+                f"The figure below shows the position error against time of {what} "
+                f"(experiment {r.job.index}, {r.job.ambient_c:g} °C), one curve per variant, "
+                f"to show how each compensation's error grows over the run: {_max_words(r)}."
+            )
+        fig_no = 11 if scen == "quasi-static" else 12
+        number = f", experiment {r.job.index}" if r is not None else ""
+        s.figure(key, figures[key], f"Figure {fig_no}: {scen}{number}")
+    s.text(_lab_bars_words(tables["lab_max"]))
     s.figure("lab_bars", figures["lab_bars"], "Figure 13: maximum errors of experiments 1-10")
     s.table("lab_max", tables["lab_max"], "Maximum horizontal position error [nmi]")
 
     s = rep.section("Vehicle experiments (Figures 15, 16, Table 10)", "vehicle")
+    veh = [r for r in nav if r.job.experiment == "vehicle"]
+    if veh:
+        r = veh[0]
+        s.text(
+            f"The figure below draws the route of vehicle run {r.job.index} and the track "
+            "each compensation's INS computed on it, to show where the tracks part from the "
+            f"truth; {_max_words(r, ('none', 'sectional', 'regression', 'neural'))}."
+        )
     s.figure("vehicle_track", figures["vehicle_track"], "Figure 15: trajectories, run 1")
+    if veh:
+        r = veh[0]
+        when = ", ".join(
+            f"{LABELS[k]} {v['time_of_max_s'] / units.HOUR_TO_S:.2f} h"
+            for k, v in r.summary["variants"].items()
+            if k in VARIANTS
+        )
+        s.text(
+            "The figure below is the position error of the same run against time (Figure "
+            "16), with the baseline and the oracle added, to show when during the drive each "
+            f"variant's error grows; each reaches its maximum at: {when}."
+        )
     s.figure("nav_vehicle", figures["nav_vehicle"], "Figure 16: position errors, run 1")
     s.table(
         "table10",
         tables["table10"],
         "Table 10: maximum position error [nmi] and decrease from method 1 to 3",
     )
+    s.text(_temperature_words(nav, t_lo, t_hi))
     s.figure("temperatures", figures["temperatures"], "Thermal scenarios of the navigation runs")
 
     s = rep.section("What the thermal models alone cost in navigation", "thermal-part")
@@ -339,18 +554,95 @@ def build_report(
         tables["thermal_part"],
         "Maximum position error caused by the thermal-model error alone [nmi]",
     )
+    s.table(
+        "heading_at_nav_start",
+        tables["heading_at_nav_start"],
+        "Heading error at the start of free navigation per run and variant [arcsec] "
+        "(signed; blank where the navigation summary does not report it)",
+    )
 
     s = rep.section("How this was made", "method")
     rows = "".join(f"<li>{k}: {v:.1f} s</li>" for k, v in timings.items())
     s.raw(
-        "<p>Command: <code>rinscal reproduce"
-        + (" --quick" if cfg.quick else "")
-        + f" --seed {cfg.seed}</code>. Settings:</p><ul>"
-        + "".join(f"<li><code>{k} = {v}</code></li>" for k, v in vars(cfg).items())
+        f"<p>Command: <code>{_esc(command_line(cfg))}</code>. {_plant_html(plant)} "
+        "Settings:</p><ul>"
+        + "".join(f"<li><code>{_esc(f'{k} = {v}')}</code></li>" for k, v in vars(cfg).items())
         + f"</ul><p>Stage times:</p><ul>{rows}</ul>"
     )
     _ = PAPER
     return rep
+
+
+def command_line(cfg: ReproConfig) -> str:
+    """The ``rinscal reproduce`` command that re-runs ``cfg`` (output folder left out)."""
+    parts = ["rinscal reproduce"]
+    if cfg.quick:
+        parts.append("--quick")
+    parts += [f"--seed {cfg.seed}", f"--imu {cfg.imu}", f"--align-s {cfg.align_s:g}"]
+    if cfg.align_start_s:
+        parts.append(f"--align-start-s {cfg.align_start_s:g}")
+    return " ".join(parts)
+
+
+def _esc(text: str) -> str:
+    import html
+
+    return html.escape(text)
+
+
+def _maxerr_from(tables: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
+    """The lab and vehicle rows of the max-error table, rebuilt from the report's tables."""
+    parts = []
+    for key, exp in (("lab_max", "lab"), ("table10", "vehicle")):
+        if key in tables:
+            parts.append(tables[key].assign(experiment=exp))
+    return pd.concat(parts, ignore_index=True)
+
+
+def _repeat_words(steps: pd.DataFrame) -> str:
+    acc = steps[steps["channel"].str.startswith("accel")]
+    big = acc.groupby("method")["model_step"].max()
+    parts = [f"{LABELS[m]} {big[m]:.2g} µg" for m in METHODS if m in big and np.isfinite(big[m])]
+    return (
+        "The figure below shows the x outputs of the held-out repeat cold start at 25 °C "
+        "before and after each compensation, with the inner temperature beside them and the "
+        "sectional model's segment edges dashed, to show the step the paper's Figure 7 "
+        "points at: the largest model step where the temperature crosses an edge, on the "
+        f"accelerometers, is {_join(parts)}."
+    )
+
+
+def _lab_bars_words(lab: pd.DataFrame) -> str:
+    parts = []
+    for scen in ("quasi-static", "swing"):
+        sc = lab[lab["scenario"] == scen]
+        if sc.empty:
+            continue
+        n = len(sc)
+        k12 = int((sc["regression"] < sc["sectional"]).sum())
+        k13 = int((sc["neural"] < sc["sectional"]).sum())
+        kn = int((sc[list(METHODS)].min(axis=1) < sc["none"]).sum())
+        parts.append(
+            f"in the {scen} runs method 2 beats method 1 in {k12} of {n}, method 3 beats "
+            f"method 1 in {k13} of {n}, and the best model beats no compensation in {kn} "
+            f"of {n}"
+        )
+    return (
+        "The figure below shows the maximum position error of each lab experiment and "
+        "method side by side (Figure 13), to show how the ranking of the methods changes "
+        f"from run to run: {'; '.join(parts)}."
+    )
+
+
+def _temperature_words(nav: Sequence[NavRunResult], t_lo: float, t_hi: float) -> str:
+    lo = min(float(r.temperatures["sensor_gyro_z"].min()) for r in nav)
+    hi = max(float(r.temperatures["sensor_gyro_z"].max()) for r in nav)
+    return (
+        "The figure below shows the thermal scenario of every navigation run (gyro z inner "
+        "temperature solid, ambient dotted), to show what the models face in navigation: "
+        f"inner temperatures from {lo:.1f} to {hi:.1f} °C, against {t_lo:.1f} to {t_hi:.1f} "
+        "°C in the soak runs they were trained on."
+    )
 
 
 def _fmt_values(c: Mapping[str, Any]) -> str:
@@ -406,7 +698,15 @@ def render_figures(
     return {k: figure_to_png(f) for k, f in figs.items()}
 
 
-__all__ = ["build_report", "render_figures", "reproduction_tables", "write_reproduction"]
+__all__ = [
+    "build_report",
+    "command_line",
+    "render_figures",
+    "reproduction_tables",
+    "words_uncompensated_heldout",
+    "words_uncompensated_nav",
+    "write_reproduction",
+]
 
 
 # --------------------------------------------------------------------------- files
@@ -427,7 +727,10 @@ def reproduction_tables(
     """Every table of the reproduction (name -> DataFrame) and the max-error table."""
     from rinscal.experiments.paper import (
         decrease_pct,
+        heading_error_table,
         max_error_table,
+        nav_method_table,
+        selection_summary_table,
         summary_table,
         thermal_part_table,
     )
@@ -441,8 +744,38 @@ def reproduction_tables(
     tables["table10"] = veh
     tables["ramp_max"] = maxerr[maxerr["experiment"] == "ramp"].drop(columns="experiment")
     tables["summary"] = summary_table(cal, maxerr)
+    tables["selection_vs_paper"] = selection_summary_table(cal)
+    heading = heading_error_table(nav)
+    tables["heading_at_nav_start"] = heading
+    tables["nav_by_method"] = nav_method_table(maxerr, heading)
     tables["thermal_part"] = thermal_part_table(nav)
     return maxerr, tables
+
+
+def _records(df: pd.DataFrame) -> list[dict[str, Any]]:
+    """Rows of a table for JSON, NaN written as null."""
+
+    def clean(v: Any) -> Any:
+        return None if isinstance(v, float) and not np.isfinite(v) else v
+
+    return [{k: clean(v) for k, v in rec.items()} for rec in df.to_dict(orient="records")]
+
+
+def findings(tables: Mapping[str, pd.DataFrame]) -> dict[str, Any]:
+    """Where no compensation beats a model, as data and as the report's sentences."""
+    from rinscal.experiments.paper import uncompensated_wins_heldout, uncompensated_wins_nav
+
+    h = tables["heldout_residual"]
+    logs = list(dict.fromkeys(h["log"]))
+    maxerr = _maxerr_from(tables)
+    return {
+        "uncompensated_beats_heldout": {log: uncompensated_wins_heldout(h, log) for log in logs},
+        "uncompensated_beats_nav_nmi": {
+            g: {m: list(v) for m, v in d.items()} for g, d in uncompensated_wins_nav(maxerr).items()
+        },
+        "sentences": [words_uncompensated_heldout(h, log) for log in logs]
+        + [words_uncompensated_nav(maxerr)],
+    }
 
 
 def write_reproduction(
@@ -451,13 +784,20 @@ def write_reproduction(
     cal: CalibrationResult,
     nav: Sequence[NavRunResult],
     timings: Mapping[str, float],
+    plant: Mapping[str, Any] | None = None,
 ) -> Written:
-    """Write report.html, figures/*.png, tables/*.csv, models/*.json and metrics.json."""
+    """Write report.html, figures/*.png, tables/*.csv, models/*.json and metrics.json.
+
+    ``plant`` is :func:`rinscal.experiments.paper.plant_info` of the IMU that ran (default:
+    from ``cfg.imu`` and ``cal.imu``).
+    """
     import json
 
-    from rinscal.experiments.paper import claims
+    from rinscal.experiments.paper import claims, load_plant, plant_info
     from rinscal.io import write_atomic
 
+    if plant is None:
+        plant = plant_info(cfg.imu, cal.imu or load_plant(cfg.imu))
     maxerr, tables = reproduction_tables(cal, nav)
     checked = claims(cal, maxerr, tables["thermal_part"])
     figures = render_figures(cal, nav, maxerr)
@@ -469,11 +809,13 @@ def write_reproduction(
         write_atomic(out / "tables" / f"{name}.csv", lambda tmp, df=df: df.to_csv(tmp, index=False))
     for m, model in cal.models.items():
         model.save(out / "models" / f"{m}.json")
-    rep = build_report(cfg, cal, nav, tables, checked, figures, timings)
+    rep = build_report(cfg, cal, nav, tables, checked, figures, timings, plant=plant)
     page = rep.to_html()
     write_atomic(out / "report.html", lambda tmp: tmp.write_text(page, encoding="utf-8"))
     metrics = {
         "mode": "quick" if cfg.quick else "full",
+        "imu": dict(plant),
+        "command": command_line(cfg),
         "config": {k: (list(v) if isinstance(v, tuple) else v) for k, v in vars(cfg).items()},
         "claims": checked,
         "figures": rep.figure_ids(),
@@ -488,9 +830,12 @@ def write_reproduction(
             }
             for r in nav
         ],
-        "heldout_residual": tables["heldout_residual"].to_dict(orient="records"),
-        "repeat_steps": tables["repeat_steps"].to_dict(orient="records"),
-        "summary": tables["summary"].to_dict(orient="records"),
+        "heldout_residual": _records(tables["heldout_residual"]),
+        "repeat_steps": _records(tables["repeat_steps"]),
+        "summary": _records(tables["summary"]),
+        "nav_by_method": _records(tables["nav_by_method"]),
+        "heading_at_nav_start_arcsec": _records(tables["heading_at_nav_start"]),
+        "findings": findings(tables),
         "selection": {m: s.to_dict() for m, s in cal.selection.items()},
     }
     text = json.dumps(metrics, indent=2, default=_json_default) + "\n"
