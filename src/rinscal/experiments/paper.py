@@ -760,7 +760,7 @@ SUMMARY_COLUMNS = (
 )
 
 
-def summary_table(cal: CalibrationResult, maxerr: pd.DataFrame) -> pd.DataFrame:
+def summary_table(maxerr: pd.DataFrame) -> pd.DataFrame:
     """The paper's headline numbers beside ours (simulation).
 
     One row per headline quantity, computed per run: our mean over the runs with its
@@ -768,8 +768,9 @@ def summary_table(cal: CalibrationResult, maxerr: pd.DataFrame) -> pd.DataFrame:
     it publishes one and its maximum (the "up to" figures of the abstract and Section 5 are
     the best run). Our maximum is labelled as one too. Blank: not published. Percentages
     are the decrease of the maximum position error of a run from one method to another
-    (:func:`decrease_pct`); the Table 10 rows are maximum position errors [nmi]. The
-    training-RMS trends of Tables 5 and 7 are in :func:`selection_summary_table`.
+    (:func:`decrease_pct`); the Table 10 rows are maximum position errors [nmi].
+    ``maxerr`` is :func:`max_error_table`. The training-RMS trends of Tables 5 and 7 are in
+    :func:`selection_summary_table`.
     """
     rows: list[dict[str, Any]] = []
     nan = float("nan")

@@ -339,7 +339,8 @@ def build_report(
     for c in claims.values():
         tag = "asserted in CI" if c["asserted"] else "reported"
         items.append(
-            f"<li>{_verdict(c['holds'])} ({tag}): {c['what']}: <code>{_fmt_values(c)}</code></li>"
+            f"<li>{_verdict(c['holds'])} ({tag}): {_esc(c['what'])}: "
+            f"<code>{_esc(_fmt_values(c))}</code></li>"
         )
     s.raw("<h3>The paper's claims, checked on held-out data</h3><ul>" + "".join(items) + "</ul>")
     s.text(
@@ -521,15 +522,22 @@ def build_report(
     s.figure("vehicle_track", figures["vehicle_track"], "Figure 15: trajectories, run 1")
     if veh:
         r = veh[0]
-        when = ", ".join(
-            f"{LABELS[k]} {v['time_of_max_s'] / units.HOUR_TO_S:.2f} h"
+        t_max = {
+            k: v["time_of_max_s"] / units.HOUR_TO_S
             for k, v in r.summary["variants"].items()
             if k in VARIANTS
-        )
+        }
+        if len({round(x, 2) for x in t_max.values()}) == 1:
+            when = f"every variant reaches its maximum at {next(iter(t_max.values())):.2f} h"
+        else:
+            when = "each reaches its maximum at: " + ", ".join(
+                f"{LABELS[k]} {x:.2f} h" for k, x in t_max.items()
+            )
         s.text(
             "The figure below is the position error of the same run against time (Figure "
             "16), with the baseline and the oracle added, to show when during the drive each "
-            f"variant's error grows; each reaches its maximum at: {when}."
+            f"variant's error grows; {when} (the run lasts "
+            f"{r.summary['duration_s'] / units.HOUR_TO_S:.2f} h)."
         )
     s.figure("nav_vehicle", figures["nav_vehicle"], "Figure 16: position errors, run 1")
     s.table(
@@ -743,7 +751,7 @@ def reproduction_tables(
     veh["decrease m1→m2 [%]"] = decrease_pct(veh["sectional"], veh["regression"])
     tables["table10"] = veh
     tables["ramp_max"] = maxerr[maxerr["experiment"] == "ramp"].drop(columns="experiment")
-    tables["summary"] = summary_table(cal, maxerr)
+    tables["summary"] = summary_table(maxerr)
     tables["selection_vs_paper"] = selection_summary_table(cal)
     heading = heading_error_table(nav)
     tables["heading_at_nav_start"] = heading
