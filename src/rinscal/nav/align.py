@@ -14,11 +14,15 @@ Fine (Kalman filter on zero velocity)
 
         φ̇  = −ω_ie^n × φ + δω_en^n(δv) − C_nr ε
         δv̇ = (f^n × φ)_EN + (C_nr ∇)_EN − (2 ω_ie^n × δv)_EN
+        ε̇  = −ε/τ_g + w_g,   ∇̇ = −∇/τ_a + w_a,   E[w w'] = (2σ²/τ) δ(t − t')
 
-    with ``f^n = (0, 0, g)``. The measurement is the INS horizontal velocity (the truth is
-    zero, the IMU centre being fixed even when the base swings). Estimates are fed back
-    after every update (closed loop); position is held at the known site. With the
-    turntable rotating, the horizontal biases become observable and are estimated too.
+    with ``f^n = (0, 0, g)``: the bias errors are first-order Gauss-Markov processes, so a
+    bias that drifts during the alignment is followed instead of being aliased into the
+    attitude (see :class:`AlignConfig`; ``σ = 0`` gives random constants). The
+    measurement is the INS horizontal velocity (the truth is zero, the IMU centre being
+    fixed even when the base swings). Estimates are fed back after every update (closed
+    loop); position is held at the known site. With the turntable rotating, the horizontal
+    biases become observable and are estimated too.
 """
 
 from __future__ import annotations
@@ -61,6 +65,47 @@ class AlignConfig:
         Prior standard deviation of the attitude error after the coarse stage.
     velocity_meas_sd : float [m/s]
         Standard deviation of the zero-velocity measurement.
+    start_s : float [s]
+        Time after power-on at which the alignment begins. The unit is on and warming
+        before it, but nobody aligns yet: those samples are ignored. Free navigation
+        starts at ``start_s + total_s``.
+    gyro_bias_tau_s : float [s]
+        Correlation time of the first-order Gauss-Markov model of each gyro bias state.
+    gyro_bias_markov_sd : float [rad/s]
+        Steady-state standard deviation of that Gauss-Markov process (its driving noise
+        has the spectral density ``2 σ² / τ``); 0 makes the gyro biases random constants
+        (no process noise, no decay: the filter before the Markov model).
+    accel_bias_tau_s : float [s]
+        Correlation time of the Gauss-Markov model of each accelerometer bias state.
+    accel_bias_markov_sd : float [m/s²]
+        Its steady-state standard deviation; 0 makes the accelerometer biases random
+        constants.
+
+    Notes
+    -----
+    Why Gauss-Markov bias states, and why these defaults. A unit aligned at a cold start
+    warms during the alignment: the built-in navigation-grade plant's thermal bias moves
+    by about 0.01 °/h (gyros) and 2-5 µg (accelerometers) within the first ten minutes,
+    and a real unit may step by tens of µg (a relay, a heater, a mode change). A filter
+    whose bias states are random constants has no way to follow such a change: with the
+    table turning it has pinned the horizontal biases within a few minutes, so a later
+    change is explained by the attitude states instead, and the heading the alignment
+    hands over is wrong (a 20 µg accelerometer step in the middle of the 10 min alignment
+    costs about a minute of arc of heading and 0.4-1 nmi after a few hours). The states
+    here are the *error* of the bias estimate (true bias minus the estimate being
+    subtracted), modelled as first-order Gauss-Markov: ``F`` has ``−1/τ`` on their
+    diagonal, ``Q`` the density ``2 σ² / τ``. The estimate itself is held between updates
+    and not decayed, because most of the bias (the turn-on offset) is constant.
+
+    The defaults suit a 0.01 °/h FOG with 0.001 °/√h ARW and 10 µg/√Hz quartz
+    accelerometers. ``τ = 600 s`` is the length of the standard alignment (what the
+    filter must be able to follow is a change *within* it), and ``σ`` is the size of the
+    change to be followed: 20 µg for the accelerometers (a warm-up step or drift of that
+    order; at 0.82 µg/√s of bias diffusion the filter re-learns a bias within a couple of
+    minutes of rotation) and 0.005 °/h for the gyros (half the FOG's class, the thermal
+    drift of a warm-up in ten minutes; more would cost heading precision, which ARW
+    already limits to about 40 arcsec in 9 min, since a horizontal gyro bias of
+    0.001 °/h is 16 arcsec of heading at Nanjing).
     """
 
     coarse_s: float = 60.0
@@ -74,9 +119,22 @@ class AlignConfig:
     level_sd: float = 2e-4
     heading_sd: float = 1e-2
     velocity_meas_sd: float = 1e-3
+    start_s: float = 0.0
+    gyro_bias_tau_s: float = 3600.0
+    gyro_bias_markov_sd: float = 0.003 * units.DPH_TO_RPS
+    accel_bias_tau_s: float = 3600.0
+    accel_bias_markov_sd: float = 10.0 * units.UG_TO_MPS2
 
     def __post_init__(self) -> None:
-        for name in ("coarse_s", "kf_interval_s", "level_sd", "heading_sd", "velocity_meas_sd"):
+        for name in (
+            "coarse_s",
+            "kf_interval_s",
+            "level_sd",
+            "heading_sd",
+            "velocity_meas_sd",
+            "gyro_bias_tau_s",
+            "accel_bias_tau_s",
+        ):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
                 raise ConfigError(f"alignment: {name} must be > 0, got {v}")
@@ -86,6 +144,9 @@ class AlignConfig:
             "accel_bias_sd",
             "gyro_noise_density",
             "accel_noise_density",
+            "start_s",
+            "gyro_bias_markov_sd",
+            "accel_bias_markov_sd",
         ):
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
@@ -95,6 +156,11 @@ class AlignConfig:
     def total_s(self) -> float:
         """Coarse plus fine alignment time [s]."""
         return self.coarse_s + self.fine_s
+
+    @property
+    def end_s(self) -> float:
+        """End of the alignment, i.e. start of free navigation, since power-on [s]."""
+        return self.start_s + self.total_s
 
 
 # --------------------------------------------------------------------------- coarse
@@ -240,6 +306,10 @@ class Aligner:
         Settings.
     vertical : {"hold", "damped", "free"}
         Vertical channel of the navigation that follows.
+    k0 : int
+        Index (since power-on) of the first sample fed, so that the navigation that
+        follows counts samples from power-on (``round(config.start_s / dt)`` in a
+        scenario). The aligner itself ignores nothing: feed it from ``k0`` on.
     """
 
     def __init__(
@@ -250,11 +320,15 @@ class Aligner:
         dt: float,
         config: AlignConfig,
         vertical: VerticalMode = "hold",
+        k0: int = 0,
     ) -> None:
         self.lat, self.lon, self.alt = float(lat), float(lon), float(alt)
         self.dt = float(dt)
         self.config = config
         self.vertical = vertical
+        if k0 < 0:
+            raise ConfigError(f"alignment: k0 must be >= 0, got {k0}")
+        self.k0 = int(k0)
         self.n_coarse = round(config.coarse_s / dt)
         self.n_fine = round(config.fine_s / dt)
         self.n_block = max(1, round(config.kf_interval_s / dt))
@@ -328,7 +402,7 @@ class Aligner:
         self.nav = Strapdown(
             self.lat, self.lon, self.alt, np.zeros(3), C_nr, self.dt, self.vertical
         )
-        self.nav.k = self.k
+        self.nav.k = self.k0 + self.k
         self.nav.set_reference(self.alt, 0.0)
         self._C_start = C_nr
         self._block_t = 0.0
@@ -368,13 +442,20 @@ class Aligner:
         F[4, 0] = g
         F[3, 4] = 2 * OmU
         F[4, 3] = -2 * OmU
-        if c.estimate_biases:
-            F[0:3, 5:8] = -C
-            F[3:5, 8:11] = C[0:2, :]
-        Phi = np.eye(11) + F * T + 0.5 * (F @ F) * T * T
         Qc = np.zeros(11)
         Qc[0:3] = c.gyro_noise_density**2
         Qc[3:5] = c.accel_noise_density**2
+        if c.estimate_biases:
+            F[0:3, 5:8] = -C
+            F[3:5, 8:11] = C[0:2, :]
+            # first-order Gauss-Markov bias errors: ḃ = −b/τ + w, E[w w] = 2σ²/τ
+            if c.gyro_bias_markov_sd > 0:
+                F[5:8, 5:8] = -np.eye(3) / c.gyro_bias_tau_s
+                Qc[5:8] = 2.0 * c.gyro_bias_markov_sd**2 / c.gyro_bias_tau_s
+            if c.accel_bias_markov_sd > 0:
+                F[8:11, 8:11] = -np.eye(3) / c.accel_bias_tau_s
+                Qc[8:11] = 2.0 * c.accel_bias_markov_sd**2 / c.accel_bias_tau_s
+        Phi = np.eye(11) + F * T + 0.5 * (F @ F) * T * T
         Q = np.diag(Qc) * T
         Q = 0.5 * (Phi @ Q @ Phi.T + Q)
         self.P = Phi @ self.P @ Phi.T + Q

@@ -50,6 +50,7 @@ from rinscal.nav.trajectory import (
     StaticMotion,
     SwingMotion,
     Trajectory,
+    euler_from_C_nb,
     vehicle_route,
 )
 from rinscal.thermal.field import ChamberProfile
@@ -87,7 +88,9 @@ class ScenarioConfig:
     rate_hz : float [Hz]
         IMU output rate.
     align : AlignConfig or None
-        Self-alignment at the start; None starts navigation from the true state at t = 0.
+        Self-alignment from ``align.start_s`` to ``align.end_s`` after power-on (the
+        carrier must stand still until then); None starts navigation from the true state
+        at t = 0.
     chamber : ChamberProfile or None
         Ambient (chamber or cabin) temperature for the thermal plant; None: no thermal run.
     chunk_s : float [s]
@@ -124,15 +127,16 @@ class ScenarioConfig:
                 f"at {self.rate_hz} Hz"
             )
         if self.align is not None:
-            if self.align.total_s >= self.duration_s:
+            end = self.align.end_s
+            if end >= self.duration_s:
                 raise ConfigError(
-                    f"scenario: alignment ({self.align.total_s} s) must end before the run "
-                    f"({self.duration_s} s)"
+                    f"scenario: alignment (start {self.align.start_s} s + "
+                    f"{self.align.total_s} s) must end before the run ({self.duration_s} s)"
                 )
-            if self.align.total_s > self.trajectory.stationary_until + 1e-9:
+            if end > self.trajectory.stationary_until + 1e-9:
                 raise ConfigError(
                     f"scenario: the carrier moves at {self.trajectory.stationary_until} s, "
-                    f"before the alignment ends at {self.align.total_s} s"
+                    f"before the alignment ends at {end} s"
                 )
 
     @property
@@ -146,9 +150,14 @@ class ScenarioConfig:
         return round(self.out_dt_s * self.rate_hz)
 
     @property
+    def align_start_s(self) -> float:
+        """Start of the alignment since power-on [s] (0 without alignment)."""
+        return 0.0 if self.align is None else self.align.start_s
+
+    @property
     def nav_start_s(self) -> float:
-        """Start of free navigation [s]."""
-        return 0.0 if self.align is None else self.align.total_s
+        """Start of free navigation since power-on [s]: alignment start + its length."""
+        return 0.0 if self.align is None else self.align.end_s
 
 
 def preset(
@@ -166,8 +175,9 @@ def preset(
         Heading/pitch/roll swinging 2°/2°/8° with periods 3/3/5 s (our reading of
         Table 9), cold start in the lab at 20 °C.
     ``vehicle``
-        Land vehicle (Section 5.2.2): stands still for the alignment, then drives the route
-        of :func:`rinscal.nav.trajectory.vehicle_route` for ``hours`` (default 1.9 h); cold
+        Land vehicle (Section 5.2.2): stands still until the alignment ends
+        (``align.start_s + align.total_s``), then drives the route of
+        :func:`rinscal.nav.trajectory.vehicle_route` for ``hours`` (default 1.9 h); cold
         start in a cabin warming from 5 °C to 20 °C within the first hour.
     ``ramp``
         Quasi-static in the chamber ramping −2 → 50 °C at 0.2 °C/min (Figure 9); the unit
@@ -203,7 +213,7 @@ def preset(
         traj = SwingMotion()
         chamber = ChamberProfile.constant(LAB_C)
     elif name == "vehicle":
-        route = vehicle_route(duration_s=duration, stationary_s=align.total_s)
+        route = vehicle_route(duration_s=duration, stationary_s=align.end_s)
         traj = route
         duration = route.duration_s
         chamber = ChamberProfile((0.0, VEHICLE_WARMUP_S), (VEHICLE_AMBIENT_C, VEHICLE_CABIN_C))
@@ -221,27 +231,72 @@ def preset(
     )
 
 
-def align_for(imu: ImuConfig, total_s: float = 600.0, coarse_s: float = 60.0) -> AlignConfig:
+def align_for(
+    imu: ImuConfig,
+    total_s: float = 600.0,
+    coarse_s: float = 60.0,
+    start_s: float = 0.0,
+    *,
+    gyro_bias_tau_s: float | None = None,
+    gyro_bias_markov_sd: float | None = None,
+    accel_bias_tau_s: float | None = None,
+    accel_bias_markov_sd: float | None = None,
+) -> AlignConfig:
     """Alignment settings whose filter noise matches an IMU plant.
 
     Parameters
     ----------
     imu : ImuConfig
-        The plant (its white-noise densities set the filter's process noise).
+        The plant (its white-noise densities set the filter's measurement-side process
+        noise; its bias random walk the floor of the bias states' process noise).
     total_s : float [s]
         Coarse plus fine alignment time.
     coarse_s : float [s]
         Coarse stage (at most a third of ``total_s``).
+    start_s : float [s]
+        Time after power-on at which the alignment begins (see :class:`AlignConfig`).
+    gyro_bias_tau_s, accel_bias_tau_s : float, optional [s]
+        Correlation times of the Gauss-Markov bias states; default those of
+        :class:`AlignConfig`.
+    gyro_bias_markov_sd, accel_bias_markov_sd : float, optional [rad/s, m/s²]
+        Their steady-state standard deviations. Default: those of :class:`AlignConfig`,
+        raised where needed so that the driving noise ``2σ²/τ`` is at least the plant's own
+        bias random walk (``σ ≥ q √(τ/2)``): a filter must never believe its biases steadier
+        than the sensor's data sheet. Given values are used as they are (0: random
+        constants).
     """
     if not (math.isfinite(total_s) and total_s > 0):
         raise ConfigError(f"alignment time must be > 0 s, got {total_s}")
     coarse = min(coarse_s, total_s / 3)
     wd = imu.noise.white_density_si()
+    rw = imu.noise.bias_rw_si()
+    d = AlignConfig()
+    tau_g = d.gyro_bias_tau_s if gyro_bias_tau_s is None else gyro_bias_tau_s
+    tau_a = d.accel_bias_tau_s if accel_bias_tau_s is None else accel_bias_tau_s
+
+    def floor(sd: float, q: float, tau: float) -> float:
+        return sd if not (math.isfinite(tau) and tau > 0) else max(sd, q * math.sqrt(tau / 2))
+
+    sd_g = (
+        floor(d.gyro_bias_markov_sd, float(rw[0]), tau_g)
+        if gyro_bias_markov_sd is None
+        else gyro_bias_markov_sd
+    )
+    sd_a = (
+        floor(d.accel_bias_markov_sd, float(rw[3]), tau_a)
+        if accel_bias_markov_sd is None
+        else accel_bias_markov_sd
+    )
     return AlignConfig(
         coarse_s=coarse,
         fine_s=total_s - coarse,
         gyro_noise_density=float(wd[0]),
         accel_noise_density=float(wd[3]),
+        start_s=start_s,
+        gyro_bias_tau_s=tau_g,
+        gyro_bias_markov_sd=sd_g,
+        accel_bias_tau_s=tau_a,
+        accel_bias_markov_sd=sd_a,
     )
 
 
@@ -329,9 +384,12 @@ class NavResult:
         True state at the reported times: ``time_s, lat_deg, lon_deg, alt_m, v_e, v_n,
         v_u`` [s, deg, deg, m, m/s ×3], ``heading_deg, pitch_deg, roll_deg, encoder_deg``.
     errors : dict of str to pandas.DataFrame
-        Per variant: ``time_s``, position error ``east_m, north_m, horizontal_m,
-        horizontal_nmi, up_m``, INS position ``lat_deg, lon_deg``, velocity error ``v_e_err,
-        v_n_err`` [m/s], attitude error of the body frame ``att_e, att_n, att_u`` [rad].
+        Per variant, from the start of free navigation on: ``time_s``, position error
+        ``east_m, north_m, horizontal_m, horizontal_nmi, up_m``, INS position ``lat_deg,
+        lon_deg``, velocity error ``v_e_err, v_n_err`` [m/s], attitude error of the body
+        frame ``att_e, att_n, att_u`` [rad] (small angles, ENU) and the same as Euler-angle
+        errors, INS minus truth, ``heading_err, pitch_err, roll_err`` [rad] (heading
+        clockwise from north, wrapped to ±π).
     alignment : dict of str to AlignResult or None
         Per variant.
     """
@@ -346,7 +404,15 @@ class NavResult:
         return float(self.errors[variant]["horizontal_m"].max())
 
     def summary(self) -> dict[str, Any]:
-        """JSON-able summary: per variant max/final/RMS error [m, nmi] and alignment."""
+        """JSON-able summary: per variant max/final/RMS error [m, nmi] and alignment.
+
+        Per variant: ``max_error_m``, ``max_error_nmi``, ``time_of_max_s``,
+        ``final_error_m``, ``rms_error_m``, ``attitude_error_at_nav_start`` (``{"heading_arcsec",
+        "pitch_arcsec", "roll_arcsec"}``: INS body heading, pitch and roll minus the truth at
+        the first navigation output, heading clockwise from north, wrapped to ±180°), with an
+        alignment also ``alignment`` (bias estimates, filter attitude sd and the small-angle
+        ``attitude_error_arcsec``), and ``improvement_vs_none_pct`` beside a ``none`` variant.
+        """
         c = self.config
         out: dict[str, Any] = {
             "scenario": c.name,
@@ -354,6 +420,7 @@ class NavResult:
             "rate_hz": c.rate_hz,
             "rotation": c.schedule.name,
             "alignment_s": None if c.align is None else c.align.total_s,
+            "alignment_start_s": c.align_start_s,
             "navigation_start_s": c.nav_start_s,
             "variants": {},
         }
@@ -366,6 +433,13 @@ class NavResult:
                 "time_of_max_s": float(df["time_s"].iloc[i]) if h.size else float("nan"),
                 "final_error_m": float(h[-1]) if h.size else float("nan"),
                 "rms_error_m": float(np.sqrt(np.mean(h**2))) if h.size else float("nan"),
+            }
+            eul = df[["heading_err", "pitch_err", "roll_err"]].to_numpy()
+            e0 = eul[0] / units.ARCSEC_TO_RAD if h.size else np.full(3, np.nan)
+            v["attitude_error_at_nav_start"] = {
+                "heading_arcsec": float(e0[0]),
+                "pitch_arcsec": float(e0[1]),
+                "roll_arcsec": float(e0[2]),
             }
             a = self.alignment.get(name)
             if a is not None:
@@ -434,13 +508,15 @@ def run_scenario(
     compensators : mapping of str to callable or None, optional
         Variants to navigate side by side on the same raw output: each subtracts its
         ``compensator(t, omega_raw, f_raw) -> (n, 6)`` SI, called with the raw (measured)
-        signal (None: no compensation). Default ``{"none": None}``.
+        signal from the alignment start on (None: no compensation). Default
+        ``{"none": None}``.
     progress : callable, optional
         ``progress(done_s, total_s)`` after each chunk.
 
     Returns
     -------
     NavResult
+        Errors reported from the start of free navigation (``config.nav_start_s``) on.
     """
     comps = {"none": None} if compensators is None else dict(compensators)
     if not comps:
@@ -448,32 +524,39 @@ def run_scenario(
     tr = config.trajectory
     dt = config.dt
     synth = ImuSynthesizer(tr, config.schedule, config.rate_hz)
+    # samples since power-on at the alignment start and at the navigation start
+    n_start = 0 if config.align is None else round(config.align.start_s * config.rate_hz)
+    n_nav = n_start
     variants: dict[str, _Variant] = {}
     for name, comp in comps.items():
         if config.align is not None:
-            al = Aligner(tr.lat0, tr.lon0, tr.alt0, dt, config.align, config.vertical)
+            al = Aligner(tr.lat0, tr.lon0, tr.alt0, dt, config.align, config.vertical, k0=n_start)
+            n_nav = n_start + al.n_total
             variants[name] = _Variant(comp, al, None, np.zeros(3), np.zeros(3), [])
         else:
             variants[name] = _Variant(
                 comp, None, _true_initial_nav(config), np.zeros(3), np.zeros(3), []
             )
-    n_align = 0 if config.align is None else round(config.align.total_s * config.rate_hz)
     out_every = config.out_every
     truth_rows: list[NDArray[np.float64]] = []
 
-    splits = () if config.align is None else (config.align.total_s,)
+    splits = () if config.align is None else (n_start * dt, n_nav * dt)
     for ch in synth.chunks(config.duration_s, config.chunk_s, split_at=splits):
         t_mid = ch.t - 0.5 * dt
         raw_th = ch.dtheta
         raw_v = ch.dv
-        if errors is not None:
+        if errors is not None:  # called on every chunk, in time order (state carries)
             e = np.asarray(errors(t_mid, ch.dtheta / dt, ch.dv / dt), dtype=float)
             if e.shape != (ch.n, 6):
                 raise ConfigError(f"errors_r returned shape {e.shape}, expected ({ch.n}, 6)")
             raw_th = raw_th + e[:, :3] * dt
             raw_v = raw_v + e[:, 3:] * dt
+        if ch.k0 + ch.n <= n_start:  # warming up before the alignment: nobody navigates
+            if progress is not None:
+                progress(float(ch.t[-1]), config.duration_s)
+            continue
         gidx = ch.k0 + np.arange(1, ch.n + 1)
-        sel = (gidx % out_every == 0) & (gidx > n_align)
+        sel = (gidx % out_every == 0) & (gidx > n_nav)
         if np.any(sel):
             truth_rows.append(_truth_rows(ch, sel))
         for v in variants.values():
@@ -555,6 +638,8 @@ def _error_frame(truth: NDArray[np.float64], ins: NDArray[np.float64]) -> pd.Dat
     C_true = C_nb_from_euler(truth[:, 7:10])
     C_est = quat_to_dcm(ins[:, 6:10]) @ np.swapaxes(C_br(truth[:, 10]), -1, -2)  # C_nr C_rb
     att = _attitude_error(C_true, C_est) if truth.shape[0] else np.empty((0, 3))
+    eul = euler_from_C_nb(C_est) - truth[:, 7:10] if truth.shape[0] else np.empty((0, 3))
+    eul = (eul + np.pi) % (2 * np.pi) - np.pi  # heading (and roll) wrap to ±π
     return pd.DataFrame(
         {
             "time_s": truth[:, 0],
@@ -570,6 +655,9 @@ def _error_frame(truth: NDArray[np.float64], ins: NDArray[np.float64]) -> pd.Dat
             "att_e": att[:, 0],
             "att_n": att[:, 1],
             "att_u": att[:, 2],
+            "heading_err": eul[:, 0],
+            "pitch_err": eul[:, 1],
+            "roll_err": eul[:, 2],
         }
     )
 
