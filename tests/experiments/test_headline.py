@@ -183,5 +183,18 @@ def test_config_and_command_line_carry_the_plant_and_alignment() -> None:
     assert command_line(cfg) == (
         "rinscal reproduce --quick --seed 3 --imu navigation_grade --align-s 300"
     )
+    late = ReproConfig.quick_preset(0, 1, align_start_s=120.0)
+    assert command_line(late).endswith("--align-s 600 --align-start-s 120")
     with pytest.raises(ConfigError, match="align_start_s"):
         ReproConfig.full(align_start_s=-1.0)
+    with pytest.raises(ConfigError, match="alignment ends"):
+        ReproConfig.quick_preset(align_start_s=3000.0, align_s=600.0)  # swing runs last 1 h
+
+
+def test_alignment_settings_reach_the_navigation_filter() -> None:
+    from rinscal.experiments.paper import alignment_config
+
+    imu = load_plant("navigation_grade")
+    a = alignment_config(imu, 300.0, 120.0)
+    assert a.total_s == pytest.approx(300.0) and a.start_s == 120.0
+    assert a.end_s == pytest.approx(420.0)

@@ -196,6 +196,12 @@ class ReproConfig:
                 raise ConfigError(f"reproduction: {name} must be > 0, got {v}")
         if not (math.isfinite(self.align_start_s) and self.align_start_s >= 0):
             raise ConfigError(f"reproduction: align_start_s must be >= 0, got {self.align_start_s}")
+        shortest = min(self.qs_hours, self.swing_hours, self.ramp_hours) * units.HOUR_TO_S
+        if self.align_start_s + self.align_s >= shortest:
+            raise ConfigError(
+                f"reproduction: the alignment ends {self.align_start_s + self.align_s:g} s "
+                f"after power-on, not before the shortest lab run ({shortest:g} s) ends"
+            )
         if self.jobs < 1:
             raise ConfigError(f"reproduction: jobs must be >= 1, got {self.jobs}")
         if len(self.lab_temps_c) < 1 or len(self.vehicle_ambient_c) < 1:
@@ -547,18 +553,9 @@ class NavRunResult:
 def alignment_config(imu: ImuConfig, total_s: float, start_s: float = 0.0) -> Any:
     """Alignment settings of the cold starts: :func:`rinscal.nav.scenario.align_for` with the
     plant's noise, ``total_s`` [s] of coarse plus fine alignment starting ``start_s`` [s]
-    after power-on."""
-    import inspect
-
+    after power-on (free navigation starts at ``start_s + total_s``)."""
     from rinscal.nav.scenario import align_for
 
-    if start_s == 0.0:
-        return align_for(imu, total_s=total_s)
-    if "start_s" not in inspect.signature(align_for).parameters:
-        raise ConfigError(
-            "--align-start-s: this version of rinscal.nav cannot start the alignment after "
-            "power-on (align_for has no start_s)"
-        )
     return align_for(imu, total_s=total_s, start_s=start_s)
 
 
