@@ -1,28 +1,47 @@
-"""Thermal field of a single-axis RINS in a thermal chamber: chamber profiles and a lumped network.
+r"""Thermal field of a single-axis RINS in a thermal chamber: chamber profiles and a lumped network.
 
 The IMU is a lumped thermal network (capacities joined by conductances) driven by the chamber
-air and by the power dissipated once the system is switched on (electronics, FOG light
-sources, accelerometer servo loops)::
+air, by the power dissipated once the system is switched on (electronics, FOG light sources
+and electronics, accelerometer servo loops) and by the turntable's torque motor while it
+moves. Heat reaches every sensor by more than one path — the mount (through the IMU block
+and the baseplate), the air inside the housing (warmed by the electronics) and its own
+dissipation — so that its temperature, its rate and the inside/outside gradient are
+distinct signals through a cold start and a ramp, as on a real unit::
 
-    chamber air ── G_ha ── housing (outer sensor) ── G_eh ── electronics  (P_e)
-                              │
-                             G_bh
-                              │
-                          IMU block ── G_sb ── sensor j (inner sensor j)  (P_j), j = 1..6
+    chamber ── G_ha ── housing (outer thermometer) ── G_eh ── electronics (P_e)
+                 │   └─ motor (P_m while the table moves)        │
+                 ├── G_ah ── inner air ── G_ea ──────────────────┘
+                 │              │  \__ G_ca ── gyro coil, outer layers k = 1..3
+                 │             G_ba    \_ G_sa ── accelerometer j     │ G_coil
+                G_bh            │                                  gyro hub k (P_g)
+                 └──────── IMU block ── G_sb ── sensor j (inner thermometer j)
 
-Each node obeys ``C_k dT_k/dt = Σ_m G_km (T_m − T_k) + P_k``. On top of the temperatures the
-network carries one slow *stress* state per sensor, a first-order lag of the sensor's
-inside/outside gradient, ``τ_σ dσ_j/dt = (T_j − T_housing) − σ_j``: it stands for the
-thermo-mechanical stress of the sensor package, which biases the sensor but which no
-thermometer sees. The whole system is linear, ``dx/dt = A x + B u`` with
-``u = (T_chamber, power_on)``, and is integrated exactly (matrix exponential with a
-first-order hold on the chamber temperature, a zero-order hold on the power switch).
+Each node obeys ``C_k dT_k/dt = Σ_m G_km (T_m − T_k) + P_k``. The inner thermometer of a
+gyro sits on its hub (light source, electronics); the outer layers of its fibre coil face
+the inner air. Heat from outside therefore crosses the coil inwards and self-heating
+outwards, and the FOG's Shupe bias follows the time derivative of that radial coil gradient
+``T_coil − T_hub`` (see :mod:`rinscal.thermal.plant`).
+
+Heat fixed in the body while the IMU turns: the electronics and the motor sit on one side
+of the housing, so the inner air a sensor faces is warmer on that side. Sensor ``j`` sits at
+azimuth ``α_j`` on the turntable (``r`` frame); with the encoder at ``φ`` it faces air
+``a · cos(φ + α_j − ψ_h)`` [°C] warmer than the mean inner air (``a`` the amplitude once
+powered, ``ψ_h`` the azimuth of the hot side in the body frame).
+
+On top of the temperatures the network carries one slow *stress* state per sensor, a
+first-order lag of the sensor's inside/outside gradient, ``τ_σ dσ_j/dt = (T_j − T_housing)
+− σ_j``: it stands for the thermo-mechanical stress of the sensor package, which biases the
+sensor but which no thermometer sees. The whole system is linear, ``dx/dt = A x + B u``
+with ``u = (T_chamber, power_on, motor_on, power_on·cos φ, power_on·sin φ)``, and is
+integrated exactly (matrix exponential with a first-order hold on the inputs, a zero-order
+hold on the power switch).
 
 Temperatures in °C, times in s, capacities in J/K, conductances in W/K, powers in W.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, fields, replace
 
 import numpy as np
@@ -33,18 +52,28 @@ from rinscal.errors import ConfigError
 
 #: Sensor nodes in channel order (gyro x, y, z, accel x, y, z).
 N_SENSORS = 6
+#: Gyros (the first three sensors) have a fibre coil with its own outer-layer node.
+N_GYROS = 3
 #: Index of the housing (package surface) node in the state vector.
 HOUSING = 0
 #: Index of the electronics node in the state vector.
 ELECTRONICS = 1
+#: Index of the inner-air node in the state vector.
+AIR = 2
 #: Index of the IMU block node in the state vector.
-BLOCK = 2
+BLOCK = 3
 #: Index of the first sensor node in the state vector.
-SENSOR0 = 3
+SENSOR0 = 4
+#: Index of the first gyro coil (outer layers) node in the state vector.
+COIL0 = SENSOR0 + N_SENSORS
+#: Number of thermal nodes (all but the stress states).
+N_NODES = COIL0 + N_GYROS
 #: Index of the first stress state in the state vector.
-STRESS0 = SENSOR0 + N_SENSORS
-#: Number of states: 3 structural nodes, 6 sensors, 6 stress states.
+STRESS0 = N_NODES
+#: Number of states: 4 structural nodes, 6 sensors, 3 coils, 6 stress states.
 N_STATES = STRESS0 + N_SENSORS
+#: Inputs: chamber [°C], power switch, motor switch, power·cos φ, power·sin φ.
+N_INPUTS = 5
 
 
 # --------------------------------------------------------------------------- chamber profile
@@ -124,114 +153,187 @@ class ChamberProfile:
 class ThermalNetworkConfig:
     """Parameters of the lumped thermal network (defaults: a navigation-grade FOG RINS).
 
-    With the defaults the system dissipates 15.2 W; a cold start warms the housing by about
-    10 °C and the sensors by 11-13 °C with a dominant time constant of about 45 min, so most
-    of the rise happens in the first one to two hours.
+    With the defaults the system dissipates 16.2 W (9.7 W from a heavy electronics box);
+    a cold start warms the sensors by about 11 °C in 3 h, three quarters of it in the
+    first two hours: first by their own dissipation (minutes), then at a nearly steady
+    rate for an hour while the electronics box and the housing warm (time constants of
+    about 30 min and 2.5 h), so that the sensor temperature rate, which falls and then
+    stalls, is not a copy of the inside/outside gradient, which keeps rising
+    (|corr| ≈ 0.9 after the first ten minutes, 0.65-0.86 on the chamber ramp).
 
     Parameters
     ----------
-    c_housing, c_electronics, c_block : float [J/K]
-        Heat capacities of the housing, the electronics board and the IMU block.
-    c_gyro, c_accel : float [J/K]
-        Heat capacity of each gyro and each accelerometer.
+    c_housing, c_electronics, c_air, c_block : float [J/K]
+        Heat capacities of the housing, the electronics board, the inner air (with the
+        light parts it washes) and the IMU block.
+    c_gyro, c_coil, c_accel : float [J/K]
+        Heat capacity of each gyro hub, each gyro's coil outer layers, each accelerometer.
     g_housing_air : float [W/K]
         Conductance (convection) from the housing to the chamber air.
-    g_electronics_housing, g_block_housing : float [W/K]
-        Conductances from the electronics and from the IMU block to the housing.
+    g_electronics_housing, g_electronics_air, g_electronics_block : float [W/K]
+        From the electronics to the housing (mount), to the inner air and to the IMU block
+        (the frame the boards are fixed to).
+    g_air_housing : float [W/K]
+        From the inner air to the housing walls.
+    g_block_housing, g_block_air : float [W/K]
+        From the IMU block to the housing (baseplate) and to the inner air.
     g_gyro_block, g_accel_block : float [W/K]
-        Conductance from each gyro and each accelerometer to the IMU block.
+        From each gyro hub and each accelerometer to the IMU block (mount).
+    g_coil : float [W/K]
+        Across each fibre coil, outer layers to hub.
+    g_coil_air, g_accel_air : float [W/K]
+        From each coil's outer layers and each accelerometer to the inner air.
     p_electronics : float [W]
         Power of the electronics once switched on.
     p_gyro, p_accel : float [W]
-        Power dissipated in each gyro (light source, FOG electronics) and each accelerometer.
+        Power dissipated in each gyro hub (light source, FOG electronics) and each
+        accelerometer (servo loop).
+    p_motor : float [W]
+        Torque-motor power into the housing while the turntable moves.
     tau_stress_s : float [s]
         Time constant of the hidden package-stress state.
     sensor_coupling : tuple of 6 float [-]
         Factor on each sensor's conductance to the block (mounting differs from sensor to
         sensor, so their temperatures differ).
+    rotation_heat_c : float [°C]
+        Amplitude of the body-fixed hot side of the inner air once powered (0: none).
+    rotation_heat_azimuth_deg : float [deg]
+        Azimuth of the hot side in the body frame (counter-clockwise from body x).
+    sensor_azimuth_deg : tuple of 6 float [deg]
+        Azimuth of each sensor on the turntable, in the ``r`` frame.
     """
 
-    c_housing: float = 2200.0
-    c_electronics: float = 350.0
-    c_block: float = 1500.0
-    c_gyro: float = 90.0
+    c_housing: float = 7500.0
+    c_electronics: float = 1600.0
+    c_air: float = 60.0
+    c_block: float = 800.0
+    c_gyro: float = 60.0
+    c_coil: float = 40.0
     c_accel: float = 25.0
-    g_housing_air: float = 1.5
-    g_electronics_housing: float = 1.2
-    g_block_housing: float = 2.5
-    g_gyro_block: float = 0.6
-    g_accel_block: float = 0.4
+    g_housing_air: float = 1.2
+    g_electronics_housing: float = 0.4
+    g_electronics_air: float = 0.12
+    g_electronics_block: float = 0.18
+    g_air_housing: float = 1.2
+    g_block_housing: float = 3.0
+    g_block_air: float = 0.16
+    g_gyro_block: float = 1.4
+    g_accel_block: float = 0.27
+    g_coil: float = 0.25
+    g_coil_air: float = 0.15
+    g_accel_air: float = 0.3
     p_electronics: float = 12.0
     p_gyro: float = 1.0
-    p_accel: float = 0.08
+    p_accel: float = 0.4
+    p_motor: float = 2.0
     tau_stress_s: float = 2400.0
     sensor_coupling: tuple[float, ...] = (1.0, 0.85, 1.15, 1.0, 0.8, 1.25)
+    rotation_heat_c: float = 0.1
+    rotation_heat_azimuth_deg: float = 0.0
+    sensor_azimuth_deg: tuple[float, ...] = (0.0, 90.0, 225.0, 45.0, 135.0, 300.0)
 
     def __post_init__(self) -> None:
-        coupling = np.asarray(self.sensor_coupling, dtype=float)
-        if coupling.shape != (N_SENSORS,) or not np.all(np.isfinite(coupling) & (coupling > 0)):
+        for name in ("sensor_coupling", "sensor_azimuth_deg"):
+            v = np.asarray(getattr(self, name), dtype=float)
+            if v.shape != (N_SENSORS,) or not np.all(np.isfinite(v)):
+                raise ConfigError(f"thermal network: {name} must be 6 finite numbers")
+        if np.any(np.asarray(self.sensor_coupling) <= 0):
             raise ConfigError("thermal network: sensor_coupling must be 6 finite numbers > 0")
         for f in fields(self):
-            if f.name == "sensor_coupling":
+            if f.name in ("sensor_coupling", "sensor_azimuth_deg"):
                 continue
             v = getattr(self, f.name)
             if not np.isfinite(v):
                 raise ConfigError(f"thermal network: {f.name} must be finite, got {v}")
-            if f.name.startswith("p_"):
+            if f.name == "rotation_heat_azimuth_deg":
+                continue
+            if f.name.startswith("p_") or f.name == "rotation_heat_c":
                 if v < 0:
-                    raise ConfigError(f"thermal network: {f.name} must be >= 0 W, got {v}")
+                    raise ConfigError(f"thermal network: {f.name} must be >= 0, got {v}")
             elif v <= 0:
                 raise ConfigError(f"thermal network: {f.name} must be > 0, got {v}")
 
     @property
     def total_power(self) -> float:
-        """Total dissipated power once switched on [W]."""
-        return self.p_electronics + 3 * self.p_gyro + 3 * self.p_accel
+        """Total dissipated power once switched on, the table at rest [W]."""
+        return self.p_electronics + N_GYROS * self.p_gyro + 3 * self.p_accel
 
     def capacities(self) -> NDArray[np.float64]:
-        """Heat capacities of the nine thermal nodes [J/K]."""
+        """Heat capacities of the thirteen thermal nodes [J/K]."""
         return np.array(
-            [self.c_housing, self.c_electronics, self.c_block]
+            [self.c_housing, self.c_electronics, self.c_air, self.c_block]
             + [self.c_gyro] * 3
             + [self.c_accel] * 3
+            + [self.c_coil] * N_GYROS
         )
 
     def powers(self) -> NDArray[np.float64]:
-        """Power into each of the nine thermal nodes when switched on [W]."""
-        return np.array([0.0, self.p_electronics, 0.0] + [self.p_gyro] * 3 + [self.p_accel] * 3)
+        """Power into each of the thirteen thermal nodes when switched on [W]."""
+        return np.array(
+            [0.0, self.p_electronics, 0.0, 0.0]
+            + [self.p_gyro] * 3
+            + [self.p_accel] * 3
+            + [0.0] * N_GYROS
+        )
+
+    def links(self) -> list[tuple[int, int, float]]:
+        """Conductances between nodes ``(i, j, G [W/K])`` (the chamber link excluded)."""
+        out = [
+            (ELECTRONICS, HOUSING, self.g_electronics_housing),
+            (ELECTRONICS, AIR, self.g_electronics_air),
+            (ELECTRONICS, BLOCK, self.g_electronics_block),
+            (AIR, HOUSING, self.g_air_housing),
+            (BLOCK, HOUSING, self.g_block_housing),
+            (BLOCK, AIR, self.g_block_air),
+        ]
+        for j in range(N_SENSORS):
+            g = self.g_gyro_block if j < N_GYROS else self.g_accel_block
+            out.append((SENSOR0 + j, BLOCK, g * self.sensor_coupling[j]))
+            if j >= N_GYROS:
+                out.append((SENSOR0 + j, AIR, self.g_accel_air))
+        for k in range(N_GYROS):
+            out.append((COIL0 + k, SENSOR0 + k, self.g_coil))
+            out.append((COIL0 + k, AIR, self.g_coil_air))
+        return out
+
+    def air_faces(self) -> list[tuple[int, float, float]]:
+        """The nodes that face the inner air: ``(node, G [W/K], azimuth [rad] in r)``."""
+        az = np.radians(self.sensor_azimuth_deg)
+        faces = [(COIL0 + k, self.g_coil_air, float(az[k])) for k in range(N_GYROS)]
+        faces += [(SENSOR0 + j, self.g_accel_air, float(az[j])) for j in range(N_GYROS, 6)]
+        return faces
 
     def system(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """State-space matrices of the network.
 
         Returns
         -------
-        A : ndarray, shape (15, 15) [1/s]
-            ``dx/dt = A x + B u`` for ``x = (T_housing, T_electronics, T_block, T_sensor[6],
-            σ[6])``.
-        B : ndarray, shape (15, 2)
-            Inputs ``u = (T_chamber [°C], power switch [0 or 1])``; column 1 in [K/s].
+        A : ndarray, shape (19, 19) [1/s]
+            ``dx/dt = A x + B u`` for ``x = (T_housing, T_electronics, T_air, T_block,
+            T_sensor[6], T_coil[3], σ[6])``.
+        B : ndarray, shape (19, 5)
+            Inputs ``u = (T_chamber [°C], power switch, motor switch, power·cos φ,
+            power·sin φ)``; columns 1-4 in [K/s].
         """
-        n_nodes = SENSOR0 + N_SENSORS
-        G = np.zeros((n_nodes, n_nodes))
-
-        def link(i: int, j: int, g: float) -> None:
+        G = np.zeros((N_NODES, N_NODES))
+        for i, j, g in self.links():
             G[i, j] += g
             G[j, i] += g
             G[i, i] -= g
             G[j, j] -= g
-
-        link(ELECTRONICS, HOUSING, self.g_electronics_housing)
-        link(BLOCK, HOUSING, self.g_block_housing)
-        for j in range(N_SENSORS):
-            g = self.g_gyro_block if j < 3 else self.g_accel_block
-            link(SENSOR0 + j, BLOCK, g * self.sensor_coupling[j])
         G[HOUSING, HOUSING] -= self.g_housing_air
         cap = self.capacities()
         A = np.zeros((N_STATES, N_STATES))
-        A[:n_nodes, :n_nodes] = G / cap[:, None]
-        B = np.zeros((N_STATES, 2))
+        A[:N_NODES, :N_NODES] = G / cap[:, None]
+        B = np.zeros((N_STATES, N_INPUTS))
         B[HOUSING, 0] = self.g_housing_air / cap[HOUSING]
-        B[:n_nodes, 1] = self.powers() / cap
+        B[:N_NODES, 1] = self.powers() / cap
+        B[HOUSING, 2] = self.p_motor / cap[HOUSING]
+        # the hot side: a cos(φ + α − ψ) = a [cos(α − ψ) cos φ − sin(α − ψ) sin φ]
+        psi = np.radians(self.rotation_heat_azimuth_deg)
+        for node, g, alpha in self.air_faces():
+            B[node, 3] = g * self.rotation_heat_c * np.cos(alpha - psi) / cap[node]
+            B[node, 4] = -g * self.rotation_heat_c * np.sin(alpha - psi) / cap[node]
         k = 1.0 / self.tau_stress_s
         for j in range(N_SENSORS):
             s = STRESS0 + j
@@ -241,22 +343,23 @@ class ThermalNetworkConfig:
         return A, B
 
     def steady_state(self, chamber_c: float, powered: bool = True) -> NDArray[np.float64]:
-        """Equilibrium state at a constant chamber temperature [°C], powered or not.
+        """Equilibrium state at a constant chamber temperature [°C], powered or not, the
+        table at rest at encoder zero.
 
         Returns
         -------
-        ndarray, shape (15,)
+        ndarray, shape (19,)
             Temperatures [°C] of the nodes and the stress states [°C].
         """
         A, B = self.system()
-        u = np.array([chamber_c, 1.0 if powered else 0.0])
+        p = 1.0 if powered else 0.0
+        u = np.array([chamber_c, p, 0.0, p, 0.0])
         return np.linalg.solve(A, -B @ u)
 
     def time_constants(self) -> NDArray[np.float64]:
         """Time constants of the network's thermal modes, largest first [s]."""
         A, _ = self.system()
-        n_nodes = SENSOR0 + N_SENSORS
-        lam = np.linalg.eigvals(A[:n_nodes, :n_nodes]).real
+        lam = np.linalg.eigvals(A[:N_NODES, :N_NODES]).real
         return np.sort(-1.0 / lam)[::-1]
 
 
@@ -279,6 +382,11 @@ class ThermalField:
         Chamber air temperature.
     stress : ndarray, shape (n, 6) [°C]
         Hidden package-stress state of each sensor (a slow lag of the gradient).
+    coil_gradient : ndarray, shape (n, 6) [°C]
+        Radial gradient across each gyro's fibre coil, outer layers minus hub (zero for the
+        accelerometers).
+    coil_gradient_rate : ndarray, shape (n, 6) [°C/s]
+        Exact time derivative of ``coil_gradient``.
     """
 
     t: NDArray[np.float64]
@@ -287,6 +395,8 @@ class ThermalField:
     outer: NDArray[np.float64]
     chamber: NDArray[np.float64]
     stress: NDArray[np.float64]
+    coil_gradient: NDArray[np.float64]
+    coil_gradient_rate: NDArray[np.float64]
 
     @property
     def gradient(self) -> NDArray[np.float64]:
@@ -310,6 +420,8 @@ class ThermalField:
             outer=interp(self.outer),
             chamber=interp(self.chamber),
             stress=interp(self.stress),
+            coil_gradient=interp(self.coil_gradient),
+            coil_gradient_rate=interp(self.coil_gradient_rate),
         )
 
 
@@ -340,6 +452,7 @@ def simulate_field(
     dt_s: float = 1.0,
     power_on_s: float = 0.0,
     x0: NDArray[np.float64] | None = None,
+    encoder: Callable[[NDArray[np.float64]], NDArray[np.float64]] | None = None,
 ) -> ThermalField:
     """Integrate the thermal network through a chamber profile.
 
@@ -356,9 +469,13 @@ def simulate_field(
         grid points, so 1 s is ample for thermal time constants of minutes.
     power_on_s : float [s]
         Time at which the system is switched on; ``inf`` for a run without power.
-    x0 : ndarray, shape (15,), optional
+    x0 : ndarray, shape (19,), optional
         Initial state. Default: unpowered equilibrium at the chamber's initial temperature
         (the unit has soaked, as in the paper's 3 h soak).
+    encoder : callable, optional
+        Turntable encoder angle ``φ(t)`` [rad] for times [s]: the body-fixed hot side then
+        reaches each sensor according to the angle, and the torque motor heats the housing
+        while the angle changes. None: the table holds at encoder zero.
 
     Returns
     -------
@@ -375,25 +492,33 @@ def simulate_field(
     t = np.arange(n) * dt_s
     if t[-1] < duration_s - 1e-9:
         t = np.append(t, duration_s)
-    u = np.empty((t.size, 2))
+    power = (t >= power_on_s).astype(float)
+    u = np.zeros((t.size, N_INPUTS))
     u[:, 0] = profile(t)
-    u[:, 1] = (t >= power_on_s).astype(float)
+    u[:, 1] = power
+    if encoder is None:
+        u[:, 3] = power
+    else:
+        phi = np.asarray(encoder(t), dtype=float)
+        # the motor runs where the angle changes within half a step either side
+        h2 = 0.5 * dt_s
+        moving = np.abs(np.asarray(encoder(t + h2)) - np.asarray(encoder(t - h2))) > 1e-9
+        u[:, 2] = moving * power
+        u[:, 3] = power * np.cos(phi)
+        u[:, 4] = power * np.sin(phi)
     x = np.empty((t.size, N_STATES))
     if x0 is None:  # soaked, switched off (or long on, if power_on_s < 0)
         x0 = network.steady_state(float(u[0, 0]), powered=power_on_s < 0)
     x[0] = x0
     Phi, G0, G1 = _discretise(A, B, dt_s)
-    # The power switch is a step: hold it (zero-order) over each interval.
-    G_power = G0[:, 1] + G1[:, 1]
-    h = np.diff(t)
-    for k in range(t.size - 1):
-        if abs(h[k] - dt_s) > 1e-9:  # the last, shorter interval
-            Phi, G0, G1 = _discretise(A, B, float(h[k]))
-            G_power = G0[:, 1] + G1[:, 1]
-        x[k + 1] = Phi @ x[k] + G0[:, 0] * u[k, 0] + G1[:, 0] * u[k + 1, 0] + G_power * u[k, 1]
+    _integrate(x, u, t, A, B, dt_s, Phi, G0, G1)
     # exact derivative: the chamber's own rate enters only through the states
     xdot = x @ A.T + u @ B.T
     sl = slice(SENSOR0, SENSOR0 + N_SENSORS)
+    coil = np.zeros((t.size, N_SENSORS))
+    coil_rate = np.zeros((t.size, N_SENSORS))
+    coil[:, :N_GYROS] = x[:, COIL0:N_NODES] - x[:, SENSOR0 : SENSOR0 + N_GYROS]
+    coil_rate[:, :N_GYROS] = xdot[:, COIL0:N_NODES] - xdot[:, SENSOR0 : SENSOR0 + N_GYROS]
     return ThermalField(
         t=t,
         sensor=x[:, sl].copy(),
@@ -401,7 +526,41 @@ def simulate_field(
         outer=x[:, HOUSING].copy(),
         chamber=u[:, 0].copy(),
         stress=x[:, STRESS0:].copy(),
+        coil_gradient=coil,
+        coil_gradient_rate=coil_rate,
     )
+
+
+def _integrate(
+    x: NDArray[np.float64],
+    u: NDArray[np.float64],
+    t: NDArray[np.float64],
+    A: NDArray[np.float64],
+    B: NDArray[np.float64],
+    dt_s: float,
+    Phi: NDArray[np.float64],
+    G0: NDArray[np.float64],
+    G1: NDArray[np.float64],
+) -> None:
+    """March ``x[k+1] = Phi x[k] + G0 u[k] + G1 u[k+1]`` in place (power switch held)."""
+    # The power switch is a step: hold it (zero-order) over each interval.
+    G0 = G0.copy()
+    G1 = G1.copy()
+    G0[:, 1] += G1[:, 1]
+    G1[:, 1] = 0.0
+    h = np.diff(t)
+    regular = np.abs(h - dt_s) <= 1e-9
+    # input terms of every step at once, then the recursion over the states alone
+    drive = u[:-1] @ G0.T + u[1:] @ G1.T
+    PhiT = Phi.T
+    for k in range(t.size - 1):
+        if not regular[k]:  # the last, shorter interval
+            P, g0, g1 = _discretise(A, B, float(h[k]))
+            g0[:, 1] += g1[:, 1]
+            g1[:, 1] = 0.0
+            x[k + 1] = P @ x[k] + g0 @ u[k] + g1 @ u[k + 1]
+        else:
+            x[k + 1] = x[k] @ PhiT + drive[k]
 
 
 @dataclass(frozen=True)

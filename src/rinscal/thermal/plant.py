@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field, fields, replace
 from importlib import resources
 from pathlib import Path
 from typing import Any, Literal
@@ -49,23 +49,62 @@ def _nonneg(name: str, value: float) -> float:
     return v
 
 
+def _poly(coefs: tuple[float, ...], x: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Σ_k coefs[k]·x^(k+1) (no constant term), Horner form."""
+    out = np.zeros_like(x)
+    for c in reversed(coefs):
+        out = (out + c) * x
+    return out
+
+
+def _poly_slope(coefs: tuple[float, ...], x: float) -> float:
+    """Derivative of :func:`_poly` at the scalar ``x``."""
+    return float(sum((k + 1) * c * x**k for k, c in enumerate(coefs)))
+
+
+def _poly_window(
+    coefs: tuple[float, ...],
+    x: NDArray[np.float64],
+    window: tuple[float, float] | None,
+) -> NDArray[np.float64]:
+    """:func:`_poly` inside ``window``, continued by its tangent outside (C¹), so that a
+    polynomial fitted over a limited range does not explode beyond it."""
+    if window is None or not coefs:
+        return _poly(coefs, x)
+    lo, hi = window
+    xc = np.clip(x, lo, hi)
+    out = _poly(coefs, xc)
+    below, above = x < lo, x > hi
+    if np.any(below):
+        out[below] += _poly_slope(coefs, lo) * (x[below] - lo)
+    if np.any(above):
+        out[above] += _poly_slope(coefs, hi) * (x[above] - hi)
+    return out
+
+
 @dataclass(frozen=True)
 class ChannelThermal:
-    """Thermal-bias coefficients of one channel, in engineering units (deg/h or µg).
+    """Thermal-error coefficients of one channel, in engineering units (deg/h or µg).
 
-    ``b = b0 + Σ t[k]·x^(k+1) + Σ rate[k]·r^(k+1) + Σ grad[k]·d^(k+1) + t_grad·x·d
-    + t_rate·x·r + stress·s`` with ``x = T − t_ref`` [°C], ``r = dT/dt`` [°C/min],
-    ``d = ΔT`` [°C] and ``s`` the hidden stress state [°C].
+    Bias: ``b = b0 + Σ t[k]·x^(k+1) + Σ rate[k]·r^(k+1) + Σ grad[k]·d^(k+1) + t_grad·x·d
+    + t_rate·x·r + stress·s + shupe·ġ + h`` with ``x = T − t_ref`` [°C], ``r = dT/dt``
+    [°C/min], ``d = ΔT`` [°C], ``s`` the hidden stress state [°C], ``ġ`` the rate of the
+    radial gradient across a gyro's fibre coil [°C/min] (Shupe effect) and ``h`` the
+    hysteresis of a quartz accelerometer (a play operator of half-width
+    ``hysteresis_play_c`` on ``T``, ``h = ±hysteresis/2`` on a heating / cooling leg).
+    Signal errors: ``x·(scale_ppm_per_c·1e-6·s_j + Σ_k misalignment_arcsec_per_c[k]·s_k)``
+    for the true signal ``s`` (rate or specific force) of the three axes.
 
     Parameters
     ----------
     b0 : float [unit]
         Thermal bias at the reference temperature, at rest, without gradient.
-    t : tuple of 3 float [unit/°C, unit/°C², unit/°C³]
+    t : tuple of 1-4 float [unit/°C^k]
         Temperature polynomial.
-    rate : tuple of 2 float [unit/(°C/min), unit/(°C/min)²]
-        Temperature-rate polynomial (Shupe effect in FOGs, servo drift in accelerometers).
-    grad : tuple of 2 float [unit/°C, unit/°C²]
+    rate : tuple of 0-4 float [unit/(°C/min)^k]
+        Temperature-rate polynomial (servo drift in accelerometers; the rate part of a
+        FOG's thermal drift).
+    grad : tuple of 0-4 float [unit/°C^k]
         Inside/outside gradient polynomial.
     t_grad : float [unit/°C²]
         Coupling of temperature and gradient.
@@ -73,25 +112,63 @@ class ChannelThermal:
         Coupling of temperature and rate.
     stress : float [unit/°C]
         Sensitivity to the hidden package-stress state.
+    rate_range : (float, float) or None [°C/min]
+        Range over which the rate polynomial holds; continued by its tangent outside.
+    grad_range : (float, float) or None [°C]
+        Range over which the gradient polynomial holds; continued by its tangent outside.
+    shupe : float [unit/(°C/min)]
+        Shupe bias per rate of the coil's radial gradient (gyros; outer minus hub).
+    hysteresis : float [unit]
+        Width of the thermal hysteresis loop (quartz accelerometers): heating and cooling
+        legs differ by this much at the same temperature.
+    hysteresis_play_c : float [°C]
+        Temperature reversal needed to go from one leg to the other (half-width of the play).
+    scale_factor_ppm_per_c : float [ppm/°C]
+        Scale-factor change with temperature.
+    misalignment_arcsec_per_c : tuple of 3 float [arcsec/°C]
+        Change with temperature of this axis's tilt towards body axes x, y, z (its own
+        entry must be 0: that is the scale factor).
+    lever_arm_m : tuple of 3 float [m]
+        Position of an accelerometer's proof mass from the turntable axis, in ``r``
+        (size effect: it senses ω×(ω×ρ) + ω̇×ρ); 0 for gyros.
     """
 
     b0: float = 0.0
-    t: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    rate: tuple[float, float] = (0.0, 0.0)
-    grad: tuple[float, float] = (0.0, 0.0)
+    t: tuple[float, ...] = (0.0, 0.0, 0.0)
+    rate: tuple[float, ...] = (0.0, 0.0)
+    grad: tuple[float, ...] = (0.0, 0.0)
     t_grad: float = 0.0
     t_rate: float = 0.0
     stress: float = 0.0
+    rate_range: tuple[float, float] | None = None
+    grad_range: tuple[float, float] | None = None
+    shupe: float = 0.0
+    hysteresis: float = 0.0
+    hysteresis_play_c: float = 1.0
+    scale_factor_ppm_per_c: float = 0.0
+    misalignment_arcsec_per_c: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    lever_arm_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
     def __post_init__(self) -> None:
         for f in fields(self):
             v = getattr(self, f.name)
-            vals = v if isinstance(v, tuple) else (v,)
+            vals = () if v is None else v if isinstance(v, tuple) else (v,)
             for x in vals:
                 _finite(f"thermal.{f.name}", x)
-        for name, n in (("t", 3), ("rate", 2), ("grad", 2)):
-            if len(getattr(self, name)) != n:
-                raise ConfigError(f"thermal.{name} must have {n} coefficients")
+        for name, lo in (("t", 1), ("rate", 0), ("grad", 0)):
+            if not lo <= len(getattr(self, name)) <= 4:
+                raise ConfigError(f"thermal.{name} must have {lo} to 4 coefficients")
+        for name in ("rate_range", "grad_range"):
+            w = getattr(self, name)
+            if w is not None and (len(w) != 2 or not w[0] < w[1]):
+                raise ConfigError(f"thermal.{name} must be [low, high] with low < high")
+        for name in ("misalignment_arcsec_per_c", "lever_arm_m"):
+            if len(getattr(self, name)) != 3:
+                raise ConfigError(f"thermal.{name} must have 3 values (x, y, z)")
+        if self.hysteresis_play_c <= 0:
+            raise ConfigError("thermal.hysteresis_play_c must be > 0 °C")
+        if self.hysteresis < 0:
+            raise ConfigError("thermal.hysteresis (the loop width) must be >= 0")
 
     def evaluate(
         self,
@@ -101,19 +178,50 @@ class ChannelThermal:
         s: NDArray[np.float64],
     ) -> NDArray[np.float64]:
         """Thermal bias [unit] for temperature offset ``x`` [°C], rate ``r`` [°C/min],
-        gradient ``d`` [°C] and stress ``s`` [°C] (Horner form)."""
-        t1, t2, t3 = self.t
-        r1, r2 = self.rate
-        g1, g2 = self.grad
+        gradient ``d`` [°C] and stress ``s`` [°C] (Shupe and hysteresis excluded)."""
         return (
             self.b0
-            + x * (t1 + x * (t2 + x * t3))
-            + r * (r1 + r * r2)
-            + d * (g1 + d * g2)
+            + _poly(self.t, x)
+            + _poly_window(self.rate, r, self.rate_range)
+            + _poly_window(self.grad, d, self.grad_range)
             + self.t_grad * x * d
             + self.t_rate * x * r
             + self.stress * s
         )
+
+
+@dataclass(frozen=True)
+class EffectsConfig:
+    """Which error effects beyond the polynomial bias the plant applies (all on by default).
+
+    Parameters
+    ----------
+    shupe : bool
+        FOG Shupe bias from the rate of the coil's radial gradient.
+    hysteresis : bool
+        Quartz accelerometer thermal hysteresis with persistent memory.
+    scale_factor : bool
+        Scale factor against temperature.
+    misalignment : bool
+        Non-orthogonality against temperature.
+    lever_arm : bool
+        The accelerometers' lever arm from the turntable axis (size effect), navigation.
+    rotation_heat : bool
+        Heat fixed in the body reaching the turning sensors by encoder angle, and the torque
+        motor's heat while the table moves.
+    """
+
+    shupe: bool = True
+    hysteresis: bool = True
+    scale_factor: bool = True
+    misalignment: bool = True
+    lever_arm: bool = True
+    rotation_heat: bool = True
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            if not isinstance(getattr(self, f.name), bool):
+                raise ConfigError(f"effects.{f.name} must be true or false")
 
 
 @dataclass(frozen=True)
@@ -240,6 +348,8 @@ class ImuConfig:
         The lumped thermal network.
     thermometer : ThermometerConfig
         The temperature sensors.
+    effects : EffectsConfig
+        Which effects beyond the polynomial bias are applied.
     """
 
     name: str = "custom"
@@ -254,6 +364,7 @@ class ImuConfig:
     output: OutputConfig = field(default_factory=OutputConfig)
     network: ThermalNetworkConfig = field(default_factory=ThermalNetworkConfig)
     thermometer: ThermometerConfig = field(default_factory=ThermometerConfig)
+    effects: EffectsConfig = field(default_factory=EffectsConfig)
 
     def __post_init__(self) -> None:
         lat = _finite("imu.latitude_deg", self.latitude_deg)
@@ -270,53 +381,65 @@ class ImuConfig:
     def from_dict(cls, data: dict[str, Any], source: str = "<dict>") -> ImuConfig:
         """Build and validate a configuration from the nested TOML layout.
 
+        Every section must be present (``[imu]``, ``[output]``, ``[noise]``,
+        ``[thermometer]``, ``[network]``, ``[effects]`` and ``[thermal.<channel>]`` for each
+        of the six channels): a missing one is an error naming it, never silent zeros.
         Unknown sections or keys raise :class:`ConfigError` naming them and ``source``.
         """
-        known = {"imu", "output", "noise", "thermometer", "network", "thermal"}
+        known = {"imu", "output", "noise", "thermometer", "network", "effects", "thermal"}
         extra = set(data) - known
         if extra:
             raise ConfigError(
                 f"{source}: unknown section(s) {sorted(extra)}; known {sorted(known)}"
             )
+        missing = [f"[{k}]" for k in sorted(known) if k not in data]
+        thermal_sec = data.get("thermal", {})
+        if not isinstance(thermal_sec, dict):
+            raise ConfigError(f"{source}: [thermal] must be a table")
+        if "thermal" in data:
+            missing += [f"[thermal.{ch}]" for ch in CHANNELS if ch not in thermal_sec]
+        if missing:
+            raise ConfigError(f"{source}: missing section(s) {', '.join(missing)}")
 
         def section(name: str, klass: type, allowed: set[str] | None = None) -> dict[str, Any]:
-            sec = data.get(name, {})
+            sec = data[name]
             if not isinstance(sec, dict):
                 raise ConfigError(f"{source}: [{name}] must be a table")
             names = allowed or {f.name for f in fields(klass)}
             bad = set(sec) - names
             if bad:
                 raise ConfigError(f"{source}: unknown key(s) {sorted(bad)} in [{name}]")
-            return dict(sec)
+            return {k: tuple(v) if isinstance(v, list) else v for k, v in sec.items()}
 
         imu = section("imu", cls, {"name", "latitude_deg", "heading_deg", "altitude_m", "t_ref_c"})
-        thermal_sec = data.get("thermal", {})
-        if not isinstance(thermal_sec, dict):
-            raise ConfigError(f"{source}: [thermal] must be a table")
         bad = set(thermal_sec) - set(CHANNELS)
         if bad:
             raise ConfigError(f"{source}: unknown channel(s) {sorted(bad)} in [thermal]")
         thermal = []
+        required = {"b0", "t"}
         for ch in CHANNELS:
-            sec = thermal_sec.get(ch, {})
+            sec = thermal_sec[ch]
+            if not isinstance(sec, dict):
+                raise ConfigError(f"{source}: [thermal.{ch}] must be a table")
             bad = set(sec) - {f.name for f in fields(ChannelThermal)}
             if bad:
                 raise ConfigError(f"{source}: unknown key(s) {sorted(bad)} in [thermal.{ch}]")
+            lacking = required - set(sec)
+            if lacking:
+                raise ConfigError(f"{source}: missing key(s) {sorted(lacking)} in [thermal.{ch}]")
             kw = {k: tuple(v) if isinstance(v, list) else v for k, v in sec.items()}
             try:
                 thermal.append(ChannelThermal(**kw))
-            except ConfigError as e:
+            except (TypeError, ConfigError) as e:
                 raise ConfigError(f"{source}: [thermal.{ch}] {e}") from None
-        net = section("network", ThermalNetworkConfig)
-        if "sensor_coupling" in net:
-            net["sensor_coupling"] = tuple(net["sensor_coupling"])
         try:
             return cls(
                 thermal=tuple(thermal),
                 noise=NoiseConfig(**section("noise", NoiseConfig)),
                 output=OutputConfig(**section("output", OutputConfig)),
-                network=ThermalNetworkConfig(**net),
+                network=ThermalNetworkConfig(**section("network", ThermalNetworkConfig)),
                 thermometer=ThermometerConfig(**section("thermometer", ThermometerConfig)),
+                effects=EffectsConfig(**section("effects", EffectsConfig)),
                 **imu,
             )
         except (TypeError, ConfigError) as e:
@@ -366,12 +489,10 @@ class ImuConfig:
             "output": asdict(self.output),
             "noise": asdict(self.noise),
             "thermometer": asdict(self.thermometer),
-            "network": {
-                k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self.network).items()
-            },
+            "network": _toml_table(asdict(self.network)),
+            "effects": asdict(self.effects),
             "thermal": {
-                ch: {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(c).items()}
-                for ch, c in zip(CHANNELS, self.thermal, strict=True)
+                ch: _toml_table(asdict(c)) for ch, c in zip(CHANNELS, self.thermal, strict=True)
             },
         }
 
@@ -385,6 +506,12 @@ class ImuConfig:
     def heading(self) -> float:
         """Heading of the IMU y axis at encoder zero [rad]."""
         return self.heading_deg * units.DEG_TO_RAD
+
+    def thermal_network(self) -> ThermalNetworkConfig:
+        """The network as simulated: without the body-fixed hot side if that effect is off."""
+        if self.effects.rotation_heat:
+            return self.network
+        return replace(self.network, rotation_heat_c=0.0, p_motor=0.0)
 
     def log_units(self) -> tuple[str, ...]:
         """Unit of each channel in a log written with this configuration."""
@@ -409,40 +536,179 @@ def load_imu(spec: str | Path) -> ImuConfig:
     return ImuConfig.from_toml(path)
 
 
+def _toml_table(d: dict[str, Any]) -> dict[str, Any]:
+    """A dataclass dict as TOML can hold it: tuples as lists, None left out."""
+    return {k: list(v) if isinstance(v, tuple) else v for k, v in d.items() if v is not None}
+
+
 # --------------------------------------------------------------------------- the plant
-def thermal_bias_eng(field: ThermalField, config: ImuConfig) -> NDArray[np.float64]:
-    """True thermal bias in engineering units.
+#: Temperature a unit is kept at between uses [°C]: the hysteresis memory of a unit that
+#: comes from the lab starts there.
+STORAGE_C = 20.0
+
+
+def play_operator(
+    temp: NDArray[np.float64], half_width: float, start: float
+) -> NDArray[np.float64]:
+    """The play (backlash) operator: an output that follows ``temp`` only once it is more
+    than ``half_width`` away, the elementary hysteresis with memory.
+
+    Parameters
+    ----------
+    temp : ndarray, shape (n,) [°C]
+        Input, in time order.
+    half_width : float [°C]
+        Half-width of the play (> 0).
+    start : float [°C]
+        Output before the first sample (the memory of earlier excursions).
+
+    Returns
+    -------
+    ndarray, shape (n,) [°C]
+        ``p[k] = min(max(p[k-1], temp[k] − w), temp[k] + w)``.
+    """
+    out = np.empty(temp.shape[0])
+    p = float(start)
+    w = float(half_width)
+    for k, x in enumerate(temp.tolist()):
+        if p < x - w:
+            p = x - w
+        elif p > x + w:
+            p = x + w
+        out[k] = p
+    return out
+
+
+def hysteresis_play(
+    field: ThermalField, config: ImuConfig, memory: NDArray[np.float64] | None = None
+) -> NDArray[np.float64]:
+    """Play-operator state of every channel through a run.
 
     Parameters
     ----------
     field : ThermalField
-        True temperatures at the sample times.
+        True temperatures, in time order.
+    config : ImuConfig
+        The plant (each channel's ``hysteresis_play_c``).
+    memory : ndarray, shape (6,), optional [°C]
+        Play state left by the unit's previous run (the output of the last sample of that
+        run); default :data:`STORAGE_C`, a unit coming from the lab.
+
+    Returns
+    -------
+    ndarray, shape (n, 6) [°C]
+        Play state per sample; its last row is the memory for the next run. Channels
+        without hysteresis (or with the effect off) follow the temperature.
+    """
+    memory = np.full(6, STORAGE_C) if memory is None else np.asarray(memory, dtype=float)
+    out = field.sensor.copy()
+    if not config.effects.hysteresis:
+        return out
+    for j, coef in enumerate(config.thermal):
+        if coef.hysteresis > 0:
+            out[:, j] = play_operator(field.sensor[:, j], coef.hysteresis_play_c, memory[j])
+    return out
+
+
+def thermal_bias_eng(
+    field: ThermalField, config: ImuConfig, play: NDArray[np.float64] | None = None
+) -> NDArray[np.float64]:
+    """True thermal bias in engineering units (signal errors excluded).
+
+    Parameters
+    ----------
+    field : ThermalField
+        True temperatures at the sample times, in time order.
     config : ImuConfig
         The plant.
+    play : ndarray, shape (n, 6), optional [°C]
+        Hysteresis state from :func:`hysteresis_play`; default: computed for a unit coming
+        from the lab.
 
     Returns
     -------
     ndarray, shape (n, 6) [deg/h for gyros, µg for accelerometers]
-        Thermal bias of each channel in the ``r`` frame (turn-on offset excluded).
+        Thermal bias of each channel in the ``r`` frame (turn-on offset excluded):
+        polynomial bias, Shupe term and hysteresis.
     """
     x = field.sensor - config.t_ref_c
     r = field.sensor_rate * units.MIN_TO_S  # °C/s -> °C/min
     d = field.gradient
+    fx = config.effects
+    if fx.hysteresis and play is None:
+        play = hysteresis_play(field, config)
     out = np.empty_like(x)
     for j, coef in enumerate(config.thermal):
         out[:, j] = coef.evaluate(x[:, j], r[:, j], d[:, j], field.stress[:, j])
+        if fx.shupe and coef.shupe:
+            out[:, j] += coef.shupe * field.coil_gradient_rate[:, j] * units.MIN_TO_S
+        if fx.hysteresis and coef.hysteresis > 0 and play is not None:
+            lag = (field.sensor[:, j] - play[:, j]) / coef.hysteresis_play_c  # -1 .. 1
+            out[:, j] += 0.5 * coef.hysteresis * lag
     return out
 
 
-def thermal_bias_r(field: ThermalField, config: ImuConfig) -> NDArray[np.float64]:
+def thermal_bias_r(
+    field: ThermalField, config: ImuConfig, play: NDArray[np.float64] | None = None
+) -> NDArray[np.float64]:
     """True thermal bias in SI, resolved in the rotating IMU frame ``r``.
 
     Returns
     -------
     ndarray, shape (n, 6) [rad/s for gyros, m/s² for accelerometers]
-        Thermal bias of each channel (turn-on offset excluded).
+        Thermal bias of each channel (turn-on offset and signal errors excluded); see
+        :func:`thermal_bias_eng`.
     """
-    return thermal_bias_eng(field, config) * ENG_TO_SI
+    return thermal_bias_eng(field, config, play) * ENG_TO_SI
+
+
+def signal_error_coefs(config: ImuConfig) -> NDArray[np.float64]:
+    """Scale-factor and non-orthogonality change per °C, as one row per channel.
+
+    Returns
+    -------
+    ndarray, shape (6, 3) [1/°C]
+        Row ``j``: the error of channel ``j`` is ``(T_j − t_ref) · row_j · s`` for the true
+        signal ``s`` (angular rate for gyros, specific force for accelerometers) along the
+        ``r`` axes x, y, z. Zero where the effects are off.
+    """
+    fx = config.effects
+    out = np.zeros((6, 3))
+    for j, coef in enumerate(config.thermal):
+        if fx.scale_factor:
+            out[j, j % 3] += coef.scale_factor_ppm_per_c * 1e-6
+        if fx.misalignment:
+            m = np.asarray(coef.misalignment_arcsec_per_c, dtype=float) * units.ARCSEC_TO_RAD
+            m[j % 3] = 0.0  # the own axis is the scale factor
+            out[j] += m
+    return out
+
+
+def signal_errors_r(
+    temp_offset: NDArray[np.float64],
+    coefs: NDArray[np.float64],
+    omega_r: NDArray[np.float64],
+    f_r: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """Scale-factor and non-orthogonality errors of each sample.
+
+    Parameters
+    ----------
+    temp_offset : ndarray, shape (n, 6) [°C]
+        ``T_j − t_ref`` of each channel.
+    coefs : ndarray, shape (6, 3) [1/°C]
+        From :func:`signal_error_coefs`.
+    omega_r, f_r : ndarray, shape (n, 3) or (3,) [rad/s, m/s²]
+        True angular rate and specific force in ``r``.
+
+    Returns
+    -------
+    ndarray, shape (n, 6) [rad/s, m/s²]
+    """
+    out = np.empty(temp_offset.shape)
+    out[:, :3] = temp_offset[:, :3] * (np.atleast_2d(omega_r) @ coefs[:3].T)
+    out[:, 3:] = temp_offset[:, 3:] * (np.atleast_2d(f_r) @ coefs[3:].T)
+    return out
 
 
 def turn_on_offsets(config: ImuConfig, rng: np.random.Generator) -> NDArray[np.float64]:
@@ -560,13 +826,19 @@ __all__ = [
     "ENGINEERING_UNITS",
     "ENG_TO_SI",
     "PRESETS",
+    "STORAGE_C",
     "ChannelThermal",
+    "EffectsConfig",
     "ImuConfig",
     "NoiseConfig",
     "OutputConfig",
     "SensorNoise",
+    "hysteresis_play",
     "load_imu",
     "log_units_to_si",
+    "play_operator",
+    "signal_error_coefs",
+    "signal_errors_r",
     "thermal_bias_eng",
     "thermal_bias_r",
     "to_log_units",

@@ -28,7 +28,10 @@ from rinscal.thermal.field import ChamberProfile, measure, simulate_field
 from rinscal.thermal.plant import (
     ImuConfig,
     SensorNoise,
+    hysteresis_play,
     log_units_to_si,
+    signal_error_coefs,
+    signal_errors_r,
     thermal_bias_r,
     to_log_units,
     turn_on_offsets,
@@ -119,6 +122,8 @@ class SimulatedRun:
         Turn-on offset of this power-on, in the log's unit.
     static : ndarray, shape (6,)
         Static output (Earth rate and gravity) in the log's unit.
+    memory : ndarray, shape (6,) [°C]
+        Hysteresis (play) state at the end of the run: what the next run remembers.
     """
 
     name: str
@@ -126,6 +131,7 @@ class SimulatedRun:
     truth: pd.DataFrame
     offset: NDArray[np.float64]
     static: NDArray[np.float64]
+    memory: NDArray[np.float64]
 
     def without_samples(self) -> SimulatedRun:
         """The same run with empty tables (keeps what :func:`log_meta` needs)."""
@@ -142,8 +148,9 @@ def simulate_run(
     config: ImuConfig,
     rate_hz: float,
     rng: np.random.Generator,
+    memory: NDArray[np.float64] | None = None,
 ) -> SimulatedRun:
-    """Simulate one static cold start on the turntable (no rotation).
+    """Simulate one static cold start on the turntable (no rotation, encoder at zero).
 
     Parameters
     ----------
@@ -155,6 +162,8 @@ def simulate_run(
         Output sample rate.
     rng : numpy.random.Generator
         Source of every random number of the run.
+    memory : ndarray, shape (6,), optional [°C]
+        Hysteresis state left by the unit's previous run (default: a unit from the lab).
 
     Returns
     -------
@@ -168,14 +177,19 @@ def simulate_run(
         raise ConfigError(f"run {spec.name}: {spec.duration_s} s at {rate_hz} Hz gives < 2 samples")
     # time stamps are the ends of the sample intervals; the first sample is at dt
     t = (np.arange(n) + 1.0) * dt
-    coarse = simulate_field(spec.profile, config.network, t[-1], THERMAL_DT_S)
+    coarse = simulate_field(spec.profile, config.thermal_network(), t[-1], THERMAL_DT_S)
     # The output over an interval is its mean: take the bias at the interval's middle. The
     # bias is evaluated on the thermal grid and interpolated (its curvature over 1 s is
-    # negligible), which is far cheaper than evaluating it at every sample.
+    # negligible), which is far cheaper than evaluating it at every sample. The signal is
+    # static, so the scale-factor and non-orthogonality errors are a thermal bias too.
     t_mid = t - 0.5 * dt
-    bias_coarse = thermal_bias_r(coarse, config)
+    play = hysteresis_play(coarse, config, memory)
     omega_r, f_r = static_outputs_r(config.latitude, config.heading, config.altitude_m)
     static_si = np.concatenate([omega_r, f_r])
+    bias_coarse = thermal_bias_r(coarse, config, play)
+    bias_coarse += signal_errors_r(
+        coarse.sensor - config.t_ref_c, signal_error_coefs(config), omega_r, f_r
+    )
     offset = turn_on_offsets(config, rng)
     noise, _ = SensorNoise(config, rng, dt).draw(n)
     scale = log_units_to_si(config, dt)
@@ -210,7 +224,12 @@ def simulate_run(
         truth_cols[f"bias_{ch}"] = bias_cols[j]
     truth = pd.DataFrame(truth_cols, copy=False)
     return SimulatedRun(
-        name=spec.name, log=log, truth=truth, offset=offset / scale, static=static_si / scale
+        name=spec.name,
+        log=log,
+        truth=truth,
+        offset=offset / scale,
+        static=static_si / scale,
+        memory=play[-1].copy(),
     )
 
 
@@ -224,10 +243,14 @@ def iter_protocol(
     """Simulate the runs of a protocol one at a time (bounded memory).
 
     Each run's random numbers come from ``(seed, protocol, run index)``, so a run is the
-    same whatever else is simulated.
+    same whatever else is simulated. The unit's hysteresis memory is carried from one run
+    to the next, in order: the order of the soak runs matters, as on a real unit.
     """
+    memory = None
     for i, spec in enumerate(protocol_runs(protocol, hours)):
-        yield simulate_run(spec, config, rate_hz, _run_rng(seed, protocol, i))
+        run = simulate_run(spec, config, rate_hz, _run_rng(seed, protocol, i), memory)
+        memory = run.memory
+        yield run
 
 
 def log_meta(
