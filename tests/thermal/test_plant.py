@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from dataclasses import replace
 
 import numpy as np
@@ -31,9 +32,12 @@ QUIET = replace(
 
 
 def test_preset_is_navigation_grade() -> None:
-    """FOG 0.01 °/h class and quartz 0.01 mg class: thermal swings of hundredths of °/h and
-    tens of µg over 0-50 °C."""
-    _, truth, _ = simulate_protocol("soak", hours=2.0, rate_hz=0.5, seed=1, config=QUIET)
+    """FOG 0.01 °/h class and quartz 0.01 mg class: thermal bias swings of hundredths of
+    °/h and tens of µg over 0-50 °C (scale factor and misalignment, which scale the signal,
+    aside)."""
+    bias_only = replace(QUIET, effects=replace(QUIET.effects, scale_factor=False,
+                                               misalignment=False))  # fmt: skip
+    _, truth, _ = simulate_protocol("soak", hours=2.0, rate_hz=0.5, seed=1, config=bias_only)
     b = truth.groupby("run")[[f"bias_{c}" for c in CHANNELS]].mean()
     swing = b.max() - b.min()
     for ch in CHANNELS[:3]:
@@ -123,36 +127,71 @@ def test_pulse_output_conserves_the_integral() -> None:
     # the accumulator loses less than one pulse, however long the run
     np.testing.assert_array_less(np.abs(counts.sum(axis=0) - true_pulses.sum(axis=0)), 1.0)
     g = earth.gravity(PRESET.latitude, PRESET.altitude_m)
-    assert true_pulses[:, 5].mean() == pytest.approx(g * 0.1 / 1e-6, rel=1e-3)  # g·dt / weight
+    assert run.static[5] == pytest.approx(g * 0.1 / 1e-6, rel=1e-12)  # g·dt / weight
+
+
+def _preset_text() -> str:
+    from importlib import resources
+
+    return resources.files("rinscal.data").joinpath("navigation_grade.toml").read_text()
 
 
 def test_config_toml_round_trip(tmp_path) -> None:
     d = PRESET.to_dict()
     assert ImuConfig.from_dict(d) == PRESET
     p = tmp_path / "imu.toml"
-    p.write_text("[imu]\nlatitude_deg = 45.0\n[thermal.accel_x]\nt = [2.0, 0.0, 0.0]\n")
+    p.write_text(_preset_text().replace("latitude_deg = 32.06", "latitude_deg = 45.0"))
     cfg = ImuConfig.from_toml(p)
-    assert cfg.latitude_deg == 45.0 and cfg.thermal[3].t == (2.0, 0.0, 0.0)
+    assert cfg.latitude_deg == 45.0 and cfg == replace(PRESET, latitude_deg=45.0)
+    assert ImuConfig.from_dict(ImuConfig.paper().to_dict()) == ImuConfig.paper()
 
 
 @pytest.mark.parametrize(
-    ("text", "word"),
+    ("old", "new", "word"),
     [
-        ("[imu]\nlatitude_deg = 95.0\n", "latitude_deg"),
-        ("[noise]\ngyro_arw_deg_rth = -1.0\n", "gyro_arw_deg_rth"),
-        ("[noise]\nbogus = 1\n", "bogus"),
-        ("[thermal.accel_q]\nb0 = 1\n", "accel_q"),
-        ("[thermal.gyro_x]\nt = [1.0]\n", "thermal.t"),
-        ("[output]\nmode = 'volts'\n", "output.mode"),
-        ("not toml ===", "not valid TOML"),
+        ("latitude_deg = 32.06", "latitude_deg = 95.0", "latitude_deg"),
+        ("gyro_arw_deg_rth = 0.001", "gyro_arw_deg_rth = -1.0", "gyro_arw_deg_rth"),
+        ("[noise]", "[noise]\nbogus = 1", r"bogus.*\[noise\]"),
+        ("[thermal.gyro_x]", "[thermal.accel_q]\nb0 = 1\n[thermal.gyro_x]", "accel_q"),
+        ("t = [6.0e-4, 1.0e-5, -2.0e-7]", "t = []", "thermal.t"),
+        ('mode = "physical"', "mode = 'volts'", "output.mode"),
+        ("[output]", "not toml ===", "not valid TOML"),
+        ("hysteresis = 10.0", "hysteresis = -1.0", "hysteresis"),
+        ("lever_arm = true", "lever_arm = 1", "effects.lever_arm"),
+        ("misalignment_arcsec_per_c = [0.0, 0.8, 0.6]", "misalignment_arcsec_per_c = [0.8]",
+         "misalignment_arcsec_per_c"),
     ],
-)
-def test_config_errors_name_the_key(tmp_path, text: str, word: str) -> None:
+)  # fmt: skip
+def test_config_errors_name_the_key(tmp_path, old: str, new: str, word: str) -> None:
+    text = _preset_text()
+    assert old in text
     p = tmp_path / "bad.toml"
-    p.write_text(text)
+    p.write_text(text.replace(old, new, 1))
     with pytest.raises(ConfigError, match=word) as e:
         ImuConfig.from_toml(p)
     assert "bad.toml" in str(e.value)
+
+
+@pytest.mark.parametrize("section", ["[noise]", "[effects]", "[thermal.accel_y]", "[network]"])
+def test_a_missing_section_is_an_error_naming_it(tmp_path, section: str) -> None:
+    """Today's trap: a missing [thermal.accel_y] silently became zeros."""
+    text = _preset_text()
+    start = text.index(section)
+    end = text.find("\n[", start + 1)
+    p = tmp_path / "cut.toml"
+    p.write_text(text[:start] + (text[end + 1 :] if end >= 0 else ""))
+    with pytest.raises(ConfigError, match=re.escape(f"missing section(s) {section}")):
+        ImuConfig.from_toml(p)
+
+
+def test_presets_by_name_and_unknown_names() -> None:
+    from rinscal.thermal.plant import PRESETS, load_imu
+
+    assert set(PRESETS) == {"paper", "navigation_grade"}
+    assert load_imu("navigation_grade") == PRESET
+    assert load_imu("paper").name.startswith("the paper")
+    with pytest.raises(ConfigError, match="neither a preset"):
+        load_imu("navgrade")
 
 
 def test_thermal_bias_uses_each_input() -> None:
@@ -162,7 +201,8 @@ def test_thermal_bias_uses_each_input() -> None:
     n = 4
     base = dict(t=np.arange(n, dtype=float), sensor=np.full((n, 6), 30.0),
                 sensor_rate=np.zeros((n, 6)), outer=np.full(n, 30.0), chamber=np.full(n, 20.0),
-                stress=np.zeros((n, 6)))  # fmt: skip
+                stress=np.zeros((n, 6)), coil_gradient=np.zeros((n, 6)),
+                coil_gradient_rate=np.zeros((n, 6)))  # fmt: skip
     b0 = thermal_bias_eng(ThermalField(**base), PRESET)
     for key, val in (("sensor_rate", np.full((n, 6), 0.3 / 60)), ("outer", np.full(n, 29.0)),
                      ("stress", np.ones((n, 6)))):  # fmt: skip

@@ -36,9 +36,14 @@ def test_ramp_follows_the_chamber_at_0_2_degrees_per_minute() -> None:
     assert log["time_s"].iloc[-1] == pytest.approx(52 / 0.2 * 60 + 1800, abs=5.0)
     ch = log["chamber_temp"].to_numpy()
     assert ch[0] == pytest.approx(-2.0 + 0.2 * 5 / 60) and ch[-1] == pytest.approx(50.0)
-    mid = (log["time_s"] > 3600) & (log["time_s"] < 3 * 3600)
-    slope = np.polyfit(log.loc[mid, "time_s"] / 60.0, log.loc[mid, "temp_out"], 1)[0]
-    assert slope == pytest.approx(0.2, rel=0.05)  # the housing lags but follows the ramp
+    # the housing (a 2.5 h thermal mass) lags, but its rate climbs towards the ramp's
+    end = 52 / 0.2 * 60
+    slopes = []
+    for a, b in ((3600.0, 7200.0), (end - 3600.0, end)):
+        sel = (log["time_s"] > a) & (log["time_s"] < b)
+        slopes.append(np.polyfit(log.loc[sel, "time_s"] / 60.0, log.loc[sel, "temp_out"], 1)[0])
+    assert 0.1 < slopes[0] < slopes[1] < 0.2
+    assert slopes[1] == pytest.approx(0.2, rel=0.12)
 
 
 def test_same_seed_same_log_other_seed_other_log() -> None:

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
+from rich.markup import escape
 
 from rinscal.cli._app import app
 from rinscal.cli._options import (
@@ -181,7 +182,9 @@ def fit(
                 )
             for w in caught:
                 if issubclass(w.category, MissingGradientWarning):
-                    err_console.print(f"[yellow]warning:[/] {w.message}", highlight=False)
+                    err_console.print(
+                        f"[yellow]warning:[/] {escape(str(w.message))}", highlight=False
+                    )
             progress.update(task, description=f"fitting {method}", total=len(model.channels))
 
             def step(channel: str) -> None:
@@ -295,7 +298,7 @@ def select(
         raise fail(str(exc)) from None
     for w in caught:
         if issubclass(w.category, MissingGradientWarning):
-            err_console.print(f"[yellow]warning:[/] {w.message}", highlight=False)
+            err_console.print(f"[yellow]warning:[/] {escape(str(w.message))}", highlight=False)
     units, _ = unit_factors(meta)
     if as_json:
         doc = res.to_dict()

@@ -29,7 +29,15 @@ from rinscal.errors import ConfigError
 from rinscal.nav.rotation import RotationSchedule
 from rinscal.schema import CHANNELS
 from rinscal.thermal.field import ChamberProfile, ThermalField, measure, simulate_field
-from rinscal.thermal.plant import ImuConfig, SensorNoise, thermal_bias_r, turn_on_offsets
+from rinscal.thermal.plant import (
+    ImuConfig,
+    SensorNoise,
+    hysteresis_play,
+    signal_error_coefs,
+    signal_errors_r,
+    thermal_bias_r,
+    turn_on_offsets,
+)
 
 if TYPE_CHECKING:
     from rinscal.nav.scenario import ScenarioConfig
@@ -57,13 +65,20 @@ def constant_errors(bias_r: NDArray[np.float64]) -> ErrorSource:
 class ThermalPlant:
     """The IMU plant of :mod:`rinscal.thermal` run alongside a navigation scenario.
 
-    The thermal field is simulated once on a 1 s grid over the whole run (cheap) and
+    The thermal field is simulated once on a 1 s grid over the whole run (cheap), with the
+    turntable's encoder angle driving the body-fixed hot side and the torque motor, and
     interpolated at the sample times of each chunk; noise is drawn chunk by chunk.
+
+    Errors of a sample, resolved in ``r``: thermal bias (polynomial, Shupe, hysteresis with
+    the memory of a unit coming from the lab), scale factor and non-orthogonality against
+    temperature times the true signal, the accelerometers' size effect
+    ``e_j · (ω×(ω×ρ_j) + ω̇×ρ_j)`` from their lever arms ``ρ_j``, the turn-on offsets and the
+    noise. Every effect follows the switches of ``config.effects``.
 
     Parameters
     ----------
     config : ImuConfig
-        The plant (thermal coefficients, noise, thermal network, thermometers).
+        The plant (thermal coefficients, noise, thermal network, thermometers, effects).
     chamber : ChamberProfile
         Ambient temperature against time; the unit has soaked at its initial value and is
         switched on at t = 0.
@@ -75,7 +90,7 @@ class ThermalPlant:
         Seed; turn-on offsets, sensor noise and thermometer noise use independent streams
         spawned from it, so switching one part off leaves the others unchanged.
     thermal, noise, turn_on : bool
-        Which error parts to include.
+        Which error parts to include (``thermal``: every temperature-driven error).
     schedule : RotationSchedule, optional
         The turntable schedule: heat fixed in the body reaches each sensor according to the
         encoder angle. None: the table holds at encoder zero.
@@ -94,20 +109,37 @@ class ThermalPlant:
         schedule: RotationSchedule | None = None,
     ) -> None:
         self.config = config
-        self.schedule = schedule
         self.chamber = chamber
+        self.schedule = schedule
         self.dt = 1.0 / rate_hz
+        encoder = schedule.angle if schedule is not None else None
         self.field: ThermalField = simulate_field(
-            chamber, config.network, duration_s=duration_s + 2.0, dt_s=1.0, power_on_s=0.0
+            chamber,
+            config.thermal_network(),
+            duration_s=duration_s + 2.0,
+            dt_s=1.0,
+            power_on_s=0.0,
+            encoder=encoder,
         )
         rng_on, rng_noise, rng_thermo = np.random.default_rng(seed).spawn(3)
         self.offsets = turn_on_offsets(config, rng_on) if turn_on else np.zeros(6)
         self.noise = SensorNoise(config, rng_noise, self.dt) if noise else None
         self.thermal = thermal
         self._rng_thermo = rng_thermo
-        # the bias on the field's 1 s grid, interpolated per chunk (6 interpolations instead
-        # of the field's 30; the bias varies on thermal time scales of minutes)
-        self._bias_grid = thermal_bias_r(self.field, config) if thermal else None
+        # the bias on the field's 1 s grid, interpolated per chunk (the bias varies on
+        # thermal time scales of minutes, the hot side on the turntable's of a minute)
+        self._bias_grid = (
+            thermal_bias_r(self.field, config, hysteresis_play(self.field, config))
+            if thermal
+            else None
+        )
+        coefs = signal_error_coefs(config)
+        self._signal_coefs = coefs if thermal and np.any(coefs) else None
+        arms = np.array([c.lever_arm_m for c in config.thermal[3:]], dtype=float)
+        self._lever_arms = arms if config.effects.lever_arm and np.any(arms) else None
+        self._last_omega: NDArray[np.float64] | None = None
+        # the thermal errors of the chunk last drawn, for the oracle (same sample times)
+        self._last_thermal: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
 
     @classmethod
     def for_scenario(
@@ -134,13 +166,8 @@ class ThermalPlant:
             schedule=scenario.schedule,
         )
 
-    def thermal_bias(
-        self,
-        t: NDArray[np.float64],
-        omega_r: NDArray | None = None,
-        f_r: NDArray | None = None,
-    ) -> NDArray[np.float64]:
-        """True thermal error at ``t`` [s], (n, 6) SI in ``r`` (zero if thermal is off)."""
+    def thermal_bias(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
+        """True thermal bias at ``t`` [s], (n, 6) SI in ``r`` (zero if thermal is off)."""
         t = np.asarray(t, dtype=float)
         out = np.zeros((t.shape[0], 6))
         if self._bias_grid is not None:
@@ -148,17 +175,73 @@ class ThermalPlant:
                 out[:, j] = np.interp(t, self.field.t, self._bias_grid[:, j])
         return out
 
+    def thermal_errors(
+        self,
+        t: NDArray[np.float64],
+        omega_r: NDArray[np.float64],
+        f_r: NDArray[np.float64],
+    ) -> NDArray[np.float64]:
+        """Every temperature-driven error at ``t`` [s] for the signal ``omega_r`` [rad/s],
+        ``f_r`` [m/s²] (n, 3): thermal bias plus scale factor and non-orthogonality.
+
+        Returns
+        -------
+        ndarray, shape (n, 6) [rad/s, m/s²]
+        """
+        out = self.thermal_bias(t)
+        if self._signal_coefs is not None:
+            x = np.empty_like(out)
+            for j in range(6):
+                x[:, j] = np.interp(t, self.field.t, self.field.sensor[:, j])
+            x -= self.config.t_ref_c
+            out += signal_errors_r(x, self._signal_coefs, omega_r, f_r)
+        return out
+
+    def size_effect(self, omega_r: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Accelerometer size effect ``e_j · (ω×(ω×ρ_j) + ω̇×ρ_j)`` per sample, (n, 3)
+        [m/s²], from the mean rates ``omega_r`` (n, 3) [rad/s] of consecutive samples
+        (ω̇ by backward difference, carried across chunks)."""
+        assert self._lever_arms is not None
+        w = np.asarray(omega_r, dtype=float)
+        prev = w[:1] if self._last_omega is None else self._last_omega
+        wdot = np.diff(w, axis=0, prepend=prev) / self.dt
+        self._last_omega = w[-1:].copy()
+        rho = self._lever_arms  # (3 accelerometers, 3)
+        out = np.empty((w.shape[0], 3))
+        w2 = np.einsum("ni,ni->n", w, w)
+        for j in range(3):
+            r = rho[j]
+            centripetal = w[:, j] * (w @ r) - w2 * r[j]
+            tangential = np.cross(wdot, r)[:, j]
+            out[:, j] = centripetal + tangential
+        return out
+
     def errors_r(
         self, t: NDArray[np.float64], omega_r: NDArray[np.float64], f_r: NDArray[np.float64]
     ) -> NDArray[np.float64]:
         """All sensor errors at sample mid-times ``t`` (call chunks in time order)."""
-        e = self.thermal_bias(t, omega_r, f_r)
+        e = self.thermal_errors(t, omega_r, f_r)
+        self._last_thermal = (np.asarray(t), e.copy())
         e += self.offsets
+        if self._lever_arms is not None:
+            e[:, 3:] += self.size_effect(omega_r)
         if self.noise is not None:
             e += self.noise.draw(np.shape(t)[0])[0]
         return e
 
     __call__ = errors_r
+
+    def oracle(
+        self, t: NDArray[np.float64], omega_r: NDArray[np.float64], f_r: NDArray[np.float64]
+    ) -> NDArray[np.float64]:
+        """The true thermal errors as a compensator: for the samples just drawn by
+        :meth:`errors_r`, exactly the thermal errors added to them (thermal bias, and the
+        scale-factor and non-orthogonality errors of the true signal); at any other times,
+        the same errors of the signal given."""
+        last = self._last_thermal
+        if last is not None and last[0].shape == np.shape(t) and np.array_equal(last[0], t):
+            return last[1]
+        return self.thermal_errors(t, omega_r, f_r)
 
     def measured_temperatures(self, t: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
         """Thermometer readings at ``t``: inner (n, 6) and outer (n,) [°C]."""
@@ -179,8 +262,9 @@ def temperature_frame(plant: ThermalPlant, step_s: float = 10.0) -> pd.DataFrame
 
 
 def oracle_compensator(plant: ThermalPlant) -> Compensator:
-    """Compensation by the true thermal error (the best any thermal model can do)."""
-    return plant.thermal_bias
+    """Compensation by the true thermal errors (the best any thermal compensation can do);
+    see :meth:`ThermalPlant.oracle`."""
+    return plant.oracle
 
 
 __all__ = [

@@ -331,9 +331,12 @@ class ThermalNetworkConfig:
         B[HOUSING, 2] = self.p_motor / cap[HOUSING]
         # the hot side: a cos(φ + α − ψ) = a [cos(α − ψ) cos φ − sin(α − ψ) sin φ]
         psi = np.radians(self.rotation_heat_azimuth_deg)
+        # (heat the hot side brings a node, it takes from the mean inner air: energy kept)
         for node, g, alpha in self.air_faces():
-            B[node, 3] = g * self.rotation_heat_c * np.cos(alpha - psi) / cap[node]
-            B[node, 4] = -g * self.rotation_heat_c * np.sin(alpha - psi) / cap[node]
+            for col, q in ((3, np.cos(alpha - psi)), (4, -np.sin(alpha - psi))):
+                flow = g * self.rotation_heat_c * q  # [W]
+                B[node, col] += flow / cap[node]
+                B[AIR, col] -= flow / cap[AIR]
         k = 1.0 / self.tau_stress_s
         for j in range(N_SENSORS):
             s = STRESS0 + j

@@ -392,17 +392,12 @@ class ImuConfig:
             raise ConfigError(
                 f"{source}: unknown section(s) {sorted(extra)}; known {sorted(known)}"
             )
-        missing = [f"[{k}]" for k in sorted(known) if k not in data]
         thermal_sec = data.get("thermal", {})
         if not isinstance(thermal_sec, dict):
             raise ConfigError(f"{source}: [thermal] must be a table")
-        if "thermal" in data:
-            missing += [f"[thermal.{ch}]" for ch in CHANNELS if ch not in thermal_sec]
-        if missing:
-            raise ConfigError(f"{source}: missing section(s) {', '.join(missing)}")
 
         def section(name: str, klass: type, allowed: set[str] | None = None) -> dict[str, Any]:
-            sec = data[name]
+            sec = data.get(name)
             if not isinstance(sec, dict):
                 raise ConfigError(f"{source}: [{name}] must be a table")
             names = allowed or {f.name for f in fields(klass)}
@@ -411,10 +406,26 @@ class ImuConfig:
                 raise ConfigError(f"{source}: unknown key(s) {sorted(bad)} in [{name}]")
             return {k: tuple(v) if isinstance(v, list) else v for k, v in sec.items()}
 
-        imu = section("imu", cls, {"name", "latitude_deg", "heading_deg", "altitude_m", "t_ref_c"})
+        imu_keys = {"name", "latitude_deg", "heading_deg", "altitude_m", "t_ref_c"}
+        klasses = {
+            "noise": NoiseConfig,
+            "output": OutputConfig,
+            "network": ThermalNetworkConfig,
+            "thermometer": ThermometerConfig,
+            "effects": EffectsConfig,
+        }
+        # unknown keys first (a typo is the likelier mistake), then missing sections
+        for name, klass in klasses.items():
+            if name in data:
+                section(name, klass)
+        imu = section("imu", cls, imu_keys) if "imu" in data else {}
         bad = set(thermal_sec) - set(CHANNELS)
         if bad:
             raise ConfigError(f"{source}: unknown channel(s) {sorted(bad)} in [thermal]")
+        missing = [f"[{k}]" for k in sorted(known - {"thermal"}) if k not in data]
+        missing += [f"[thermal.{ch}]" for ch in CHANNELS if ch not in thermal_sec]
+        if missing:
+            raise ConfigError(f"{source}: missing section(s) {', '.join(missing)}")
         thermal = []
         required = {"b0", "t"}
         for ch in CHANNELS:
