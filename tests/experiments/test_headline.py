@@ -167,6 +167,19 @@ def test_plant_is_loaded_by_name_and_an_unknown_name_lists_the_presets() -> None
     assert all(p in str(exc.value) for p in PRESETS)
 
 
+def test_plant_from_a_toml_file_is_named_by_its_path(tmp_path) -> None:
+    from importlib import resources
+
+    path = tmp_path / "my_imu.toml"
+    path.write_text(resources.files("rinscal.data").joinpath("navigation_grade.toml").read_text())
+    imu = load_plant(str(path))
+    info = plant_info(str(path), imu)
+    assert info["kind"] == "file" and info["spec"] == str(path) and info["name"] == imu.name
+    assert info["run_other"] == [f"--imu {p}" for p in PRESETS]
+    with pytest.raises(ConfigError, match="not found"):
+        load_plant(str(tmp_path / "missing.toml"))
+
+
 def test_cli_refuses_an_unknown_imu_before_doing_any_work(tmp_path) -> None:
     out = tmp_path / "out"
     res = CliRunner().invoke(app, ["reproduce", "--quick", "--imu", "no_such_imu",
