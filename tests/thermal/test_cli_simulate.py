@@ -11,6 +11,7 @@ from typer.testing import CliRunner
 from rinscal.cli import app
 from rinscal.io import read_log
 from rinscal.schema import CHANNELS
+from rinscal.thermal.plant import ImuConfig
 
 runner = CliRunner()
 
@@ -30,6 +31,7 @@ def test_simulate_writes_log_truth_and_meta(tmp_path) -> None:
     truth = pd.read_parquet(tmp_path / "soak.truth.parquet")
     meta = json.loads((tmp_path / "soak.parquet.meta.json").read_text())
     assert len(log) == len(truth) == 7 * 720
+    assert meta["imu"] == ImuConfig.paper().name
     assert list(log["run"].unique()) == [f"soak_{c:+03d}C" for c in (0, 7, 14, 21, 28, 35, 42)]
     assert (
         meta["seed"] == 3 and meta["rate_hz"] == 2.0 and meta["truth_file"] == "soak.truth.parquet"
@@ -40,7 +42,9 @@ def test_simulate_writes_log_truth_and_meta(tmp_path) -> None:
         for ch in ("accel_x", "gyro_y"):
             resid = g[ch].to_numpy() - t[f"bias_{ch}"].to_numpy()
             resid -= meta["static_output"][ch] + meta["turn_on_offset"][run][ch]
-            sd = 10.0 * np.sqrt(2.0) if ch == "accel_x" else 0.001 * 60 * np.sqrt(2.0)
+            noise = ImuConfig.paper().noise  # the default plant: the paper's unit
+            sd = noise.accel_vrw_ug_rthz if ch == "accel_x" else noise.gyro_arw_deg_rth * 60
+            sd *= np.sqrt(2.0)  # per sample at 2 Hz
             assert abs(resid.mean()) < 5 * sd / np.sqrt(len(resid)) + 0.5 * sd  # outliers aside
 
 
@@ -71,5 +75,7 @@ def test_bad_options_give_clear_errors(tmp_path) -> None:
     bad.write_text("[noise]\nfoo = 1\n")
     _, res = _sim(tmp_path, "x.parquet", "soak", "--imu", str(bad))
     assert res.exit_code != 0 and "foo" in res.output and "imu.toml" in res.output
+    _, res = _sim(tmp_path, "x.parquet", "soak", "--imu", "navgrade")
+    assert res.exit_code != 0 and "navigation_grade" in res.output and "paper" in res.output
     _, res = _sim(tmp_path, "x.parquet", "soak", "--rate", "0")
     assert res.exit_code != 0 and "--rate" in res.output

@@ -107,9 +107,12 @@ def simulate(
     rate: Annotated[float, typer.Option("--rate", help="Sample rate [Hz].")] = 10.0,
     seed: Annotated[int, typer.Option("--seed", help="Seed of every random number.")] = 0,
     imu: Annotated[
-        Path | None,
-        typer.Option("--imu", help="IMU configuration (TOML); default: navigation-grade preset."),
-    ] = None,
+        str,
+        typer.Option(
+            "--imu",
+            help="IMU preset (paper, navigation_grade) or configuration file (TOML).",
+        ),
+    ] = "paper",
     units: Annotated[
         str | None,
         typer.Option("--units", help="physical (deg/h, µg) or pulses; overrides the config."),
@@ -127,7 +130,7 @@ def simulate(
     from rinscal.cli._app import console, fail
     from rinscal.errors import RinscalError
     from rinscal.io import LogStreamWriter, format_of, write_meta
-    from rinscal.thermal.plant import ImuConfig, OutputConfig
+    from rinscal.thermal.plant import PRESETS, OutputConfig, load_imu
     from rinscal.thermal.protocols import PROTOCOLS, iter_protocol, log_meta, protocol_runs
 
     if protocol not in PROTOCOLS:
@@ -136,13 +139,13 @@ def simulate(
         raise fail(f"--rate must be > 0 Hz, got {rate}")
     try:
         format_of(out)
-        config = ImuConfig.from_toml(imu) if imu is not None else ImuConfig.navigation_grade()
+        config = load_imu(imu)
         if units is not None:
             config = replace(config, output=OutputConfig(**{**vars(config.output), "mode": units}))
         specs = protocol_runs(protocol, hours)
     except RinscalError as exc:
         raise fail(str(exc)) from None
-    if imu is not None and is_same_file(out, imu):
+    if imu not in PRESETS and is_same_file(out, Path(imu)):
         raise fail(f"{out}: refusing to overwrite the input {imu}")
     out.parent.mkdir(parents=True, exist_ok=True)
     truth_path = out.with_name(f"{out.stem}.truth{out.suffix}")
