@@ -117,3 +117,71 @@ def test_navigate_refuses_bad_input_and_never_overwrites_it(tmp_path) -> None:  
         ],
     )
     assert res.exit_code == 2 and "bad.json" in res.output
+
+
+def _preset_toml(path):  # type: ignore[no-untyped-def]
+    from importlib import resources
+
+    path.write_text(resources.files("rinscal.data").joinpath("navigation_grade.toml").read_text())
+    return path
+
+
+def test_navigate_imu_file_alignment_start_and_heading_at_nav_start(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """--imu FILE.toml, --align-start-s, --align-s: the alignment runs 120 s → 420 s after
+    power-on, errors are reported from 421 s on, and the heading, pitch and roll errors at
+    the navigation start are printed and written per variant. The old --imu-config still
+    works (hidden) and gives the same numbers."""
+    imu = _preset_toml(tmp_path / "unit.toml")
+    common = ["navigate", "-s", "quasi-static", "--hours", "0.2", "--rate", "10", "--no-oracle"]
+    align = ["--align-start-s", "120", "--align-s", "300", "--seed", "1"]
+    out = tmp_path / "a"
+    res = runner.invoke(app, [*common, *align, "--imu", str(imu), "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    err = pd.read_csv(out / "errors.csv")
+    summary = json.loads((out / "summary.json").read_text())
+    assert err["time_s"].iloc[0] == 421.0 and err["time_s"].iloc[-1] == 720.0
+    assert summary["alignment_start_s"] == 120.0
+    assert summary["alignment_s"] == 300.0 and summary["navigation_start_s"] == 420.0
+    assert summary["imu_spec"] == str(imu)
+    att = summary["variants"]["none"]["attitude_error_at_nav_start"]
+    assert set(att) == {"heading_arcsec", "pitch_arcsec", "roll_arcsec"}
+    # the first row's Euler errors [rad], in arcsec (206264.8″ per rad)
+    first = err.iloc[0]
+    for key, col in (("heading", "heading_err"), ("pitch", "pitch_err"), ("roll", "roll_err")):
+        assert att[f"{key}_arcsec"] == pytest.approx(first[col] * 180 / np.pi * 3600, rel=1e-6)
+    assert f'heading {att["heading_arcsec"]:+.1f}"' in res.output
+    assert f'roll {att["roll_arcsec"]:+.1f}"' in res.output
+    assert "navigation from 420 s after power-on" in res.output
+    old = runner.invoke(
+        app, [*common, *align, "--imu-config", str(imu), "--out", str(tmp_path / "b")]
+    )
+    assert old.exit_code == 0, old.output
+    pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "b" / "errors.csv"), err)
+
+
+def test_navigate_refuses_bad_imu_and_alignment_options(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    base = ["navigate", "-s", "quasi-static", "--hours", "0.3", "--rate", "10"]
+    out = ["--out", str(tmp_path / "o")]
+    cases = [
+        (["--align-s", "0"], "--align-s must be > 0"),
+        (["--align-s", "-60"], "--align-s must be > 0"),
+        (["--align-s", "nan"], "--align-s must be > 0"),
+        (["--align-start-s", "-1"], "--align-start-s must be >= 0"),
+        (["--align-start-s", "inf"], "--align-start-s must be >= 0"),
+        (["--align-start-s", "900"], "must end before the run"),
+        (["--imu", "no_such_unit"], "neither a preset"),
+        (["--imu", str(tmp_path / "missing.toml")], "not found"),
+        (["--imu", "navigation_grade", "--imu-config", str(tmp_path / "x.toml")], "once"),
+    ]
+    for extra, message in cases:
+        res = runner.invoke(app, [*base, *extra, *out])
+        assert res.exit_code == 2, (extra, res.output)
+        assert message in res.output, (extra, res.output)
+    assert not (tmp_path / "o").exists()
+    # an IMU file is an input like a model: never overwritten
+    imu = _preset_toml(tmp_path / "truth.csv")
+    res = runner.invoke(app, [*base, "--imu", str(imu), "--out", str(tmp_path)])
+    assert res.exit_code == 2 and "refusing to overwrite" in res.output
+    helptext = runner.invoke(app, ["navigate", "--help"]).output
+    assert "--imu" in helptext and "--align-start-s" in helptext
+    assert "--imu-config" not in helptext

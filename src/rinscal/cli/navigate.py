@@ -9,6 +9,10 @@ import typer
 
 from rinscal.cli._app import app
 from rinscal.cli._options import is_same_file
+from rinscal.thermal.plant import PRESETS
+
+#: The plant ``rinscal navigate`` runs unless ``--imu`` names another.
+DEFAULT_IMU = "navigation_grade"
 
 _OUTPUTS = (
     "errors.csv",
@@ -41,16 +45,33 @@ def navigate(
     ] = None,
     rate: Annotated[float, typer.Option("--rate", help="IMU rate [Hz].")] = 100.0,
     seed: Annotated[int, typer.Option(help="Seed of the sensor noise and turn-on offsets.")] = 0,
+    imu: Annotated[
+        str | None,
+        typer.Option(
+            "--imu",
+            help=f"The simulated IMU: a preset ({', '.join(PRESETS)}) or an IMU TOML file. "
+            f"Default {DEFAULT_IMU}.",
+        ),
+    ] = None,
     imu_config: Annotated[
         Path | None,
-        typer.Option(
-            "--imu-config", help="IMU plant (TOML); default: the navigation-grade preset."
-        ),
+        typer.Option("--imu-config", hidden=True, help="Old name of --imu (a TOML file)."),
     ] = None,
     rotation: Annotated[
         str, typer.Option(help="Turntable: four-position, continuous or none.")
     ] = "four-position",
-    align_s: Annotated[float, typer.Option("--align-s", help="Self-alignment time [s].")] = 600.0,
+    align_s: Annotated[
+        float,
+        typer.Option("--align-s", help="Self-alignment length [s]: coarse (60 s) + Kalman filter."),
+    ] = 600.0,
+    align_start_s: Annotated[
+        float,
+        typer.Option(
+            "--align-start-s",
+            help="Seconds after power-on at which the alignment starts (the unit warms "
+            "before it; navigation starts at align-start-s + align-s).",
+        ),
+    ] = 0.0,
     oracle: Annotated[
         bool, typer.Option("--oracle/--no-oracle", help="Also navigate with the true thermal bias.")
     ] = True,
@@ -62,9 +83,12 @@ def navigate(
     """Navigate a single-axis RINS through a cold start and report its position error.
 
     Writes errors.csv (position error per variant over time), truth.csv, summary.json and
-    the figures position_error.png, trajectory.png and temperatures.png into --out.
+    the figures position_error.png, trajectory.png and temperatures.png into --out, and
+    prints per variant the maximum position error and the heading, pitch and roll error
+    the alignment handed over.
     """
     import json
+    import math
 
     from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
@@ -72,19 +96,30 @@ def navigate(
     from rinscal.cli._app import console, fail
     from rinscal.errors import RinscalError
 
+    if imu is not None and imu_config is not None:
+        raise fail("give the IMU once: --imu (--imu-config is its old name)")
+    imu_spec = str(imu_config) if imu_config is not None else (imu or DEFAULT_IMU)
+    imu_file = None if imu_spec in PRESETS else Path(imu_spec)
+    if imu_file is not None and imu_file.suffix.lower() != ".toml" and not imu_file.exists():
+        raise fail(f"--imu {imu_spec!r} is neither a preset ({', '.join(PRESETS)}) nor a TOML file")
     models = list(model or [])
-    for src in [*models, *([imu_config] if imu_config else [])]:
+    inputs = [*models, *([imu_file] if imu_file is not None else [])]
+    for src in inputs:
         if not src.is_file():
             raise fail(f"{src}: file not found")
     out_paths = [out / name for name in _OUTPUTS]
     for dst in out_paths:
-        for src in [*models, *([imu_config] if imu_config else [])]:
+        for src in inputs:
             if is_same_file(dst, src):
                 raise fail(f"{dst}: refusing to overwrite the input {src}; choose another --out")
     if out.exists() and not out.is_dir():
         raise fail(f"{out}: exists and is not a folder")
-    if not (rate > 0):
+    if not (math.isfinite(rate) and rate > 0):
         raise fail(f"--rate must be > 0 Hz, got {rate}")
+    if not (math.isfinite(align_s) and align_s > 0):
+        raise fail(f"--align-s must be > 0 s, got {align_s}")
+    if not (math.isfinite(align_start_s) and align_start_s >= 0):
+        raise fail(f"--align-start-s must be >= 0 s, got {align_start_s}")
     if policy not in ("clamp", "extrapolate", "error"):
         raise fail(f"--policy must be clamp, extrapolate or error, got {policy!r}")
 
@@ -99,15 +134,15 @@ def navigate(
             run_scenario,
             temperature_frame,
         )
-        from rinscal.thermal.plant import ImuConfig
+        from rinscal.thermal.plant import load_imu
 
-        imu = ImuConfig.from_toml(imu_config) if imu_config else ImuConfig.navigation_grade()
-        align = align_for(imu, total_s=align_s)
+        plant_cfg = load_imu(imu_spec)
+        align = align_for(plant_cfg, total_s=align_s, start_s=align_start_s)
         cfg = preset(
             scenario, hours=hours, rate_hz=rate, align=align, schedule=schedule_from_name(rotation)
         )
         assert cfg.chamber is not None
-        plant = ThermalPlant(imu, cfg.chamber, cfg.duration_s, cfg.rate_hz, seed=seed)
+        plant = ThermalPlant.for_scenario(plant_cfg, cfg, seed=seed)
         comps: dict[str, object] = {"none": None}
         if oracle:
             comps["true"] = oracle_compensator(plant)
@@ -148,7 +183,8 @@ def navigate(
     errors = pd.concat(frames, ignore_index=True)
     summary = result.summary()
     summary["seed"] = seed
-    summary["imu"] = imu.name
+    summary["imu"] = plant_cfg.name
+    summary["imu_spec"] = imu_spec
     summary["models"] = {p.stem: str(p) for p in models}
     summary["chamber"] = {
         "times_s": list(cfg.chamber.times_s),
@@ -170,13 +206,22 @@ def navigate(
         with atomic_path(out / fname) as tmp:
             fig.savefig(tmp, format="png", dpi=110)
 
+    console.print(
+        f"navigation from {cfg.nav_start_s:g} s after power-on "
+        f"(alignment from {cfg.align_start_s:g} s, {align_s:g} s long)",
+        highlight=False,
+        soft_wrap=True,
+    )
     for name, v in summary["variants"].items():
         extra = ""
         if "improvement_vs_none_pct" in v:
             extra = f"  ({v['improvement_vs_none_pct']:+.1f} % vs uncompensated)"
+        att = v["attitude_error_at_nav_start"]
         console.print(
             f"{name:>14}: max position error {v['max_error_m']:10.1f} m = "
-            f"{v['max_error_m'] / units.NMI_TO_M:7.3f} nmi{extra}",
+            f"{v['max_error_m'] / units.NMI_TO_M:7.3f} nmi{extra}; at navigation start "
+            f'heading {att["heading_arcsec"]:+.1f}", pitch {att["pitch_arcsec"]:+.1f}", '
+            f'roll {att["roll_arcsec"]:+.1f}" (arcsec)',
             highlight=False,
             soft_wrap=True,
         )
