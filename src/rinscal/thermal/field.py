@@ -44,6 +44,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, fields, replace
 
+import numba
 import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
@@ -555,15 +556,27 @@ def _integrate(
     regular = np.abs(h - dt_s) <= 1e-9
     # input terms of every step at once, then the recursion over the states alone
     drive = u[:-1] @ G0.T + u[1:] @ G1.T
-    PhiT = Phi.T
-    for k in range(t.size - 1):
-        if not regular[k]:  # the last, shorter interval
-            P, g0, g1 = _discretise(A, B, float(h[k]))
-            g0[:, 1] += g1[:, 1]
-            g1[:, 1] = 0.0
-            x[k + 1] = P @ x[k] + g0 @ u[k] + g1 @ u[k + 1]
-        else:
-            x[k + 1] = x[k] @ PhiT + drive[k]
+    n_reg = int(np.argmin(regular)) if not np.all(regular) else regular.size
+    _march(x, np.ascontiguousarray(Phi), drive, n_reg)
+    for k in range(n_reg, t.size - 1):  # the last, shorter interval
+        P, g0, g1 = _discretise(A, B, float(h[k]))
+        g0[:, 1] += g1[:, 1]
+        g1[:, 1] = 0.0
+        x[k + 1] = P @ x[k] + g0 @ u[k] + g1 @ u[k + 1]
+
+
+@numba.njit(cache=True, nogil=True)
+def _march(
+    x: NDArray[np.float64], Phi: NDArray[np.float64], drive: NDArray[np.float64], n: int
+) -> None:  # pragma: no cover - compiled
+    """``x[k+1] = Phi x[k] + drive[k]`` for ``k < n``, in place."""
+    m = x.shape[1]
+    for k in range(n):
+        for i in range(m):
+            acc = drive[k, i]
+            for j in range(m):
+                acc += Phi[i, j] * x[k, j]
+            x[k + 1, i] = acc
 
 
 @dataclass(frozen=True)

@@ -21,6 +21,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any, Literal
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
@@ -578,10 +579,14 @@ def play_operator(
     ndarray, shape (n,) [°C]
         ``p[k] = min(max(p[k-1], temp[k] − w), temp[k] + w)``.
     """
-    out = np.empty(temp.shape[0])
-    p = float(start)
-    w = float(half_width)
-    for k, x in enumerate(temp.tolist()):
+    return _play(np.ascontiguousarray(temp, dtype=np.float64), float(half_width), float(start))
+
+
+@numba.njit(cache=True, nogil=True)
+def _play(temp: NDArray[np.float64], w: float, p: float) -> NDArray[np.float64]:
+    out = np.empty(temp.shape[0])  # pragma: no cover - compiled
+    for k in range(temp.shape[0]):
+        x = temp[k]
         if p < x - w:
             p = x - w
         elif p > x + w:
