@@ -193,7 +193,7 @@ class ThermalPlant:
             x = np.empty_like(out)
             for j in range(6):
                 x[:, j] = np.interp(t, self.field.t, self.field.sensor[:, j])
-            x -= self.config.t_ref_c
+            x -= self.config.t_cal_c
             out += signal_errors_r(x, self._signal_coefs, omega_r, f_r)
         return out
 

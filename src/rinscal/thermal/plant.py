@@ -93,8 +93,9 @@ class ChannelThermal:
     radial gradient across a gyro's fibre coil [°C/min] (Shupe effect) and ``h`` the
     hysteresis of a quartz accelerometer (a play operator of half-width
     ``hysteresis_play_c`` on ``T``, ``h = ±hysteresis/2`` on a heating / cooling leg).
-    Signal errors: ``x·(scale_ppm_per_c·1e-6·s_j + Σ_k misalignment_arcsec_per_c[k]·s_k)``
-    for the true signal ``s`` (rate or specific force) of the three axes.
+    Signal errors: ``(T − t_cal)·(scale_factor_ppm_per_c·1e-6·s_j + Σ_k
+    misalignment_arcsec_per_c[k]·s_k)`` for the true signal ``s`` (rate or specific force)
+    of the three axes, ``t_cal`` the temperature of the unit's scale/axis calibration.
 
     Parameters
     ----------
@@ -130,8 +131,10 @@ class ChannelThermal:
         Change with temperature of this axis's tilt towards body axes x, y, z (its own
         entry must be 0: that is the scale factor).
     lever_arm_m : tuple of 3 float [m]
-        Position of an accelerometer's proof mass from the turntable axis, in ``r``
-        (size effect: it senses ω×(ω×ρ) + ω̇×ρ); 0 for gyros.
+        Lever arm of an accelerometer's proof mass from the turntable axis, in ``r``, that
+        the navigation computer's size-effect compensation leaves (the error of its lever-arm
+        calibration; the whole arm for a computer that does not compensate): it senses
+        ω×(ω×ρ) + ω̇×ρ. 0 for gyros.
     """
 
     b0: float = 0.0
@@ -339,6 +342,9 @@ class ImuConfig:
         Height above the ellipsoid.
     t_ref_c : float [°C]
         Reference temperature of the thermal-bias polynomial.
+    t_cal_c : float [°C]
+        Temperature at which scale factors and axes were calibrated: their thermal changes
+        are proportional to ``T − t_cal_c``.
     thermal : tuple of 6 ChannelThermal
         Thermal-bias coefficients per channel (gyro x..z in deg/h, accel x..z in µg).
     noise : NoiseConfig
@@ -358,6 +364,7 @@ class ImuConfig:
     heading_deg: float = 0.0
     altitude_m: float = 10.0
     t_ref_c: float = 20.0
+    t_cal_c: float = 20.0
     thermal: tuple[ChannelThermal, ...] = field(
         default_factory=lambda: tuple(ChannelThermal() for _ in CHANNELS)
     )
@@ -374,6 +381,7 @@ class ImuConfig:
         _finite("imu.heading_deg", self.heading_deg)
         _finite("imu.altitude_m", self.altitude_m)
         _finite("imu.t_ref_c", self.t_ref_c)
+        _finite("imu.t_cal_c", self.t_cal_c)
         if len(self.thermal) != len(CHANNELS):
             raise ConfigError(f"thermal: need one table per channel {CHANNELS}")
 
@@ -407,7 +415,7 @@ class ImuConfig:
                 raise ConfigError(f"{source}: unknown key(s) {sorted(bad)} in [{name}]")
             return {k: tuple(v) if isinstance(v, list) else v for k, v in sec.items()}
 
-        imu_keys = {"name", "latitude_deg", "heading_deg", "altitude_m", "t_ref_c"}
+        imu_keys = {"name", "latitude_deg", "heading_deg", "altitude_m", "t_ref_c", "t_cal_c"}
         klasses = {
             "noise": NoiseConfig,
             "output": OutputConfig,
@@ -497,6 +505,7 @@ class ImuConfig:
                 "heading_deg": self.heading_deg,
                 "altitude_m": self.altitude_m,
                 "t_ref_c": self.t_ref_c,
+                "t_cal_c": self.t_cal_c,
             },
             "output": asdict(self.output),
             "noise": asdict(self.noise),
@@ -684,7 +693,7 @@ def signal_error_coefs(config: ImuConfig) -> NDArray[np.float64]:
     Returns
     -------
     ndarray, shape (6, 3) [1/°C]
-        Row ``j``: the error of channel ``j`` is ``(T_j − t_ref) · row_j · s`` for the true
+        Row ``j``: the error of channel ``j`` is ``(T_j − t_cal) · row_j · s`` for the true
         signal ``s`` (angular rate for gyros, specific force for accelerometers) along the
         ``r`` axes x, y, z. Zero where the effects are off.
     """
@@ -711,7 +720,7 @@ def signal_errors_r(
     Parameters
     ----------
     temp_offset : ndarray, shape (n, 6) [°C]
-        ``T_j − t_ref`` of each channel.
+        ``T_j − t_cal`` of each channel.
     coefs : ndarray, shape (6, 3) [1/°C]
         From :func:`signal_error_coefs`.
     omega_r, f_r : ndarray, shape (n, 3) or (3,) [rad/s, m/s²]

@@ -188,7 +188,7 @@ def simulate_run(
     static_si = np.concatenate([omega_r, f_r])
     bias_coarse = thermal_bias_r(coarse, config, play)
     bias_coarse += signal_errors_r(
-        coarse.sensor - config.t_ref_c, signal_error_coefs(config), omega_r, f_r
+        coarse.sensor - config.t_cal_c, signal_error_coefs(config), omega_r, f_r
     )
     offset = turn_on_offsets(config, rng)
     noise, _ = SensorNoise(config, rng, dt).draw(n)
