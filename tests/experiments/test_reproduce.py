@@ -128,7 +128,7 @@ def test_plant_is_named_in_report_and_metrics(quick: Path) -> None:
     others = [p for p in PRESETS if p != IMU]
     assert imu["run_other"] == [f"--imu {p}" for p in others]
     text = _text((quick / "report.html").read_text(encoding="utf-8"))
-    assert f"plant '{name}' (--imu {IMU})" in text  # subtitle
+    assert f"seed 0. Plant: {name} (--imu {IMU})" in text  # subtitle
     assert f"Plant: {name} (preset {IMU}" in text  # banner
     assert all(f"--imu {p}" in text for p in others)  # how to run the other preset
 

@@ -321,8 +321,8 @@ def build_report(
     rep = Report(
         "rinscal: the paper's Section 5, reproduced in simulation",
         subtitle=(
-            f"Wang, Cheng, Du, Sensors 2020. Mode {mode}, seed {cfg.seed}, plant "
-            f"{plant['name']!r} (--imu {plant['spec']}). Every number of ours comes from "
+            f"Wang, Cheng, Du, Sensors 2020. Mode {mode}, seed {cfg.seed}. Plant: "
+            f"{plant['name']} (--imu {plant['spec']}). Every number of ours comes from "
             "that simulated plant; none is the paper's."
         ),
     )
