@@ -126,15 +126,18 @@ class ThermalPlant:
         self.noise = SensorNoise(config, rng_noise, self.dt) if noise else None
         self.thermal = thermal
         self._rng_thermo = rng_thermo
-        # the bias on the field's 1 s grid, interpolated per chunk (the bias varies on
-        # thermal time scales of minutes, the hot side on the turntable's of a minute)
-        self._bias_grid = (
-            thermal_bias_r(self.field, config, hysteresis_play(self.field, config))
-            if thermal
-            else None
-        )
+        # the bias and the temperatures on the field's 1 s grid, interpolated per chunk in
+        # one pass (they vary on thermal time scales of minutes, the hot side on the
+        # turntable's of a minute)
         coefs = signal_error_coefs(config)
         self._signal_coefs = coefs if thermal and np.any(coefs) else None
+        self._grid: NDArray[np.float64] | None = None
+        if thermal:
+            bias = thermal_bias_r(self.field, config, hysteresis_play(self.field, config))
+            cols = [bias]
+            if self._signal_coefs is not None:
+                cols.append(self.field.sensor - config.t_cal_c)
+            self._grid = np.ascontiguousarray(np.concatenate(cols, axis=1))
         arms = np.array([c.lever_arm_m for c in config.thermal[3:]], dtype=float)
         self._lever_arms = arms if config.effects.lever_arm and np.any(arms) else None
         self._last_omega: NDArray[np.float64] | None = None
@@ -166,14 +169,22 @@ class ThermalPlant:
             schedule=scenario.schedule,
         )
 
+    def _on_grid(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Grid columns (bias, then T − t_cal) linearly interpolated at ``t`` [s], held
+        beyond the grid; one index computation for every column."""
+        assert self._grid is not None
+        ft = self.field.t
+        k = np.clip(np.searchsorted(ft, t, side="right") - 1, 0, ft.size - 2)
+        w = np.clip((t - ft[k]) / (ft[k + 1] - ft[k]), 0.0, 1.0)[:, None]
+        g = self._grid
+        return g[k] * (1.0 - w) + g[k + 1] * w
+
     def thermal_bias(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
         """True thermal bias at ``t`` [s], (n, 6) SI in ``r`` (zero if thermal is off)."""
         t = np.asarray(t, dtype=float)
-        out = np.zeros((t.shape[0], 6))
-        if self._bias_grid is not None:
-            for j in range(6):
-                out[:, j] = np.interp(t, self.field.t, self._bias_grid[:, j])
-        return out
+        if self._grid is None:
+            return np.zeros((t.shape[0], 6))
+        return self._on_grid(t)[:, :6]
 
     def thermal_errors(
         self,
@@ -188,13 +199,13 @@ class ThermalPlant:
         -------
         ndarray, shape (n, 6) [rad/s, m/s²]
         """
-        out = self.thermal_bias(t)
+        t = np.asarray(t, dtype=float)
+        if self._grid is None:
+            return np.zeros((t.shape[0], 6))
+        g = self._on_grid(t)
+        out = g[:, :6]
         if self._signal_coefs is not None:
-            x = np.empty_like(out)
-            for j in range(6):
-                x[:, j] = np.interp(t, self.field.t, self.field.sensor[:, j])
-            x -= self.config.t_cal_c
-            out += signal_errors_r(x, self._signal_coefs, omega_r, f_r)
+            out += signal_errors_r(g[:, 6:], self._signal_coefs, omega_r, f_r)
         return out
 
     def size_effect(self, omega_r: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -206,14 +217,13 @@ class ThermalPlant:
         prev = w[:1] if self._last_omega is None else self._last_omega
         wdot = np.diff(w, axis=0, prepend=prev) / self.dt
         self._last_omega = w[-1:].copy()
-        rho = self._lever_arms  # (3 accelerometers, 3)
-        out = np.empty((w.shape[0], 3))
-        w2 = np.einsum("ni,ni->n", w, w)
-        for j in range(3):
-            r = rho[j]
-            centripetal = w[:, j] * (w @ r) - w2 * r[j]
-            tangential = np.cross(wdot, r)[:, j]
-            out[:, j] = centripetal + tangential
+        rho = self._lever_arms  # (3 accelerometers, 3): row j is ρ_j
+        # e_j·(ω×(ω×ρ_j)) = ω_j (ω·ρ_j) − |ω|² ρ_jj
+        out = w * (w @ rho.T) - np.einsum("ni,ni->n", w, w)[:, None] * np.diag(rho)
+        # e_j·(ω̇×ρ_j) = ω̇_{j+1} ρ_j,{j+2} − ω̇_{j+2} ρ_j,{j+1} (indices cyclic)
+        j = np.arange(3)
+        j1, j2 = (j + 1) % 3, (j + 2) % 3
+        out += wdot[:, j1] * rho[j, j2] - wdot[:, j2] * rho[j, j1]
         return out
 
     def errors_r(
