@@ -9,10 +9,11 @@ import typer
 
 from rinscal.cli._app import app
 from rinscal.cli._options import is_same_file
-from rinscal.thermal.plant import PRESETS
+from rinscal.thermal.plant import DEFAULT_PRESET, PRESETS
 
-#: The plant ``rinscal navigate`` runs unless ``--imu`` names another.
-DEFAULT_IMU = "navigation_grade"
+#: The plant ``rinscal navigate`` runs unless ``--imu`` names another (as simulate and
+#: reproduce: the paper's own IMU).
+DEFAULT_IMU = DEFAULT_PRESET
 
 _OUTPUTS = (
     "errors.csv",
