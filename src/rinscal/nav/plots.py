@@ -53,18 +53,13 @@ def plot_position_error(result: NavResult, title: str | None = None) -> Figure:
     sec.set_ylabel("[km]")
     c = result.config
     start = c.nav_start_s / units.HOUR_TO_S
-    if start > 0:
-        ax.axvspan(0, start, color="0.92", lw=0)
-        ax.text(
-            start / 2,
-            0.02,
-            "align",
-            transform=ax.get_xaxis_transform(),
-            ha="center",
-            va="bottom",
-            rotation=90,
-            fontsize=8,
-        )
+    align0 = 0.0 if c.align is None else c.align.start_s / units.HOUR_TO_S
+    # shade the warm-up before the alignment (if any) and the alignment itself
+    for lo, hi, tag, shade in ((0.0, align0, "warm-up", "0.96"), (align0, start, "align", "0.9")):
+        if hi > lo:
+            ax.axvspan(lo, hi, color=shade, lw=0)
+            ax.text(0.5 * (lo + hi), 0.02, tag, transform=ax.get_xaxis_transform(),
+                    ha="center", va="bottom", rotation=90, fontsize=8)  # fmt: skip
     ax.set_xlim(0, c.duration_s / units.HOUR_TO_S)
     ax.set_ylim(bottom=0)
     ax.grid(True, lw=0.4, alpha=0.6)
