@@ -34,6 +34,25 @@ DropOpt = Annotated[
 RunNameOpt = Annotated[
     str | None, typer.Option("--run-name", help="Run name for a log without a run column.")
 ]
+ImuOpt = Annotated[
+    str,
+    typer.Option(
+        "--imu",
+        help="The simulated IMU: a preset (paper, navigation_grade) or an IMU TOML file.",
+    ),
+]
+AlignLengthOpt = Annotated[
+    float,
+    typer.Option("--align-s", help="Self-alignment length [s]: coarse (60 s) + Kalman filter."),
+]
+AlignStartOpt = Annotated[
+    float,
+    typer.Option(
+        "--align-start-s",
+        help="Seconds after power-on at which the alignment starts (the unit warms before "
+        "it; navigation starts at align-start-s + align-s).",
+    ),
+]
 
 
 def is_same_file(a: Path, b: Path) -> bool:

@@ -8,8 +8,8 @@ from typing import Annotated
 import typer
 
 from rinscal.cli._app import app
-from rinscal.cli._options import is_same_file
-from rinscal.thermal.plant import DEFAULT_PRESET, PRESETS
+from rinscal.cli._options import AlignLengthOpt, AlignStartOpt, is_same_file
+from rinscal.thermal.presets import DEFAULT_PRESET, PRESETS
 
 #: The plant ``rinscal navigate`` runs unless ``--imu`` names another (as simulate and
 #: reproduce: the paper's own IMU).
@@ -61,18 +61,8 @@ def navigate(
     rotation: Annotated[
         str, typer.Option(help="Turntable: four-position, continuous or none.")
     ] = "four-position",
-    align_s: Annotated[
-        float,
-        typer.Option("--align-s", help="Self-alignment length [s]: coarse (60 s) + Kalman filter."),
-    ] = 600.0,
-    align_start_s: Annotated[
-        float,
-        typer.Option(
-            "--align-start-s",
-            help="Seconds after power-on at which the alignment starts (the unit warms "
-            "before it; navigation starts at align-start-s + align-s).",
-        ),
-    ] = 0.0,
+    align_s: AlignLengthOpt = 600.0,
+    align_start_s: AlignStartOpt = 0.0,
     oracle: Annotated[
         bool, typer.Option("--oracle/--no-oracle", help="Also navigate with the true thermal bias.")
     ] = True,

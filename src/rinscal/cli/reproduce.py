@@ -8,7 +8,8 @@ from typing import Annotated
 import typer
 
 from rinscal.cli._app import app
-from rinscal.thermal.plant import DEFAULT_PRESET, PRESETS
+from rinscal.cli._options import AlignLengthOpt, AlignStartOpt, ImuOpt
+from rinscal.thermal.presets import DEFAULT_PRESET
 
 #: Measured wall time of the full reproduction on a 2-core machine [min] (4 min 7 s with
 #: --jobs 2; the calibration stage, which runs in one process, is most of it).
@@ -25,25 +26,9 @@ def reproduce(
         int, typer.Option("--jobs", "-j", min=1, help="Parallel processes for navigation runs.")
     ] = 1,
     seed: Annotated[int, typer.Option("--seed", help="Seed of every random number.")] = 0,
-    imu: Annotated[
-        str,
-        typer.Option(
-            "--imu",
-            help=f"The simulated IMU: a preset ({', '.join(PRESETS)}) or an IMU TOML file. "
-            "Calibration and navigation both run this one plant.",
-        ),
-    ] = DEFAULT_PRESET,
-    align_s: Annotated[
-        float,
-        typer.Option("--align-s", help="Self-alignment time of the cold starts, in seconds."),
-    ] = 600.0,
-    align_start_s: Annotated[
-        float,
-        typer.Option(
-            "--align-start-s",
-            help="Seconds after power-on at which the alignment starts.",
-        ),
-    ] = 0.0,
+    imu: ImuOpt = DEFAULT_PRESET,
+    align_s: AlignLengthOpt = 600.0,
+    align_start_s: AlignStartOpt = 0.0,
 ) -> None:
     """Re-run every experiment of the paper's Section 5 on one simulated plant (--imu).
 

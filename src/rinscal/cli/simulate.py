@@ -11,6 +11,7 @@ from rinscal.cli._app import app
 from rinscal.cli._options import (
     ColOpt,
     DropOpt,
+    ImuOpt,
     LogArg,
     MapOpt,
     RunNameOpt,
@@ -22,6 +23,7 @@ from rinscal.cli._options import (
     read_foreign_log,
     refuse_inputs,
 )
+from rinscal.thermal.presets import DEFAULT_PRESET
 
 # ============================================================================ plot
 # `rinscal plot LOG --out FIG.png`: the paper's Figure 3 for any calibration log.
@@ -106,13 +108,7 @@ def simulate(
     ] = None,
     rate: Annotated[float, typer.Option("--rate", help="Sample rate [Hz].")] = 10.0,
     seed: Annotated[int, typer.Option("--seed", help="Seed of every random number.")] = 0,
-    imu: Annotated[
-        str,
-        typer.Option(
-            "--imu",
-            help="IMU preset (paper, navigation_grade) or configuration file (TOML).",
-        ),
-    ] = "paper",
+    imu: ImuOpt = DEFAULT_PRESET,
     units: Annotated[
         str | None,
         typer.Option("--units", help="physical (deg/h, µg) or pulses; overrides the config."),

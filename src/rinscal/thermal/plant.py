@@ -29,6 +29,7 @@ from rinscal import units
 from rinscal.errors import ConfigError
 from rinscal.schema import CHANNELS
 from rinscal.thermal.field import ThermalField, ThermalNetworkConfig, ThermometerConfig
+from rinscal.thermal.presets import DEFAULT_PRESET, PRESETS
 
 #: Engineering unit of each channel in configuration files and physical-unit logs.
 ENGINEERING_UNITS = ("deg/h",) * 3 + ("ug",) * 3
@@ -539,10 +540,6 @@ class ImuConfig:
         return ("pulse",) * 6 if self.output.mode == "pulses" else ENGINEERING_UNITS
 
 
-#: Built-in IMU presets, chosen by name wherever an IMU is accepted.
-PRESETS = ("paper", "navigation_grade")
-#: The preset the reproduction runs by default: the paper's own IMU.
-DEFAULT_PRESET = "paper"
 
 
 def load_imu(spec: str | Path) -> ImuConfig:

@@ -1,0 +1,14 @@
+"""Names of the built-in IMU presets (a light module: the CLI reads it at start-up).
+
+The presets themselves are TOML files in ``rinscal/data``; :func:`rinscal.thermal.plant.load_imu`
+reads them.
+"""
+
+from __future__ import annotations
+
+#: Built-in IMU presets, chosen by name wherever an IMU is accepted.
+PRESETS = ("paper", "navigation_grade")
+#: The preset the tool runs by default: the paper's own IMU.
+DEFAULT_PRESET = "paper"
+
+__all__ = ["DEFAULT_PRESET", "PRESETS"]
