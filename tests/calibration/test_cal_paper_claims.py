@@ -1,6 +1,8 @@
-"""The issue's claims on the simulated plant at full length (slow: neural fits included).
+"""The paper's claims on its own simulated IMU at full length (slow: neural fits included).
 
-Soak runs (Table 3, 3 h each) train; the repetition-priming cold start at 25 °C is held out.
+The `paper` preset (Table 6 converted); soak runs (Table 3, 3 h each) train; the
+repetition-priming cold start at 25 °C is held out. (On our navigation-grade unit the cubic
+in T is the one to beat instead: README, docs/calibration.md.)
 """
 
 from __future__ import annotations
@@ -12,10 +14,12 @@ from rinscal.experiments.calibration_tables import heldout_table, wide
 
 @pytest.mark.slow
 def test_methods_2_and_3_beat_the_baseline_and_the_sectional_method_held_out() -> None:
+    from rinscal.thermal.plant import ImuConfig
     from rinscal.thermal.protocols import simulate_protocol
 
-    soak, _, meta = simulate_protocol("soak", rate_hz=2.0, seed=1)
-    rep, rep_truth, _ = simulate_protocol("repeat", rate_hz=2.0, seed=2)
+    paper = ImuConfig.paper()
+    soak, _, meta = simulate_protocol("soak", rate_hz=2.0, seed=1, config=paper)
+    rep, rep_truth, _ = simulate_protocol("repeat", rate_hz=2.0, seed=2, config=paper)
     tab = heldout_table(soak, rep, rep_truth, meta)
     rms, step = wide(tab), wide(tab, "max_step")
     acc = rms.index.get_level_values("channel").str.startswith("accel")
