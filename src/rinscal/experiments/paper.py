@@ -683,15 +683,16 @@ def thermal_part_m(errors: pd.DataFrame, variant: str) -> np.ndarray:
     return np.hypot(de.to_numpy(), dn.to_numpy())
 
 
+def _run_key(r: NavRunResult) -> dict[str, Any]:
+    """The columns that name a navigation run in every per-run table."""
+    return {"experiment": r.job.experiment, "scenario": r.job.scenario, "number": r.job.index}
+
+
 def thermal_part_table(results: Sequence[NavRunResult]) -> pd.DataFrame:
     """Maximum of :func:`thermal_part_m` per run and variant [nmi]."""
     rows = []
     for r in results:
-        row: dict[str, Any] = {
-            "experiment": r.job.experiment,
-            "scenario": r.job.scenario,
-            "number": r.job.index,
-        }
+        row = _run_key(r)
         for v in VARIANTS:
             if v != "true":
                 row[v] = float(thermal_part_m(r.errors, v).max()) / units.NMI_TO_M
@@ -703,13 +704,9 @@ def max_error_table(results: Sequence[NavRunResult]) -> pd.DataFrame:
     """Maximum horizontal position error per run and variant [nmi] (Figure 13, Table 10)."""
     rows = []
     for r in results:
-        row: dict[str, Any] = {
-            "experiment": r.job.experiment,
-            "scenario": r.job.scenario,
-            "number": r.job.index,
-            "ambient_c": r.job.ambient_c if r.job.ambient_c is not None else float("nan"),
-            "hours": r.summary["duration_s"] / units.HOUR_TO_S,
-        }
+        row = _run_key(r)
+        row["ambient_c"] = r.job.ambient_c if r.job.ambient_c is not None else float("nan")
+        row["hours"] = r.summary["duration_s"] / units.HOUR_TO_S
         for v in VARIANTS:
             row[v] = r.summary["variants"][v]["max_error_nmi"]
         rows.append(row)
@@ -856,11 +853,7 @@ def heading_error_table(results: Sequence[NavRunResult]) -> pd.DataFrame:
     """
     rows = []
     for r in results:
-        row: dict[str, Any] = {
-            "experiment": r.job.experiment,
-            "scenario": r.job.scenario,
-            "number": r.job.index,
-        }
+        row = _run_key(r)
         variants = r.summary.get("variants", {})
         for v in VARIANTS:
             att = variants.get(v, {}).get("attitude_error_at_nav_start") or {}
