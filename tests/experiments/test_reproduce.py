@@ -236,7 +236,12 @@ def test_report_opens_in_a_browser_with_every_table_and_figure(quick: Path) -> N
     metrics = json.loads((quick / "metrics.json").read_text())
     page = quick / "report.html"
     text = page.read_text(encoding="utf-8")
-    assert "simulation" in text and "<script" not in text and "http" not in text.split("<body>")[1]
+    assert "simulation" in text and "<script" not in text
+    # self-contained: every src/href is an embedded data: URI or an in-page anchor (a bare
+    # "http" search also hit base64 image data by chance)
+    body = text.split("<body>")[1]
+    links = re.findall(r"""(?:src|href)\s*=\s*["']?([^"' >]*)""", body)
+    assert links and all(u.startswith(("data:", "#")) for u in links), links[:5]
     inv = rendered_inventory(page)
     assert [f["id"] for f in inv["figures"]] == metrics["figures"]
     assert all(f["width"] > 100 for f in inv["figures"])  # every PNG decoded
