@@ -160,6 +160,12 @@ def test_config_toml_round_trip(tmp_path) -> None:
         ("lever_arm = true", "lever_arm = 1", "effects.lever_arm"),
         ("misalignment_arcsec_per_c = [0.0, 0.8, 0.6]", "misalignment_arcsec_per_c = [0.8]",
          "misalignment_arcsec_per_c"),
+        ("misalignment_arcsec_per_c = [0.0, 0.6, -0.8]",
+         "misalignment_arcsec_per_c = [0.5, 0.6, -0.8]",
+         r"\[thermal\.gyro_x\] misalignment_arcsec_per_c\[0\] must be 0"),
+        ("misalignment_arcsec_per_c = [0.0, 0.6, -0.8]",
+         "misalignment_arcsec_per_c = [0.0, 0.6, -0.8]\nlever_arm_m = [0.01, 0.0, 0.0]",
+         r"\[thermal\.gyro_x\] lever_arm_m"),
     ],
 )  # fmt: skip
 def test_config_errors_name_the_key(tmp_path, old: str, new: str, word: str) -> None:

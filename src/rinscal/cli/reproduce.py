@@ -6,6 +6,7 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
+from rich.markup import escape
 
 from rinscal.cli._app import app
 from rinscal.cli._options import AlignLengthOpt, AlignStartOpt, ImuOpt
@@ -130,4 +131,4 @@ def reproduce(
     for c in checked.values():
         mark = "[green]holds[/]" if c["holds"] else "[red]does not hold[/]"
         tag = "asserted" if c["asserted"] else "reported"
-        console.print(f"  {mark} ({tag}) {c['what']}", highlight=False)
+        console.print(f"  {mark} ({tag}) {escape(c['what'])}", highlight=False)

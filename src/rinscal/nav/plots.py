@@ -53,7 +53,7 @@ def plot_position_error(result: NavResult, title: str | None = None) -> Figure:
     sec.set_ylabel("[km]")
     c = result.config
     start = c.nav_start_s / units.HOUR_TO_S
-    align0 = 0.0 if c.align is None else c.align.start_s / units.HOUR_TO_S
+    align0 = c.align_start_s / units.HOUR_TO_S
     # shade the warm-up before the alignment (if any) and the alignment itself
     for lo, hi, tag, shade in ((0.0, align0, "warm-up", "0.96"), (align0, start, "align", "0.9")):
         if hi > lo:

@@ -559,10 +559,13 @@ def run_scenario(
         sel = (gidx % out_every == 0) & (gidx > n_nav)
         if np.any(sel):
             truth_rows.append(_truth_rows(ch, sel))
+        raw_rate = raw_accel = None  # the raw signal the compensators see, once per chunk
         for v in variants.values():
             d_th, d_v = raw_th, raw_v
             if v.compensator is not None:
-                c = np.asarray(v.compensator(t_mid, raw_th / dt, raw_v / dt), dtype=float)
+                if raw_rate is None:
+                    raw_rate, raw_accel = raw_th / dt, raw_v / dt
+                c = np.asarray(v.compensator(t_mid, raw_rate, raw_accel), dtype=float)
                 d_th = d_th - c[:, :3] * dt
                 d_v = d_v - c[:, 3:] * dt
             i0 = 0

@@ -12,8 +12,9 @@ signal, ``errors(t, omega_r, f_r) -> (n, 6)``:
 A *compensator* has the same signature, called with the raw (measured) signal, which is
 all a navigation computer has: it returns what the computer subtracts.
 
-Error sources are called once per chunk, chunks in time order (noise, hysteresis and the
-lever-arm rate difference carry state from one chunk to the next).
+Error sources are called once per chunk, chunks in time order (the noise and the lever
+arm's rate difference carry state from one chunk to the next; the thermal field, hysteresis
+included, is computed for the whole run up front).
 """
 
 from __future__ import annotations
@@ -231,7 +232,9 @@ class ThermalPlant:
     ) -> NDArray[np.float64]:
         """All sensor errors at sample mid-times ``t`` (call chunks in time order)."""
         e = self.thermal_errors(t, omega_r, f_r)
-        self._last_thermal = (np.asarray(t), e.copy())
+        cached = e.copy()
+        cached.flags.writeable = False  # handed to every oracle variant: nobody may alter it
+        self._last_thermal = (np.asarray(t), cached)
         e += self.offsets
         if self._lever_arms is not None:
             e[:, 3:] += self.size_effect(omega_r)

@@ -75,6 +75,12 @@ STRESS0 = N_NODES
 N_STATES = STRESS0 + N_SENSORS
 #: Inputs: chamber [°C], power switch, motor switch, power·cos φ, power·sin φ.
 N_INPUTS = 5
+#: Inputs held over each integration step (zero-order): the power and motor switches. The
+#: chamber and the hot side's cos φ, sin φ are linear between steps (first-order); so is
+#: the power factor of the hot side, which ramps in over the one step of a power-on.
+_HELD = [1, 2]
+#: Sub-steps per integration step over which the motor's running time is measured.
+_MOTOR_SUBSTEPS = 10
 
 
 # --------------------------------------------------------------------------- chamber profile
@@ -154,7 +160,7 @@ class ChamberProfile:
 class ThermalNetworkConfig:
     """Parameters of the lumped thermal network (defaults: a navigation-grade FOG RINS).
 
-    With the defaults the system dissipates 16.2 W (9.7 W from a heavy electronics box);
+    With the defaults the system dissipates 16.2 W (12 W in a heavy electronics box);
     a cold start warms the sensors by about 11 °C in 3 h, three quarters of it in the
     first two hours: first by their own dissipation (minutes), then at a nearly steady
     rate for an hour while the electronics box and the housing warm (time constants of
@@ -504,10 +510,12 @@ def simulate_field(
         u[:, 3] = power
     else:
         phi = np.asarray(encoder(t), dtype=float)
-        # the motor runs where the angle changes within half a step either side
-        h2 = 0.5 * dt_s
-        moving = np.abs(np.asarray(encoder(t + h2)) - np.asarray(encoder(t - h2))) > 1e-9
-        u[:, 2] = moving * power
+        # the motor's share of each interval: the fraction of _MOTOR_SUBSTEPS sub-intervals
+        # in which the angle changes (held over the interval, like the power switch)
+        frac = np.linspace(0.0, 1.0, _MOTOR_SUBSTEPS + 1)
+        tt = t[:-1, None] + np.diff(t)[:, None] * frac
+        sub = np.asarray(encoder(tt.ravel()), dtype=float).reshape(tt.shape)
+        u[:-1, 2] = (np.abs(np.diff(sub, axis=1)) > 1e-12).mean(axis=1) * power[:-1]
         u[:, 3] = power * np.cos(phi)
         u[:, 4] = power * np.sin(phi)
     x = np.empty((t.size, N_STATES))
@@ -546,12 +554,12 @@ def _integrate(
     G0: NDArray[np.float64],
     G1: NDArray[np.float64],
 ) -> None:
-    """March ``x[k+1] = Phi x[k] + G0 u[k] + G1 u[k+1]`` in place (power switch held)."""
-    # The power switch is a step: hold it (zero-order) over each interval.
+    """March ``x[k+1] = Phi x[k] + G0 u[k] + G1 u[k+1]`` in place (switches held)."""
+    # The power and motor switches are steps: hold them (zero-order) over each interval.
     G0 = G0.copy()
     G1 = G1.copy()
-    G0[:, 1] += G1[:, 1]
-    G1[:, 1] = 0.0
+    G0[:, _HELD] += G1[:, _HELD]
+    G1[:, _HELD] = 0.0
     h = np.diff(t)
     regular = np.abs(h - dt_s) <= 1e-9
     # input terms of every step at once, then the recursion over the states alone
@@ -560,8 +568,8 @@ def _integrate(
     _march(x, np.ascontiguousarray(Phi), drive, n_reg)
     for k in range(n_reg, t.size - 1):  # the last, shorter interval
         P, g0, g1 = _discretise(A, B, float(h[k]))
-        g0[:, 1] += g1[:, 1]
-        g1[:, 1] = 0.0
+        g0[:, _HELD] += g1[:, _HELD]
+        g1[:, _HELD] = 0.0
         x[k + 1] = P @ x[k] + g0 @ u[k] + g1 @ u[k + 1]
 
 

@@ -95,8 +95,9 @@ class ChannelThermal:
     hysteresis of a quartz accelerometer (a play operator of half-width
     ``hysteresis_play_c`` on ``T``, ``h = ±hysteresis/2`` on a heating / cooling leg).
     Signal errors: ``(T − t_cal)·(scale_factor_ppm_per_c·1e-6·s_j + Σ_k
-    misalignment_arcsec_per_c[k]·s_k)`` for the true signal ``s`` (rate or specific force)
-    of the three axes, ``t_cal`` the temperature of the unit's scale/axis calibration.
+    misalignment_arcsec_per_c[k]·(π/648000)·s_k)`` for the true signal ``s`` (rate or
+    specific force) along the ``r`` axes, ``t_cal`` the temperature of the unit's
+    scale/axis calibration.
 
     Parameters
     ----------
@@ -125,12 +126,14 @@ class ChannelThermal:
         Width of the thermal hysteresis loop (quartz accelerometers): heating and cooling
         legs differ by this much at the same temperature.
     hysteresis_play_c : float [°C]
-        Temperature reversal needed to go from one leg to the other (half-width of the play).
+        Half-width ``w`` of the play: a temperature reversal of ``2w`` takes the output from
+        one leg to the other.
     scale_factor_ppm_per_c : float [ppm/°C]
         Scale-factor change with temperature.
     misalignment_arcsec_per_c : tuple of 3 float [arcsec/°C]
-        Change with temperature of this axis's tilt towards body axes x, y, z (its own
-        entry must be 0: that is the scale factor).
+        Change with temperature of this axis's tilt towards the IMU axes x, y, z of the
+        ``r`` frame (its own entry must be 0: that is the scale factor; checked by
+        :class:`ImuConfig`).
     lever_arm_m : tuple of 3 float [m]
         Lever arm of an accelerometer's proof mass from the turntable axis, in ``r``, that
         the navigation computer's size-effect compensation leaves (the error of its lever-arm
@@ -385,6 +388,15 @@ class ImuConfig:
         _finite("imu.t_cal_c", self.t_cal_c)
         if len(self.thermal) != len(CHANNELS):
             raise ConfigError(f"thermal: need one table per channel {CHANNELS}")
+        for j, (ch, coef) in enumerate(zip(CHANNELS, self.thermal, strict=True)):
+            own = coef.misalignment_arcsec_per_c[j % 3]
+            if own != 0.0:
+                raise ConfigError(
+                    f"[thermal.{ch}] misalignment_arcsec_per_c[{j % 3}] must be 0 (the tilt "
+                    f"of an axis towards itself is its scale factor), got {own}"
+                )
+            if j < 3 and any(coef.lever_arm_m):
+                raise ConfigError(f"[thermal.{ch}] lever_arm_m: a gyro has no size effect")
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -538,8 +550,6 @@ class ImuConfig:
     def log_units(self) -> tuple[str, ...]:
         """Unit of each channel in a log written with this configuration."""
         return ("pulse",) * 6 if self.output.mode == "pulses" else ENGINEERING_UNITS
-
-
 
 
 def load_imu(spec: str | Path) -> ImuConfig:
@@ -700,9 +710,7 @@ def signal_error_coefs(config: ImuConfig) -> NDArray[np.float64]:
         if fx.scale_factor:
             out[j, j % 3] += coef.scale_factor_ppm_per_c * 1e-6
         if fx.misalignment:
-            m = np.asarray(coef.misalignment_arcsec_per_c, dtype=float) * units.ARCSEC_TO_RAD
-            m[j % 3] = 0.0  # the own axis is the scale factor
-            out[j] += m
+            out[j] += np.asarray(coef.misalignment_arcsec_per_c) * units.ARCSEC_TO_RAD
     return out
 
 

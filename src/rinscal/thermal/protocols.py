@@ -242,9 +242,11 @@ def iter_protocol(
 ) -> Iterator[SimulatedRun]:
     """Simulate the runs of a protocol one at a time (bounded memory).
 
-    Each run's random numbers come from ``(seed, protocol, run index)``, so a run is the
-    same whatever else is simulated. The unit's hysteresis memory is carried from one run
-    to the next, in order: the order of the soak runs matters, as on a real unit.
+    Each run's random numbers come from ``(seed, protocol, run index)``. The unit's
+    hysteresis memory is carried from one run to the next, in order: the order of the soak
+    runs matters, as on a real unit, and a run depends on the runs before it in its
+    protocol. Each protocol starts from a unit that comes from the lab
+    (:data:`rinscal.thermal.plant.STORAGE_C`).
     """
     memory = None
     for i, spec in enumerate(protocol_runs(protocol, hours)):
