@@ -7,7 +7,7 @@ into a message and an exit code.
 
 from __future__ import annotations
 
-from rinscal.cli import calibrate, navigate, reproduce, simulate  # noqa: F401  (registers)
+from rinscal.cli import calibrate, navigate, reproduce, simulate, study  # noqa: F401  (registers)
 from rinscal.cli._app import app
 
 

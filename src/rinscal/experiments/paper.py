@@ -569,8 +569,9 @@ def run_navigation_job(
 ) -> NavRunResult:
     """Run one navigation job with every variant on the same raw IMU output.
 
-    ``model_texts`` maps a method to its model file's JSON text (so that worker processes
-    need nothing but strings and the plant's configuration). ``imu`` is the plant the
+    ``model_texts`` maps each method to navigate with to its model file's JSON text (so that
+    worker processes need nothing but strings and the plant's configuration); ``none`` and
+    the oracle ``true`` are always navigated too. ``imu`` is the plant the
     calibration data came from; the navigation plant is built from it for the scenario
     (its chamber, duration, rate and turntable schedule) with the job's seed.
     """
@@ -598,8 +599,8 @@ def run_navigation_job(
     cfg = replace(cfg, out_dt_s=out_every / job.rate_hz)
     plant = ThermalPlant.for_scenario(imu, cfg, seed=job.seed)
     comps: dict[str, Any] = {"none": None}
-    for m in METHODS:
-        comps[m] = ModelCompensator(ThermalModelFile.loads(model_texts[m], m), plant)
+    for m, text in model_texts.items():
+        comps[m] = ModelCompensator(ThermalModelFile.loads(text, m), plant)
     comps["true"] = oracle_compensator(plant)
     res = run_scenario(cfg, plant, comps)
     errors = pd.DataFrame({"time_s": res.errors["none"]["time_s"].to_numpy()})

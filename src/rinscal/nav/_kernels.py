@@ -22,6 +22,7 @@ import math
 
 import numba
 import numpy as np
+from numpy.typing import NDArray
 
 from rinscal.nav import earth
 
@@ -45,6 +46,54 @@ GL_X = np.array([-0.8611363115940526, -0.3399810435848563, 0.3399810435848563, 0
 GL_W = np.array([0.3478548451374538, 0.6521451548625461, 0.6521451548625461, 0.3478548451374538])
 
 _jit = numba.njit(cache=True, fastmath=False, nogil=True)
+
+
+# --------------------------------------------------------------------------- alignment filter
+@_jit
+def kf_zero_velocity_update(
+    P: NDArray[np.float64],
+    F: NDArray[np.float64],
+    Qc: NDArray[np.float64],
+    T: float,
+    v_e: float,
+    v_n: float,
+    r_var: float,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """One block of the fine-alignment Kalman filter: propagate the covariance ``P`` over
+    ``T`` [s] with the continuous dynamics ``F`` and white-noise densities ``Qc``
+    (second-order transition matrix, trapezoidal process noise), then update with the
+    measured horizontal velocity ``(v_e, v_n)`` [m/s] (truth zero) of variance ``r_var``
+    [m²/s²] on states 3 and 4 (Joseph form).
+
+    Returns
+    -------
+    P : ndarray (n, n)
+        The updated covariance.
+    x : ndarray (n,)
+        The state correction.
+    """
+    n = P.shape[0]
+    Phi = np.eye(n) + F * T + 0.5 * (F @ F) * (T * T)
+    Q = np.diag(Qc * T)
+    Q = 0.5 * (Phi @ Q @ Phi.T + Q)
+    P = Phi @ P @ Phi.T + Q
+    s00 = P[3, 3] + r_var
+    s01 = P[3, 4]
+    s10 = P[4, 3]
+    s11 = P[4, 4] + r_var
+    det = s00 * s11 - s01 * s10
+    i00, i01, i10, i11 = s11 / det, -s01 / det, -s10 / det, s00 / det
+    K = np.empty((n, 2))
+    for i in range(n):
+        K[i, 0] = P[i, 3] * i00 + P[i, 4] * i10
+        K[i, 1] = P[i, 3] * i01 + P[i, 4] * i11
+    x = K[:, 0] * v_e + K[:, 1] * v_n
+    IKH = np.eye(n)
+    for i in range(n):
+        IKH[i, 3] -= K[i, 0]
+        IKH[i, 4] -= K[i, 1]
+    P = IKH @ P @ IKH.T + r_var * (K @ K.T)
+    return P, x
 
 
 # --------------------------------------------------------------------------- small helpers

@@ -472,21 +472,10 @@ class Aligner:
             if c.accel_bias_markov_sd > 0:
                 F[8:11, 8:11] = -np.eye(3) / c.accel_bias_tau_s
                 Qc[8:11] = 2.0 * c.accel_bias_markov_sd**2 / c.accel_bias_tau_s
-        Phi = np.eye(11) + F * T + 0.5 * (F @ F) * T * T
-        Q = np.diag(Qc) * T
-        Q = 0.5 * (Phi @ Q @ Phi.T + Q)
-        self.P = Phi @ self.P @ Phi.T + Q
-        # measurement: INS horizontal velocity (truth zero)
         v = self.nav.v_n
-        H = np.zeros((2, 11))
-        H[0, 3] = 1.0
-        H[1, 4] = 1.0
-        R = np.eye(2) * c.velocity_meas_sd**2
-        S = H @ self.P @ H.T + R
-        K = self.P @ H.T @ np.linalg.inv(S)
-        x = K @ v[0:2]
-        IKH = np.eye(11) - K @ H
-        self.P = IKH @ self.P @ IKH.T + K @ R @ K.T
+        self.P, x = _kernels.kf_zero_velocity_update(
+            self.P, F, Qc, T, float(v[0]), float(v[1]), c.velocity_meas_sd**2
+        )
         # feedback
         self.nav.correct(phi_n=x[0:3], dv_n=np.array([x[3], x[4], 0.0]))
         if c.estimate_biases:

@@ -1,0 +1,707 @@
+"""Monte Carlo studies: many units, many cold starts, every method on the same raw data.
+
+A study is named by a :class:`StudySpec` (built in: :data:`BUILTIN_STUDIES`, or a TOML
+file; see ``docs/study.md``). It expands into tasks of two kinds:
+
+* a **calibration task** per plant variant and unit (:func:`calibrate_unit`): the unit is
+  simulated on its own soak runs and every method of the spec is fitted to them, as in
+  production;
+* a **navigation task** per plant variant, unit, scenario and cold start
+  (:func:`navigate_unit`): one raw IMU output navigated with no compensation, each fitted
+  model and the true thermal bias (the oracle), so that every comparison between methods is
+  paired on the same raw data.
+
+Each task is a pure function of the spec, its key and the seeds derived from the spec's seed
+and the key (:func:`task_seed`): results do not depend on where, in which order or on how
+many workers the tasks run. The same unit has the same seeds in every plant variant of a
+sweep (common random numbers), so a sweep's points are paired too.
+
+Nothing here reads or writes files except :func:`load_spec` (the spec itself); execution on
+Dask and the results store are in :mod:`rinscal.experiments.runner`, statistics in
+:mod:`rinscal.experiments.study_stats`.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import itertools
+import json
+import math
+import time
+import tomllib
+import warnings
+import zlib
+from collections.abc import Mapping, Sequence
+from dataclasses import asdict, dataclass, replace
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from rinscal import units
+from rinscal.errors import ConfigError
+from rinscal.experiments.paper import (
+    LABELS,
+    METHODS,
+    NavJob,
+    load_plant,
+    run_navigation_job,
+    thermal_part_m,
+)
+from rinscal.thermal.plant import PRESETS, ChannelThermal, ImuConfig
+
+#: Studies shipped with rinscal (``src/rinscal/data/studies/<name>.toml``).
+BUILTIN_STUDIES = ("paper", "sensitivity")
+#: Variants a spec may list: uncompensated, the models, the true-bias oracle. ``none`` and
+#: ``true`` are navigated in every task whether listed or not (the thermal part needs the
+#: oracle); the list decides which models are fitted.
+STUDY_VARIANTS = ("none", *METHODS, "true")
+#: Scenario kinds (:data:`rinscal.nav.scenario.SCENARIOS`).
+SCENARIO_KINDS = ("quasi-static", "swing", "vehicle", "ramp")
+
+#: Sweepable plant parameters: each multiplies a group of thermal-bias coefficients of the
+#: accelerometers or the gyros (the ``ChannelThermal`` fields named).
+SWEEP_PARAMETERS: dict[str, tuple[str, tuple[str, ...]]] = {
+    "accel_t_scale": ("accel", ("t",)),
+    "accel_rate_scale": ("accel", ("rate", "t_rate")),
+    "accel_grad_scale": ("accel", ("grad", "t_grad")),
+    "accel_dynamic_scale": ("accel", ("rate", "t_rate", "grad", "t_grad")),
+    "gyro_t_scale": ("gyro", ("t",)),
+    "gyro_rate_scale": ("gyro", ("rate", "t_rate")),
+    "gyro_grad_scale": ("gyro", ("grad", "t_grad")),
+    "gyro_dynamic_scale": ("gyro", ("rate", "t_rate", "grad", "t_grad")),
+    "gyro_shupe_scale": ("gyro", ("shupe",)),
+}
+#: Coefficients scattered from unit to unit by ``coefficient_spread`` (relative, 1σ).
+SPREAD_FIELDS = ("t", "rate", "grad", "t_grad", "t_rate", "stress", "shupe", "hysteresis")
+
+
+# --------------------------------------------------------------------------- the spec
+@dataclass(frozen=True)
+class CalibrationSpec:
+    """How each unit is calibrated: the soak protocol (Table 3) at ``rate_hz`` [Hz] with
+    runs of ``hours`` [h]; the BP network is trained on ``neural_max_samples`` samples."""
+
+    hours: float = 3.0
+    rate_hz: float = 10.0
+    neural_max_samples: int = 20000
+
+
+@dataclass(frozen=True)
+class PlantVariant:
+    """One plant of a study: an IMU (preset name or TOML path) with its sweep parameters
+    (``(name, factor)`` pairs of :data:`SWEEP_PARAMETERS`) applied."""
+
+    imu: str
+    params: tuple[tuple[str, float], ...] = ()
+
+    @property
+    def label(self) -> str:
+        """``imu`` then each ``name=factor``, e.g. ``paper accel_dynamic_scale=3``."""
+        name = Path(self.imu).stem if self.imu not in PRESETS else self.imu
+        return " ".join([name, *(f"{k}={v:g}" for k, v in self.params)])
+
+
+@dataclass(frozen=True)
+class ScenarioSpec:
+    """One group of cold starts, one per ``ambient_c`` entry.
+
+    Parameters
+    ----------
+    name : str
+        Label of the group in tables and the report (unique in the spec).
+    kind : str
+        One of :data:`SCENARIO_KINDS`.
+    hours : float [h]
+        Length of each run (vehicle: of the drive).
+    rate_hz : float [Hz]
+        IMU rate.
+    ambient_c : tuple of float or None [°C]
+        Lab temperature (quasi-static, swing) or ambient at the cold start (vehicle) of each
+        start; ``None`` keeps the scenario's own chamber (the ramp).
+    align_s : float [s]
+        Coarse plus fine alignment time.
+    align_start_s : float [s]
+        Time after power-on at which the alignment starts.
+    """
+
+    name: str
+    kind: str
+    hours: float
+    rate_hz: float
+    ambient_c: tuple[float | None, ...]
+    align_s: float = 600.0
+    align_start_s: float = 0.0
+
+
+@dataclass(frozen=True)
+class StudySpec:
+    """A whole study; see ``docs/study.md`` for the TOML layout.
+
+    Parameters
+    ----------
+    name, description : str
+        Free text.
+    seed : int
+        Root of every seed (:func:`task_seed`).
+    units : int
+        Number of simulated units (each a seed).
+    coefficient_spread : float
+        Relative unit-to-unit scatter (1σ) of the thermal coefficients
+        (:data:`SPREAD_FIELDS`); 0 for identical units that differ only in noise and
+        turn-on offsets.
+    methods : tuple of str
+        Variants (:data:`STUDY_VARIANTS`); the models among them are fitted for every unit.
+    calibration : CalibrationSpec
+        Each unit's calibration protocol.
+    plants : tuple of PlantVariant
+        The plant variants (a plant's sweep expanded).
+    scenarios : tuple of ScenarioSpec
+        The scenario groups (lists of ``align_start_s`` expanded).
+    quick : bool
+        Whether the spec's ``[quick]`` sizes were applied.
+    """
+
+    name: str
+    description: str
+    seed: int
+    units: int
+    coefficient_spread: float
+    methods: tuple[str, ...]
+    calibration: CalibrationSpec
+    plants: tuple[PlantVariant, ...]
+    scenarios: tuple[ScenarioSpec, ...]
+    quick: bool = False
+
+    @property
+    def models(self) -> tuple[str, ...]:
+        """The methods that are fitted (the spec's methods without ``none``/``true``)."""
+        return tuple(m for m in self.methods if m in METHODS)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain JSON-able form (what the results folder records)."""
+        return json.loads(json.dumps(asdict(self)))
+
+    def fingerprint(self) -> str:
+        """Hash of everything that decides a task's result (all but ``units``, which only
+        adds or drops tasks, and the free text)."""
+        d = self.to_dict()
+        for k in ("units", "description"):
+            d.pop(k)
+        return hashlib.sha256(json.dumps(d, sort_keys=True).encode()).hexdigest()[:16]
+
+
+_TOP = {"study", "calibration", "plants", "scenarios", "quick"}
+_STUDY = {"name", "description", "seed", "units", "coefficient_spread", "methods"}
+_CAL = {"hours", "rate_hz", "neural_max_samples"}
+_PLANT = {"imu", "sweep"}
+_SCEN = {"name", "kind", "hours", "rate_hz", "ambient_c", "align_s", "align_start_s"}
+_QUICK = {"calibration", "scenarios"}
+_QUICK_SCEN = {"hours", "rate_hz"}
+
+
+def _keys(where: str, table: Any, known: set[str], source: str) -> dict[str, Any]:
+    if not isinstance(table, dict):
+        raise ConfigError(f"{source}: {where} must be a table")
+    extra = sorted(set(table) - known)
+    if extra:
+        raise ConfigError(
+            f"{source}: {where}: unknown key(s) {', '.join(extra)}; known: "
+            + ", ".join(sorted(known))
+        )
+    return table
+
+
+def _number(where: str, v: Any, source: str, *, positive: bool = True) -> float:
+    if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+        raise ConfigError(f"{source}: {where} must be a finite number, got {v!r}")
+    if positive and v <= 0:
+        raise ConfigError(f"{source}: {where} must be > 0, got {v!r}")
+    if not positive and v < 0:
+        raise ConfigError(f"{source}: {where} must be >= 0, got {v!r}")
+    return float(v)
+
+
+def _count(where: str, v: Any, source: str, minimum: int = 1) -> int:
+    if isinstance(v, bool) or not isinstance(v, int) or v < minimum:
+        raise ConfigError(f"{source}: {where} must be an integer >= {minimum}, got {v!r}")
+    return int(v)
+
+
+def _list(v: Any) -> list[Any]:
+    return list(v) if isinstance(v, list | tuple) else [v]
+
+
+def _resolve_imu(imu: Any, where: str, source: str, base: Path | None) -> str:
+    if not isinstance(imu, str) or not imu:
+        raise ConfigError(f"{source}: {where} must be a preset name or a TOML file path")
+    if imu in PRESETS:
+        return imu
+    p = Path(imu)
+    if not p.is_absolute() and base is not None:
+        p = base / p
+    if p.suffix.lower() != ".toml" or not p.is_file():
+        raise ConfigError(
+            f"{source}: {where} = {imu!r} is neither a preset ({', '.join(PRESETS)}) nor an "
+            "existing .toml file"
+        )
+    return str(p.resolve())
+
+
+def spec_from_dict(
+    data: Mapping[str, Any],
+    source: str = "<spec>",
+    *,
+    quick: bool = False,
+    units_override: int | None = None,
+    base: Path | None = None,
+) -> StudySpec:
+    """Validate a study spec in its TOML layout and expand its sweeps.
+
+    Parameters
+    ----------
+    data : mapping
+        The parsed TOML: ``[study]``, ``[calibration]``, ``[[plants]]``, ``[[scenarios]]``
+        and an optional ``[quick]``.
+    source : str
+        Name of the spec in error messages.
+    quick : bool
+        Apply the ``[quick]`` sizes (an error if the spec has none).
+    units_override : int, optional
+        Number of units instead of ``study.units``.
+    base : Path, optional
+        Folder that relative IMU file paths are relative to (the spec file's).
+
+    Raises
+    ------
+    ConfigError
+        Naming the key: unknown keys, non-positive sizes, negative counts, unknown presets,
+        methods, scenario kinds or sweep parameters, duplicate scenario names.
+    """
+    data = _keys("top level", dict(data), _TOP, source)
+    for required in ("study", "calibration", "plants", "scenarios"):
+        if required not in data:
+            raise ConfigError(f"{source}: missing [{required}]")
+    st = _keys("[study]", data["study"], _STUDY, source)
+    name = str(st.get("name", Path(source).stem))
+    seed = st.get("seed", 0)
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise ConfigError(f"{source}: study.seed must be an integer >= 0, got {seed!r}")
+    n_units = _count("study.units", st.get("units", 10), source)
+    if units_override is not None:
+        n_units = _count("--units", units_override, source)
+    spread = _number(
+        "study.coefficient_spread", st.get("coefficient_spread", 0.0), source, positive=False
+    )
+    if spread >= 1.0:
+        raise ConfigError(f"{source}: study.coefficient_spread must be < 1, got {spread}")
+    methods = _list(st.get("methods", list(STUDY_VARIANTS)))
+    for m in methods:
+        if m not in STUDY_VARIANTS:
+            raise ConfigError(
+                f"{source}: study.methods: unknown method {m!r}; known: "
+                + ", ".join(STUDY_VARIANTS)
+            )
+    if len(set(methods)) != len(methods):
+        raise ConfigError(f"{source}: study.methods lists a method twice")
+    qk = _keys("[quick]", data.get("quick", {}), _QUICK, source)
+    if quick and not qk:
+        raise ConfigError(f"{source}: --quick: this spec has no [quick] section")
+    cal_d = dict(_keys("[calibration]", data["calibration"], _CAL, source))
+    if quick:
+        cal_d.update(_keys("[quick.calibration]", qk.get("calibration", {}), _CAL, source))
+    cal = CalibrationSpec(
+        hours=_number("calibration.hours", cal_d.get("hours", 3.0), source),
+        rate_hz=_number("calibration.rate_hz", cal_d.get("rate_hz", 10.0), source),
+        neural_max_samples=_count(
+            "calibration.neural_max_samples", cal_d.get("neural_max_samples", 20000), source, 100
+        ),
+    )
+    plants_d = data["plants"]
+    if not isinstance(plants_d, list) or not plants_d:
+        raise ConfigError(f"{source}: [[plants]] must list at least one plant")
+    plants: list[PlantVariant] = []
+    for i, p in enumerate(plants_d):
+        where = f"plants[{i}]"
+        p = _keys(where, p, _PLANT, source)
+        if "imu" not in p:
+            raise ConfigError(f"{source}: {where}.imu is missing")
+        imu = _resolve_imu(p["imu"], f"{where}.imu", source, base)
+        sweep = _keys(f"{where}.sweep", p.get("sweep", {}), set(SWEEP_PARAMETERS), source)
+        axes = []
+        for k, vals in sweep.items():
+            vals = _list(vals)
+            if not vals:
+                raise ConfigError(f"{source}: {where}.sweep.{k} is empty")
+            axes.append(
+                [(k, _number(f"{where}.sweep.{k}", v, source, positive=False)) for v in vals]
+            )
+        for combo in itertools.product(*axes):
+            plants.append(PlantVariant(imu, tuple(combo)))
+    if len({(p.imu, p.params) for p in plants}) != len(plants):
+        raise ConfigError(f"{source}: [[plants]] names the same plant variant twice")
+    quick_scen = _keys("[quick.scenarios]", qk.get("scenarios", {}), set(SCENARIO_KINDS), source)
+    scen_d = data["scenarios"]
+    if not isinstance(scen_d, list) or not scen_d:
+        raise ConfigError(f"{source}: [[scenarios]] must list at least one scenario")
+    scenarios: list[ScenarioSpec] = []
+    for i, s in enumerate(scen_d):
+        where = f"scenarios[{i}]"
+        s = dict(_keys(where, s, _SCEN, source))
+        kind = s.get("kind")
+        if kind not in SCENARIO_KINDS:
+            raise ConfigError(
+                f"{source}: {where}.kind must be one of {', '.join(SCENARIO_KINDS)}, got {kind!r}"
+            )
+        if quick and kind in quick_scen:
+            s.update(_keys(f"quick.scenarios.{kind}", quick_scen[kind], _QUICK_SCEN, source))
+        for req in ("hours", "rate_hz"):
+            if req not in s:
+                raise ConfigError(f"{source}: {where}.{req} is missing")
+        hours = _number(f"{where}.hours", s["hours"], source)
+        rate = _number(f"{where}.rate_hz", s["rate_hz"], source)
+        align_s = _number(f"{where}.align_s", s.get("align_s", 600.0), source)
+        amb_raw = s.get("ambient_c", [] if kind == "ramp" else [20.0])
+        if kind == "ramp":
+            if _list(amb_raw):
+                raise ConfigError(f"{source}: {where}.ambient_c: the ramp has its own chamber")
+            ambient: tuple[float | None, ...] = (None,)
+        else:
+            ambient = tuple(_celsius(f"{where}.ambient_c", a, source) for a in _list(amb_raw))
+            if not ambient:
+                raise ConfigError(f"{source}: {where}.ambient_c must list at least one start")
+        starts = _list(s.get("align_start_s", 0.0))
+        if not starts:
+            raise ConfigError(f"{source}: {where}.align_start_s is empty")
+        base_name = str(s.get("name", kind))
+        for a0 in starts:
+            a0 = _number(f"{where}.align_start_s", a0, source, positive=False)
+            if a0 + align_s >= hours * units.HOUR_TO_S and kind != "vehicle":
+                raise ConfigError(
+                    f"{source}: {where}: the alignment ends {a0 + align_s:g} s after power-on, "
+                    f"not before the run ({hours * units.HOUR_TO_S:g} s) ends"
+                )
+            label = base_name if len(starts) == 1 else f"{base_name}, align at {a0:g} s"
+            scenarios.append(ScenarioSpec(label, kind, hours, rate, ambient, align_s, a0))
+    names = [s.name for s in scenarios]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise ConfigError(f"{source}: scenarios: name {dup[0]!r} is used twice")
+    return StudySpec(
+        name=name,
+        description=str(st.get("description", "")),
+        seed=int(seed),
+        units=n_units,
+        coefficient_spread=spread,
+        methods=tuple(methods),
+        calibration=cal,
+        plants=tuple(plants),
+        scenarios=tuple(scenarios),
+        quick=quick,
+    )
+
+
+def _celsius(where: str, v: Any, source: str) -> float:
+    if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+        raise ConfigError(f"{source}: {where} must be a finite temperature [°C], got {v!r}")
+    if not -60.0 <= v <= 85.0:
+        raise ConfigError(f"{source}: {where} = {v} °C is outside -60..85 °C")
+    return float(v)
+
+
+def load_spec(
+    spec: str | Path, *, quick: bool = False, units_override: int | None = None
+) -> StudySpec:
+    """A study from a built-in name (:data:`BUILTIN_STUDIES`) or a TOML file.
+
+    Raises
+    ------
+    ConfigError
+        For an unknown name, an unreadable or invalid file (the message names the file and
+        the key).
+    """
+    s = str(spec)
+    if s in BUILTIN_STUDIES:
+        text = resources.files("rinscal").joinpath("data", "studies", f"{s}.toml").read_text()
+        source, base = f"built-in study {s!r}", None
+    else:
+        p = Path(s)
+        if not p.is_file():
+            raise ConfigError(
+                f"study {s!r}: neither a built-in study ({', '.join(BUILTIN_STUDIES)}) nor a file"
+            )
+        try:
+            text = p.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as e:
+            raise ConfigError(f"{p}: cannot read it ({e})") from None
+        source, base = str(p), p.parent
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise ConfigError(f"{source}: not valid TOML ({e})") from None
+    return spec_from_dict(data, source, quick=quick, units_override=units_override, base=base)
+
+
+# --------------------------------------------------------------------------- tasks
+@dataclass(frozen=True)
+class CalTask:
+    """Calibration of one unit of one plant variant."""
+
+    plant: int
+    unit: int
+
+    @property
+    def key(self) -> str:
+        return f"cal-p{self.plant:03d}-u{self.unit:05d}"
+
+
+@dataclass(frozen=True)
+class NavTask:
+    """One cold start of one unit: scenario ``scenario`` (index in the spec), start
+    ``start`` (index into its ``ambient_c``)."""
+
+    plant: int
+    unit: int
+    scenario: int
+    start: int
+
+    @property
+    def key(self) -> str:
+        return f"nav-p{self.plant:03d}-u{self.unit:05d}-s{self.scenario:02d}-r{self.start:02d}"
+
+    @property
+    def cal(self) -> CalTask:
+        return CalTask(self.plant, self.unit)
+
+
+def study_tasks(spec: StudySpec) -> list[tuple[CalTask, list[NavTask]]]:
+    """Every task, unit by unit: each calibration task with the navigation tasks that use
+    its models (in the order they are best submitted: a unit's runs right after its
+    calibration, so that results stream in from the first minutes)."""
+    out = []
+    for u in range(spec.units):
+        for p in range(len(spec.plants)):
+            navs = [
+                NavTask(p, u, s, r)
+                for s, sc in enumerate(spec.scenarios)
+                for r in range(len(sc.ambient_c))
+            ]
+            out.append((CalTask(p, u), navs))
+    return out
+
+
+def task_seed(spec_seed: int, *key: int) -> int:
+    """A 32-bit seed from the study's seed and an integer key path (numpy's SeedSequence
+    spawn keys: independent streams, the same on every machine)."""
+    ss = np.random.SeedSequence(spec_seed, spawn_key=tuple(int(k) for k in key))
+    return int(ss.generate_state(1)[0])
+
+
+def _scenario_key(sc: ScenarioSpec) -> int:
+    """Stable integer of a scenario group (its name), so that adding a scenario to a spec
+    does not change the seeds of the others."""
+    return zlib.crc32(sc.name.encode())
+
+
+def plant_config(variant: PlantVariant) -> ImuConfig:
+    """The IMU of a plant variant: the preset or file with the sweep factors applied."""
+    imu = load_plant(variant.imu)
+    if not variant.params:
+        return imu
+    thermal = list(imu.thermal)
+    for name, factor in variant.params:
+        sensors, fields_ = SWEEP_PARAMETERS[name]
+        idx = range(0, 3) if sensors == "gyro" else range(3, 6)
+        for j in idx:
+            thermal[j] = _scaled(thermal[j], fields_, lambda _k, f=factor: f)
+    return replace(imu, name=f"{imu.name} ({variant.label})", thermal=tuple(thermal))
+
+
+def _scaled(ch: ChannelThermal, names: Sequence[str], factor: Any) -> ChannelThermal:
+    """``ch`` with each field in ``names`` multiplied by ``factor(k)`` (k counts the scalars
+    scaled so far, so a random factor per coefficient can be drawn)."""
+    k = 0
+    new: dict[str, Any] = {}
+    for n in names:
+        v = getattr(ch, n)
+        if isinstance(v, tuple):
+            vals = []
+            for x in v:
+                vals.append(float(x * factor(k)))
+                k += 1
+            new[n] = tuple(vals)
+        else:
+            new[n] = float(v * factor(k))
+            k += 1
+    return replace(ch, **new)
+
+
+def unit_config(spec: StudySpec, plant: ImuConfig, unit: int) -> ImuConfig:
+    """Unit ``unit`` of a plant: each coefficient of :data:`SPREAD_FIELDS` multiplied by
+    ``1 + coefficient_spread·z`` with ``z`` standard normal from the unit's seed (the same
+    ``z`` in every plant variant; the hysteresis width by ``|1 + spread·z|``)."""
+    if spec.coefficient_spread == 0.0:
+        return plant
+    rng = np.random.default_rng(task_seed(spec.seed, unit, 0))
+    z = rng.standard_normal((6, 64))
+    sd = spec.coefficient_spread
+    thermal = tuple(
+        _scaled(ch, SPREAD_FIELDS, lambda k, j=j: 1.0 + sd * z[j, k])
+        for j, ch in enumerate(plant.thermal)
+    )
+    thermal = tuple(replace(ch, hysteresis=abs(ch.hysteresis)) for ch in thermal)
+    return replace(plant, thermal=thermal)
+
+
+def calibrate_unit(spec: StudySpec, plant: ImuConfig, task: CalTask) -> dict[str, Any]:
+    """Simulate a unit's soak calibration and fit every model of the spec.
+
+    Returns
+    -------
+    dict
+        ``models``: method → model file JSON text; ``warnings``: method → the warnings its
+        fit raised (a weak fit is kept and flagged); ``elapsed_s`` [s]: the task's run time.
+    """
+    from rinscal.calibration.model import ThermalModel
+    from rinscal.thermal.protocols import simulate_protocol
+
+    t0 = time.perf_counter()
+    imu = unit_config(spec, plant, task.unit)
+    seed = task_seed(spec.seed, task.unit, 1)
+    log, _, meta = simulate_protocol(
+        "soak",
+        hours=spec.calibration.hours,
+        rate_hz=spec.calibration.rate_hz,
+        seed=seed,
+        config=imu,
+    )
+    models: dict[str, str] = {}
+    caught: dict[str, list[str]] = {}
+    for m in spec.models:
+        params = {"max_samples": spec.calibration.neural_max_samples} if m == "neural" else {}
+        with warnings.catch_warnings(record=True) as w:
+            warnings.simplefilter("always")
+            fitted = ThermalModel(m, random_state=seed, estimator_params=params).fit(log, meta)
+        mf = fitted.to_file(source={"log": f"study {spec.name}, unit {task.unit}, soak"})
+        models[m] = json.dumps(mf.to_dict())
+        msgs = sorted({str(x.message) for x in w if not issubclass(x.category, RuntimeWarning)})
+        if msgs:
+            caught[m] = msgs
+    return {"models": models, "warnings": caught, "elapsed_s": time.perf_counter() - t0}
+
+
+#: Columns of a navigation task's result rows (one row per variant).
+RESULT_COLUMNS = (
+    "plant",
+    "plant_label",
+    "unit",
+    "scenario",
+    "kind",
+    "start",
+    "ambient_c",
+    "align_start_s",
+    "align_s",
+    "variant",
+    "max_error_nmi",
+    "final_error_nmi",
+    "thermal_part_nmi",
+    "heading_error_arcsec",
+    "seed",
+    "elapsed_s",
+)
+
+
+def navigate_unit(
+    spec: StudySpec, plant: ImuConfig, task: NavTask, calibration: Mapping[str, Any]
+) -> pd.DataFrame:
+    """Navigate one cold start of a unit with every variant on the same raw output.
+
+    ``calibration`` is :func:`calibrate_unit`'s result for ``task.cal``. Returns one row per
+    variant (:data:`RESULT_COLUMNS`): the maximum and final horizontal position error
+    [nmi], the maximum of its thermal part (variant minus oracle, see
+    :func:`rinscal.experiments.paper.thermal_part_m`) [nmi] and the heading error at the
+    start of free navigation [arcsec].
+    """
+    t0 = time.perf_counter()
+    sc = spec.scenarios[task.scenario]
+    imu = unit_config(spec, plant, task.unit)
+    seed = task_seed(spec.seed, task.unit, 2, _scenario_key(sc), task.start)
+    job = NavJob(
+        sc.name, sc.kind, task.start + 1, sc.ambient_c[task.start], sc.hours, sc.rate_hz, seed
+    )
+    res = run_navigation_job(job, calibration["models"], imu, sc.align_s, sc.align_start_s)
+    rows = []
+    for v, s in res.summary["variants"].items():
+        rows.append(
+            {
+                "variant": v,
+                "max_error_nmi": s["max_error_nmi"],
+                "final_error_nmi": s["final_error_m"] / units.NMI_TO_M,
+                "thermal_part_nmi": float(thermal_part_m(res.errors, v).max()) / units.NMI_TO_M,
+                "heading_error_arcsec": s["attitude_error_at_nav_start"]["heading_arcsec"],
+            }
+        )
+    df = pd.DataFrame(rows)
+    amb = sc.ambient_c[task.start]
+    df.insert(0, "plant", task.plant)
+    df.insert(1, "plant_label", spec.plants[task.plant].label)
+    df.insert(2, "unit", task.unit)
+    df.insert(3, "scenario", sc.name)
+    df.insert(4, "kind", sc.kind)
+    df.insert(5, "start", task.start)
+    df.insert(6, "ambient_c", float("nan") if amb is None else amb)
+    df.insert(7, "align_start_s", sc.align_start_s)
+    df.insert(8, "align_s", sc.align_s)
+    df["seed"] = seed
+    df["elapsed_s"] = time.perf_counter() - t0
+    return df[list(RESULT_COLUMNS)]
+
+
+def sweep_columns(spec: StudySpec) -> list[str]:
+    """Names of the sweep parameters used by any plant of the spec, in spec order."""
+    out: list[str] = []
+    for p in spec.plants:
+        for k, _ in p.params:
+            if k not in out:
+                out.append(k)
+    return out
+
+
+def plant_table(spec: StudySpec) -> pd.DataFrame:
+    """One row per plant variant: index, label, IMU and each sweep factor (1 where the
+    variant does not set it)."""
+    cols = sweep_columns(spec)
+    rows = []
+    for i, p in enumerate(spec.plants):
+        d = dict(p.params)
+        rows.append(
+            {"plant": i, "plant_label": p.label, "imu": p.imu, **{c: d.get(c, 1.0) for c in cols}}
+        )
+    return pd.DataFrame(rows)
+
+
+__all__ = [
+    "BUILTIN_STUDIES",
+    "LABELS",
+    "RESULT_COLUMNS",
+    "STUDY_VARIANTS",
+    "SWEEP_PARAMETERS",
+    "CalTask",
+    "CalibrationSpec",
+    "NavTask",
+    "PlantVariant",
+    "ScenarioSpec",
+    "StudySpec",
+    "calibrate_unit",
+    "load_spec",
+    "navigate_unit",
+    "plant_config",
+    "plant_table",
+    "spec_from_dict",
+    "study_tasks",
+    "sweep_columns",
+    "task_seed",
+    "unit_config",
+]

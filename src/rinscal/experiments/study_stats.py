@@ -1,0 +1,391 @@
+"""Statistics of a study: means with bootstrap confidence intervals, paired differences,
+the paper's claims with a verdict each, the sensitivity map.
+
+The unit of analysis is the simulated IMU unit. Where a scenario has several cold starts per
+unit (the lab's five temperatures), they are averaged per unit first; the intervals are
+bootstrap intervals over units (:func:`scipy.stats.bootstrap`, BCa, 95 %), so that starts of
+the same unit, which share its calibration, are not counted as independent. Comparisons
+between methods are paired: both navigated on the same raw data of the same unit and start.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import warnings
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from scipy import stats
+
+from rinscal.experiments.paper import LABELS, PAPER
+
+#: Confidence level of every interval.
+CONFIDENCE = 0.95
+#: Bootstrap resamples per interval.
+N_RESAMPLES = 4999
+#: The metrics summarised, with their unit: per run maximum horizontal position error,
+#: its thermal part (variant minus oracle), |heading error| at the start of navigation.
+METRICS = {
+    "max_error_nmi": "nmi",
+    "thermal_part_nmi": "nmi",
+    "abs_heading_error_arcsec": "arcsec",
+}
+#: Methods compared pairwise, in order: each pair (a, b) with a before b.
+PAIR_ORDER = ("none", "poly-t", "sectional", "regression", "neural")
+
+
+def bootstrap_ci(
+    x: Sequence[float] | np.ndarray,
+    statistic: Callable[..., Any] = np.mean,
+    confidence: float = CONFIDENCE,
+    n_resamples: int = N_RESAMPLES,
+    seed: int = 0,
+) -> tuple[float, float]:
+    """BCa bootstrap interval of ``statistic`` (vectorised, with an ``axis`` keyword) of the
+    finite values of ``x``. NaN for fewer than 2 values; the value itself when all values
+    are equal (no spread to resample)."""
+    v = np.asarray(x, dtype=float)
+    v = v[np.isfinite(v)]
+    if v.size < 2:
+        return (math.nan, math.nan)
+    if np.ptp(v) == 0.0:
+        s = float(statistic(v, axis=-1))
+        return (s, s)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        r = stats.bootstrap(
+            (v,),
+            statistic,
+            confidence_level=confidence,
+            n_resamples=n_resamples,
+            method="BCa",
+            rng=np.random.default_rng(seed),
+        )
+    lo, hi = float(r.confidence_interval.low), float(r.confidence_interval.high)
+    if not (math.isfinite(lo) and math.isfinite(hi)):  # BCa undefined: fall back
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            r = stats.bootstrap(
+                (v,),
+                statistic,
+                confidence_level=confidence,
+                n_resamples=n_resamples,
+                method="percentile",
+                rng=np.random.default_rng(seed),
+            )
+        lo, hi = float(r.confidence_interval.low), float(r.confidence_interval.high)
+    return (lo, hi)
+
+
+def _decrease(a: np.ndarray, b: np.ndarray, axis: int = -1) -> np.ndarray:
+    """Decrease of the mean from ``a`` to ``b`` [%]: ``100 (mean a − mean b) / mean a``."""
+    ma = np.mean(a, axis=axis)
+    return 100.0 * (ma - np.mean(b, axis=axis)) / ma
+
+
+def paired_decrease_ci(
+    a: np.ndarray, b: np.ndarray, confidence: float = CONFIDENCE, seed: int = 0
+) -> tuple[float, float]:
+    """Bootstrap interval of the decrease of the mean from ``a`` to ``b`` [%], resampling
+    the pairs ``(a_i, b_i)`` together (BCa, falling back to percentile)."""
+    ok = np.isfinite(a) & np.isfinite(b)
+    a, b = np.asarray(a, float)[ok], np.asarray(b, float)[ok]
+    if a.size < 2:
+        return (math.nan, math.nan)
+    if np.ptp(a - b) == 0.0 and np.ptp(a) == 0.0:
+        d = float(_decrease(a, b))
+        return (d, d)
+    out = (math.nan, math.nan)
+    for method in ("BCa", "percentile"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            r = stats.bootstrap(
+                (a, b),
+                _decrease,
+                paired=True,
+                vectorized=True,
+                confidence_level=confidence,
+                n_resamples=N_RESAMPLES,
+                method=method,
+                rng=np.random.default_rng(seed),
+            )
+        out = (float(r.confidence_interval.low), float(r.confidence_interval.high))
+        if all(map(math.isfinite, out)):
+            break
+    return out
+
+
+def prepare(results: pd.DataFrame) -> pd.DataFrame:
+    """The results with ``abs_heading_error_arcsec`` added."""
+    df = results.copy()
+    df["abs_heading_error_arcsec"] = df["heading_error_arcsec"].abs()
+    return df
+
+
+def _unit_table(df: pd.DataFrame, metric: str) -> pd.DataFrame:
+    """Per plant, scenario and unit (rows) and variant (columns): the metric averaged over
+    the unit's starts."""
+    return df.pivot_table(
+        index=["plant", "plant_label", "scenario", "unit"],
+        columns="variant",
+        values=metric,
+        aggfunc="mean",
+        observed=True,
+    )
+
+
+def _run_table(df: pd.DataFrame, metric: str) -> pd.DataFrame:
+    return df.pivot_table(
+        index=["plant", "plant_label", "scenario", "unit", "start"],
+        columns="variant",
+        values=metric,
+        aggfunc="first",
+        observed=True,
+    )
+
+
+def _variants(columns: Sequence[str]) -> list[str]:
+    order = [*PAIR_ORDER, "true"]
+    return [v for v in order if v in columns]
+
+
+def method_summary(results: pd.DataFrame) -> pd.DataFrame:
+    """Per plant, scenario, variant and metric (:data:`METRICS`): units, runs, mean with its
+    95 % bootstrap interval over units, median, standard deviation, min and max over runs."""
+    df = prepare(results)
+    rows = []
+    for metric, unit in METRICS.items():
+        per_unit = _unit_table(df, metric)
+        per_run = _run_table(df, metric)
+        for (plant, label, scen), g in per_unit.groupby(level=[0, 1, 2], sort=False):
+            runs = per_run.xs((plant, label, scen), level=[0, 1, 2])
+            for v in _variants(g.columns):
+                if metric == "thermal_part_nmi" and v == "true":
+                    continue  # zero by construction
+                u = g[v].to_numpy(dtype=float)
+                r = runs[v].to_numpy(dtype=float)
+                lo, hi = bootstrap_ci(u)
+                rows.append(
+                    {
+                        "plant": plant,
+                        "plant_label": label,
+                        "scenario": scen,
+                        "variant": v,
+                        "method": LABELS[v],
+                        "metric": metric,
+                        "unit": unit,
+                        "n units": int(np.isfinite(u).sum()),
+                        "n runs": int(np.isfinite(r).sum()),
+                        "mean": float(np.nanmean(u)),
+                        "ci low": lo,
+                        "ci high": hi,
+                        "median": float(np.nanmedian(r)),
+                        "sd": float(np.nanstd(r, ddof=1)) if r.size > 1 else math.nan,
+                        "min": float(np.nanmin(r)),
+                        "max": float(np.nanmax(r)),
+                    }
+                )
+    return pd.DataFrame(rows)
+
+
+def paired_differences(results: pd.DataFrame) -> pd.DataFrame:
+    """Every pair of methods (:data:`PAIR_ORDER`, a before b) per plant, scenario and
+    metric, paired on the same unit and start.
+
+    Columns: ``mean a``, ``mean b``, ``difference`` (mean of a − b over units, with ``diff
+    ci low/high``), ``decrease %`` (of the mean, a → b, with ``decrease ci low/high``),
+    ``b better: units`` (fraction of units whose mean over their starts is lower with b),
+    ``b better: runs`` (fraction of runs), ``best decrease over the runs %`` (the paper's
+    "up to": the largest single-run decrease; a maximum, not an estimate).
+    """
+    df = prepare(results)
+    rows = []
+    for metric, unit in METRICS.items():
+        per_unit = _unit_table(df, metric)
+        per_run = _run_table(df, metric)
+        for (plant, label, scen), g in per_unit.groupby(level=[0, 1, 2], sort=False):
+            runs = per_run.xs((plant, label, scen), level=[0, 1, 2])
+            for a, b in itertools.combinations(_variants(g.columns), 2):
+                if "true" in (a, b):
+                    continue
+                ua, ub = g[a].to_numpy(float), g[b].to_numpy(float)
+                ra, rb = runs[a].to_numpy(float), runs[b].to_numpy(float)
+                dlo, dhi = bootstrap_ci(ua - ub)
+                plo, phi = paired_decrease_ci(ua, ub)
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    per_run_dec = 100.0 * (ra - rb) / ra
+                rows.append(
+                    {
+                        "plant": plant,
+                        "plant_label": label,
+                        "scenario": scen,
+                        "metric": metric,
+                        "unit": unit,
+                        "a": a,
+                        "b": b,
+                        "comparison": f"{LABELS[a]} → {LABELS[b]}",
+                        "n units": len(ua),
+                        "n runs": len(ra),
+                        "mean a": float(np.nanmean(ua)),
+                        "mean b": float(np.nanmean(ub)),
+                        "difference": float(np.nanmean(ua - ub)),
+                        "diff ci low": dlo,
+                        "diff ci high": dhi,
+                        "decrease %": float(_decrease(ua, ub)),
+                        "decrease ci low": plo,
+                        "decrease ci high": phi,
+                        "b better: units": float(np.mean(ub < ua)),
+                        "b better: runs": float(np.mean(rb < ra)),
+                        "best decrease over the runs %": float(np.nanmax(per_run_dec)),
+                    }
+                )
+    return pd.DataFrame(rows)
+
+
+def resolved(lo: float, hi: float) -> str:
+    """``"b better"`` when a 95 % interval of a − b lies above zero, ``"a better"`` below,
+    ``"not resolved"`` when it contains zero (or is undefined)."""
+    if not (math.isfinite(lo) and math.isfinite(hi)):
+        return "not resolved"
+    if lo > 0:
+        return "b better"
+    if hi < 0:
+        return "a better"
+    return "not resolved"
+
+
+#: The paper's navigation claims: (scenario kind, method a, method b, the paper's figure,
+#: what the figure is).
+PAPER_CLAIMS = (
+    ("quasi-static", "sectional", "regression", PAPER["lab_qs_m1_to_m2_pct"], "up to"),
+    ("swing", "sectional", "regression", PAPER["lab_swing_m1_to_m2_pct"], "up to"),
+    ("quasi-static", "regression", "neural", PAPER["lab_qs_m2_to_m3_pct"], "up to"),
+    ("swing", "regression", "neural", PAPER["lab_swing_m2_to_m3_pct"], "up to"),
+    ("vehicle", "sectional", "neural", PAPER["vehicle_m1_to_m3_mean_pct"], "mean"),
+    ("vehicle", "sectional", "neural", PAPER["vehicle_m1_to_m3_max_pct"], "up to"),
+)
+
+
+def claims_table(results: pd.DataFrame, pairs: pd.DataFrame) -> pd.DataFrame:
+    """Each claim of the paper (:data:`PAPER_CLAIMS`) per plant and scenario of that kind:
+    our mean decrease of the maximum position error with its interval, our best run, and a
+    verdict in words."""
+    kinds = results.drop_duplicates("scenario").set_index("scenario")["kind"]
+    p = pairs[pairs["metric"] == "max_error_nmi"]
+    rows = []
+    for kind, a, b, paper, what in PAPER_CLAIMS:
+        for scen in kinds.index[kinds == kind]:
+            sel = p[(p["scenario"] == scen) & (p["a"] == a) & (p["b"] == b)]
+            for _, r in sel.iterrows():
+                lo, hi = r["decrease ci low"], r["decrease ci high"]
+                rows.append(
+                    {
+                        "plant": r["plant_label"],
+                        "scenario": scen,
+                        "claim": f"{LABELS[a]} → {LABELS[b]}: {paper:.2f} % less max "
+                        f"position error ({what})",
+                        "paper %": paper,
+                        "paper's figure is": "its best run" if what == "up to" else "its mean",
+                        "n units": r["n units"],
+                        "ours: mean decrease %": r["decrease %"],
+                        "ci low": lo,
+                        "ci high": hi,
+                        "ours: best run %": r["best decrease over the runs %"],
+                        "b better: units": r["b better: units"],
+                        "verdict": claim_verdict(paper, what, lo, hi, r),
+                    }
+                )
+    return pd.DataFrame(rows)
+
+
+def claim_verdict(paper: float, what: str, lo: float, hi: float, r: pd.Series) -> str:
+    """The verdict on one claim, in words, from our 95 % interval ``[lo, hi]`` of the mean
+    decrease [%] and the paper's figure (a best run for ``what == "up to"``)."""
+    if not (math.isfinite(lo) and math.isfinite(hi)):
+        return "undecided: too few units for an interval"
+    if hi < 0:
+        return (
+            f"reversed: {LABELS[r['b']]} is worse by {-r['decrease %']:.0f} % "
+            f"(interval {lo:.0f} … {hi:.0f} %, below zero)"
+        )
+    if lo <= 0:
+        return f"not shown: the interval {lo:.0f} … {hi:.0f} % contains zero"
+    base = f"direction holds: {r['decrease %']:.0f} % less on average ({lo:.0f} … {hi:.0f} %)"
+    if what == "up to":
+        best = r["best decrease over the runs %"]
+        return (
+            f"{base}; the paper's {paper:.1f} % is its best run, ours reaches {best:.0f} % "
+            "in a single run"
+        )
+    if lo <= paper <= hi:
+        return f"{base}; the paper's mean {paper:.1f} % lies inside"
+    side = "above" if paper > hi else "below"
+    return f"{base}; the paper's mean {paper:.1f} % lies {side} it"
+
+
+def uncompensated_wins(pairs: pd.DataFrame) -> list[str]:
+    """Sentences for every plant, scenario and method where no compensation has the lower
+    mean maximum position error; marked as resolved when the interval of the difference
+    excludes zero."""
+    p = pairs[(pairs["metric"] == "max_error_nmi") & (pairs["a"] == "none")]
+    out = []
+    for _, r in p.iterrows():
+        if r["mean b"] > r["mean a"]:
+            sure = resolved(r["diff ci low"], r["diff ci high"]) == "a better"
+            out.append(
+                f"{r['plant_label']}, {r['scenario']}: no compensation "
+                f"({r['mean a']:.3f} nmi) beats {LABELS[r['b']]} ({r['mean b']:.3f} nmi)"
+                + (
+                    " — the interval of the difference excludes zero"
+                    if sure
+                    else " — within noise (the interval contains zero)"
+                )
+            )
+    return out
+
+
+def sensitivity_map(pairs: pd.DataFrame, plants: pd.DataFrame) -> pd.DataFrame:
+    """Per plant variant and scenario: the decrease of the mean maximum position error from
+    method 1 to method 2 and to method 3 [%] with its interval, and whether it pays
+    (interval above zero), loses (below) or is not resolved."""
+    p = pairs[(pairs["metric"] == "max_error_nmi") & (pairs["a"] == "sectional")]
+    rows = []
+    for (plant, scen), g in p.groupby(["plant", "scenario"], sort=False):
+        row: dict[str, Any] = {"plant": plant, "scenario": scen}
+        for b, tag in (("regression", "m2"), ("neural", "m3"), ("poly-t", "baseline")):
+            r = g[g["b"] == b]
+            if r.empty:
+                continue
+            r = r.iloc[0]
+            lo, hi = r["decrease ci low"], r["decrease ci high"]
+            row[f"{tag} decrease %"] = r["decrease %"]
+            row[f"{tag} ci low"] = lo
+            row[f"{tag} ci high"] = hi
+            verdict = {"b better": "pays", "a better": "loses"}.get(resolved(lo, hi), "noise")
+            row[f"{tag} verdict"] = verdict
+        rows.append(row)
+    out = pd.DataFrame(rows)
+    if out.empty:
+        return out
+    return plants.merge(out, on="plant", how="right")
+
+
+__all__ = [
+    "CONFIDENCE",
+    "METRICS",
+    "PAIR_ORDER",
+    "PAPER_CLAIMS",
+    "bootstrap_ci",
+    "claim_verdict",
+    "claims_table",
+    "method_summary",
+    "paired_decrease_ci",
+    "paired_differences",
+    "prepare",
+    "resolved",
+    "sensitivity_map",
+    "uncompensated_wins",
+]
