@@ -24,7 +24,6 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Callable, Mapping, Sequence
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -118,7 +117,7 @@ class ReproConfig:
         The plant: a preset name (:data:`rinscal.thermal.plant.PRESETS`) or the path of an
         IMU TOML file; see :func:`load_plant`.
     jobs : int
-        Parallel processes for the navigation runs.
+        Worker processes (a Dask ``LocalCluster``) for the navigation runs.
     """
 
     seed: int = 0
@@ -638,7 +637,8 @@ def navigation_stage(
     done: Callable[[NavRunResult], None] | None = None,
     imu: ImuConfig | None = None,
 ) -> list[NavRunResult]:
-    """Run every navigation job, in parallel processes when ``cfg.jobs > 1``.
+    """Run every navigation job; with ``cfg.jobs > 1`` on a Dask ``LocalCluster`` of that many
+    worker processes (:func:`rinscal.experiments.cluster.dask_client`), in job order.
 
     ``imu`` is the plant (default: :func:`load_plant` of ``cfg.imu``); pass the one the
     calibration stage simulated so that both stages run the same IMU.
@@ -658,16 +658,22 @@ def navigation_stage(
             if done:
                 done(r)
     else:
-        import multiprocessing as mp
+        from distributed import as_completed
 
-        ctx = mp.get_context("spawn")  # no fork of a process that may hold numba threads
-        with ProcessPoolExecutor(max_workers=cfg.jobs, mp_context=ctx) as pool:
-            futures = [pool.submit(run_navigation_job, j, *args) for j in jobs]
-            for fut in futures:
+        from rinscal.experiments.cluster import dask_client
+
+        with dask_client(workers=cfg.jobs) as client:
+            futures = [
+                client.submit(run_navigation_job, j, *args, key=f"nav-{i:03d}", pure=False)
+                for i, j in enumerate(jobs)
+            ]
+            done_by_key = {}
+            for fut in as_completed(futures):
                 r = fut.result()
-                results.append(r)
+                done_by_key[fut.key] = r
                 if done:
                     done(r)
+            results = [done_by_key[f.key] for f in futures]
     return results
 
 

@@ -25,13 +25,11 @@ either the whole file or none.
 from __future__ import annotations
 
 import json
-import logging
 import os
 import resource
 import time
 import traceback
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -40,6 +38,7 @@ import pandas as pd
 
 from rinscal import __version__
 from rinscal.errors import ConfigError, RinscalError
+from rinscal.experiments.cluster import dask_client
 from rinscal.experiments.study import (
     RESULT_COLUMNS,
     CalTask,
@@ -234,37 +233,6 @@ class RunSummary:
     peak_mb: float = float("nan")
 
 
-@contextmanager
-def dask_client(workers: int | None = None, scheduler: str | None = None) -> Iterator[Any]:
-    """A Dask client: on the cluster at ``scheduler`` (``tcp://host:8786``), or on a new
-    :class:`distributed.LocalCluster` of ``workers`` single-threaded worker processes
-    (default: one per core available to this process), closed on exit."""
-    from distributed import Client, LocalCluster
-
-    if scheduler:
-        try:
-            client = Client(scheduler, timeout="30s")
-        except OSError as e:
-            raise ConfigError(f"--scheduler {scheduler}: cannot connect ({e})") from None
-        try:
-            yield client
-        finally:
-            client.close()
-        return
-    n = workers or len(os.sched_getaffinity(0))
-    with (
-        LocalCluster(
-            n_workers=n,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=":0",
-            silence_logs=logging.ERROR,
-        ) as cluster,
-        Client(cluster) as client,
-    ):
-        yield client
-
-
 def _submit_all(
     client: Any,
     spec: StudySpec,
@@ -412,4 +380,4 @@ def run_study(
     return summary
 
 
-__all__ = ["Progress", "RunSummary", "StudyFolderError", "StudyStore", "dask_client", "run_study"]
+__all__ = ["Progress", "RunSummary", "StudyFolderError", "StudyStore", "run_study"]

@@ -46,6 +46,7 @@ from rinscal.experiments.paper import (
     LABELS,
     METHODS,
     NavJob,
+    ReproConfig,
     load_plant,
     run_navigation_job,
     thermal_part_m,
@@ -444,6 +445,59 @@ def load_spec(
     return spec_from_dict(data, source, quick=quick, units_override=units_override, base=base)
 
 
+def reproduction_spec(cfg: ReproConfig, units: int) -> StudySpec:
+    """The navigation part of a reproduction as a study of ``units`` units: the built-in
+    ``paper`` study with the reproduction's plant, seed, sizes (calibration and navigation
+    rates and lengths, lab and vehicle temperatures) and alignment settings."""
+    lab = list(cfg.lab_temps_c)
+    scen = {"align_s": cfg.align_s, "align_start_s": cfg.align_start_s}
+    data = {
+        "study": {
+            "name": "paper",
+            "description": f"rinscal reproduce{' --quick' if cfg.quick else ''} --units "
+            f"{units}: its lab and vehicle navigation runs over {units} units, each "
+            "calibrated on its own soak runs.",
+            "seed": cfg.seed,
+            "units": units,
+            "coefficient_spread": load_spec("paper").coefficient_spread,
+            "methods": list(STUDY_VARIANTS),
+        },
+        "calibration": {
+            "hours": cfg.soak_hours,
+            "rate_hz": cfg.cal_rate_hz,
+            "neural_max_samples": cfg.neural_max_samples,
+        },
+        "plants": [{"imu": cfg.imu}],
+        "scenarios": [
+            {
+                "name": "lab quasi-static",
+                "kind": "quasi-static",
+                "hours": cfg.qs_hours,
+                "rate_hz": cfg.nav_rate_hz,
+                "ambient_c": lab,
+                **scen,
+            },
+            {
+                "name": "lab swing",
+                "kind": "swing",
+                "hours": cfg.swing_hours,
+                "rate_hz": cfg.swing_rate_hz,
+                "ambient_c": lab,
+                **scen,
+            },
+            {
+                "name": "vehicle",
+                "kind": "vehicle",
+                "hours": cfg.vehicle_hours,
+                "rate_hz": cfg.nav_rate_hz,
+                "ambient_c": list(cfg.vehicle_ambient_c),
+                **scen,
+            },
+        ],
+    }
+    return spec_from_dict(data, "rinscal reproduce --units", base=Path.cwd())
+
+
 # --------------------------------------------------------------------------- tasks
 @dataclass(frozen=True)
 class CalTask:
@@ -699,6 +753,7 @@ __all__ = [
     "navigate_unit",
     "plant_config",
     "plant_table",
+    "reproduction_spec",
     "spec_from_dict",
     "study_tasks",
     "sweep_columns",

@@ -24,6 +24,9 @@ from rinscal.experiments.paper import LABELS, PAPER
 
 #: Confidence level of every interval.
 CONFIDENCE = 0.95
+#: Fewest values (units) an interval is given for: below it, a bootstrap interval says
+#: nothing (NaN, and the verdicts say "too few units").
+MIN_SAMPLES = 5
 #: Bootstrap resamples per interval.
 N_RESAMPLES = 4999
 #: The metrics summarised, with their unit: per run maximum horizontal position error,
@@ -45,11 +48,11 @@ def bootstrap_ci(
     seed: int = 0,
 ) -> tuple[float, float]:
     """BCa bootstrap interval of ``statistic`` (vectorised, with an ``axis`` keyword) of the
-    finite values of ``x``. NaN for fewer than 2 values; the value itself when all values
-    are equal (no spread to resample)."""
+    finite values of ``x``. NaN for fewer than :data:`MIN_SAMPLES` values; the value itself
+    when all values are equal (no spread to resample)."""
     v = np.asarray(x, dtype=float)
     v = v[np.isfinite(v)]
-    if v.size < 2:
+    if v.size < MIN_SAMPLES:
         return (math.nan, math.nan)
     if np.ptp(v) == 0.0:
         s = float(statistic(v, axis=-1))
@@ -93,7 +96,7 @@ def paired_decrease_ci(
     the pairs ``(a_i, b_i)`` together (BCa, falling back to percentile)."""
     ok = np.isfinite(a) & np.isfinite(b)
     a, b = np.asarray(a, float)[ok], np.asarray(b, float)[ok]
-    if a.size < 2:
+    if a.size < MIN_SAMPLES:
         return (math.nan, math.nan)
     if np.ptp(a - b) == 0.0 and np.ptp(a) == 0.0:
         d = float(_decrease(a, b))
@@ -305,7 +308,7 @@ def claim_verdict(paper: float, what: str, lo: float, hi: float, r: pd.Series) -
     """The verdict on one claim, in words, from our 95 % interval ``[lo, hi]`` of the mean
     decrease [%] and the paper's figure (a best run for ``what == "up to"``)."""
     if not (math.isfinite(lo) and math.isfinite(hi)):
-        return "undecided: too few units for an interval"
+        return f"undecided: an interval needs at least {MIN_SAMPLES} units"
     if hi < 0:
         return (
             f"reversed: {LABELS[r['b']]} is worse by {-r['decrease %']:.0f} % "
@@ -376,6 +379,7 @@ def sensitivity_map(pairs: pd.DataFrame, plants: pd.DataFrame) -> pd.DataFrame:
 __all__ = [
     "CONFIDENCE",
     "METRICS",
+    "MIN_SAMPLES",
     "PAIR_ORDER",
     "PAPER_CLAIMS",
     "bootstrap_ci",

@@ -307,11 +307,14 @@ def build_report(
     figures: Mapping[str, bytes],
     timings: Mapping[str, float],
     plant: Mapping[str, Any] | None = None,
+    study: Any = None,
 ) -> Report:
     """Assemble the report: every table and figure, the paper's numbers beside ours.
 
     ``plant`` is :func:`rinscal.experiments.paper.plant_info` of the IMU that ran (default:
-    from ``cfg.imu`` and ``cal.imu``).
+    from ``cfg.imu`` and ``cal.imu``). ``study`` is the
+    :class:`rinscal.report.study_report.StudyTables` of ``--units N`` (its report is in
+    ``study/report.html``).
     """
     from rinscal.experiments.paper import load_plant, plant_info
 
@@ -385,6 +388,21 @@ def build_report(
         tables["selection_vs_paper"],
         "Tables 5 and 7: training RMS, the paper's beside ours (units differ)",
     )
+
+    if study is not None and not study.claims.empty:
+        from rinscal.report.study_report import claims_view
+
+        n = int(study.results["unit"].nunique())
+        s = rep.section(f"Over {n} units: the claims with their intervals", "study")
+        s.text(
+            f"The navigation runs above come from one unit. Run as a study over {n} units "
+            "(each calibrated on its own soak runs, thermal coefficients scattered from unit "
+            "to unit), the mean decrease of the maximum position error comes with a 95 % "
+            "bootstrap interval over units, and a verdict. Every figure, the paired "
+            "differences and the distributions are in study/report.html beside this page."
+        )
+        s.table("study_claims", claims_view(study.claims), "The paper's claims over the units")
+        s.raw('<p><a href="study/report.html">The study\'s report</a></p>')
 
     s = rep.section("Calibration data (Table 3, Figure 3)", "calibration-data")
     s.text(
@@ -793,6 +811,7 @@ def write_reproduction(
     nav: Sequence[NavRunResult],
     timings: Mapping[str, float],
     plant: Mapping[str, Any] | None = None,
+    study: Any = None,
 ) -> Written:
     """Write report.html, figures/*.png, tables/*.csv, models/*.json and metrics.json.
 
@@ -817,7 +836,7 @@ def write_reproduction(
         write_atomic(out / "tables" / f"{name}.csv", lambda tmp, df=df: df.to_csv(tmp, index=False))
     for m, model in cal.models.items():
         model.save(out / "models" / f"{m}.json")
-    rep = build_report(cfg, cal, nav, tables, checked, figures, timings, plant=plant)
+    rep = build_report(cfg, cal, nav, tables, checked, figures, timings, plant=plant, study=study)
     page = rep.to_html()
     write_atomic(out / "report.html", lambda tmp: tmp.write_text(page, encoding="utf-8"))
     metrics = {

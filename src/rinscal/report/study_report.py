@@ -187,7 +187,8 @@ def _forest_figure(pairs: pd.DataFrame, plant: int) -> bytes:
             r = r.iloc[0]
             lo, hi, m = r["decrease ci low"], r["decrease ci high"], r["decrease %"]
             color = "#1a7f37" if lo > 0 else "#cf222e" if hi < 0 else "#6e7781"
-            ax.errorbar(m, i, xerr=[[m - lo], [hi - m]], fmt="o", color=color, capsize=3)
+            err = [[max(0.0, m - lo)], [max(0.0, hi - m)]] if np.isfinite([lo, hi]).all() else None
+            ax.errorbar(m, i, xerr=err, fmt="o", color=color, capsize=3)
         ax.axvline(0, color="k", lw=0.8)
         ax.set_yticks(range(len(_FOREST)), labels, fontsize=8)
         ax.invert_yaxis()
@@ -296,6 +297,29 @@ def _pairs_view(pairs: pd.DataFrame) -> pd.DataFrame:
     )
 
 
+def claims_view(claims: pd.DataFrame) -> pd.DataFrame:
+    """The claims table as shown: our mean decrease with its interval in one column."""
+    view = claims.copy()
+    view["ours: mean [CI] %"] = [
+        _fmt_ci(m, lo, hi, 1)
+        for m, lo, hi in zip(
+            view["ours: mean decrease %"], view["ci low"], view["ci high"], strict=True
+        )
+    ]
+    cols = [
+        "plant",
+        "scenario",
+        "claim",
+        "paper %",
+        "paper's figure is",
+        "ours: mean [CI] %",
+        "ours: best run %",
+        "b better: units",
+        "verdict",
+    ]
+    return view[cols]
+
+
 def build_report(spec: StudySpec, t: StudyTables, run: RunSummary | None) -> Report:
     """The HTML report of a study from its tables."""
     rep = Report(
@@ -343,28 +367,9 @@ def build_report(spec: StudySpec, t: StudyTables, run: RunSummary | None) -> Rep
             "error, its interval and a verdict. The paper's lab figures are its best run "
             "('up to'); our mean is the figure to adopt a method on."
         )
-        view = t.claims.copy()
-        view["ours: mean [CI] %"] = [
-            _fmt_ci(m, lo, hi, 1)
-            for m, lo, hi in zip(
-                view["ours: mean decrease %"], view["ci low"], view["ci high"], strict=True
-            )
-        ]
         c.table(
             "claims",
-            view[
-                [
-                    "plant",
-                    "scenario",
-                    "claim",
-                    "paper %",
-                    "paper's figure is",
-                    "ours: mean [CI] %",
-                    "ours: best run %",
-                    "b better: units",
-                    "verdict",
-                ]
-            ],
+            claims_view(t.claims),
             "The paper's claims with our interval and verdict",
             "{:.3g}",
         )
