@@ -111,7 +111,7 @@ def test_runs_unchanged_on_an_existing_cluster(
 
     out = tmp_path / "study"
     with LocalCluster(
-        n_workers=1, threads_per_worker=1, processes=False, dashboard_address=":0"
+        n_workers=1, threads_per_worker=1, processes=False, protocol="tcp", dashboard_address=":0"
     ) as cluster:
         address = cluster.scheduler_address
         r = subprocess.run(

@@ -193,3 +193,12 @@ def test_seeds_are_stable_and_independent_of_the_task_list() -> None:
     assert len(tasks) == 4 and all(len(n) == 2 for _, n in tasks)
     keys = [t.key for cal, navs in tasks for t in (cal, *navs)]
     assert len(set(keys)) == len(keys)
+
+
+def test_imu_override_replaces_every_plant_and_keeps_the_sweep() -> None:
+    sens = load_spec("sensitivity", imu_override="paper")
+    assert {p.imu for p in sens.plants} == {"paper"}
+    assert len(sens.plants) == 8
+    assert sens.fingerprint() != load_spec("sensitivity").fingerprint()
+    with pytest.raises(ConfigError, match="--imu = 'nope' is neither a preset"):
+        load_spec("paper", imu_override="nope")

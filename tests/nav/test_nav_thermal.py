@@ -101,3 +101,23 @@ def test_model_without_static_reference_is_refused(cold_start, regression_model)
     )
     with pytest.raises(ModelFileError, match="static_reference"):
         ModelCompensator(bare, _plant(cold_start))
+
+
+def test_every_compensator_reads_the_same_thermometers(cold_start, regression_model) -> None:  # type: ignore[no-untyped-def]
+    """The navigation computer reads its thermometers once: a model's compensation (and so a
+    variant's navigation) must not depend on which other models were set up before it, or
+    comparisons between methods are not paired."""
+    plant = _plant(cold_start)
+    first = model_compensator(str(regression_model), plant)
+    for _ in range(3):
+        model_compensator(str(regression_model), plant)
+    again = model_compensator(str(regression_model), plant)
+    np.testing.assert_array_equal(first.bias, again.bias)
+    grid = np.arange(0.0, 600.0, 1.0)
+    a, b = plant.measured_temperatures(grid)[0], plant.measured_temperatures(grid)[0]
+    np.testing.assert_array_equal(a, b)
+    # still noisy readings: not the true temperature, and another seed reads differently
+    true = plant.field.at(grid).sensor
+    assert 0 < np.std(a - true) < 0.1
+    other = _plant(cold_start, seed=3).measured_temperatures(grid)[0]
+    assert not np.array_equal(a, other)

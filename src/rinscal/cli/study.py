@@ -37,6 +37,14 @@ def study(
             "--scheduler", help="Run on an existing Dask cluster: its address, tcp://host:8786."
         ),
     ] = None,
+    imu: Annotated[
+        str | None,
+        typer.Option(
+            "--imu",
+            help="Replace every plant's IMU with this preset (paper, navigation_grade) or IMU "
+            "TOML file; sweeps are kept.",
+        ),
+    ] = None,
     retry_failed: Annotated[
         bool, typer.Option("--retry-failed", help="Run again the tasks that failed earlier.")
     ] = False,
@@ -69,7 +77,7 @@ def study(
     if workers is not None and scheduler:
         raise fail("--workers and --scheduler exclude each other (the cluster has its own)")
     try:
-        s = load_spec(spec, quick=quick, units_override=units)
+        s = load_spec(spec, quick=quick, units_override=units, imu_override=imu)
     except RinscalError as exc:
         raise fail(str(exc)) from None
     n_tasks = sum(1 + len(n) for _, n in study_tasks(s))

@@ -35,6 +35,7 @@ from pathlib import Path
 from typing import Any
 
 import pandas as pd
+from threadpoolctl import threadpool_limits
 
 from rinscal import __version__
 from rinscal.errors import ConfigError, RinscalError
@@ -183,14 +184,19 @@ def _peak_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
+# Tasks run with one BLAS/OpenMP thread whatever the worker's environment: results must not
+# depend on the deployment (a multithreaded BLAS sums in another order), and a worker process
+# is one core's worth of work.
 def _cal_task(spec: StudySpec, plant: Any, task: CalTask) -> dict[str, Any]:
-    out = calibrate_unit(spec, plant, task)
+    with threadpool_limits(limits=1):
+        out = calibrate_unit(spec, plant, task)
     out["peak_mb"] = _peak_mb()
     return out
 
 
 def _nav_task(spec: StudySpec, plant: Any, task: NavTask, cal: dict[str, Any]) -> pd.DataFrame:
-    df = navigate_unit(spec, plant, task, cal)
+    with threadpool_limits(limits=1):
+        df = navigate_unit(spec, plant, task, cal)
     df["peak_mb"] = _peak_mb()
     return df
 

@@ -257,6 +257,7 @@ def spec_from_dict(
     *,
     quick: bool = False,
     units_override: int | None = None,
+    imu_override: str | None = None,
     base: Path | None = None,
 ) -> StudySpec:
     """Validate a study spec in its TOML layout and expand its sweeps.
@@ -272,6 +273,8 @@ def spec_from_dict(
         Apply the ``[quick]`` sizes (an error if the spec has none).
     units_override : int, optional
         Number of units instead of ``study.units``.
+    imu_override : str, optional
+        An IMU (preset or TOML file) that replaces every plant's ``imu``, sweeps kept.
     base : Path, optional
         Folder that relative IMU file paths are relative to (the spec file's).
 
@@ -329,7 +332,11 @@ def spec_from_dict(
         p = _keys(where, p, _PLANT, source)
         if "imu" not in p:
             raise ConfigError(f"{source}: {where}.imu is missing")
-        imu = _resolve_imu(p["imu"], f"{where}.imu", source, base)
+        imu = (
+            _resolve_imu(imu_override, "--imu", source, Path.cwd())
+            if imu_override is not None
+            else _resolve_imu(p["imu"], f"{where}.imu", source, base)
+        )
         sweep = _keys(f"{where}.sweep", p.get("sweep", {}), set(SWEEP_PARAMETERS), source)
         axes = []
         for k, vals in sweep.items():
@@ -413,7 +420,11 @@ def _celsius(where: str, v: Any, source: str) -> float:
 
 
 def load_spec(
-    spec: str | Path, *, quick: bool = False, units_override: int | None = None
+    spec: str | Path,
+    *,
+    quick: bool = False,
+    units_override: int | None = None,
+    imu_override: str | None = None,
 ) -> StudySpec:
     """A study from a built-in name (:data:`BUILTIN_STUDIES`) or a TOML file.
 
@@ -442,7 +453,14 @@ def load_spec(
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise ConfigError(f"{source}: not valid TOML ({e})") from None
-    return spec_from_dict(data, source, quick=quick, units_override=units_override, base=base)
+    return spec_from_dict(
+        data,
+        source,
+        quick=quick,
+        units_override=units_override,
+        imu_override=imu_override,
+        base=base,
+    )
 
 
 def reproduction_spec(cfg: ReproConfig, units: int) -> StudySpec:

@@ -19,6 +19,7 @@ included, is computed for the whole run up front).
 
 from __future__ import annotations
 
+import zlib
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
@@ -126,7 +127,9 @@ class ThermalPlant:
         self.offsets = turn_on_offsets(config, rng_on) if turn_on else np.zeros(6)
         self.noise = SensorNoise(config, rng_noise, self.dt) if noise else None
         self.thermal = thermal
-        self._rng_thermo = rng_thermo
+        # the thermometers' noise is a function of the reading times (see
+        # measured_temperatures), keyed by this draw
+        self._thermo_key = int(rng_thermo.integers(2**63))
         # the bias and the temperatures on the field's 1 s grid, interpolated per chunk in
         # one pass (they vary on thermal time scales of minutes, the hot side on the
         # turntable's of a minute)
@@ -257,10 +260,19 @@ class ThermalPlant:
         return self.thermal_errors(t, omega_r, f_r)
 
     def measured_temperatures(self, t: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
-        """Thermometer readings at ``t``: inner (n, 6) and outer (n,) [°C]."""
-        f = self.field.at(np.asarray(t, dtype=float))
+        """Thermometer readings at ``t``: inner (n, 6) and outer (n,) [°C].
+
+        The navigation computer reads its thermometers once: every caller asking for the
+        same times gets the same readings (the noise is drawn from a stream keyed by the
+        plant's seed and the times), so each compensator of a run sees the same
+        thermometers whatever other compensators run beside it.
+        """
+        tt = np.ascontiguousarray(t, dtype=float)
+        f = self.field.at(tt)
         th = self.config.thermometer
-        return measure(f.sensor, th, self._rng_thermo), measure(f.outer, th, self._rng_thermo)
+        key = zlib.crc32(tt.tobytes())
+        rng = np.random.default_rng(np.random.SeedSequence(self._thermo_key, spawn_key=(key,)))
+        return measure(f.sensor, th, rng), measure(f.outer, th, rng)
 
 
 def temperature_frame(plant: ThermalPlant, step_s: float = 10.0) -> pd.DataFrame:
