@@ -231,6 +231,14 @@ def _count(where: str, v: Any, source: str, minimum: int = 1) -> int:
     return int(v)
 
 
+def _array_of_tables(data: Mapping[str, Any], key: str, source: str) -> list[Any]:
+    """``data[key]``, which must be a non-empty TOML array of tables (``[[key]]``)."""
+    v = data[key]
+    if not isinstance(v, list) or not v:
+        raise ConfigError(f"{source}: [[{key}]] must list at least one {key[:-1]}")
+    return v
+
+
 def _list(v: Any) -> list[Any]:
     return list(v) if isinstance(v, list | tuple) else [v]
 
@@ -323,9 +331,7 @@ def spec_from_dict(
             "calibration.neural_max_samples", cal_d.get("neural_max_samples", 20000), source, 100
         ),
     )
-    plants_d = data["plants"]
-    if not isinstance(plants_d, list) or not plants_d:
-        raise ConfigError(f"{source}: [[plants]] must list at least one plant")
+    plants_d = _array_of_tables(data, "plants", source)
     plants: list[PlantVariant] = []
     for i, p in enumerate(plants_d):
         where = f"plants[{i}]"
@@ -351,9 +357,7 @@ def spec_from_dict(
     if len({(p.imu, p.params) for p in plants}) != len(plants):
         raise ConfigError(f"{source}: [[plants]] names the same plant variant twice")
     quick_scen = _keys("[quick.scenarios]", qk.get("scenarios", {}), set(SCENARIO_KINDS), source)
-    scen_d = data["scenarios"]
-    if not isinstance(scen_d, list) or not scen_d:
-        raise ConfigError(f"{source}: [[scenarios]] must list at least one scenario")
+    scen_d = _array_of_tables(data, "scenarios", source)
     scenarios: list[ScenarioSpec] = []
     for i, s in enumerate(scen_d):
         where = f"scenarios[{i}]"

@@ -40,6 +40,35 @@ METRICS = {
 PAIR_ORDER = ("none", "poly-t", "sectional", "regression", "neural")
 
 
+def _interval(
+    data: tuple[np.ndarray, ...],
+    statistic: Callable[..., Any],
+    confidence: float,
+    n_resamples: int,
+    seed: int,
+    paired: bool,
+) -> tuple[float, float]:
+    """:func:`scipy.stats.bootstrap` interval, BCa, or percentile where BCa is undefined."""
+    out = (math.nan, math.nan)
+    for method in ("BCa", "percentile"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            r = stats.bootstrap(
+                data,
+                statistic,
+                paired=paired,
+                vectorized=True,
+                confidence_level=confidence,
+                n_resamples=n_resamples,
+                method=method,
+                rng=np.random.default_rng(seed),
+            )
+        out = (float(r.confidence_interval.low), float(r.confidence_interval.high))
+        if all(map(math.isfinite, out)):
+            break
+    return out
+
+
 def bootstrap_ci(
     x: Sequence[float] | np.ndarray,
     statistic: Callable[..., Any] = np.mean,
@@ -57,30 +86,7 @@ def bootstrap_ci(
     if np.ptp(v) == 0.0:
         s = float(statistic(v, axis=-1))
         return (s, s)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        r = stats.bootstrap(
-            (v,),
-            statistic,
-            confidence_level=confidence,
-            n_resamples=n_resamples,
-            method="BCa",
-            rng=np.random.default_rng(seed),
-        )
-    lo, hi = float(r.confidence_interval.low), float(r.confidence_interval.high)
-    if not (math.isfinite(lo) and math.isfinite(hi)):  # BCa undefined: fall back
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            r = stats.bootstrap(
-                (v,),
-                statistic,
-                confidence_level=confidence,
-                n_resamples=n_resamples,
-                method="percentile",
-                rng=np.random.default_rng(seed),
-            )
-        lo, hi = float(r.confidence_interval.low), float(r.confidence_interval.high)
-    return (lo, hi)
+    return _interval((v,), statistic, confidence, n_resamples, seed, paired=False)
 
 
 def _decrease(a: np.ndarray, b: np.ndarray, axis: int = -1) -> np.ndarray:
@@ -101,24 +107,7 @@ def paired_decrease_ci(
     if np.ptp(a - b) == 0.0 and np.ptp(a) == 0.0:
         d = float(_decrease(a, b))
         return (d, d)
-    out = (math.nan, math.nan)
-    for method in ("BCa", "percentile"):
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            r = stats.bootstrap(
-                (a, b),
-                _decrease,
-                paired=True,
-                vectorized=True,
-                confidence_level=confidence,
-                n_resamples=N_RESAMPLES,
-                method=method,
-                rng=np.random.default_rng(seed),
-            )
-        out = (float(r.confidence_interval.low), float(r.confidence_interval.high))
-        if all(map(math.isfinite, out)):
-            break
-    return out
+    return _interval((a, b), _decrease, confidence, N_RESAMPLES, seed, paired=True)
 
 
 def prepare(results: pd.DataFrame) -> pd.DataFrame:
@@ -310,9 +299,11 @@ def claim_verdict(paper: float, what: str, lo: float, hi: float, r: pd.Series) -
     if not (math.isfinite(lo) and math.isfinite(hi)):
         return f"undecided: an interval needs at least {MIN_SAMPLES} units"
     if hi < 0:
+        worse = f"{LABELS[r['b']]} is worse"
+        if "mean a" in r and r["mean a"] > 0:
+            worse += f": its mean error is {r['mean b'] / r['mean a']:.1f}× {LABELS[r['a']]}'s"
         return (
-            f"reversed: {LABELS[r['b']]} is worse by {-r['decrease %']:.0f} % "
-            f"(interval {lo:.0f} … {hi:.0f} %, below zero)"
+            f"reversed: {worse} (decrease {r['decrease %']:.0f} %, interval {lo:.0f} … {hi:.0f} %)"
         )
     if lo <= 0:
         return f"not shown: the interval {lo:.0f} … {hi:.0f} % contains zero"
