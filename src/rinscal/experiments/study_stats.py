@@ -349,7 +349,7 @@ def sensitivity_map(pairs: pd.DataFrame, plants: pd.DataFrame) -> pd.DataFrame:
     rows = []
     for (plant, scen), g in p.groupby(["plant", "scenario"], sort=False):
         row: dict[str, Any] = {"plant": plant, "scenario": scen}
-        for b, tag in (("regression", "m2"), ("neural", "m3"), ("poly-t", "baseline")):
+        for b, tag in (("regression", "m2"), ("neural", "m3")):
             r = g[g["b"] == b]
             if r.empty:
                 continue
