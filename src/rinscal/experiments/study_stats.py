@@ -13,7 +13,7 @@ from __future__ import annotations
 import itertools
 import math
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
 import numpy as np
@@ -144,42 +144,49 @@ def _variants(columns: Sequence[str]) -> list[str]:
     return [v for v in order if v in columns]
 
 
-def method_summary(results: pd.DataFrame) -> pd.DataFrame:
-    """Per plant, scenario, variant and metric (:data:`METRICS`): units, runs, mean with its
-    95 % bootstrap interval over units, median, standard deviation, min and max over runs."""
+def _groups(results: pd.DataFrame) -> Iterator[tuple[Any, ...]]:
+    """Per metric (:data:`METRICS`) and plant/scenario group: ``(metric, unit, (plant,
+    plant_label, scenario), per-unit table, per-run table)``, the tables with one column
+    per variant (:func:`_unit_table`, :func:`_run_table`)."""
     df = prepare(results)
-    rows = []
     for metric, unit in METRICS.items():
         per_unit = _unit_table(df, metric)
         per_run = _run_table(df, metric)
-        for (plant, label, scen), g in per_unit.groupby(level=[0, 1, 2], sort=False):
-            runs = per_run.xs((plant, label, scen), level=[0, 1, 2])
-            for v in _variants(g.columns):
-                if metric == "thermal_part_nmi" and v == "true":
-                    continue  # zero by construction
-                u = g[v].to_numpy(dtype=float)
-                r = runs[v].to_numpy(dtype=float)
-                lo, hi = bootstrap_ci(u)
-                rows.append(
-                    {
-                        "plant": plant,
-                        "plant_label": label,
-                        "scenario": scen,
-                        "variant": v,
-                        "method": LABELS[v],
-                        "metric": metric,
-                        "unit": unit,
-                        "n units": int(np.isfinite(u).sum()),
-                        "n runs": int(np.isfinite(r).sum()),
-                        "mean": float(np.nanmean(u)),
-                        "ci low": lo,
-                        "ci high": hi,
-                        "median": float(np.nanmedian(r)),
-                        "sd": float(np.nanstd(r, ddof=1)) if r.size > 1 else math.nan,
-                        "min": float(np.nanmin(r)),
-                        "max": float(np.nanmax(r)),
-                    }
-                )
+        for key, g in per_unit.groupby(level=[0, 1, 2], sort=False):
+            yield metric, unit, key, g, per_run.xs(key, level=[0, 1, 2])
+
+
+def method_summary(results: pd.DataFrame) -> pd.DataFrame:
+    """Per plant, scenario, variant and metric (:data:`METRICS`): units, runs, mean with its
+    95 % bootstrap interval over units, median, standard deviation, min and max over runs."""
+    rows = []
+    for metric, unit, (plant, label, scen), g, runs in _groups(results):
+        for v in _variants(g.columns):
+            if metric == "thermal_part_nmi" and v == "true":
+                continue  # zero by construction
+            u = g[v].to_numpy(dtype=float)
+            r = runs[v].to_numpy(dtype=float)
+            lo, hi = bootstrap_ci(u)
+            rows.append(
+                {
+                    "plant": plant,
+                    "plant_label": label,
+                    "scenario": scen,
+                    "variant": v,
+                    "method": LABELS[v],
+                    "metric": metric,
+                    "unit": unit,
+                    "n units": int(np.isfinite(u).sum()),
+                    "n runs": int(np.isfinite(r).sum()),
+                    "mean": float(np.nanmean(u)),
+                    "ci low": lo,
+                    "ci high": hi,
+                    "median": float(np.nanmedian(r)),
+                    "sd": float(np.nanstd(r, ddof=1)) if r.size > 1 else math.nan,
+                    "min": float(np.nanmin(r)),
+                    "max": float(np.nanmax(r)),
+                }
+            )
     return pd.DataFrame(rows)
 
 
@@ -193,47 +200,42 @@ def paired_differences(results: pd.DataFrame) -> pd.DataFrame:
     ``b better: runs`` (fraction of runs), ``best decrease over the runs %`` (the paper's
     "up to": the largest single-run decrease; a maximum, not an estimate).
     """
-    df = prepare(results)
     rows = []
-    for metric, unit in METRICS.items():
-        per_unit = _unit_table(df, metric)
-        per_run = _run_table(df, metric)
-        for (plant, label, scen), g in per_unit.groupby(level=[0, 1, 2], sort=False):
-            runs = per_run.xs((plant, label, scen), level=[0, 1, 2])
-            for a, b in itertools.combinations(_variants(g.columns), 2):
-                if "true" in (a, b):
-                    continue
-                ua, ub = g[a].to_numpy(float), g[b].to_numpy(float)
-                ra, rb = runs[a].to_numpy(float), runs[b].to_numpy(float)
-                dlo, dhi = bootstrap_ci(ua - ub)
-                plo, phi = paired_decrease_ci(ua, ub)
-                with np.errstate(divide="ignore", invalid="ignore"):
-                    per_run_dec = 100.0 * (ra - rb) / ra
-                rows.append(
-                    {
-                        "plant": plant,
-                        "plant_label": label,
-                        "scenario": scen,
-                        "metric": metric,
-                        "unit": unit,
-                        "a": a,
-                        "b": b,
-                        "comparison": f"{LABELS[a]} → {LABELS[b]}",
-                        "n units": len(ua),
-                        "n runs": len(ra),
-                        "mean a": float(np.nanmean(ua)),
-                        "mean b": float(np.nanmean(ub)),
-                        "difference": float(np.nanmean(ua - ub)),
-                        "diff ci low": dlo,
-                        "diff ci high": dhi,
-                        "decrease %": float(_decrease(ua, ub)),
-                        "decrease ci low": plo,
-                        "decrease ci high": phi,
-                        "b better: units": float(np.mean(ub < ua)),
-                        "b better: runs": float(np.mean(rb < ra)),
-                        "best decrease over the runs %": float(np.nanmax(per_run_dec)),
-                    }
-                )
+    for metric, unit, (plant, label, scen), g, runs in _groups(results):
+        for a, b in itertools.combinations(_variants(g.columns), 2):
+            if "true" in (a, b):
+                continue
+            ua, ub = g[a].to_numpy(float), g[b].to_numpy(float)
+            ra, rb = runs[a].to_numpy(float), runs[b].to_numpy(float)
+            dlo, dhi = bootstrap_ci(ua - ub)
+            plo, phi = paired_decrease_ci(ua, ub)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                per_run_dec = 100.0 * (ra - rb) / ra
+            rows.append(
+                {
+                    "plant": plant,
+                    "plant_label": label,
+                    "scenario": scen,
+                    "metric": metric,
+                    "unit": unit,
+                    "a": a,
+                    "b": b,
+                    "comparison": f"{LABELS[a]} → {LABELS[b]}",
+                    "n units": len(ua),
+                    "n runs": len(ra),
+                    "mean a": float(np.nanmean(ua)),
+                    "mean b": float(np.nanmean(ub)),
+                    "difference": float(np.nanmean(ua - ub)),
+                    "diff ci low": dlo,
+                    "diff ci high": dhi,
+                    "decrease %": float(_decrease(ua, ub)),
+                    "decrease ci low": plo,
+                    "decrease ci high": phi,
+                    "b better: units": float(np.mean(ub < ua)),
+                    "b better: runs": float(np.mean(rb < ra)),
+                    "best decrease over the runs %": float(np.nanmax(per_run_dec)),
+                }
+            )
     return pd.DataFrame(rows)
 
 
