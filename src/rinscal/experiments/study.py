@@ -440,7 +440,12 @@ def load_spec(
     """
     s = str(spec)
     if s in BUILTIN_STUDIES:
-        text = resources.files("rinscal").joinpath("data", "studies", f"{s}.toml").read_text()
+        try:
+            text = resources.files("rinscal").joinpath("data", "studies", f"{s}.toml").read_text()
+        except OSError as e:
+            raise ConfigError(
+                f"built-in study {s!r}: its file is missing from this installation ({e})"
+            ) from None
         source, base = f"built-in study {s!r}", None
     else:
         p = Path(s)
