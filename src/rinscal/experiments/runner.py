@@ -216,7 +216,6 @@ class Progress:
     done: int = 0
     failed: int = 0
     skipped: int = 0  # finished in an earlier run of the same study
-    last: str = ""
 
     @property
     def remaining(self) -> int:
@@ -306,7 +305,6 @@ def _submit_all(
             store.write_failure(task.key, msg, "".join(traceback.format_tb(fut.traceback())))
             summary.failed += 1
             prog.failed += 1
-        prog.last = task.key
         fut.release()
         if on_progress:
             on_progress(prog)

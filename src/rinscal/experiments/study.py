@@ -43,7 +43,6 @@ import pandas as pd
 from rinscal import units
 from rinscal.errors import ConfigError
 from rinscal.experiments.paper import (
-    LABELS,
     METHODS,
     NavJob,
     ReproConfig,
@@ -765,7 +764,6 @@ def plant_table(spec: StudySpec) -> pd.DataFrame:
 
 __all__ = [
     "BUILTIN_STUDIES",
-    "LABELS",
     "RESULT_COLUMNS",
     "STUDY_VARIANTS",
     "SWEEP_PARAMETERS",

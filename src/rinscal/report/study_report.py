@@ -8,6 +8,7 @@ folder at any time, and a resumed study's report covers every task that ever fin
 
 from __future__ import annotations
 
+import html
 import json
 import math
 from dataclasses import dataclass, field
@@ -375,7 +376,7 @@ def build_report(spec: StudySpec, t: StudyTables, run: RunSummary | None) -> Rep
         )
     if t.uncompensated:
         u = rep.section("Where no compensation wins", "uncompensated")
-        u.raw("<ul>" + "".join(f"<li>{_esc(x)}</li>" for x in t.uncompensated) + "</ul>")
+        u.raw("<ul>" + "".join(f"<li>{html.escape(x)}</li>" for x in t.uncompensated) + "</ul>")
     d = rep.section("Distributions per method", "distributions")
     plants = list(dict.fromkeys(t.results["plant"]))
     shown = plants if len(plants) <= 2 else plants[:1]
@@ -441,12 +442,6 @@ def build_report(spec: StudySpec, t: StudyTables, run: RunSummary | None) -> Rep
         )
         f.table("failures", t.failures, "Tasks that raised and their errors")
     return rep
-
-
-def _esc(text: str) -> str:
-    import html
-
-    return html.escape(text)
 
 
 def write_study_report(
