@@ -1,16 +1,32 @@
 """Export thermal models for flight software: PX4 ``.params``, ArduPilot ``.parm``, C headers.
 
-PX4 (``src/lib/temperature_compensation``; parameters ``TC_G*``/``TC_A*``)
-    ``offset = X0 + X1·d + X2·d² + X3·d³`` with ``d = clamp(T, TMIN, TMAX) − TREF``, and the
-    corrected value is ``raw − offset``, in SI (rad/s, m/s²). Written here per axis
+Flight-software exports (PX4, ArduPilot) take a cubic in temperature: every channel of the
+exported sensors must be a ``poly-t`` (degree ≤ 3), ``px4`` or ``ardupilot`` model (a file
+whose top-level method is ``auto`` may mix them per channel); any other method is refused
+with the channel named (use the C header). The clamp range is the training range of a
+``poly-t`` channel and the model's own ``t_min``/``t_max`` for ``px4``/``ardupilot``
+channels, intersected over the three axes and **rounded inwards** at the written precision
+(0.01 °C: ``TMIN`` up, ``TMAX`` down), so the firmware never evaluates the cubic outside
+the range it was fitted on.
+
+PX4 (``src/modules/temperature_compensation``; parameters ``TC_G*``/``TC_A*``)
+    ``offset = X0 + X1·d + X2·d² + X3·d³`` with ``d = clamp(T, TMIN, TMAX) − TREF`` [°C], and
+    the corrected value is ``raw − offset``, in SI (rad/s, m/s²). Written here per axis
     ``_0.._2`` (x, y, z): ``TC_G0_X3_0 .. TC_G0_X0_2``, ``TC_G0_TREF``, ``TC_G0_TMIN``,
     ``TC_G0_TMAX`` (and ``TC_A0_*``), ``TC_G_ENABLE``/``TC_A_ENABLE`` = 1, ``TC_G0_ID``/
-    ``TC_A0_ID`` = the device id you pass (PX4 matches the parameters to the sensor by it).
+    ``TC_A0_ID``. PX4 applies the set only to the sensor whose ``device_id`` equals the ``ID``
+    parameter (``set_sensor_id``: ``device_id == (uint32_t)ID``), so an id of 0 means the
+    file is never applied: the ids are required (``gyro_id``/``accel_id``, else the model's
+    ``source["device_ids"]``, e.g. ``{"gyro": 2293768, "accel": 2294024}``) and the export
+    is refused without them. An id is the ``device_id`` of ``sensor_gyro``/``sensor_accel``
+    in a ULog (uint32) or the ``CAL_GYRO0_ID``/``CAL_ACC0_ID`` parameter (int32); it is
+    written as the int32 PX4 stores (ids ≥ 2³¹, e.g. of DroneCAN IMUs, become negative).
     ``X0`` is the bias at ``TREF`` without Earth rate/gravity (``f(TREF) − static_reference``)
     when the model knows its static reference, else 0 (only the thermal change relative to
-    ``TREF`` is exported; the ordinary offset calibration keeps the constant). File format:
+    ``TREF`` is exported; the ordinary offset calibration keeps the constant). Floats are
+    written with 9 significant digits (enough to round-trip PX4's float32). File format:
     QGroundControl's tab-separated ``vehicle-id component-id name value type`` lines
-    (type 9 = float, 6 = int32). Only ``poly-t`` models of degree ≤ 3 fit this form.
+    (type 9 = float, 6 = int32).
 ArduPilot (``AP_InertialSensor_tempcal.cpp``; parameters ``INS_TCALn_*``)
     ``v −= P(clamp(T) − 35) − P(clamp(CALTEMP) − 35)`` with ``P(d) = (c1 + (c2 + c3 d) d) d ·
     1e−6``: a fixed reference of 35 °C, no constant term, coefficients stored × 1e6, in SI.
@@ -18,17 +34,28 @@ ArduPilot (``AP_InertialSensor_tempcal.cpp``; parameters ``INS_TCALn_*``)
     ``INS_TCALn_ACC1_X .. ACC3_Z``, ``INS_TCALn_GYR1_X .. GYR3_Z`` (the cubic re-expanded about
     35 °C) as ``NAME VALUE`` lines with ``#`` comments (MAVProxy/Mission Planner ``.parm``).
     ArduPilot has no TREF parameter; the constant is the job of its offset calibration and
-    ``INS_ACCn_CALTEMP``/``INS_GYRn_CALTEMP``.
+    ``INS_ACCn_CALTEMP``/``INS_GYRn_CALTEMP``. MAVProxy's ``param load`` (pymavlink
+    ``mavparm.MAVParmDict.load``, ``mindelta = 1e-6``) does not send a value within 1e-6 of
+    the vehicle's current one, so a nonzero stored coefficient of magnitude ≤ 1e-6 stays at
+    its default 0 on a fresh vehicle: :func:`to_ardupilot_parm` then emits a
+    :class:`SmallCoefficientWarning` naming the parameter and the share of that channel's
+    thermal span over ``[TMIN, TMAX]`` lost when the term is zeroed (navigation-grade gyros
+    have cubic terms of that size).
 C header (every method)
     The coefficients as ``static const double`` arrays and one small ``static inline``
     reference function per channel, ``double <prefix>_<channel>(double T, double Tdot,
-    double dT)`` returning ``f`` in log units (no clamping; the training ranges are given as
-    macros), evaluated exactly as :func:`rinscal.calibration._inference.predict_params`.
+    double dT)`` returning ``f`` in log units (no clamping, except the clamp that is part of
+    a ``px4``/``ardupilot`` model; the training ranges are given as macros), evaluated
+    exactly as :func:`rinscal.calibration._inference.predict_params`.
 """
 
 from __future__ import annotations
 
 import re
+import warnings
+from collections.abc import Mapping
+from dataclasses import dataclass
+from decimal import ROUND_CEILING, ROUND_FLOOR, Decimal
 
 import numpy as np
 
@@ -36,30 +63,82 @@ from rinscal.calibration._inference import poly_shift, segment_params
 from rinscal.calibration.modelfile import INPUT_NAMES, ThermalModelFile
 from rinscal.errors import ConfigError
 
-__all__ = ["to_ardupilot_parm", "to_c_header", "to_px4_params"]
+__all__ = [
+    "ARDUPILOT_SCALE",
+    "ARDUPILOT_TREF_C",
+    "FLIGHT_METHODS",
+    "MAVPROXY_MIN_DELTA",
+    "TEMP_DECIMALS",
+    "SmallCoefficientWarning",
+    "lost_share",
+    "to_ardupilot_parm",
+    "to_c_header",
+    "to_px4_params",
+]
 
 _AXES = ("x", "y", "z")
 #: ArduPilot's fixed reference temperature [°C].
 ARDUPILOT_TREF_C = 35.0
 #: ArduPilot stores coefficients multiplied by this.
 ARDUPILOT_SCALE = 1.0e6
+#: Channel methods that PX4 and ArduPilot can represent (a clamped cubic in T).
+FLIGHT_METHODS: tuple[str, ...] = ("poly-t", "px4", "ardupilot")
+#: Decimals of the written TMIN/TMAX [°C] (rounded inwards at this precision).
+TEMP_DECIMALS = 2
+#: pymavlink ``MAVParmDict.mindelta``: MAVProxy's ``param load`` skips a value within this of
+#: the vehicle's current one (stored units, i.e. ArduPilot's coefficient × 1e6).
+MAVPROXY_MIN_DELTA = 1.0e-6
+_INT32_MIN, _INT32_MAX, _UINT32_MAX = -(2**31), 2**31 - 1, 2**32 - 1
+_FLOAT32_MAX = float(np.finfo(np.float32).max)
 
 
-def _poly_t_si(
-    model: ThermalModelFile, sensor: str
-) -> list[tuple[np.ndarray, float, float, float]]:
-    """Per axis of a sensor: (SI coefficients about t_ref, t_ref, tmin, tmax)."""
-    if model.method != "poly-t":
-        raise ConfigError(
-            f"PX4 and ArduPilot take a cubic in temperature: export a poly-t model, not "
-            f"{model.method} (use the C header for the other methods)"
-        )
+class SmallCoefficientWarning(UserWarning):
+    """An ArduPilot coefficient (× 1e6) is nonzero but within MAVProxy's 1e-6 load threshold.
+
+    Attributes
+    ----------
+    parameter : str
+        The parameter, e.g. ``INS_TCAL1_GYR3_Z``.
+    value : float
+        Its written value (SI × 1e6).
+    lost_share : float
+        ``max |P_full − P_without_term|`` over ``[TMIN, TMAX]`` divided by the span
+        ``max P_full − min P_full`` of the channel's correction there (a fraction, not %).
+    """
+
+    def __init__(self, message: str, parameter: str, value: float, lost_share: float) -> None:
+        super().__init__(message)
+        self.parameter = parameter
+        self.value = value
+        self.lost_share = lost_share
+
+
+@dataclass(frozen=True)
+class _Axis:
+    """One axis of a sensor as flight software sees it."""
+
+    channel: str
+    coef: np.ndarray  # SI coefficients of d^0..d^3, d = T − t_ref [°C]
+    t_ref: float  # [°C]
+    t_min: float  # clamp range [°C]
+    t_max: float
+
+
+def _sensor_axes(model: ThermalModelFile, sensor: str) -> list[_Axis]:
+    """The three axes of a sensor (``gyro`` or ``accel``) as SI cubics with their clamp range."""
     out = []
     for a in _AXES:
         c = f"{sensor}_{a}"
         if c not in model.models:
             raise ConfigError(f"the model has no channel {c}; PX4/ArduPilot need all three axes")
         cm = model.models[c]
+        method = cm.params.get("method")
+        if method not in FLIGHT_METHODS:
+            raise ConfigError(
+                f"{c} is a {method} model: PX4 and ArduPilot take a clamped cubic in "
+                f"temperature, i.e. a poly-t (degree <= 3), px4 or ardupilot model per "
+                f"channel; export this model as a C header (--format c) instead"
+            )
         if cm.unit_to_si is None:
             raise ConfigError(
                 f"{c}: unit unknown (no log metadata); flight software needs SI coefficients"
@@ -69,60 +148,137 @@ def _poly_t_si(
             raise ConfigError(f"{c}: degree {coef.size - 1} > 3 does not fit PX4/ArduPilot")
         coef = np.pad(coef, (0, 4 - coef.size))
         ref = cm.static_reference
-        coef = coef.copy()
         coef[0] = coef[0] - ref if ref is not None else 0.0
-        out.append(
-            (
-                coef * cm.unit_to_si,
-                float(cm.params["t_ref"]),
-                float(cm.train_range[0, 0]),
-                float(cm.train_range[0, 1]),
-            )
-        )
+        if method == "poly-t":
+            lo, hi = float(cm.train_range[0, 0]), float(cm.train_range[0, 1])
+        else:  # px4 / ardupilot: the model's own clamp
+            lo, hi = float(cm.params["t_min"]), float(cm.params["t_max"])
+        out.append(_Axis(c, coef * cm.unit_to_si, float(cm.params["t_ref"]), lo, hi))
     return out
 
 
-def to_px4_params(model: ThermalModelFile, gyro_id: int = 0, accel_id: int = 0) -> str:
-    """PX4 thermal-compensation parameters of a ``poly-t`` model (instance 0).
+def _inward_range(axes: list[_Axis], what: str) -> tuple[str, str]:
+    """``TMIN``/``TMAX`` text [°C]: the axes' common range rounded inwards.
+
+    ``TMIN`` is rounded up and ``TMAX`` down to :data:`TEMP_DECIMALS` decimals, exactly (in
+    decimal): the written numbers lie inside the common range of the axes.
+    """
+    lo = max(ax.t_min for ax in axes)
+    hi = min(ax.t_max for ax in axes)
+    q = Decimal(1).scaleb(-TEMP_DECIMALS)
+    a = Decimal(lo).quantize(q, rounding=ROUND_CEILING)  # Decimal(float) is exact
+    b = Decimal(hi).quantize(q, rounding=ROUND_FLOOR)
+    if a > b:
+        raise ConfigError(
+            f"{what}: the common temperature range of the channels [{lo:g}, {hi:g}] degC "
+            f"holds no {q} degC step once rounded inwards; the axes' ranges must overlap"
+        )
+    return f"{a + 0:.{TEMP_DECIMALS}f}", f"{b + 0:.{TEMP_DECIMALS}f}"
+
+
+def _device_id(
+    value: int | None, model: ThermalModelFile, key: str, option: str, param: str
+) -> int:
+    """The int32 ``TC_*0_ID`` of a sensor: the option, else ``source["device_ids"][key]``."""
+    topic, cal = {
+        "gyro": ("sensor_gyro", "CAL_GYRO0_ID"),
+        "accel": ("sensor_accel", "CAL_ACC0_ID"),
+    }[key]
+    where = option
+    if value is None:
+        ids = model.source.get("device_ids")
+        if isinstance(ids, Mapping) and ids.get(key) is not None:
+            value, where = ids[key], f'the model\'s source["device_ids"]["{key}"]'
+    how = (
+        f"pass {option}: PX4 applies the thermal parameters only to the sensor whose device "
+        f"id equals {param}, so {param} = 0 means the file is never applied. The id is the "
+        f"device_id of {topic} in a ULog of the vehicle, or its {cal} parameter"
+    )
+    if value is None:
+        raise ConfigError(
+            f"PX4 export needs the {key} device id and the model has none "
+            f'(no source["device_ids"]["{key}"]); {how}'
+        )
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise ConfigError(f"{where}: the {key} device id must be an integer, got {value!r}; {how}")
+    v = int(value)
+    if v == 0:
+        raise ConfigError(f"{where}: the {key} device id is 0; {how}")
+    if not _INT32_MIN <= v <= _UINT32_MAX:
+        raise ConfigError(
+            f"{where}: the {key} device id {v} is neither an int32 nor a uint32; {how}"
+        )
+    return v - 2**32 if v > _INT32_MAX else v  # PX4 stores the uint32 id as an int32
+
+
+def _float_text(name: str, value: float) -> str:
+    """A float parameter as written (9 significant digits: round-trips a float32)."""
+    if not np.isfinite(value) or abs(value) > _FLOAT32_MAX:
+        raise ConfigError(f"{name} = {value!r} is not a finite float32; the model is unusable")
+    return f"{value:.9g}"
+
+
+def to_px4_params(
+    model: ThermalModelFile, gyro_id: int | None = None, accel_id: int | None = None
+) -> str:
+    """PX4 thermal-compensation parameters (instance 0) of a clamped-cubic model.
 
     Parameters
     ----------
     model : ThermalModelFile
-        A ``poly-t`` model of all six channels with known units.
-    gyro_id, accel_id : int
-        Device ids of the gyro and accelerometer (``TC_G0_ID``, ``TC_A0_ID``).
+        Every gyro and accelerometer channel a ``poly-t`` (degree ≤ 3), ``px4`` or
+        ``ardupilot`` model with known units.
+    gyro_id, accel_id : int, optional
+        Device ids of the gyro and accelerometer (``TC_G0_ID``, ``TC_A0_ID``): the
+        ``device_id`` of ``sensor_gyro``/``sensor_accel`` in a ULog (uint32) or the
+        ``CAL_GYRO0_ID``/``CAL_ACC0_ID`` parameter (int32). ``None``: the model's
+        ``source["device_ids"]["gyro"|"accel"]``; an explicit id wins.
 
     Returns
     -------
     str
-        The ``.params`` file text.
+        The ``.params`` file text (SI: rad/s, m/s²; temperatures in °C).
+
+    Raises
+    ------
+    ConfigError
+        A device id missing or 0 (naming ``--gyro-id``/``--accel-id``), a channel whose
+        method is not a clamped cubic, unknown units, or axes without a common range.
     """
+    ids = {
+        "gyro": _device_id(gyro_id, model, "gyro", "--gyro-id", "TC_G0_ID"),
+        "accel": _device_id(accel_id, model, "accel", "--accel-id", "TC_A0_ID"),
+    }
     lines = [
-        "# PX4 thermal compensation parameters, written by rinscal from a poly-t model",
+        "# PX4 thermal compensation parameters, written by rinscal",
         f"# X0 = bias at TREF {'without Earth rate/gravity' if _has_ref(model) else 'set to 0'}"
-        "; SI units (rad/s, m/s^2); set TC_G0_ID/TC_A0_ID to your sensors' device ids",
+        "; SI units (rad/s, m/s^2); TMIN/TMAX rounded inwards (degC)",
+        f"# TC_G0_ID = {ids['gyro']}, TC_A0_ID = {ids['accel']}: applied only to the sensors "
+        "with these device ids",
         "#",
         "# Vehicle-Id\tComponent-Id\tName\tValue\tType",
     ]
 
-    def put(name: str, value: float, typ: int = 9) -> None:
-        text = str(int(value)) if typ == 6 else f"{value:.9g}"
+    def put(name: str, text: str, typ: int = 9) -> None:
         lines.append(f"1\t1\t{name}\t{text}\t{typ}")
 
-    for sensor, tag, dev in (("gyro", "G", gyro_id), ("accel", "A", accel_id)):
-        axes = _poly_t_si(model, sensor)
+    for sensor, tag in (("gyro", "G"), ("accel", "A")):
+        axes = _sensor_axes(model, sensor)
+        tmin, tmax = _inward_range(axes, f"TC_{tag}0_TMIN/TMAX")
         # PX4 has one TREF/TMIN/TMAX per sensor: each axis's cubic is re-expanded about the
-        # mean reference, and the range is the one every axis was trained on
-        tref = float(np.mean([ax[1] for ax in axes]))
-        put(f"TC_{tag}_ENABLE", 1, 6)
-        put(f"TC_{tag}0_ID", int(dev), 6)
-        coefs = [poly_shift(coef, t_ref - tref, 1.0) for coef, t_ref, _, _ in axes]
+        # mean reference (as written), and the range is the one every axis is valid on
+        tref_text = _float_text(f"TC_{tag}0_TREF", float(np.mean([ax.t_ref for ax in axes])))
+        tref = float(tref_text)
+        put(f"TC_{tag}_ENABLE", "1", 6)
+        put(f"TC_{tag}0_ID", str(ids[sensor]), 6)
+        coefs = [poly_shift(ax.coef, ax.t_ref - tref, 1.0) for ax in axes]
         for k in (3, 2, 1, 0):
             for i, coef in enumerate(coefs):
-                put(f"TC_{tag}0_X{k}_{i}", float(coef[k]))
-        put(f"TC_{tag}0_TREF", tref)
-        put(f"TC_{tag}0_TMIN", max(ax[2] for ax in axes))
-        put(f"TC_{tag}0_TMAX", min(ax[3] for ax in axes))
+                name = f"TC_{tag}0_X{k}_{i}"
+                put(name, _float_text(name, float(coef[k])))
+        put(f"TC_{tag}0_TREF", tref_text)
+        put(f"TC_{tag}0_TMIN", tmin)
+        put(f"TC_{tag}0_TMAX", tmax)
     return "\n".join(lines) + "\n"
 
 
@@ -130,46 +286,117 @@ def _has_ref(model: ThermalModelFile) -> bool:
     return all(cm.static_reference is not None for cm in model.models.values())
 
 
+def _poly_range(c: np.ndarray, lo: float, hi: float) -> tuple[float, float]:
+    """Min and max of ``Σ_k c[k] d^k`` for ``d`` in ``[lo, hi]`` (endpoints and extrema)."""
+    d = [lo, hi]
+    deriv = np.polynomial.polynomial.polyder(c)
+    if np.any(deriv != 0):
+        for r in np.polynomial.polynomial.polyroots(np.trim_zeros(deriv, "b")):
+            if abs(r.imag) <= 1e-12 * max(1.0, abs(r.real)) and lo < r.real < hi:
+                d.append(float(r.real))
+    v = np.polynomial.polynomial.polyval(np.asarray(d), c)
+    return float(v.min()), float(v.max())
+
+
+def lost_share(coef: np.ndarray, k: int, t_min: float, t_max: float) -> float:
+    """Share of a channel's ArduPilot thermal span lost when term ``k`` is zeroed.
+
+    Parameters
+    ----------
+    coef : ndarray, shape (4,)
+        ``[0, c1, c2, c3]``: ArduPilot's polynomial ``P(d) = Σ c_k d^k``, ``d = T − 35`` [°C]
+        (any consistent unit: the share is a ratio).
+    k : int
+        The term zeroed (1 to 3).
+    t_min, t_max : float [°C]
+        The clamp range ``[TMIN, TMAX]``.
+
+    Returns
+    -------
+    float
+        ``max |P_full − P_without_k|`` over the range divided by ``max P_full − min P_full``
+        (a fraction; ``inf`` if the span is 0).
+    """
+    lo, hi = t_min - ARDUPILOT_TREF_C, t_max - ARDUPILOT_TREF_C
+    p_lo, p_hi = _poly_range(np.asarray(coef, dtype=np.float64), lo, hi)
+    lost = abs(float(coef[k])) * max(abs(lo), abs(hi)) ** k  # |c_k d^k| peaks at an endpoint
+    span = p_hi - p_lo
+    return lost / span if span > 0 else float("inf")
+
+
 def to_ardupilot_parm(model: ThermalModelFile, imu: int = 1) -> str:
-    """ArduPilot ``INS_TCALn_*`` parameters of a ``poly-t`` model.
+    """ArduPilot ``INS_TCALn_*`` parameters of a clamped-cubic model.
 
     Parameters
     ----------
     model : ThermalModelFile
-        A ``poly-t`` model of all six channels with known units.
+        Every gyro and accelerometer channel a ``poly-t`` (degree ≤ 3), ``px4`` or
+        ``ardupilot`` model with known units.
     imu : int
         IMU instance ``n`` (1-3).
 
     Returns
     -------
     str
-        The ``.parm`` file text.
+        The ``.parm`` file text (coefficients in SI × 1e6; temperatures in °C).
+
+    Warns
+    -----
+    SmallCoefficientWarning
+        Per written coefficient ``v`` with ``0 < |v| ≤ 1e-6``, which MAVProxy's ``param load``
+        does not send to a vehicle where it is 0 (see :data:`MAVPROXY_MIN_DELTA`).
     """
     if imu not in (1, 2, 3):
         raise ConfigError(f"ArduPilot IMU instance must be 1, 2 or 3, got {imu}")
-    lines = [
-        "# ArduPilot IMU temperature calibration, written by rinscal from a poly-t model",
-        "# cubic about 35 degC, no constant term, coefficients x 1e6 (SI units)",
-    ]
-    tmin, tmax = -np.inf, np.inf
-    blocks: dict[str, list[np.ndarray]] = {}
-    for sensor, tag in (("accel", "ACC"), ("gyro", "GYR")):
-        axes = _poly_t_si(model, sensor)
-        per_axis = []
-        for coef, t_ref, lo, hi in axes:
-            about35 = poly_shift(coef, t_ref - ARDUPILOT_TREF_C, 1.0)
-            per_axis.append(about35)
-            tmin, tmax = max(tmin, lo), min(tmax, hi)
-        blocks[tag] = per_axis
     p = f"INS_TCAL{imu}_"
-    lines.append(f"{p}ENABLE 1")
-    lines.append(f"{p}TMIN {tmin:.2f}")
-    lines.append(f"{p}TMAX {tmax:.2f}")
+    blocks: dict[str, list[tuple[str, np.ndarray]]] = {}
+    all_axes: list[_Axis] = []
+    for sensor, tag in (("accel", "ACC"), ("gyro", "GYR")):
+        axes = _sensor_axes(model, sensor)
+        all_axes += axes
+        blocks[tag] = [
+            (ax.channel, poly_shift(ax.coef, ax.t_ref - ARDUPILOT_TREF_C, 1.0)) for ax in axes
+        ]
+    tmin, tmax = _inward_range(all_axes, f"{p}TMIN/TMAX")
+    lines = [
+        "# ArduPilot IMU temperature calibration, written by rinscal",
+        "# cubic about 35 degC, no constant term, coefficients x 1e6 (SI units);",
+        "# TMIN/TMAX: the common range of all six channels, rounded inwards (degC)",
+        f"{p}ENABLE 1",
+        f"{p}TMIN {tmin}",
+        f"{p}TMAX {tmax}",
+    ]
+    written: dict[tuple[str, int], np.ndarray] = {}  # (tag, axis) -> [0, v1, v2, v3] as written
     for tag in ("ACC", "GYR"):
         for k in (1, 2, 3):
             for i, a in enumerate(_AXES):
-                value = blocks[tag][i][k] * ARDUPILOT_SCALE
-                lines.append(f"{p}{tag}{k}_{a.upper()} {value:.9g}")
+                name = f"{p}{tag}{k}_{a.upper()}"
+                text = _float_text(name, float(blocks[tag][i][1][k] * ARDUPILOT_SCALE))
+                lines.append(f"{name} {text}")
+                written.setdefault((tag, i), np.zeros(4))[k] = float(text)
+    t_lo, t_hi = float(tmin), float(tmax)
+    for (tag, i), values in written.items():
+        channel = blocks[tag][i][0]
+        for k in (1, 2, 3):
+            value = float(values[k])
+            if value == 0.0 or abs(value) > MAVPROXY_MIN_DELTA:
+                continue
+            name = f"{p}{tag}{k}_{_AXES[i].upper()}"
+            share = lost_share(values, k, t_lo, t_hi)
+            warnings.warn(
+                SmallCoefficientWarning(
+                    f"{name} = {value:.3g} is nonzero but within MAVProxy's 1e-6 load "
+                    f"threshold: 'param load' does not send a value within 1e-6 of the "
+                    f"vehicle's current one (pymavlink MAVParmDict.mindelta), so on a vehicle "
+                    f"where it is 0 (the default) it stays 0 and {channel} loses "
+                    f"{100 * share:.1f} % of its thermal span over [{tmin}, {tmax}] degC; "
+                    f"load with 'param forceload' or set it by hand",
+                    parameter=name,
+                    value=value,
+                    lost_share=share,
+                ),
+                stacklevel=2,
+            )
     return "\n".join(lines) + "\n"
 
 
@@ -232,7 +459,8 @@ def to_c_header(model: ThermalModelFile, prefix: str = "rinscal") -> str:
         " * f(T, Tdot, dT): T inner temperature [degC], Tdot its rate [degC/min]",
         f" * ({model.derivative_kind} least-squares slope over {model.derivative_window_s:g} s),",
         " * dT = T - T_outer [degC]. Returns the modelled output in the log's units;",
-        " * compensated = raw - (f - STATIC_REF). No clamping: see the _MIN and _MAX macros. */",
+        " * compensated = raw - (f - STATIC_REF). No clamping (px4/ardupilot models: their own",
+        " * clamp, part of the model): see the _MIN and _MAX macros. */",
         f"#ifndef {guard}",
         f"#define {guard}",
         "#include <math.h>",
@@ -251,9 +479,14 @@ def to_c_header(model: ThermalModelFile, prefix: str = "rinscal") -> str:
         if cm.unit_to_si is not None:
             lines.append(f"#define {up}_UNIT_TO_SI {_c(cm.unit_to_si)}  /* {cm.unit} */")
         body: list[str] = []
-        if p["method"] == "poly-t":
+        if p["method"] in FLIGHT_METHODS:
             coef = [float(v) for v in p["coef"]]
-            body.append(f"  const double d = T - {_c(p['t_ref'])};")
+            if p["method"] == "poly-t":
+                body.append(f"  const double d = T - {_c(p['t_ref'])};")
+            else:  # px4 / ardupilot: the clamp is part of the model
+                lo, hi = _c(p["t_min"]), _c(p["t_max"])
+                body.append(f"  const double Tc = T < {lo} ? {lo} : (T > {hi} ? {hi} : T);")
+                body.append(f"  const double d = Tc - {_c(p['t_ref'])};")
             if len(coef) == 1:
                 body.append(f"  return {_c(coef[0])};")
             else:
@@ -276,7 +509,7 @@ def to_c_header(model: ThermalModelFile, prefix: str = "rinscal") -> str:
             body.append("  default: f = 0.0;")
             body.append("  }")
             body.append("  return f;")
-        else:  # neural
+        elif p["method"] == "neural":
             w = np.asarray(p["W"], dtype=np.float64)
             n, d = w.shape
             inv = 1.0 / np.asarray(p["x_scale"], dtype=np.float64)
@@ -296,6 +529,8 @@ def to_c_header(model: ThermalModelFile, prefix: str = "rinscal") -> str:
             body.append(
                 f"  return (acc + {_c(p['b_out'])}) * {_c(p['y_scale'])} + {_c(p['y_mean'])};"
             )
+        else:
+            raise ConfigError(f"{c}: no C form for method {p['method']!r}")
         lines.append(f"static inline double {fn}(double T, double Tdot, double dT) {{")
         lines.append("  (void)T; (void)Tdot; (void)dT;")
         lines += body

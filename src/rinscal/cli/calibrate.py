@@ -484,15 +484,36 @@ def export_cmd(
     model: Annotated[Path, typer.Argument(help="Thermal model file (JSON).")],
     fmt: Annotated[str, typer.Option("--format", help="px4, ardupilot or c.")],
     out: Annotated[Path, typer.Option("--out", "-o", help="File to write.")],
-    gyro_id: Annotated[int, typer.Option("--gyro-id", help="PX4 TC_G0_ID device id.")] = 0,
-    accel_id: Annotated[int, typer.Option("--accel-id", help="PX4 TC_A0_ID device id.")] = 0,
+    gyro_id: Annotated[
+        int | None,
+        typer.Option(
+            "--gyro-id",
+            help="PX4 TC_G0_ID: the gyro's device id (device_id of sensor_gyro in a ULog, or "
+            "CAL_GYRO0_ID). Default: the model's source device_ids; required for px4.",
+        ),
+    ] = None,
+    accel_id: Annotated[
+        int | None,
+        typer.Option(
+            "--accel-id",
+            help="PX4 TC_A0_ID: the accelerometer's device id (device_id of sensor_accel in a "
+            "ULog, or CAL_ACC0_ID). Default: the model's source device_ids; required for px4.",
+        ),
+    ] = None,
     imu: Annotated[int, typer.Option("--imu", help="ArduPilot IMU instance (1-3).")] = 1,
     prefix: Annotated[str, typer.Option("--prefix", help="C identifier prefix.")] = "rinscal",
 ) -> None:
-    """Export a model: PX4 .params or ArduPilot .parm (poly-t), or a C header (any method)."""
-    from rinscal.calibration.export import to_ardupilot_parm, to_c_header, to_px4_params
+    """Export a model: PX4 .params, ArduPilot .parm (poly-t/px4/ardupilot) or a C header."""
+    import warnings
+
+    from rinscal.calibration.export import (
+        SmallCoefficientWarning,
+        to_ardupilot_parm,
+        to_c_header,
+        to_px4_params,
+    )
     from rinscal.calibration.modelfile import ThermalModelFile
-    from rinscal.cli._app import console, fail
+    from rinscal.cli._app import console, err_console, fail
     from rinscal.errors import RinscalError
     from rinscal.io import write_atomic
 
@@ -501,13 +522,18 @@ def export_cmd(
     refuse_inputs(out, [model])
     try:
         mf = ThermalModelFile.load(model)
-        if fmt == "px4":
-            text = to_px4_params(mf, gyro_id, accel_id)
-        elif fmt == "ardupilot":
-            text = to_ardupilot_parm(mf, imu)
-        else:
-            text = to_c_header(mf, prefix)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", SmallCoefficientWarning)
+            if fmt == "px4":
+                text = to_px4_params(mf, gyro_id, accel_id)
+            elif fmt == "ardupilot":
+                text = to_ardupilot_parm(mf, imu)
+            else:
+                text = to_c_header(mf, prefix)
         write_atomic(out, lambda tmp: tmp.write_text(text, encoding="utf-8"))
     except RinscalError as exc:
         raise fail(str(exc)) from None
+    for w in caught:
+        if issubclass(w.category, SmallCoefficientWarning):
+            err_console.print(f"[yellow]warning:[/] {escape(str(w.message))}", highlight=False)
     console.print(f"wrote {out} ({fmt}, {mf.method} model)", highlight=False)
