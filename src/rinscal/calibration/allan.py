@@ -1,0 +1,435 @@
+"""Allan deviation of a static IMU record and the IEEE Std 952-1997 noise parameters.
+
+:func:`allan_deviation` computes the **overlapping** Allan deviation
+(``allantools.oadev``, ``data_type="freq"``) of one channel's output ``y`` sampled at
+``rate_hz``, in the channel's own unit (deg/h, µg, rad/s, m/s², ...): the Allan deviation
+of a rate is a rate. :func:`noise_parameters` reads from that curve, as in Annex C of IEEE
+Std 952-1997, the three parameters a navigation engineer quotes:
+
+============================  ==========  =====================  =========================
+term                          ADEV slope  read                   unit (``u`` = y's unit)
+============================  ==========  =====================  =========================
+angle / velocity random walk  −1/2        ``N = σ(τ = 1 s)``     u·√s  (deg/h·√s, µg·√s)
+bias instability              0           ``B = σ_min / 0.664``  u     (deg/h, µg)
+rate random walk              +1/2        ``K = σ(τ = 3 s)``     u/√s  (deg/h/√s, µg/√s)
+============================  ==========  =====================  =========================
+
+where ``σ²(τ) = N²/τ + (2 ln 2/π) B² + K² τ/3`` for the three processes alone (the constant
+``√(2 ln 2/π) = 0.664``). Conversions: a gyro's ARW in deg/h·√s divided by 60 is in
+deg/√h; an accelerometer's VRW in µg·√s is numerically the noise density in µg/√Hz; a
+rate random walk in deg/h/√s times 60 is in deg/h/√h.
+
+Gaps (NaN samples)
+    ``y`` is the uniformly sampled record, a NaN where a sample was dropped (rows of a log
+    are never removed, so a dropped sample is a NaN at its place in time). The Allan
+    variance is computed on **every contiguous NaN-free stretch separately and pooled**:
+    at each averaging time, the squared second differences of all stretches long enough
+    for it are averaged together (``σ² = Σ_s n_s σ_s² / Σ_s n_s``, ``n_s`` the number of
+    overlapping differences of stretch ``s``). No difference ever spans a gap, nothing is
+    interpolated, and no valid sample is thrown away (a stretch contributes at
+    ``τ = m τ0`` once it has ``2m + 1`` samples, i.e. two overlapping differences; one of
+    1 or 2 samples holds none); a step in the output across a gap (a power cycle, a
+    re-mounted unit) does not enter the curve. The long averaging times come from the
+    long stretches only (their confidence says so).
+
+Confidence
+    ``adev_err`` is IEEE 952's 1σ of an Allan deviation estimated from ``M`` independent
+    clusters of ``τ = m τ0``, ``σ / √(2 (M − 1))`` (Annex C), with
+    ``M = Σ_s ⌊n_samples_s / m⌋`` over the stretches. It is conservative for the
+    overlapping estimator; allantools' own ``σ/√n_pairs`` treats the overlapping
+    differences as independent and is ``√(m/2)`` times too optimistic at long τ.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from rinscal.errors import ConfigError
+
+__all__ = [
+    "BIAS_INSTABILITY_FACTOR",
+    "AllanCurve",
+    "NoiseParameters",
+    "allan_deviation",
+    "allan_deviations",
+    "noise_parameters",
+]
+
+#: ``√(2 ln 2 / π)``: the flat floor of the Allan deviation of flicker (1/f) noise of
+#: bias instability ``B`` is ``0.664 B`` (IEEE Std 952-1997, Annex C).
+BIAS_INSTABILITY_FACTOR = math.sqrt(2.0 * math.log(2.0) / math.pi)
+
+#: Default tolerance on a local log-log slope (dimensionless): a point belongs to the
+#: region of slope ``α`` (−1/2, 0, +1/2) when its local slope is within ``α ± 0.1``.
+SLOPE_TOL = 0.1
+#: Default largest relative 1σ error (dimensionless) of a point used to read a slope:
+#: 0.1, i.e. at least 51 independent clusters of τ (τ ≤ record length / 51).
+MAX_REL_ERR = 0.1
+
+TausSpec = Literal["octave", "decade", "all"] | ArrayLike
+
+
+@dataclass(frozen=True, eq=False)
+class AllanCurve:
+    """An overlapping Allan deviation curve of one channel.
+
+    Parameters
+    ----------
+    tau_s : ndarray of float, shape (m,) [s]
+        Averaging times, increasing; multiples of the sample interval ``1/rate_hz``.
+    adev : ndarray of float, shape (m,) [unit of y]
+        Overlapping Allan deviation at each ``tau_s``, in the unit of the samples
+        (deg/h, µg, rad/s, m/s², ...).
+    adev_err : ndarray of float, shape (m,) [unit of y]
+        1σ uncertainty of ``adev``: ``adev / √(2 (M − 1))``, ``M`` the number of
+        independent clusters of ``tau_s`` in the record (IEEE Std 952-1997; conservative
+        for the overlapping estimator).
+    n_pairs : ndarray of int, shape (m,)
+        Number of overlapping second differences averaged at each ``tau_s``, summed over
+        the NaN-free stretches of the record.
+    """
+
+    tau_s: NDArray[np.float64]
+    adev: NDArray[np.float64]
+    adev_err: NDArray[np.float64]
+    n_pairs: NDArray[np.int64]
+
+    def __post_init__(self) -> None:
+        arrays = {
+            "tau_s": np.array(self.tau_s, dtype=np.float64),
+            "adev": np.array(self.adev, dtype=np.float64),
+            "adev_err": np.array(self.adev_err, dtype=np.float64),
+            "n_pairs": np.array(self.n_pairs, dtype=np.int64),
+        }
+        shape = arrays["tau_s"].shape
+        if len(shape) != 1 or shape[0] == 0:
+            raise ConfigError(f"AllanCurve tau_s must be a non-empty 1-D array, got {shape}")
+        for name, a in arrays.items():
+            if a.shape != shape:
+                raise ConfigError(f"AllanCurve {name} has shape {a.shape}, tau_s {shape}")
+            a.flags.writeable = False
+            object.__setattr__(self, name, a)
+        if not np.all(np.diff(arrays["tau_s"]) > 0) or arrays["tau_s"][0] <= 0:
+            raise ConfigError("AllanCurve tau_s must be positive and increasing")
+
+    def __len__(self) -> int:
+        return int(self.tau_s.size)
+
+
+@dataclass(frozen=True)
+class NoiseParameters:
+    """IEEE Std 952-1997 noise parameters read from an Allan deviation curve.
+
+    ``u`` is the unit of the samples the curve was computed from (e.g. deg/h or µg). A
+    parameter is None when the curve shows no (readable) region of its slope.
+
+    Parameters
+    ----------
+    n : float or None [u·√s]
+        Angle (gyro) or velocity (accelerometer) random walk: the slope −1/2 line read at
+        τ = 1 s. deg/h·√s ÷ 60 = deg/√h; µg·√s = µg/√Hz; rad/s·√s = rad/√s.
+    n_tau_s : tuple of float or None [s]
+        First and last averaging time of the points the −1/2 line was fitted to.
+    b : float or None [u]
+        Bias instability: the minimum of the flat region divided by 0.664.
+    b_tau_s : float or None [s]
+        Averaging time of that minimum.
+    k : float or None [u/√s]
+        Rate random walk: the slope +1/2 line read at τ = 3 s. deg/h/√s × 60 = deg/h/√h;
+        µg/√s × 60 = µg/√h.
+    k_tau_s : tuple of float or None [s]
+        First and last averaging time of the points the +1/2 line was fitted to.
+    """
+
+    n: float | None
+    n_tau_s: tuple[float, float] | None
+    b: float | None
+    b_tau_s: float | None
+    k: float | None
+    k_tau_s: tuple[float, float] | None
+
+
+# ---------------------------------------------------------------------------------------
+# Allan deviation
+# ---------------------------------------------------------------------------------------
+
+
+def _check_rate(rate_hz: float) -> float:
+    try:
+        rate = float(rate_hz)
+    except (TypeError, ValueError):
+        raise ConfigError(f"rate_hz must be a positive number [Hz], got {rate_hz!r}") from None
+    if not (math.isfinite(rate) and rate > 0):
+        raise ConfigError(f"rate_hz must be a positive finite number [Hz], got {rate_hz!r}")
+    return rate
+
+
+def _samples(y: ArrayLike, name: str) -> NDArray[np.float64]:
+    try:
+        a = np.asarray(y, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ConfigError(f"{name} must be an array of numbers: {exc}") from None
+    if a.ndim != 1:
+        raise ConfigError(f"{name} must be 1-D (one channel), got shape {a.shape}")
+    bad = np.flatnonzero(np.isinf(a))
+    if bad.size:
+        raise ConfigError(f"{name} holds ±inf at sample {int(bad[0])} (use NaN for a gap)")
+    return a
+
+
+def _stretches(a: NDArray[np.float64]) -> list[NDArray[np.float64]]:
+    """The contiguous NaN-free stretches of ``a``, in order (views)."""
+    finite = np.isfinite(a)
+    edges = np.flatnonzero(np.diff(np.concatenate(([0], finite.view(np.int8), [0]))))
+    return [a[lo:hi] for lo, hi in zip(edges[::2], edges[1::2], strict=True)]
+
+
+def _m_grid(taus: Any, rate: float, m_max: int, longest: int, name: str) -> NDArray[np.int64]:
+    """Averaging factors ``m`` (τ = m / rate) from a keyword or explicit τ [s]."""
+    if isinstance(taus, str):
+        if taus == "octave":
+            m = 2 ** np.arange(m_max.bit_length())  # up to the largest power of 2 ≤ m_max
+        elif taus == "decade":
+            decades = 10 ** np.arange(len(str(m_max)))  # up to the largest power of 10 ≤ m_max
+            m = (decades[:, None] * np.array([1, 2, 4])).ravel()
+        elif taus == "all":
+            m = np.arange(1, m_max + 1)
+        else:
+            raise ConfigError(
+                f"taus must be 'octave', 'decade', 'all' or an array of τ [s], got {taus!r}"
+            )
+        return np.asarray(m[m <= m_max], dtype=np.int64)
+    try:
+        t = np.asarray(taus, dtype=np.float64).ravel()
+    except (TypeError, ValueError):
+        raise ConfigError(f"taus must be a keyword or an array of τ [s], got {taus!r}") from None
+    if t.size == 0 or not np.all(np.isfinite(t)):
+        raise ConfigError(f"taus must be a non-empty array of finite τ [s], got {taus!r}")
+    m = np.round(t * rate).astype(np.int64)
+    if np.any(m < 1):
+        raise ConfigError(
+            f"taus: {float(t[np.argmin(m)]):g} s is shorter than the sample interval "
+            f"{1.0 / rate:g} s"
+        )
+    if np.any(m > m_max):
+        raise ConfigError(
+            f"taus: {float(t[np.argmax(m)]):g} s needs {2 * int(m.max()) + 1} consecutive "
+            f"finite samples; the longest NaN-free stretch of {name} has {longest}"
+        )
+    return np.unique(m)
+
+
+def allan_deviation(y: ArrayLike, rate_hz: float, taus: TausSpec = "octave") -> AllanCurve:
+    """Overlapping Allan deviation of one channel (``allantools.oadev``, frequency data).
+
+    Parameters
+    ----------
+    y : array_like, shape (n,) [u, e.g. deg/h, µg, rad/s, m/s²]
+        Output samples, uniformly spaced at ``1/rate_hz``; NaN where a sample was dropped
+        (each contiguous NaN-free stretch is analysed separately and the Allan variances
+        pooled, see the module docstring). ±inf is an error.
+    rate_hz : float [Hz]
+        Sample rate.
+    taus : {"octave", "decade", "all"} or array_like of float [s]
+        Averaging times: ``m τ0`` with ``m`` = 1, 2, 4, 8, ... (``"octave"``), 1, 2, 4, 10,
+        20, 40, ... (``"decade"``), every ``m`` (``"all"``: O(n²), short records only), or
+        the given τ rounded to multiples of ``τ0 = 1/rate_hz``. Keywords stop at the
+        longest τ with at least two overlapping differences in the longest stretch
+        (``m ≤ (n_longest − 1)/2``); explicit τ beyond that are an error.
+
+    Returns
+    -------
+    AllanCurve
+        ``tau_s`` [s], ``adev`` and ``adev_err`` [u], ``n_pairs``.
+
+    Raises
+    ------
+    rinscal.errors.ConfigError
+        (a ``ValueError``) naming the parameter: ``y`` not 1-D, holding ±inf or without 3
+        consecutive finite samples; ``rate_hz`` not positive; ``taus`` unknown or out of
+        range.
+    """
+    rate = _check_rate(rate_hz)
+    return _allan(_samples(y, "y"), rate, taus, "y")
+
+
+def _allan(a: NDArray[np.float64], rate: float, taus: Any, name: str) -> AllanCurve:
+    import allantools  # here, not at the top: it imports scipy (~1 s), the module need not
+
+    stretches = [s for s in _stretches(a) if s.size >= 3]
+    longest = max((s.size for s in stretches), default=0)
+    if longest < 3:
+        n_finite = int(np.count_nonzero(np.isfinite(a)))
+        raise ConfigError(
+            f"{name} needs at least 3 consecutive finite samples for an Allan deviation; "
+            f"it has {a.size} samples, {n_finite} finite, the longest NaN-free stretch "
+            f"{max((s.size for s in _stretches(a)), default=0)}"
+        )
+    m_all = _m_grid(taus, rate, (longest - 1) // 2, longest, name)
+    index = {int(m): i for i, m in enumerate(m_all)}
+    sum_sq = np.zeros(m_all.size)  # Σ n · σ² over stretches
+    pairs = np.zeros(m_all.size, dtype=np.int64)
+    clusters = np.zeros(m_all.size, dtype=np.int64)
+    for s in stretches:
+        m_s = m_all[m_all <= (s.size - 1) // 2]  # ≥ 2 differences (allantools' own floor)
+        if m_s.size == 0:
+            continue
+        tau_out, dev, _, ns = allantools.oadev(s, rate=rate, data_type="freq", taus=m_s / rate)
+        for tau_j, dev_j, n_j in zip(tau_out, dev, ns, strict=True):
+            i = index[round(float(tau_j) * rate)]
+            sum_sq[i] += float(n_j) * float(dev_j) ** 2
+            pairs[i] += int(n_j)
+            clusters[i] += s.size // int(m_all[i])
+    adev = np.sqrt(sum_sq / pairs)
+    err = adev / np.sqrt(2.0 * np.maximum(clusters - 1, 1))
+    return AllanCurve(tau_s=m_all / rate, adev=adev, adev_err=err, n_pairs=pairs)
+
+
+def allan_deviations(
+    data: Mapping[str, ArrayLike] | Any, rate_hz: float, taus: TausSpec = "octave"
+) -> dict[str, AllanCurve]:
+    """:func:`allan_deviation` of several channels at once.
+
+    Parameters
+    ----------
+    data : mapping of str to array_like, or DataFrame
+        Channel -> samples [its unit], all at ``rate_hz``; anything with ``.items()``
+        (a dict of arrays, a pandas DataFrame of the channel columns).
+    rate_hz : float [Hz]
+        Sample rate.
+    taus : {"octave", "decade", "all"} or array_like of float [s]
+        As in :func:`allan_deviation`.
+
+    Returns
+    -------
+    dict of str to AllanCurve
+        One curve per channel, in the order of ``data``; error messages name the channel.
+    """
+    rate = _check_rate(rate_hz)
+    out: dict[str, AllanCurve] = {}
+    for ch, y in data.items():
+        name = f"channel {ch!s}"
+        out[str(ch)] = _allan(_samples(y, name), rate, taus, name)
+    return out
+
+
+# ---------------------------------------------------------------------------------------
+# IEEE 952 noise parameters
+# ---------------------------------------------------------------------------------------
+
+
+def _local_slopes(log_t: NDArray[np.float64], log_s: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Least-squares slope of ``log σ`` vs ``log τ`` about each point.
+
+    Over the points within a factor 2 of its τ, and always its nearest neighbour on each
+    side (so that a decade grid still has slopes); NaN for a lone point.
+    """
+    n = log_t.size
+    out = np.full(n, np.nan)
+    half = math.log(2.0) * (1.0 + 1e-9)
+    for i in range(n):
+        sel = np.abs(log_t - log_t[i]) <= half
+        sel[max(i - 1, 0) : i + 2] = True
+        if np.count_nonzero(sel) < 2:
+            continue
+        x = log_t[sel] - log_t[sel].mean()
+        out[i] = float(np.dot(x, log_s[sel] - log_s[sel].mean()) / np.dot(x, x))
+    return out
+
+
+def _fixed_slope_line(
+    log_t: NDArray[np.float64], log_s: NDArray[np.float64], w: NDArray[np.float64], slope: float
+) -> float:
+    """log σ at log τ = 0 of the weighted least-squares line of the given slope."""
+    return float(np.sum(w * (log_s - slope * log_t)) / np.sum(w))
+
+
+def noise_parameters(
+    curve: AllanCurve, *, slope_tol: float = SLOPE_TOL, max_rel_err: float = MAX_REL_ERR
+) -> NoiseParameters:
+    """Read N, B and K from an Allan deviation curve by the IEEE Std 952-1997 slopes.
+
+    Rules (Annex C; ``u`` is the unit of the curve):
+
+    1. Only points whose relative 1σ error ``adev_err / adev`` is at most ``max_rel_err``
+       are read (default 0.1: at least 51 independent clusters); the tail beyond is too
+       uncertain to tell a slope from (the slope between neighbouring octaves is then
+       known to about ±``max_rel_err``).
+    2. The local slope at each point is the least-squares slope of ``log σ`` against
+       ``log τ`` over the readable points within a factor 2 of its τ (on an octave grid:
+       its two neighbours).
+    3. A point is in the region of slope ``α`` when ``|local slope − α| ≤ slope_tol``
+       (default 0.1). At the edge of a ±1/2 region the neighbouring process already
+       raises σ there, by about 5 % (the opposite ±1/2 process) to 12 % (a flicker
+       floor) at tol = 0.1, so N and K can read a few per cent high where processes meet
+       (less than that: the fit spans the whole region).
+    4. ``N``: the line of slope −1/2 fitted (weighted by ``1/rel_err²``) to the −1/2 region,
+       read at τ = 1 s (extrapolated along the line if needed): ``N = σ(1 s)`` [u·√s].
+    5. ``K``: the line of slope +1/2 fitted likewise to the +1/2 region, read at τ = 3 s:
+       ``K = σ(3 s)`` [u/√s].
+    6. ``B``: the smallest σ of the flat region (slope 0 ± ``slope_tol``) divided by 0.664;
+       without a flat point, the curve's minimum when it is a bottom, i.e. readable points
+       before it fall (slope < −tol) and readable points after it rise (slope > +tol) —
+       white noise plus rate random walk without flicker reads the bottom of their bowl,
+       an upper bound of any flicker floor. ``b_tau_s`` [s] is the τ of that minimum.
+
+    Parameters
+    ----------
+    curve : AllanCurve
+        From :func:`allan_deviation`, in unit ``u``.
+    slope_tol : float
+        Tolerance on the local log-log slope (dimensionless), in (0, 0.25).
+    max_rel_err : float
+        Largest relative 1σ error of a point used (dimensionless), > 0.
+
+    Returns
+    -------
+    NoiseParameters
+        ``n`` [u·√s], ``b`` [u], ``k`` [u/√s] (each None without its region) and the τ
+        [s] they were read from.
+    """
+    if not (0 < slope_tol < 0.25):
+        raise ConfigError(f"slope_tol must be in (0, 0.25), got {slope_tol!r}")
+    if not (max_rel_err > 0):
+        raise ConfigError(f"max_rel_err must be positive, got {max_rel_err!r}")
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel = curve.adev_err / curve.adev
+    use = (curve.adev > 0) & np.isfinite(rel) & (rel <= max_rel_err)
+    none = NoiseParameters(None, None, None, None, None, None)
+    if np.count_nonzero(use) < 2:
+        return none
+    tau = curve.tau_s[use]
+    sig = curve.adev[use]
+    log_t, log_s = np.log(tau), np.log(sig)
+    w = 1.0 / rel[use] ** 2
+    slope = _local_slopes(log_t, log_s)
+
+    n = n_tau = k = k_tau = b = b_tau = None
+    white = np.abs(slope + 0.5) <= slope_tol
+    if np.any(white):
+        n = math.exp(_fixed_slope_line(log_t[white], log_s[white], w[white], -0.5))
+        n_tau = (float(tau[white][0]), float(tau[white][-1]))
+    rrw = np.abs(slope - 0.5) <= slope_tol
+    if np.any(rrw):
+        at_1s = _fixed_slope_line(log_t[rrw], log_s[rrw], w[rrw], 0.5)
+        k = math.exp(at_1s + 0.5 * math.log(3.0))
+        k_tau = (float(tau[rrw][0]), float(tau[rrw][-1]))
+    flat = np.abs(slope) <= slope_tol
+    i_min: int | None = None
+    if np.any(flat):
+        idx = np.flatnonzero(flat)
+        i_min = int(idx[np.argmin(sig[idx])])
+    else:
+        i = int(np.argmin(sig))
+        if np.any(slope[:i] < -slope_tol) and np.any(slope[i + 1 :] > slope_tol):
+            i_min = i
+    if i_min is not None:
+        b = float(sig[i_min]) / BIAS_INSTABILITY_FACTOR
+        b_tau = float(tau[i_min])
+    return NoiseParameters(n=n, n_tau_s=n_tau, b=b, b_tau_s=b_tau, k=k, k_tau_s=k_tau)
