@@ -24,6 +24,14 @@ Parameter dictionaries (every number a float, every array a nested list)
     ``x_mean``, ``x_scale`` (d), ``W`` (n × d), ``b`` (n), ``v`` (n), ``b_out``, ``y_mean``,
     ``y_scale``: ``f = y_mean + y_scale · (v · σ(W z + b) + b_out)`` with
     ``z = (x − x_mean) / x_scale`` and ``σ(a) = 1 / (1 + e^{−a})``.
+``px4``, ``ardupilot`` (the field's own fits, :mod:`rinscal.calibration.baselines`)
+    ``t_ref``, ``t_min``, ``t_max`` [°C] and ``coef`` (4 numbers):
+    ``f = Σ_{k=0..3} coef[k] (clip(T, t_min, t_max) − t_ref)^k``, the temperature clamped to
+    the calibrated range as both firmwares do (``t_min ≤ t_max``). ``px4``: ``coef`` are
+    ``TC_*_X0 .. X3``, ``t_ref``/``t_min``/``t_max`` are ``TC_*_TREF/TMIN/TMAX``. ``ardupilot``:
+    ``t_ref`` is always 35.0 (the firmware's fixed ``TEMP_REFERENCE``), ``coef[1:]`` are
+    ``INS_TCALn_*1..3`` (without the × 1e6 scaling) and ``coef[0]``, which ArduPilot does not
+    store, is the training mean of ``y`` minus the cubic.
 """
 
 from __future__ import annotations
@@ -45,7 +53,7 @@ __all__ = [
 ]
 
 #: Method names, as written in model files and on the command line.
-METHODS: tuple[str, ...] = ("poly-t", "sectional", "regression", "neural")
+METHODS: tuple[str, ...] = ("poly-t", "sectional", "regression", "neural", "px4", "ardupilot")
 
 _CHUNK = 1 << 15
 
@@ -55,7 +63,12 @@ PARAM_KEYS: dict[str, tuple[str, ...]] = {
     "regression": ("method", "orders", "center", "scale", "intercept", "coef"),
     "sectional": ("method", "orders", "edges", "center", "scale", "intercept", "coef"),
     "neural": ("method", "x_mean", "x_scale", "W", "b", "v", "b_out", "y_mean", "y_scale"),
+    "px4": ("method", "t_ref", "t_min", "t_max", "coef"),
+    "ardupilot": ("method", "t_ref", "t_min", "t_max", "coef"),
 }
+
+#: ArduPilot's fixed reference temperature [°C] (``TEMP_REFERENCE``).
+ARDUPILOT_T_REF = 35.0
 
 
 def _horner(z: np.ndarray, coef: Sequence[float]) -> np.ndarray:
@@ -80,7 +93,7 @@ def _sigmoid(a: np.ndarray) -> np.ndarray:
 def n_inputs(params: Mapping[str, Any]) -> int:
     """Number of feature columns a model uses (1 to 3)."""
     method = params["method"]
-    if method == "poly-t":
+    if method in ("poly-t", "px4", "ardupilot"):
         return 1
     if method == "sectional":
         return 2
@@ -94,6 +107,13 @@ def _eval_poly_t(p: Mapping[str, Any], x: np.ndarray) -> np.ndarray:
     d = x[:, 0] - float(p["t_ref"])
     if len(coef) == 1:
         return np.full(d.shape, coef[0])
+    return _horner(d, coef[1:]) + coef[0]
+
+
+def _eval_clamped_cubic(p: Mapping[str, Any], x: np.ndarray) -> np.ndarray:
+    """``Σ_k coef[k] (clip(T, t_min, t_max) − t_ref)^k`` (``px4``, ``ardupilot``)."""
+    coef = [float(c) for c in p["coef"]]
+    d = np.clip(x[:, 0], float(p["t_min"]), float(p["t_max"])) - float(p["t_ref"])
     return _horner(d, coef[1:]) + coef[0]
 
 
@@ -160,6 +180,8 @@ _EVAL = {
     "regression": _eval_regression,
     "sectional": _eval_sectional,
     "neural": _eval_neural,
+    "px4": _eval_clamped_cubic,
+    "ardupilot": _eval_clamped_cubic,
 }
 
 
@@ -338,6 +360,18 @@ def validate_params(params: Any) -> None:
         c = _arr(params, "coef", (None,))
         if not 1 <= c.size <= 8:
             raise ValueError(f"'coef' has {c.size} entries, expected 1 to 8")
+    elif method in ("px4", "ardupilot"):
+        t_ref = _num(params, "t_ref")
+        t_min = _num(params, "t_min")
+        t_max = _num(params, "t_max")
+        if t_min > t_max:
+            raise ValueError(f"'t_min' ({t_min}) is above 't_max' ({t_max})")
+        if method == "ardupilot" and t_ref != ARDUPILOT_T_REF:
+            raise ValueError(
+                f"'t_ref' of an ardupilot model must be {ARDUPILOT_T_REF} (the firmware's fixed "
+                f"TEMP_REFERENCE), got {t_ref}"
+            )
+        _arr(params, "coef", (4,))
     elif method == "regression":
         o = _orders(params, None)
         d = len(o)

@@ -1,0 +1,606 @@
+"""The field's own thermal fits, re-implemented: PX4 and ArduPilot, as users run them today.
+
+Both fit one cubic in the inner temperature ``T`` [°C] per channel; they differ in how they
+prepare the data, where they put the reference temperature and what they keep of the
+constant. Both firmwares clamp ``T`` to the calibrated range ``[t_min, t_max]`` before
+evaluating. The fitted parameters are the ``px4`` and ``ardupilot`` forms of
+:mod:`rinscal.calibration._inference`:
+``f = Σ_{k=0..3} coef[k] (clip(T, t_min, t_max) − t_ref)^k`` [output units], and compensation
+is ``N' = N − f`` as for every other method. Nothing here is copied from those projects; the
+procedures are re-implemented from their documented scripts with numpy/scipy.
+
+PX4 (``Tools/process_sensor_caldata.py`` of PX4/PX4-Autopilot, read at commit ``00f5c319``)
+    Per sensor instance, for gyroscopes (``sensor_gyro``) and accelerometers
+    (``sensor_accel``):
+
+    1. ``TMIN``/``TMAX`` = min/max of the raw (unfiltered) temperature samples,
+       ``TREF = 0.5 (TMIN + TMAX)``; ``T_rel = T − TREF``.
+    2. The output of each axis (not the temperature) goes through
+       ``scipy.signal.medfilt(data, 31)``: a centred 31-sample running median, the log
+       zero-padded at both ends (``median_filter``).
+    3. Accelerometers only: the median of the filtered output is subtracted
+       (``correction_x = x − np.median(x)``). Gyros keep their level.
+    4. ``resampleWithDeltaX``: ``[min T_rel, max T_rel]`` is cut into 2000 equal bins
+       (``interval = (max − min) / 2000``; a sample goes to ``int((T_rel − min) / interval)``,
+       the maximum to the last bin); each non-empty bin becomes one point, the mean ``T_rel``
+       and the mean output of its samples; empty bins are dropped. (``--no_resample`` skips
+       this and fits every sample: ``resample=False``.)
+    5. ``np.polyfit(T_rel_bins, output_bins, 3)``: ``TC_*_X3 .. X0`` are its coefficients from
+       the highest power down, so ``X0`` is the fitted constant (for accelerometers the
+       constant of the median-removed output).
+
+    The firmware (``src/modules/temperature_compensation/TemperatureCompensation.cpp``,
+    ``calc_thermal_offsets_3D``) clamps ``T`` to ``[TMIN, TMAX]``, computes
+    ``offset = X0 + X1 d + X2 d² + X3 d³`` with ``d = T_clamped − TREF`` and subtracts it from
+    the raw output. Our ``px4`` parameters are exactly ``TREF, TMIN, TMAX`` and
+    ``coef = [X0, X1, X2, X3]``.
+
+ArduPilot (``Tools/scripts/tempcal_IMU.py`` of ArduPilot/ardupilot, read at commit
+``d4209711``; ``libraries/AP_InertialSensor/AP_InertialSensor_tempcal.cpp``)
+    1. ``IMUData.FilterArray`` with ``width_s = 2``: the window is
+       ``int(nsamples / nseconds) * 2`` samples (``nseconds = time[-1] − time[0]``); when it
+       exceeds one sample, the temperature, every axis and the time go through a trailing
+       moving average (``moving_average``: cumulative sums, only complete windows kept, so
+       ``n − w + 1`` points remain).
+    2. ``TMIN``/``TMAX`` = min/max of the *smoothed* temperature.
+    3. ``np.polyfit(T_smooth − 35, output_smooth, 3)`` (``POLY_ORDER = 3``,
+       ``TEMP_REF = 35.0``), a least-squares cubic *with* a constant term; for accelerometers
+       an offset (the mean of the smoothed output, or its value at ``INS_ACCn_CALTEMP`` when
+       the log has one) is subtracted first, which changes only that constant.
+    4. ``Coefficients.param_string`` writes the coefficients of ``(T − 35)^1..3`` (× 1e6) as
+       ``INS_TCALn_ACC1..3``/``GYR1..3`` and drops the constant: ArduPilot's separate
+       offset calibration holds the level. (The ``.parm`` text rounds ``TMIN``/``TMAX`` to
+       0.1 °C and the scaled coefficients to 9 decimals; we keep the unrounded numbers and
+       leave the file format to the export.)
+
+    The firmware (``TCal::correct_sensor``, ``TCal::polynomial_eval``) clamps ``T`` (and the
+    calibration temperature) to ``[TMIN, TMAX]`` and subtracts the constant-free cubic in
+    ``T − 35``. Our ``ardupilot`` parameters keep ``t_ref = 35``, ``t_min``/``t_max`` and
+    ``coef[1:]`` as fitted (without the × 1e6), and set ``coef[0]``, which ArduPilot does not
+    have, to the mean over the training samples of ``y − Σ_{k=1..3} coef[k] (clip(T) − 35)^k``,
+    so that the model carries the training level like every other method of ours.
+
+Several runs (our logs stack cold starts; the tools read one log): every filter runs within
+one run, never across a boundary, the ArduPilot window from that run's own sample rate;
+everything after the filters (``TMIN``/``TMAX``, the accelerometer median, the bins, the
+fit) uses the pooled samples of all runs. Rows whose output ``y`` is NaN (dropped samples) are
+removed before filtering, so a filter window spans the remaining samples of its run.
+"""
+
+from __future__ import annotations
+
+import itertools
+import operator
+from typing import Any
+
+import numpy as np
+from scipy import ndimage
+from sklearn.utils.validation import column_or_1d, validate_data
+
+from rinscal.calibration._inference import ARDUPILOT_T_REF, predict_params
+from rinscal.calibration.estimators import _ThermalEstimator
+
+__all__ = [
+    "ARDUPILOT_WINDOW_S",
+    "BASELINES",
+    "PX4_MEDIAN_KERNEL",
+    "PX4_N_BINS",
+    "SENSORS",
+    "ArduPilotFit",
+    "PX4Fit",
+    "ardupilot_fit",
+    "ardupilot_window",
+    "moving_average",
+    "px4_fit",
+    "px4_median_filter",
+    "px4_resample",
+    "run_bounds",
+]
+
+#: Sensor types: the PX4 fit removes an accelerometer's median, not a gyro's.
+SENSORS: tuple[str, ...] = ("gyro", "accel")
+#: Length [samples] of PX4's running median (``medfilt(data, 31)``).
+PX4_MEDIAN_KERNEL = 31
+#: Number of equal temperature bins of PX4's ``resampleWithDeltaX``.
+PX4_N_BINS = 2000
+#: Width [s] of ArduPilot's moving average (``data.Filter(2)``).
+ARDUPILOT_WINDOW_S = 2
+_DEGREE = 3
+
+
+# ----------------------------------------------------------------------------- helpers
+
+
+def run_bounds(groups: Any, n: int) -> np.ndarray:
+    """Boundaries of the contiguous runs of a stacked log.
+
+    Parameters
+    ----------
+    groups : array_like, shape (n,), or None
+        Run code of each row (rows in time order within a run, each run one contiguous
+        block); None: one run.
+    n : int
+        Number of rows.
+
+    Returns
+    -------
+    ndarray of int, shape (runs + 1,)
+        Row ``bounds[i]`` starts run ``i``, which ends before row ``bounds[i + 1]``.
+
+    Raises
+    ------
+    ValueError
+        If ``groups`` has the wrong length or a run is split into several blocks.
+    """
+    if groups is None:
+        return np.array([0, n], dtype=np.intp)
+    g = np.asarray(groups)
+    if g.ndim != 1 or g.shape[0] != n:
+        raise ValueError(f"groups must be 1-D with {n} entries, got shape {g.shape}")
+    if n == 0:
+        return np.array([0], dtype=np.intp)
+    starts = np.concatenate([[0], np.flatnonzero(g[1:] != g[:-1]) + 1])
+    if np.unique(g[starts]).size != starts.size:
+        raise ValueError("groups: each run must be one contiguous block of rows")
+    return np.append(starts, n).astype(np.intp)
+
+
+def _check_sensor(sensor: Any) -> str:
+    if sensor not in SENSORS:
+        raise ValueError(f"sensor must be one of {', '.join(SENSORS)}, got {sensor!r}")
+    return str(sensor)
+
+
+def _prepare(
+    temp: Any, y: Any, groups: Any, t: Any = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
+    """Arrays as float, runs checked, NaN rows of ``y`` dropped (bounds recomputed)."""
+    temp = np.asarray(temp, dtype=np.float64)
+    y = np.asarray(y, dtype=np.float64)
+    n = temp.shape[0] if temp.ndim == 1 else -1
+    if temp.ndim != 1 or y.shape != (n,):
+        raise ValueError(
+            f"temperature and output must be 1-D of equal length, got {temp.shape}, {y.shape}"
+        )
+    if not np.all(np.isfinite(temp)):
+        raise ValueError("the temperature holds a non-finite value")
+    bounds = run_bounds(groups, n)
+    keep = ~np.isnan(y)
+    if not np.all(np.isfinite(y[keep])):
+        raise ValueError("the output holds an infinite value")
+    if t is not None:
+        t = np.asarray(t, dtype=np.float64)
+        if t.shape != (n,):
+            raise ValueError(f"t must be 1-D with {n} entries, got shape {t.shape}")
+        if not np.all(np.isfinite(t[keep])):
+            raise ValueError("the time t holds a non-finite value")
+    if not keep.all():
+        # kept rows before each old boundary = the new boundary
+        kept_before = np.concatenate([[0], np.cumsum(keep)])
+        bounds = np.unique(kept_before[bounds])
+        temp, y = temp[keep], y[keep]
+        t = None if t is None else t[keep]
+    if y.size == 0:
+        raise ValueError("no finite output sample to fit")
+    return temp, y, bounds, t
+
+
+def _polyfit3(x: np.ndarray, y: np.ndarray, what: str) -> np.ndarray:
+    """``np.polyfit(x, y, 3)``, refusing fewer than 4 distinct abscissae."""
+    k = np.unique(x).size
+    if k <= _DEGREE:
+        raise ValueError(
+            f"a cubic in temperature needs at least {_DEGREE + 1} distinct {what}, got {k}"
+        )
+    return np.polyfit(x, y, _DEGREE)
+
+
+# ----------------------------------------------------------------------------- PX4
+
+
+def px4_median_filter(y: np.ndarray, kernel: int = PX4_MEDIAN_KERNEL) -> np.ndarray:
+    """PX4's ``median_filter``: ``scipy.signal.medfilt(y, kernel)``.
+
+    A centred running median of ``kernel`` (odd) samples; beyond both ends the series is
+    padded with zeros, as ``medfilt`` does (so the first and last ``kernel // 2`` outputs
+    see zeros). Computed with :func:`scipy.ndimage.median_filter` (``mode="constant"``,
+    ``cval=0``), which gives the same numbers faster.
+
+    Parameters
+    ----------
+    y : ndarray, shape (n,) [output units]
+        One run of one channel.
+    kernel : int
+        Window length [samples], odd.
+
+    Returns
+    -------
+    ndarray, shape (n,) [output units]
+    """
+    if kernel < 1 or kernel % 2 == 0:
+        raise ValueError(f"kernel must be a positive odd number, got {kernel}")
+    y = np.asarray(y, dtype=np.float64)
+    if y.size == 0:
+        return y.copy()
+    return ndimage.median_filter(y, size=kernel, mode="constant", cval=0.0)
+
+
+def px4_resample(
+    x: np.ndarray, y: np.ndarray, n_bins: int = PX4_N_BINS
+) -> tuple[np.ndarray, np.ndarray]:
+    """PX4's ``resampleWithDeltaX``: bin means over equal bins of ``x``.
+
+    ``[min x, max x]`` is cut into ``n_bins`` bins of width ``(max − min) / n_bins``; a sample
+    with ``x < max`` goes to bin ``int((x − min) / width)`` (the last bin if rounding gives
+    ``n_bins``), one with ``x = max`` to the last. Each non-empty bin gives the mean ``x``
+    and the mean ``y`` of its samples; empty bins are dropped.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n,) [°C]
+        Temperature (PX4 bins ``T − TREF``).
+    y : ndarray, shape (n,) [output units]
+        Output.
+    n_bins : int
+        Number of bins.
+
+    Returns
+    -------
+    x_bins, y_bins : ndarray, shape (m,) [°C], [output units]
+        Means of the ``m ≤ n_bins`` non-empty bins, in increasing ``x``.
+    """
+    x = np.asarray(x, dtype=np.float64)
+    y = np.asarray(y, dtype=np.float64)
+    lo, hi = float(np.min(x)), float(np.max(x))
+    width = (hi - lo) / n_bins
+    idx = np.full(x.shape, n_bins - 1, dtype=np.intp)
+    below = x < hi
+    idx[below] = np.minimum(((x[below] - lo) / width).astype(np.intp), n_bins - 1)
+    count = np.bincount(idx, minlength=n_bins)
+    sum_x = np.bincount(idx, weights=x, minlength=n_bins)
+    sum_y = np.bincount(idx, weights=y, minlength=n_bins)
+    full = count > 0
+    return sum_x[full] / count[full], sum_y[full] / count[full]
+
+
+def px4_fit(
+    temp: Any,
+    y: Any,
+    groups: Any = None,
+    *,
+    sensor: str = "gyro",
+    resample: bool = True,
+) -> dict[str, Any]:
+    """Fit one channel as PX4's ``process_sensor_caldata.py`` does (see the module docstring).
+
+    Parameters
+    ----------
+    temp : array_like, shape (n,) [°C]
+        Inner temperature.
+    y : array_like, shape (n,) [output units]
+        Raw output of one channel; NaN rows are dropped before filtering.
+    groups : array_like, shape (n,), optional
+        Run code of each row (runs contiguous, rows in time order); None: one run. The
+        median filter runs within each run.
+    sensor : {"gyro", "accel"}
+        ``"accel"`` subtracts the median of the filtered output before binning.
+    resample : bool
+        Fit the 2000 bin means (the script's default) or, False, every filtered sample
+        (``--no_resample``).
+
+    Returns
+    -------
+    dict
+        ``px4`` parameters: ``t_ref`` = TREF, ``t_min`` = TMIN, ``t_max`` = TMAX [°C],
+        ``coef`` = ``[X0, X1, X2, X3]`` [output units / °C^k].
+
+    Raises
+    ------
+    ValueError
+        On bad input, or fewer than 4 distinct temperatures (bins) to fit a cubic.
+    """
+    sensor = _check_sensor(sensor)
+    temp, y, bounds, _ = _prepare(temp, y, groups)
+    t_min, t_max = float(np.min(temp)), float(np.max(temp))
+    t_ref = 0.5 * (t_min + t_max)
+    t_rel = temp - t_ref
+    yf = np.concatenate([px4_median_filter(y[a:b]) for a, b in itertools.pairwise(bounds)])
+    if sensor == "accel":
+        yf = yf - np.median(yf)
+    if resample:
+        if not t_max > t_min:
+            raise ValueError(f"the temperature range is empty (all samples at {t_min} °C)")
+        xb, yb = px4_resample(t_rel, yf)
+        what = "temperature bins"
+    else:
+        xb, yb = t_rel, yf
+        what = "temperatures"
+    c = _polyfit3(xb, yb, what)
+    return {
+        "method": "px4",
+        "t_ref": t_ref,
+        "t_min": t_min,
+        "t_max": t_max,
+        "coef": [float(v) for v in c[::-1]],
+    }
+
+
+# ----------------------------------------------------------------------------- ArduPilot
+
+
+def ardupilot_window(t: np.ndarray, window_s: int = ARDUPILOT_WINDOW_S) -> int:
+    """ArduPilot's moving-average length of one run: ``int(nsamples / nseconds) * window_s``.
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,) [s]
+        Sample times of one run, increasing; ``nseconds = t[-1] − t[0]``.
+    window_s : int
+        Width [s] (2 in ``tempcal_IMU.py``).
+
+    Returns
+    -------
+    int
+        Window [samples]; the tool smooths only when it exceeds 1.
+    """
+    t = np.asarray(t, dtype=np.float64)
+    span = float(t[-1] - t[0])
+    if not span > 0:
+        raise ValueError(f"time must increase within a run (span {span} s over {t.size} samples)")
+    return int(t.size / span) * int(window_s)
+
+
+def moving_average(x: np.ndarray, w: int) -> np.ndarray:
+    """ArduPilot's ``moving_average``: means of the complete windows of ``w`` samples.
+
+    ``out[i] = mean(x[i : i + w])`` for ``i = 0 .. n − w`` (``n − w + 1`` values; none when
+    ``n < w``). Cumulative sums about ``x[0]`` (the tool sums the raw values; the result
+    differs only by rounding).
+
+    Parameters
+    ----------
+    x : ndarray, shape (n,) [any unit]
+        Series.
+    w : int
+        Window [samples], at least 1.
+
+    Returns
+    -------
+    ndarray, shape (max(n − w + 1, 0),) [unit of x]
+    """
+    x = np.asarray(x, dtype=np.float64)
+    if x.size < w:
+        return np.zeros(0)
+    x0 = x[0]
+    c = np.concatenate([[0.0], np.cumsum(x - x0)])
+    return (c[w:] - c[:-w]) / w + x0
+
+
+def ardupilot_fit(
+    temp: Any,
+    y: Any,
+    t: Any,
+    groups: Any = None,
+    *,
+    sensor: str = "gyro",
+    window_s: int = ARDUPILOT_WINDOW_S,
+) -> dict[str, Any]:
+    """Fit one channel as ArduPilot's ``tempcal_IMU.py`` does (see the module docstring).
+
+    Parameters
+    ----------
+    temp : array_like, shape (n,) [°C]
+        Inner temperature.
+    y : array_like, shape (n,) [output units]
+        Raw output of one channel; NaN rows are dropped before smoothing.
+    t : array_like, shape (n,) [s]
+        Time since each run's power-on, increasing within a run: sets the window.
+    groups : array_like, shape (n,), optional
+        Run code of each row (runs contiguous, rows in time order); None: one run. Each run
+        is smoothed alone with its own window; a run of one sample, or shorter than its
+        window, leaves no smoothed point.
+    sensor : {"gyro", "accel"}
+        ``"accel"`` subtracts the mean smoothed output before the fit, as the script does
+        without a logged calibration temperature; it changes only the dropped constant.
+    window_s : int
+        Moving-average width [s] (2).
+
+    Returns
+    -------
+    dict
+        ``ardupilot`` parameters: ``t_ref`` = 35 [°C], ``t_min``/``t_max`` [°C] (range of the
+        smoothed temperature), ``coef`` [output units / °C^k]: ``coef[1:]`` the fitted
+        coefficients of ``(T − 35)^1..3``, ``coef[0]`` the mean over the training rows of
+        ``y − Σ_{k≥1} coef[k] (clip(T, t_min, t_max) − 35)^k``.
+
+    Raises
+    ------
+    ValueError
+        On bad input, or fewer than 4 distinct smoothed temperatures.
+    """
+    sensor = _check_sensor(sensor)
+    try:
+        w_s = operator.index(window_s)
+    except TypeError:
+        w_s = 0
+    if w_s < 1:
+        raise ValueError(f"window_s must be a positive whole number of seconds, got {window_s}")
+    if t is None:
+        raise ValueError(
+            "the ArduPilot fit smooths over 2 s: pass t, the time [s] since each run's power-on"
+        )
+    temp, y, bounds, tt = _prepare(temp, y, groups, t)
+    if tt is None:  # pragma: no cover - _prepare returns t when given one
+        raise ValueError("t is missing")
+    ts, ys = [], []
+    for a, b in itertools.pairwise(bounds):
+        if b - a < 2:
+            continue
+        w = ardupilot_window(tt[a:b], w_s)
+        if w > 1:
+            ts.append(moving_average(temp[a:b], w))
+            ys.append(moving_average(y[a:b], w))
+        else:
+            ts.append(temp[a:b])
+            ys.append(y[a:b])
+    if not ts or sum(v.size for v in ts) == 0:
+        raise ValueError("no run is longer than its moving-average window")
+    t_s = np.concatenate(ts)
+    y_s = np.concatenate(ys)
+    t_min, t_max = float(np.min(t_s)), float(np.max(t_s))
+    if sensor == "accel":
+        y_s = y_s - np.mean(y_s)
+    c = _polyfit3(t_s - ARDUPILOT_T_REF, y_s, "smoothed temperatures")
+    params: dict[str, Any] = {
+        "method": "ardupilot",
+        "t_ref": ARDUPILOT_T_REF,
+        "t_min": t_min,
+        "t_max": t_max,
+        "coef": [0.0, float(c[2]), float(c[1]), float(c[0])],
+    }
+    params["coef"][0] = float(np.mean(y - predict_params(params, temp[:, None])))
+    return params
+
+
+# ----------------------------------------------------------------------------- estimators
+
+
+def _fit_inputs(est: _ThermalEstimator, X: Any, y: Any) -> tuple[np.ndarray, np.ndarray]:
+    """``X`` validated (finite, sets ``n_features_in_``); ``y`` 1-D float, NaN allowed."""
+    if y is None:
+        raise ValueError(f"{type(est).__name__} requires y to be passed, but the target y is None")
+    X = validate_data(est, X, dtype=np.float64, ensure_min_features=1, ensure_min_samples=2)
+    y = column_or_1d(np.asarray(y, dtype=np.float64), warn=True)
+    if y.shape != (X.shape[0],):
+        raise ValueError(f"y must have {X.shape[0]} entries, got shape {y.shape}")
+    return X, y
+
+
+class PX4Fit(_ThermalEstimator):
+    """PX4's thermal fit (``Tools/process_sensor_caldata.py``) as an estimator.
+
+    31-sample running median per run, accelerometers minus their median, 2000 equal
+    temperature bins, ``np.polyfit`` cubic about the middle of the temperature range; see
+    :func:`px4_fit` and the module docstring.
+    ``f = Σ_k coef_[k] (clip(T, t_min_, t_max_) − t_ref_)^k``.
+
+    Parameters
+    ----------
+    sensor : {"gyro", "accel"}
+        Sensor type of the channel.
+    resample : bool
+        Fit the bin means (default, as the script) or every sample (``--no_resample``).
+
+    Attributes
+    ----------
+    t_ref_, t_min_, t_max_ : float [°C]
+        ``TC_*_TREF``, ``TC_*_TMIN``, ``TC_*_TMAX``.
+    coef_ : ndarray, shape (4,) [output units / °C^k]
+        ``TC_*_X0 .. X3``.
+    params_ : dict
+        Plain ``px4`` parameters.
+    """
+
+    method = "px4"
+
+    def __init__(self, sensor: str = "gyro", resample: bool = True) -> None:
+        self.sensor = sensor
+        self.resample = resample
+
+    def fit(self, X: Any, y: Any, groups: Any = None, t: Any = None) -> PX4Fit:
+        """Fit one channel.
+
+        Parameters
+        ----------
+        X : array_like, shape (n, k)
+            Features; only the first column ``T`` [°C] is used.
+        y : array_like, shape (n,) [output units]
+            Raw output; NaN rows are dropped before filtering.
+        groups : array_like, shape (n,), optional
+            Run code of each row (runs contiguous, rows in time order); None: one run.
+        t : array_like, shape (n,), optional [s]
+            Time since power-on; not used by PX4 (accepted for a uniform call).
+
+        Returns
+        -------
+        PX4Fit
+        """
+        X, y = _fit_inputs(self, X, y)
+        p = px4_fit(X[:, 0], y, groups, sensor=self.sensor, resample=bool(self.resample))
+        self.t_ref_, self.t_min_, self.t_max_ = p["t_ref"], p["t_min"], p["t_max"]
+        self.coef_ = np.asarray(p["coef"])
+        self.params_ = p
+        return self
+
+
+class ArduPilotFit(_ThermalEstimator):
+    """ArduPilot's thermal fit (``Tools/scripts/tempcal_IMU.py``) as an estimator.
+
+    2 s moving average per run, ``np.polyfit`` cubic in ``T − 35 °C`` whose constant
+    ArduPilot drops, range clamped to the smoothed temperatures as the firmware does; see
+    :func:`ardupilot_fit` and the module docstring.
+    ``f = Σ_k coef_[k] (clip(T, t_min_, t_max_) − 35)^k``, ``coef_[0]`` the training level.
+
+    Parameters
+    ----------
+    sensor : {"gyro", "accel"}
+        Sensor type of the channel (changes only the dropped constant of the fit).
+    window_s : int
+        Moving-average width [s] (2, as the script).
+
+    Attributes
+    ----------
+    t_ref_ : float [°C]
+        35.
+    t_min_, t_max_ : float [°C]
+        ``INS_TCALn_TMIN``, ``INS_TCALn_TMAX``.
+    coef_ : ndarray, shape (4,) [output units / °C^k]
+        Training level, then ``INS_TCALn_*1..3`` × 1e-6.
+    params_ : dict
+        Plain ``ardupilot`` parameters.
+    """
+
+    method = "ardupilot"
+
+    def __init__(self, sensor: str = "gyro", window_s: int = ARDUPILOT_WINDOW_S) -> None:
+        self.sensor = sensor
+        self.window_s = window_s
+
+    def fit(self, X: Any, y: Any, groups: Any = None, t: Any = None) -> ArduPilotFit:
+        """Fit one channel.
+
+        Parameters
+        ----------
+        X : array_like, shape (n, k)
+            Features; only the first column ``T`` [°C] is used.
+        y : array_like, shape (n,) [output units]
+            Raw output; NaN rows are dropped before smoothing.
+        groups : array_like, shape (n,), optional
+            Run code of each row (runs contiguous, rows in time order); None: one run.
+        t : array_like, shape (n,) [s]
+            Time since each run's power-on (sets the 2 s window); required.
+
+        Returns
+        -------
+        ArduPilotFit
+
+        Raises
+        ------
+        ValueError
+            If ``t`` is None, among others.
+        """
+        if t is None:
+            raise ValueError(
+                "ArduPilotFit.fit needs t, the time [s] since each run's power-on: "
+                "ArduPilot smooths over 2 s before fitting"
+            )
+        X, y = _fit_inputs(self, X, y)
+        p = ardupilot_fit(X[:, 0], y, t, groups, sensor=self.sensor, window_s=self.window_s)
+        self.t_ref_, self.t_min_, self.t_max_ = p["t_ref"], p["t_min"], p["t_max"]
+        self.coef_ = np.asarray(p["coef"])
+        self.params_ = p
+        return self
+
+
+#: Estimator class of each baseline method name (to be merged into ``ESTIMATORS``).
+BASELINES: dict[str, type[_ThermalEstimator]] = {"px4": PX4Fit, "ardupilot": ArduPilotFit}
