@@ -33,6 +33,7 @@ read with :func:`read_meta` and written with :func:`write_meta`.
 from __future__ import annotations
 
 import contextlib
+import csv
 import dataclasses
 import json
 import math
@@ -450,6 +451,14 @@ def _read_table(p: Path, fmt: Format, mapping: ColumnMapping | None) -> pd.DataF
             raise LogError(f"{p}: unreadable Parquet file: {exc}") from None
     header = _sniff_text(p)
     sep = _separator(p, fmt, mapping, header)
+    raw_cols = next(csv.reader([header.lstrip("\ufeff")], delimiter=sep), [])
+    dup = sorted({c for c in raw_cols if raw_cols.count(c) > 1})
+    if dup:
+        raise LogError(
+            f"{p}: column(s) {', '.join(map(repr, dup))} appear more than once in the header "
+            "(a reader would rename the second to '<name>.1' and one of them would be used "
+            "silently); rename or drop the duplicates"
+        )
     run_name = RUN
     if mapping is not None:
         run_name = next((f for f, c in mapping.columns.items() if c == RUN), RUN)

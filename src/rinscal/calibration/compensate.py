@@ -8,10 +8,12 @@ metadata) ``r = 0`` and the result is Eq. 10 literally: the compensated output t
 scatters about zero.
 
 Every input row and column is kept, in order; each modelled channel is replaced by its
-compensated value, and a boolean column ``out_of_range`` flags rows where any input of any
-channel lies outside the training range. The policy decides what happens there: ``clamp``
-(inputs clipped to the training range), ``extrapolate`` (the model as is) or ``error``
-(:class:`~rinscal.errors.RangeError`). A dropped sample (NaN) stays NaN.
+compensated value, and a boolean column ``out_of_range`` flags rows where, for any channel,
+an input lies outside its training range or the combination (T, Ṫ, ΔT) lies outside the
+joint domain of the training data (the model file's occupancy grid). The policy decides
+what happens there: ``clamp`` (inputs clipped to the training range), ``fallback`` (the
+channel's T-only fallback model on the flagged rows), ``extrapolate`` (the model as is) or
+``error`` (:class:`~rinscal.errors.RangeError`). A dropped sample (NaN) stays NaN.
 
 :class:`StreamingCompensator` does the same one sample at a time with the causal rate; it
 equals :func:`compensate` with ``derivative_kind="causal"`` (same compiled rate kernel).
@@ -19,7 +21,7 @@ equals :func:`compensate` with ``derivative_kind="causal"`` (same compiled rate 
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -32,7 +34,7 @@ from rinscal.calibration.features import (
     OutlierConfig,
     build_features,
 )
-from rinscal.calibration.modelfile import POLICIES, ThermalModelFile
+from rinscal.calibration.modelfile import POLICIES, Policy, ThermalModelFile
 from rinscal.errors import LogError, RangeError
 from rinscal.units import MIN_TO_S
 
@@ -46,8 +48,6 @@ __all__ = [
 
 #: Name of the flag column added by :func:`compensate`.
 FLAG_COLUMN = "out_of_range"
-
-Policy = Literal["clamp", "extrapolate", "error"]
 
 
 def model_features(
@@ -100,8 +100,8 @@ def predict_log(
         Validated calibration log.
     model : ThermalModelFile
         The model.
-    policy : {"clamp", "extrapolate", "error"}
-        Out-of-range handling.
+    policy : {"clamp", "fallback", "extrapolate", "error"}
+        Handling of samples outside the training data.
     derivative_kind : {"centred", "causal"}, optional
         Override the model's derivative kind.
     features : Features, optional
@@ -146,8 +146,8 @@ def compensate(
         Validated calibration log (not modified).
     model : ThermalModelFile
         The model.
-    policy : {"clamp", "extrapolate", "error"}
-        Out-of-range handling (see the module docstring).
+    policy : {"clamp", "fallback", "extrapolate", "error"}
+        Handling of samples outside the training data (see the module docstring).
     derivative_kind : {"centred", "causal"}, optional
         Override the model's derivative kind.
 
@@ -186,8 +186,8 @@ class StreamingCompensator:
     ----------
     model : ThermalModelFile
         The model.
-    policy : {"clamp", "extrapolate", "error"}
-        Out-of-range handling.
+    policy : {"clamp", "fallback", "extrapolate", "error"}
+        Handling of samples outside the training data.
 
     Examples
     --------

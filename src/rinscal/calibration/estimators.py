@@ -45,6 +45,7 @@ from sklearn.exceptions import ConvergenceWarning
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from rinscal.calibration._inference import predict_params, raw_polynomial
+from rinscal.calibration.guards import check_design
 
 __all__ = [
     "ESTIMATORS",
@@ -54,9 +55,79 @@ __all__ = [
     "Sectional",
     "block_split",
     "lstsq_qr",
+    "solve_r",
+    "tsqr",
 ]
 
 _BLOCK = 1 << 18
+
+
+def tsqr(
+    basis: Callable[[np.ndarray], np.ndarray],
+    x: np.ndarray,
+    y: np.ndarray,
+    n_terms: int,
+    block: int = _BLOCK,
+) -> np.ndarray:
+    """Triangular factor ``R`` of ``[A | y]`` by blocked (TSQR) QR, ``A = basis(x)``.
+
+    ``A`` is never formed whole: each block of rows of ``x`` is expanded by ``basis`` and
+    reduced to its ``R`` factor, and the stacked factors are reduced again. ``RᵀR =
+    [A | y]ᵀ[A | y]``, so ``R`` (or any subset of its columns, reduced again) carries
+    everything a least-squares fit of ``y`` on columns of ``A`` needs.
+
+    Parameters
+    ----------
+    basis : callable
+        ``basis(x_block) -> ndarray, shape (rows, n_terms)``.
+    x : ndarray, shape (n, k)
+        Inputs.
+    y : ndarray, shape (n,)
+        Targets.
+    n_terms : int
+        Columns of ``A``.
+    block : int
+        Rows per block.
+
+    Returns
+    -------
+    ndarray, shape (min(n, n_terms + 1), n_terms + 1)
+    """
+    rs = []
+    for s in range(0, x.shape[0], block):
+        a = basis(x[s : s + block])
+        aug = np.empty((a.shape[0], n_terms + 1))
+        aug[:, :n_terms] = a
+        aug[:, n_terms] = y[s : s + block]
+        rs.append(np.linalg.qr(aug, mode="r"))
+    return rs[0] if len(rs) == 1 else np.linalg.qr(np.vstack(rs), mode="r")
+
+
+def solve_r(r: np.ndarray, n_terms: int) -> tuple[np.ndarray, float]:
+    """Least-squares solution and residual sum of squares from the ``R`` of ``[A | y]``.
+
+    Parameters
+    ----------
+    r : ndarray, shape (k, n_terms + 1)
+        Triangular factor (see :func:`tsqr`).
+    n_terms : int
+        Columns of ``A``.
+
+    Returns
+    -------
+    beta : ndarray, shape (n_terms,)
+        Solution (minimum-norm when rank deficient).
+    rss : float
+        Residual sum of squares.
+    """
+    k = min(n_terms, r.shape[0])
+    rk = np.zeros((n_terms, n_terms))
+    rk[:k] = r[:k, :n_terms]
+    qty = np.zeros(n_terms)
+    qty[:k] = r[:k, n_terms]
+    beta = np.linalg.lstsq(rk, qty, rcond=None)[0]
+    rss = float(r[n_terms, n_terms] ** 2) if r.shape[0] > n_terms else 0.0
+    return beta, rss
 
 
 def lstsq_qr(
@@ -66,12 +137,10 @@ def lstsq_qr(
     n_terms: int,
     block: int = _BLOCK,
 ) -> tuple[np.ndarray, float]:
-    """Least squares ``min ‖A β − y‖`` by blocked (TSQR) QR of ``[A | y]``.
+    """Least squares ``min ‖A β − y‖`` by blocked QR of ``[A | y]`` (never normal equations).
 
-    ``A`` is never formed whole: each block of rows of ``x`` is expanded by ``basis``,
-    reduced to its ``R`` factor, and the stacked ``R`` factors are reduced again. The small
-    triangular system is solved by ``numpy.linalg.lstsq`` (minimum-norm when rank
-    deficient).
+    :func:`tsqr` then :func:`solve_r`; the small triangular system is solved by
+    ``numpy.linalg.lstsq`` (minimum-norm when rank deficient).
 
     Parameters
     ----------
@@ -93,22 +162,22 @@ def lstsq_qr(
     rss : float
         Residual sum of squares.
     """
-    rs = []
-    for s in range(0, x.shape[0], block):
-        a = basis(x[s : s + block])
-        aug = np.empty((a.shape[0], n_terms + 1))
-        aug[:, :n_terms] = a
-        aug[:, n_terms] = y[s : s + block]
-        rs.append(np.linalg.qr(aug, mode="r"))
-    r = rs[0] if len(rs) == 1 else np.linalg.qr(np.vstack(rs), mode="r")
-    k = min(n_terms, r.shape[0])
-    rk = np.zeros((n_terms, n_terms))
-    rk[:k] = r[:k, :n_terms]
-    qty = np.zeros(n_terms)
-    qty[:k] = r[:k, n_terms]
-    beta = np.linalg.lstsq(rk, qty, rcond=None)[0]
-    rss = float(r[n_terms, n_terms] ** 2) if r.shape[0] > n_terms else 0.0
-    return beta, rss
+    return solve_r(tsqr(basis, x, y, n_terms, block), n_terms)
+
+
+def _checked_lstsq(
+    basis: Callable[[np.ndarray], np.ndarray],
+    x: np.ndarray,
+    y: np.ndarray,
+    orders: Sequence[int],
+    what: str,
+) -> np.ndarray:
+    """:func:`lstsq_qr` that refuses a rank-deficient design (:func:`check_design`)."""
+    n_terms = 1 + int(sum(orders))
+    r = tsqr(basis, x, y, n_terms)
+    if x.shape[0] > n_terms:  # fewer rows are caught by the callers' own checks
+        check_design(r[:, :n_terms], x, orders, what)
+    return solve_r(r, n_terms)[0]
 
 
 def _center_scale(x: np.ndarray) -> tuple[float, float]:
@@ -153,12 +222,18 @@ def _split_coef(beta: np.ndarray, orders: Sequence[int]) -> tuple[float, list[li
     return float(beta[0]), coef
 
 
-def _fit_power(x: np.ndarray, y: np.ndarray, orders: Sequence[int]) -> dict[str, Any]:
-    """Fit ``intercept + Σ_v Σ_k coef[v][k] z_v^(k+1)``; return the regression parameters."""
+def _fit_power(
+    x: np.ndarray, y: np.ndarray, orders: Sequence[int], what: str = "regression"
+) -> dict[str, Any]:
+    """Fit ``intercept + Σ_v Σ_k coef[v][k] z_v^(k+1)``; return the regression parameters.
+
+    Raises :class:`~rinscal.calibration.guards.DesignError` on a rank-deficient design.
+    """
     cs = [_center_scale(x[:, v]) for v in range(len(orders))]
     center = [c for c, _ in cs]
     scale = [s for _, s in cs]
-    beta, _ = lstsq_qr(_power_basis(center, scale, orders), x, y, 1 + int(sum(orders)))
+    label = f"{what} {tuple(int(o) for o in orders)}"
+    beta = _checked_lstsq(_power_basis(center, scale, orders), x, y, orders, label)
     intercept, coef = _split_coef(beta, orders)
     return {
         "orders": [int(o) for o in orders],
@@ -256,7 +331,9 @@ class PolyT(_ThermalEstimator):
         t_ref = 0.5 * (t.min() + t.max()) if self.t_ref is None else float(self.t_ref)
         s = float(np.max(np.abs(t - t_ref)))
         s = s if s > 0 else 1.0
-        beta, _ = lstsq_qr(_power_basis([t_ref], [s], [deg]), X, y, deg + 1)
+        beta = _checked_lstsq(
+            _power_basis([t_ref], [s], [deg]), X, y, [deg], f"degree-{deg} poly-t"
+        )
         coef = beta / s ** np.arange(deg + 1)
         self.t_ref_ = float(t_ref)
         self.coef_ = coef
@@ -430,7 +507,7 @@ class Sectional(_ThermalEstimator):
                     f"temperature segment {k + 1} ({bounds[k]} < T <= {bounds[k + 1]} °C) holds "
                     "no training sample; give segment edges that the data cover"
                 )
-            p = _fit_power(X[sel][:, :2], y[sel], orders)
+            p = _fit_power(X[sel][:, :2], y[sel], orders, f"sectional segment {k + 1}")
             centers.append(p["center"])
             scales.append(p["scale"])
             intercepts.append(p["intercept"])

@@ -22,14 +22,13 @@ Step at a segment edge (the paper's Figure 7)
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
 
 import numpy as np
 import pandas as pd
 
 from rinscal.calibration.compensate import model_features, predict_log
 from rinscal.calibration.features import OutlierConfig
-from rinscal.calibration.modelfile import ThermalModelFile
+from rinscal.calibration.modelfile import Policy, ThermalModelFile
 from rinscal.errors import ConfigError
 
 __all__ = ["StepConfig", "edge_crossings", "edge_steps", "evaluate"]
@@ -159,7 +158,7 @@ def edge_steps(
 def evaluate(
     log: pd.DataFrame,
     model: ThermalModelFile,
-    policy: Literal["clamp", "extrapolate", "error"] = "clamp",
+    policy: Policy = "clamp",
     derivative_kind: str | None = None,
     step: StepConfig | None = None,
     outliers: OutlierConfig | None = None,
@@ -173,8 +172,8 @@ def evaluate(
         Validated calibration log.
     model : ThermalModelFile
         The model.
-    policy : {"clamp", "extrapolate", "error"}
-        Out-of-range handling.
+    policy : {"clamp", "fallback", "extrapolate", "error"}
+        Handling of samples outside the training data.
     derivative_kind : {"centred", "causal"}, optional
         Override the model's derivative kind.
     step : StepConfig, optional

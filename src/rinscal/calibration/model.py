@@ -19,6 +19,7 @@ reference, training ranges and metrics included) with :meth:`ThermalModel.to_fil
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
@@ -26,6 +27,17 @@ import numpy as np
 import pandas as pd
 
 from rinscal._version import __version__
+from rinscal.calibration._domain import fit_domain
+from rinscal.calibration._inference import n_inputs, predict_params
+from rinscal.calibration.auto import (
+    DEFAULT_FAMILIES,
+    DEFAULT_TOLERANCE,
+    Candidate,
+    candidates,
+    fit_estimator,
+    make_estimator,
+    select_channel,
+)
 from rinscal.calibration.estimators import ESTIMATORS
 from rinscal.calibration.features import (
     DerivativeConfig,
@@ -34,12 +46,17 @@ from rinscal.calibration.features import (
     build_features,
     set_points,
 )
-from rinscal.calibration.modelfile import ChannelModel, ThermalModelFile
+from rinscal.calibration.guards import PLAUSIBLE_TEMP_C, DesignError, check_temperatures
+from rinscal.calibration.modelfile import AUTO, ChannelModel, ThermalModelFile
 from rinscal.errors import ConfigError
-from rinscal.schema import CHANNELS, GYRO_CHANNELS
+from rinscal.schema import CHANNELS, GYRO_CHANNELS, TEMP_OUT, temperature_column
 from rinscal.units import DEG_TO_RAD, SENSOR_UNITS
 
-__all__ = ["DEFAULTS", "ThermalModel", "site_reference", "unit_factors"]
+__all__ = ["DEFAULTS", "FIT_METHODS", "ThermalModel", "site_reference", "unit_factors"]
+
+#: Methods ``ThermalModel`` fits: the paper's and the baseline, the field's own fits, and
+#: ``auto`` (each channel's model chosen by held-out error).
+FIT_METHODS: tuple[str, ...] = (AUTO, *ESTIMATORS, "px4", "ardupilot")
 
 #: Hyper-parameters of each method by sensor type (``"gyro"``, ``"accel"``).
 DEFAULTS: dict[str, dict[str, dict[str, Any]]] = {
@@ -53,6 +70,8 @@ DEFAULTS: dict[str, dict[str, dict[str, Any]]] = {
         "accel": {"t_order": 3, "rate_order": 3, "grad_order": 3},
     },
     "neural": {"gyro": {"hidden": 2}, "accel": {"hidden": 6}},
+    "px4": {"gyro": {"sensor": "gyro"}, "accel": {"sensor": "accel"}},
+    "ardupilot": {"gyro": {"sensor": "gyro"}, "accel": {"sensor": "accel"}},
 }
 
 
@@ -134,8 +153,9 @@ class ThermalModel:
 
     Parameters
     ----------
-    method : {"poly-t", "sectional", "regression", "neural"}
-        Model form.
+    method : {"auto", "poly-t", "sectional", "regression", "neural", "px4", "ardupilot"}
+        Model form; ``auto`` chooses each channel's by held-out error
+        (:mod:`rinscal.calibration.auto`).
     orders : tuple of int, optional
         ``(p, q, s)`` for ``regression`` or ``(p, q)`` for ``sectional``, for every channel;
         default by sensor type (see :data:`DEFAULTS`).
@@ -156,6 +176,12 @@ class ThermalModel:
     estimator_params : mapping, optional
         Further hyper-parameters set on every channel's estimator (e.g.
         ``{"max_samples": 20000}`` for ``neural``, ``{"t_ref": 25.0}`` for ``poly-t``).
+    candidates : sequence of str
+        ``auto``: candidate families (see :data:`rinscal.calibration.auto.FAMILIES`).
+    tolerance : float
+        ``auto``: relative tolerance of the choice (simplest within it of the best).
+    temp_range : (float, float) [°C]
+        Plausible temperature readings; a training log outside it is refused.
 
     Attributes
     ----------
@@ -178,9 +204,17 @@ class ThermalModel:
         channels: Sequence[str] = CHANNELS,
         random_state: int = 0,
         estimator_params: Mapping[str, Any] | None = None,
+        candidates: Sequence[str] = DEFAULT_FAMILIES,
+        tolerance: float = DEFAULT_TOLERANCE,
+        temp_range: tuple[float, float] = PLAUSIBLE_TEMP_C,
     ) -> None:
-        if method not in ESTIMATORS:
-            raise ConfigError(f"method must be one of {', '.join(ESTIMATORS)}, got {method!r}")
+        if method not in FIT_METHODS:
+            raise ConfigError(f"method must be one of {', '.join(FIT_METHODS)}, got {method!r}")
+        self.candidates = tuple(candidates)
+        self.tolerance = float(tolerance)
+        self.temp_range = (float(temp_range[0]), float(temp_range[1]))
+        if not self.temp_range[0] < self.temp_range[1]:
+            raise ConfigError(f"temp_range must be (low, high) with low < high, got {temp_range}")
         self.method = method
         self.orders = None if orders is None else tuple(int(o) for o in orders)
         self.hidden = hidden
@@ -210,6 +244,13 @@ class ThermalModel:
             raise ConfigError(f"hidden applies to neural only and must be 1..64, got {self.hidden}")
         if self.edges is not None and m != "sectional":
             raise ConfigError(f"edges apply to sectional only, not {m}")
+        if m == AUTO:
+            try:
+                candidates("gyro", 3, self.candidates)
+            except ValueError as exc:
+                raise ConfigError(f"candidates: {exc}") from None
+            if not 0 <= self.tolerance < 1:
+                raise ConfigError(f"tolerance must be in [0, 1), got {self.tolerance}")
 
     def estimator_for(self, channel: str, set_pts: np.ndarray | None = None) -> Any:
         """The unfitted estimator of one channel, with its hyper-parameters.
@@ -238,6 +279,9 @@ class ThermalModel:
                 params["edges"] = list(self.edges)
             elif set_pts is not None and set_pts.size >= 2:
                 params["set_points"] = set_pts.tolist()
+        if self.method in ("px4", "ardupilot"):
+            cand = Candidate(self.method, self.method, self.method, params, 3)
+            return make_estimator(cand)
         est = ESTIMATORS[self.method]()
         try:
             est.set_params(**params, **self.estimator_params)
@@ -261,6 +305,7 @@ class ThermalModel:
         *,
         features: Features | None = None,
         on_channel: Callable[[str], None] | None = None,
+        source: str | None = None,
     ) -> ThermalModel:
         """Fit every channel.
 
@@ -275,11 +320,37 @@ class ThermalModel:
             Precomputed features of ``log`` (built here if omitted).
         on_channel : callable, optional
             Called with each channel name once it is fitted (progress bars).
+        source : str, optional
+            Name of the log file, for messages.
 
         Returns
         -------
         ThermalModel
+
+        Raises
+        ------
+        ConfigError
+            When the training data cannot determine a model (implausible temperatures, a
+            rank-deficient design: the message says which column and why).
+
+        Warns
+        -----
+        TrainingDataWarning
+            When the model is only weakly determined (coarse temperature resolution, an
+            ill-conditioned design).
         """
+        where = f"{source}: " if source else ""
+        tcols = list(dict.fromkeys(temperature_column(log, c) for c in self.channels))
+        if TEMP_OUT in log.columns:
+            tcols.append(TEMP_OUT)
+        try:
+            check_temperatures(
+                {c: log[c].to_numpy(dtype=np.float64) for c in tcols},
+                self.temp_range,
+                rows=np.arange(1, len(log) + 1),
+            )
+        except ValueError as exc:
+            raise ConfigError(f"{where}{exc}") from None
         feats = features or build_features(
             log, self.derivative, self.outliers, self.channels, use_gradient=self.use_gradient
         )
@@ -289,26 +360,44 @@ class ThermalModel:
         self.set_points_: dict[str, np.ndarray | None] = {}
         self.train_range_: dict[str, np.ndarray] = {}
         self.metrics_: dict[str, dict[str, float]] = {}
+        self.domains_: dict[str, dict[str, Any] | None] = {}
+        self.fallbacks_: dict[str, dict[str, Any] | None] = {}
+        self.selections_: dict[str, dict[str, Any] | None] = {}
         for j, c in enumerate(self.channels):
             x = feats.matrix(j)
             ok = feats.inlier[:, j] & np.all(np.isfinite(x), axis=1)
             if ok.sum() < 2:
-                raise ConfigError(f"{c}: fewer than 2 usable samples to fit")
+                raise ConfigError(f"{where}{c}: fewer than 2 usable samples to fit")
             sp = self._set_points(log, feats, j)
             self.set_points_[c] = sp
-            est = self.estimator_for(c, sp)
+            xo, yo, codes = x[ok], feats.output[ok, j], feats.run_codes[ok]
+            to = feats.time_s[ok]
+            what = f"{where}{c} (T from column {temperature_column(log, c)!r}"
+            what += f", ΔT = T − {TEMP_OUT})" if feats.has_gradient else ")"
             try:
-                if self.method == "neural":
-                    est.fit(x[ok], feats.output[ok, j], groups=feats.run_codes[ok])
+                if self.method == AUTO:
+                    cands = candidates(sensor_type(c), x.shape[1], self.candidates)
+                    sel = select_channel(
+                        xo, yo, codes, feats.runs, to, cands, self.tolerance, self.random_state
+                    )
+                    est = _fit_candidate(sel.chosen, xo, yo, codes, to, self.random_state)
+                    fb = _fit_candidate(sel.fallback, xo, yo, codes, to, self.random_state)
+                    self.selections_[c] = sel.to_dict()
                 else:
-                    est.fit(x[ok], feats.output[ok, j])
-            except ValueError as exc:
-                raise ConfigError(f"{c}: {self.method} fit failed: {exc}") from None
+                    est = self.estimator_for(c, sp)
+                    fit_estimator(est, xo, yo, codes, to)
+                    fb = _cubic_fallback(xo, yo)
+                    self.selections_[c] = None
+            except (DesignError, ValueError) as exc:
+                raise ConfigError(f"{what}: {self.method} fit failed: {exc}") from None
             self.estimators_[c] = est
-            k = {"poly-t": 1, "sectional": 2}.get(self.method, x.shape[1])
-            self.train_range_[c] = np.column_stack([x[ok, :k].min(axis=0), x[ok, :k].max(axis=0)])
-            resid = est.predict(x[ok]) - feats.output[ok, j]
-            codes = feats.run_codes[ok]
+            self.fallbacks_[c] = None if fb is None else fb.export_params()
+            params = est.export_params()
+            k = n_inputs(params)
+            self.train_range_[c] = np.column_stack([xo[:, :k].min(axis=0), xo[:, :k].max(axis=0)])
+            constant = params["method"] == "poly-t" and len(params["coef"]) == 1
+            self.domains_[c] = None if constant else fit_domain(xo[:, :k])
+            resid = predict_params(params, xo) - yo
             sums = np.bincount(codes, weights=resid, minlength=len(feats.runs))
             cnts = np.bincount(codes, minlength=len(feats.runs))
             about = resid - (sums / np.maximum(cnts, 1))[codes]
@@ -349,6 +438,9 @@ class ThermalModel:
                 static_reference=ref[c],
                 segment_edges=None if edges is None else np.asarray(edges, dtype=np.float64),
                 metrics=self.metrics_[c],
+                domain=self.domains_[c],
+                fallback=self.fallbacks_[c],
+                selection=self.selections_[c],
             )
         src: dict[str, Any] = {"runs": list(self.features_.runs)}
         for key in ("latitude_deg", "heading_deg", "altitude_m", "protocol", "imu", "seed"):
@@ -365,3 +457,36 @@ class ThermalModel:
             source=src,
             created_by=f"rinscal {__version__}",
         )
+
+
+def _used_inputs(cand: Candidate, d: int) -> int:
+    """Feature columns a candidate's fit should see (trailing unused inputs dropped)."""
+    if cand.orders is None:
+        return d
+    used = [v + 1 for v, o in enumerate(cand.orders[:d]) if o > 0]
+    return max(used, default=1)
+
+
+def _fit_candidate(
+    cand: Candidate,
+    x: np.ndarray,
+    y: np.ndarray,
+    codes: np.ndarray,
+    t: np.ndarray,
+    random_state: int,
+) -> Any:
+    """Fit a chosen candidate on all the training data (a network with its full budget)."""
+    est = make_estimator(cand, random_state)
+    return fit_estimator(est, x[:, : _used_inputs(cand, x.shape[1])], y, codes, t)
+
+
+def _cubic_fallback(x: np.ndarray, y: np.ndarray) -> Any:
+    """The T-only fallback of a fixed method: a cubic in T (None if T cannot carry one)."""
+    from rinscal.calibration.estimators import PolyT
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return PolyT(degree=3).fit(x[:, :1], y)
+    except (DesignError, ValueError):
+        return None

@@ -1,6 +1,7 @@
 """The thermal model file: JSON, checksummed, validated on load, evaluated with numpy alone.
 
-Layout (``schema_version`` 1)::
+Layout (``schema_version`` 2; version 1 files, without ``domain``, ``fallback`` and
+``selection``, are still read)::
 
     {
       "format": "rinscal-thermal-model",
@@ -8,6 +9,7 @@ Layout (``schema_version`` 1)::
       "sha256": "<hex digest of the canonical JSON of payload>",
       "payload": {
         "method": "regression",                 # poly-t | sectional | regression | neural
+                                                # | px4 | ardupilot | auto (per channel)
         "created_by": "rinscal 0.1.0",
         "channels": ["gyro_x", ..., "accel_z"],
         "features": {
@@ -25,7 +27,12 @@ Layout (``schema_version`` 1)::
             "train_range": {"T": [lo, hi], "Tdot": [lo, hi], "dT": [lo, hi]},
             "segment_edges": [3.5, ...],        # reference edges (set-point midpoints) or null
             "metrics": {"rms_train": ..., "rms_train_about_run_mean": ..., "n_train": ...,
-                        "n_outliers": ..., "n_runs": ...}
+                        "n_outliers": ..., "n_runs": ...},
+            "domain": {"lo": [...], "hi": [...], "bins": [...], "runs": [[start, len], ...]},
+                                                # joint (T, Ṫ, ΔT) occupancy grid, or null
+            "fallback": {...},                  # params of the T-only model used outside
+                                                # the domain (policy "fallback"), or null
+            "selection": {...}                  # method auto: held-out table and choice
           }, ...
         }
       }
@@ -56,6 +63,7 @@ calibration runs.
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import os
@@ -68,6 +76,7 @@ from typing import Any, Literal
 import numpy as np
 
 from rinscal._version import __version__
+from rinscal.calibration._domain import inside_domain, validate_domain
 from rinscal.calibration._inference import METHODS, n_inputs, predict_params, validate_params
 from rinscal.errors import ModelFileError, RangeError
 
@@ -83,9 +92,15 @@ __all__ = [
 #: Value of the ``format`` key.
 FORMAT = "rinscal-thermal-model"
 #: Schema version written and read by this rinscal.
-SCHEMA_VERSION = 1
-#: What to do with inputs outside the training range.
-POLICIES: tuple[str, ...] = ("clamp", "extrapolate", "error")
+SCHEMA_VERSION = 2
+#: Schema versions this rinscal reads.
+READABLE_VERSIONS: tuple[int, ...] = (1, 2)
+#: Top-level method of a file whose channels were chosen one by one (``fit --method auto``).
+AUTO = "auto"
+#: What to do with inputs outside the training data: ``clamp`` each input to its range,
+#: ``fallback`` to the channel's T-only model outside the joint domain, ``extrapolate``,
+#: ``error``.
+POLICIES: tuple[str, ...] = ("clamp", "fallback", "extrapolate", "error")
 #: Input names, in feature-matrix column order.
 INPUT_NAMES: tuple[str, str, str] = ("T", "Tdot", "dT")
 #: Input units, in :data:`INPUT_NAMES` order.
@@ -102,12 +117,19 @@ CHANNEL_KEYS = (
     "train_range",
     "segment_edges",
     "metrics",
+    "domain",
+    "fallback",
+    "selection",
 )
+#: Keys of a channel's entry in schema version 1.
+CHANNEL_KEYS_V1 = CHANNEL_KEYS[:7]
+#: Keys of a channel's ``selection`` entry (method ``auto``).
+SELECTION_KEYS = ("scheme", "folds", "tolerance", "chosen", "fallback", "table")
 METRIC_KEYS = ("rms_train", "rms_train_about_run_mean", "n_train", "n_outliers", "n_runs")
 _CHANNELS = ("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z")
 _HEX64 = re.compile(r"[0-9a-f]{64}")
 
-Policy = Literal["clamp", "extrapolate", "error"]
+Policy = Literal["clamp", "fallback", "extrapolate", "error"]
 
 
 def _canonical(payload: Any) -> bytes:
@@ -143,6 +165,16 @@ class ChannelModel:
         methods the midpoints between the calibration set points), for step checks.
     metrics : dict
         Training metrics.
+    domain : dict or None
+        Joint domain of the training inputs (:mod:`rinscal.calibration._domain`).
+    fallback : dict or None
+        Parameters of a T-only model (``poly-t``, ``px4`` or ``ardupilot``) used, with ``T``
+        clamped to its training range, outside the domain under policy ``fallback``.
+    selection : dict or None
+        How ``fit --method auto`` chose this channel's model: ``scheme`` and ``folds`` of
+        the held-out check, ``tolerance``, ``chosen`` and ``fallback`` (candidate names),
+        ``table`` (one row per candidate: ``name``, ``method``, ``n_params``,
+        ``heldout_rms``, ``fold_rms``, ``train_rms``).
     """
 
     params: dict[str, Any]
@@ -152,6 +184,9 @@ class ChannelModel:
     static_reference: float | None = None
     segment_edges: np.ndarray | None = None
     metrics: dict[str, float] = field(default_factory=dict)
+    domain: dict[str, Any] | None = None
+    fallback: dict[str, Any] | None = None
+    selection: dict[str, Any] | None = None
 
     @property
     def n_inputs(self) -> int:
@@ -174,6 +209,9 @@ class ChannelModel:
             if self.segment_edges is None
             else [float(e) for e in self.segment_edges],
             "metrics": {key: float(v) for key, v in self.metrics.items()},
+            "domain": self.domain,
+            "fallback": self.fallback,
+            "selection": self.selection,
         }
 
 
@@ -184,7 +222,8 @@ class ThermalModelFile:
     Attributes
     ----------
     method : str
-        ``poly-t``, ``sectional``, ``regression`` or ``neural``.
+        ``poly-t``, ``sectional``, ``regression``, ``neural``, ``px4``, ``ardupilot``, or
+        ``auto`` (each channel's own method is in its ``params``).
     channels : tuple of str
         Channels modelled, the column order of :meth:`predict`.
     models : dict of str to ChannelModel
@@ -332,10 +371,11 @@ class ThermalModelFile:
         version = doc.get("schema_version")
         if isinstance(version, bool) or not isinstance(version, int):
             raise bad(f"schema_version must be an integer, got {version!r}")
-        if version != SCHEMA_VERSION:
+        if version not in READABLE_VERSIONS:
             raise bad(
-                f"unsupported schema_version {version} (this rinscal reads {SCHEMA_VERSION}); "
-                "refit the model or use a matching rinscal"
+                f"unsupported schema_version {version} (this rinscal reads "
+                f"{', '.join(map(str, READABLE_VERSIONS))}); refit the model or use a matching "
+                "rinscal"
             )
         for key in ("sha256", "payload"):
             if key not in doc:
@@ -360,12 +400,12 @@ class ThermalModelFile:
                 "corrupted after it was written"
             )
         try:
-            return cls._from_payload(payload)
+            return cls._from_payload(payload, version)
         except (ValueError, TypeError, KeyError) as exc:
             raise bad(f"invalid model: {exc}") from None
 
     @classmethod
-    def _from_payload(cls, p: dict[str, Any]) -> ThermalModelFile:
+    def _from_payload(cls, p: dict[str, Any], version: int = SCHEMA_VERSION) -> ThermalModelFile:
         def req(d: Mapping[str, Any], key: str, where: str) -> Any:
             if not isinstance(d, Mapping):
                 raise ValueError(f"{where} must be a JSON object")
@@ -375,8 +415,10 @@ class ThermalModelFile:
 
         _exact(p, PAYLOAD_KEYS, "payload")
         method = req(p, "method", "payload")
-        if method not in METHODS:
-            raise ValueError(f"unknown method {method!r}; expected one of {', '.join(METHODS)}")
+        if method not in (*METHODS, AUTO):
+            raise ValueError(
+                f"unknown method {method!r}; expected one of {', '.join((*METHODS, AUTO))}"
+            )
         channels = req(p, "channels", "payload")
         if (
             not isinstance(channels, list)
@@ -422,7 +464,7 @@ class ThermalModelFile:
             raise ValueError("channel_models must hold exactly one entry per channel")
         models = {}
         for c in channels:
-            models[c] = _channel_from_dict(cms[c], c, method, k)
+            models[c] = _channel_from_dict(cms[c], c, method, k, version)
         return cls(
             method=method,
             channels=tuple(channels),
@@ -480,7 +522,11 @@ class ThermalModelFile:
     def apply_policy(
         self, channel: str, x: np.ndarray, policy: Policy = "extrapolate"
     ) -> tuple[np.ndarray, np.ndarray]:
-        """Flag (and clamp, or refuse) inputs outside the training range of one channel.
+        """Flag (and clamp, or refuse) inputs outside the training data of one channel.
+
+        A sample is flagged when an input the model uses lies outside its training range, or
+        when the combination lies outside the joint domain of the training data (the
+        channel's ``domain``, when the file has one).
 
         Parameters
         ----------
@@ -488,16 +534,17 @@ class ThermalModelFile:
             Channel.
         x : ndarray, shape (n, k)
             Feature matrix.
-        policy : {"clamp", "extrapolate", "error"}
-            ``clamp`` clips every input to its training range, ``extrapolate`` evaluates the
-            model as it is, ``error`` raises :class:`~rinscal.errors.RangeError`.
+        policy : {"clamp", "fallback", "extrapolate", "error"}
+            ``clamp`` clips every input to its training range (and ``fallback`` too, for the
+            samples it keeps on the model), ``extrapolate`` evaluates the model as it is,
+            ``error`` raises :class:`~rinscal.errors.RangeError` at the first flagged sample.
 
         Returns
         -------
         x : ndarray, shape (n, k)
             The inputs to evaluate.
-        out_of_range : ndarray of bool, shape (n,)
-            True where any input the model uses lies outside its training range.
+        flagged : ndarray of bool, shape (n,)
+            True where the sample lies outside the training data.
         """
         if policy not in POLICIES:
             raise ValueError(f"policy must be one of {', '.join(POLICIES)}, got {policy!r}")
@@ -505,7 +552,10 @@ class ThermalModelFile:
         k = cm.n_inputs
         lo, hi = cm.train_range[:k, 0], cm.train_range[:k, 1]
         xs = x[:, :k]
-        flags = np.any((xs < lo) | (xs > hi), axis=1)
+        outside = np.any((xs < lo) | (xs > hi), axis=1)
+        flags = outside.copy()
+        if cm.domain is not None:
+            flags |= ~inside_domain(cm.domain, xs)
         if policy == "error" and flags.any():
             i = int(np.argmax(flags))
             which = [
@@ -513,13 +563,17 @@ class ThermalModelFile:
                 for j in range(k)
                 if not lo[j] <= xs[i, j] <= hi[j]
             ]
+            if not which:
+                point = ", ".join(f"{INPUT_NAMES[j]}={xs[i, j]:.6g}" for j in range(k))
+                which = [f"({point}) outside the joint domain of the training data"]
             err = RangeError(
-                f"{channel}: sample {i} has {', '.join(which)} (the training range); use "
-                "policy clamp or extrapolate to compensate anyway"
+                f"{channel}: sample {i} has {', '.join(which)} (the training data; "
+                f"{int(flags.sum())} sample(s) flagged); use policy clamp, fallback or "
+                "extrapolate to compensate anyway"
             )
             err.row = i  # type: ignore[attr-defined]
             raise err
-        if policy == "clamp" and flags.any():
+        if policy in ("clamp", "fallback") and outside.any():
             x = x.copy()
             x[:, :k] = np.clip(xs, lo, hi)
         return x, flags
@@ -535,20 +589,32 @@ class ThermalModelFile:
             Channel.
         x : ndarray, shape (n, k)
             ``T`` [°C], ``Ṫ`` [°C/min] and, if used, ``ΔT`` [°C].
-        policy : {"clamp", "extrapolate", "error"}
-            Out-of-range handling (see :meth:`apply_policy`).
+        policy : {"clamp", "fallback", "extrapolate", "error"}
+            Handling of samples outside the training data (see :meth:`apply_policy`);
+            ``fallback`` evaluates the channel's T-only fallback model (``T`` clamped to
+            its training range) on the flagged samples.
 
         Returns
         -------
         f : ndarray, shape (n,) [log units]
             ``f(T, Ṫ, ΔT)``.
-        out_of_range : ndarray of bool, shape (n,)
+        flagged : ndarray of bool, shape (n,)
         """
         if channel not in self.models:
             raise ModelFileError(f"the model has no channel {channel!r} (it has {self.channels})")
+        cm = self.models[channel]
+        if policy == "fallback" and cm.fallback is None:
+            raise ModelFileError(
+                f"the model of {channel} has no fallback model (written by an older rinscal); "
+                "refit it, or use policy clamp"
+            )
         x = np.asarray(x, dtype=np.float64)
         x, flags = self.apply_policy(channel, x, policy)
-        return predict_params(self.models[channel].params, x), flags
+        f = predict_params(cm.params, x)
+        if policy == "fallback" and flags.any() and cm.fallback is not None:
+            t = np.clip(x[flags, :1], cm.train_range[0, 0], cm.train_range[0, 1])
+            f[flags] = predict_params(cm.fallback, t)
+        return f, flags
 
     def _inputs(self, temp: Any, rate: Any) -> tuple[np.ndarray, np.ndarray]:
         m = len(self.channels)
@@ -584,8 +650,8 @@ class ThermalModelFile:
             Temperature rate.
         temp_out : array_like, shape (n,), optional [°C]
             Outer temperature (needed when :attr:`use_gradient`).
-        policy : {"clamp", "extrapolate", "error"}
-            Out-of-range handling.
+        policy : {"clamp", "fallback", "extrapolate", "error"}
+            Handling of samples outside the training data.
 
         Returns
         -------
@@ -616,8 +682,8 @@ class ThermalModelFile:
             Temperature rate (°C/s × 60).
         temp_out : array_like, shape (n,), optional [°C]
             Outer temperature.
-        policy : {"clamp", "extrapolate", "error"}
-            Out-of-range handling.
+        policy : {"clamp", "fallback", "extrapolate", "error"}
+            Handling of samples outside the training data.
 
         Returns
         -------
@@ -654,15 +720,7 @@ class ThermalModelFile:
         for c, v in reference.items():
             cm = models[c]
             k = cm.unit_to_si if unit_to_si is None else float(unit_to_si[c])
-            models[c] = ChannelModel(
-                params=cm.params,
-                train_range=cm.train_range,
-                unit=cm.unit,
-                unit_to_si=k,
-                static_reference=float(v),
-                segment_edges=cm.segment_edges,
-                metrics=cm.metrics,
-            )
+            models[c] = dataclasses.replace(cm, unit_to_si=k, static_reference=float(v))
         return ThermalModelFile(
             method=self.method,
             channels=self.channels,
@@ -699,14 +757,16 @@ def _finite(v: Any, what: str, positive: bool = False, allow_none: bool = True) 
     return float(v)
 
 
-def _channel_from_dict(d: Any, c: str, method: str, k: int) -> ChannelModel:
-    _exact(d, CHANNEL_KEYS, f"channel_models.{c}")
+def _channel_from_dict(
+    d: Any, c: str, method: str, k: int, version: int = SCHEMA_VERSION
+) -> ChannelModel:
+    _exact(d, CHANNEL_KEYS if version >= 2 else CHANNEL_KEYS_V1, f"channel_models.{c}")
     params = d["params"]
     try:
         validate_params(params)
     except ValueError as exc:
         raise ValueError(f"channel_models.{c}.params: {exc}") from None
-    if params["method"] != method:
+    if method != AUTO and params["method"] != method:
         raise ValueError(f"channel_models.{c} is a {params['method']} model in a {method} file")
     need = n_inputs(params)
     if need > k:
@@ -748,6 +808,25 @@ def _channel_from_dict(d: Any, c: str, method: str, k: int) -> ChannelModel:
         fv = _finite(v, f"channel_models.{c}.metrics.{key}", allow_none=False)
         assert fv is not None
         mvals[str(key)] = fv
+    domain = d.get("domain")
+    if domain is not None:
+        try:
+            validate_domain(domain, need)
+        except ValueError as exc:
+            raise ValueError(f"channel_models.{c}.{exc}") from None
+    fallback = d.get("fallback")
+    if fallback is not None:
+        try:
+            validate_params(fallback)
+        except ValueError as exc:
+            raise ValueError(f"channel_models.{c}.fallback: {exc}") from None
+        if n_inputs(fallback) != 1:
+            raise ValueError(f"channel_models.{c}.fallback must be a model of T alone")
+    selection = d.get("selection")
+    if selection is not None:
+        _exact(selection, SELECTION_KEYS, f"channel_models.{c}.selection")
+        if not isinstance(selection["table"], list):
+            raise ValueError(f"channel_models.{c}.selection.table must be a list")
     return ChannelModel(
         params=params,
         train_range=rng,
@@ -756,4 +835,7 @@ def _channel_from_dict(d: Any, c: str, method: str, k: int) -> ChannelModel:
         static_reference=ref,
         segment_edges=e_arr,
         metrics=mvals,
+        domain=domain,
+        fallback=fallback,
+        selection=selection,
     )

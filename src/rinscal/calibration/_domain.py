@@ -1,0 +1,154 @@
+"""Where the training data lie in (T, Ṫ, ΔT) jointly: an occupancy grid, numpy only.
+
+A range check on each input alone misses combinations a model never saw: on the real MEMS
+thermal cycle, trained on a cooling leg from 52 °C and a heating leg to 74 °C, half of the
+last leg is hot *and* cooling, inside every input's range and outside the data. The joint
+domain is stored in the model file as an occupancy grid over the inputs a channel's model
+uses:
+
+* each input's training range ``[lo, hi]`` is cut into ``bins`` equal cells (default 24, so a
+  cell is 1/24 of the range: e.g. 3.8 °C of a 91 °C cycle);
+* a cell is occupied if a training sample falls in it; the occupied set is dilated by one
+  cell in every direction (a sample next to the data is in), and stored run-length encoded
+  as ``[[first_flat_index, length], ...]`` (C order);
+* a sample is *inside* when every input lies within ``[lo − w, hi + w]`` (``w`` one cell)
+  and its cell is in the dilated set.
+
+Dictionary form (in a channel's ``domain`` entry)::
+
+    {"lo": [..k], "hi": [..k], "bins": [..k], "runs": [[start, length], ...]}
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from itertools import product
+from typing import Any
+
+import numpy as np
+
+__all__ = ["DEFAULT_BINS", "fit_domain", "inside_domain", "validate_domain"]
+
+#: Cells per input.
+DEFAULT_BINS = 24
+_KEYS = ("lo", "hi", "bins", "runs")
+
+
+def _cells(x: np.ndarray, lo: np.ndarray, hi: np.ndarray, bins: np.ndarray) -> np.ndarray:
+    """Cell index of each sample per input (clipped into the grid), shape (n, k)."""
+    width = np.where(hi > lo, (hi - lo) / bins, 1.0)
+    idx = np.floor((x - lo) / width).astype(np.int64)
+    return np.clip(idx, 0, bins - 1)
+
+
+def fit_domain(x: np.ndarray, bins: int = DEFAULT_BINS) -> dict[str, Any]:
+    """Occupancy grid of training samples.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n, k), 1 ≤ k ≤ 3
+        Training inputs ``T`` [°C], ``Ṫ`` [°C/min], ``ΔT`` [°C] (the first k), finite.
+    bins : int
+        Cells per input.
+
+    Returns
+    -------
+    dict
+        ``lo``, ``hi`` [input units], ``bins``, ``runs`` (see the module docstring).
+    """
+    x = np.asarray(x, dtype=np.float64)
+    if x.ndim != 2 or x.shape[0] == 0 or not 1 <= x.shape[1] <= 3:
+        raise ValueError(f"need a non-empty (n, 1..3) input matrix, got shape {x.shape}")
+    k = x.shape[1]
+    lo, hi = x.min(axis=0), x.max(axis=0)
+    nb = np.full(k, int(bins), dtype=np.int64)
+    nb[hi <= lo] = 1  # a constant input: one cell
+    cells = np.unique(_cells(x, lo, hi, nb), axis=0)
+    occ = np.zeros(tuple(nb), dtype=bool)
+    for off in product((-1, 0, 1), repeat=k):
+        c = np.clip(cells + np.asarray(off), 0, nb - 1)
+        occ[tuple(c.T)] = True
+    flat = np.flatnonzero(occ.ravel())
+    breaks = np.flatnonzero(np.diff(flat) != 1) + 1
+    starts = np.concatenate([[0], breaks])
+    ends = np.concatenate([breaks, [flat.size]])
+    runs = [[int(flat[s]), int(e - s)] for s, e in zip(starts, ends, strict=True)]
+    return {"lo": lo.tolist(), "hi": hi.tolist(), "bins": nb.tolist(), "runs": runs}
+
+
+def _grid(domain: Mapping[str, Any]) -> np.ndarray:
+    nb = [int(b) for b in domain["bins"]]
+    occ = np.zeros(int(np.prod(nb)), dtype=bool)
+    for start, length in domain["runs"]:
+        occ[start : start + length] = True
+    return occ.reshape(nb)
+
+
+def inside_domain(domain: Mapping[str, Any], x: np.ndarray) -> np.ndarray:
+    """Whether each sample lies in the training data's joint domain.
+
+    Parameters
+    ----------
+    domain : mapping
+        From :func:`fit_domain`.
+    x : ndarray, shape (n, ≥k)
+        Inputs in the same order (columns beyond ``k`` ignored).
+
+    Returns
+    -------
+    ndarray of bool, shape (n,)
+    """
+    lo = np.asarray(domain["lo"], dtype=np.float64)
+    hi = np.asarray(domain["hi"], dtype=np.float64)
+    nb = np.asarray(domain["bins"], dtype=np.int64)
+    k = lo.size
+    xs = np.asarray(x, dtype=np.float64)[:, :k]
+    width = np.where(hi > lo, (hi - lo) / nb, 0.0)
+    in_box = np.all((xs >= lo - width) & (xs <= hi + width), axis=1)
+    cells = _cells(xs, lo, hi, nb)
+    return in_box & _grid(domain)[tuple(cells.T)]
+
+
+def validate_domain(d: Any, k: int) -> None:
+    """Check a stored domain (keys, shapes, finite numbers, runs within the grid).
+
+    Parameters
+    ----------
+    d : object
+        Parsed JSON.
+    k : int
+        Number of inputs the channel's model uses.
+
+    Raises
+    ------
+    ValueError
+        Naming the problem.
+    """
+    if not isinstance(d, Mapping) or set(d) != set(_KEYS):
+        raise ValueError(f"domain must be an object with keys {list(_KEYS)}")
+    try:
+        lo = np.asarray(d["lo"], dtype=np.float64)
+        hi = np.asarray(d["hi"], dtype=np.float64)
+        nb = np.asarray(d["bins"])
+    except (TypeError, ValueError):
+        raise ValueError("domain lo/hi/bins must be lists of numbers") from None
+    if lo.shape != (k,) or hi.shape != (k,) or nb.shape != (k,):
+        raise ValueError(f"domain lo, hi and bins must hold {k} entries")
+    if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)) and np.all(lo <= hi)):
+        raise ValueError("domain lo/hi must be finite with lo <= hi")
+    if nb.dtype.kind not in "iu" or np.any(nb < 1) or np.any(nb > 256):
+        raise ValueError("domain bins must be integers in 1..256")
+    size = int(np.prod(nb))
+    runs = d["runs"]
+    if not isinstance(runs, list):
+        raise ValueError("domain runs must be a list of [start, length] pairs")
+    for pair in runs:
+        if (
+            not isinstance(pair, list)
+            or len(pair) != 2
+            or not all(isinstance(v, int) and not isinstance(v, bool) for v in pair)
+            or pair[0] < 0
+            or pair[1] < 1
+            or pair[0] + pair[1] > size
+        ):
+            raise ValueError(f"domain runs: bad entry {pair!r} for a grid of {size} cells")

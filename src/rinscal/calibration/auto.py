@@ -1,0 +1,533 @@
+"""``fit --method auto``: each channel's model chosen by held-out error.
+
+Per channel, every candidate is fitted on all folds but one and scored on the fold left out;
+the score is the RMS of the held-out residual about each fold's own mean (a turn-on offset is
+not thermal), pooled over the folds. The choice is the simplest candidate (fewest thermal
+parameters) within noise of the best: the one-standard-error rule on the paired per-fold
+differences of held-out mean square error (:func:`choose`), so a choice within noise of a
+simpler one goes to the simpler. "No compensation" is a candidate, so on the held-out data
+the choice is never worse than doing nothing.
+
+Folds (:func:`holdout_folds`)
+    Leave-one-run-out when the log has three runs or more. Otherwise each run is cut into its
+    heating and cooling legs (turning points of the temperature, with a hysteresis of
+    max(1 °C, 10 % of the run's span)); if that gives fewer than three legs, each leg is cut
+    into contiguous blocks (four folds in all, at least). Never random rows: neighbouring
+    samples of a slow thermal signal are not independent.
+
+Candidates (:func:`candidates`)
+    ``none`` (a constant: no thermal compensation), ``ardupilot`` and ``px4`` (the field's
+    own fits, :mod:`rinscal.calibration.baselines`), ``poly-t`` of degree 1-4, ``regression``
+    with ``p`` = 1..4, ``q`` = 0..3, ``s`` = 0..3 (``s`` only with ``ΔT``; ``q = s = 0`` is
+    ``poly-t``), and on request ``neural`` with 2, 4 and 6 hidden neurons (screened with
+    ``max_samples`` 5000 and one start, refitted with the defaults if chosen; not in the
+    default set: its held-out fits cost minutes on a 7-run log).
+
+The polynomial candidates share one pass over the data: per fold the triangular factor of
+the largest design (:func:`rinscal.calibration.estimators.tsqr`); any candidate on any
+training folds is then a QR of the stacked column subsets, and its held-out residual sum of
+squares and mean follow from the held-out fold's factor (``‖R_k [β; −1]‖²``; the first row
+of ``R_k`` holds the column sums, since the design's first column is ones). A candidate
+whose training design is rank-deficient on some fold scores ``None`` and is not chosen.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from rinscal.calibration.estimators import (
+    ESTIMATORS,
+    _center_scale,
+    _power_basis,
+    solve_r,
+    tsqr,
+)
+from rinscal.calibration.guards import COND_ERROR, DesignError, design_condition
+
+__all__ = [
+    "DEFAULT_FAMILIES",
+    "FAMILIES",
+    "Candidate",
+    "Folds",
+    "Selection",
+    "candidates",
+    "choose",
+    "holdout_folds",
+    "make_estimator",
+    "select_channel",
+]
+
+#: Candidate families, in order of preference at equal complexity.
+FAMILIES: tuple[str, ...] = ("none", "ardupilot", "px4", "poly-t", "regression", "neural")
+#: Families tried by default.
+DEFAULT_FAMILIES: tuple[str, ...] = ("none", "ardupilot", "px4", "poly-t", "regression")
+#: Default relative tolerance of the choice, on top of the one-standard-error rule.
+DEFAULT_TOLERANCE = 0.0
+#: Largest orders of the polynomial candidates (T, Ṫ, ΔT).
+MAX_ORDERS: tuple[int, int, int] = (4, 3, 3)
+#: Hidden-layer sizes screened when ``neural`` is a candidate.
+HIDDEN: tuple[int, ...] = (2, 4, 6)
+#: Screening budget of a neural candidate's held-out fits.
+NEURAL_SCREEN: dict[str, int] = {"max_samples": 5000, "n_init": 1}
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """One model a channel may get.
+
+    Attributes
+    ----------
+    name : str
+        Label (``"none"``, ``"px4"``, ``"poly-t 3"``, ``"regression 3,1,0"``, ``"neural 4"``).
+    family : str
+        One of :data:`FAMILIES`.
+    method : str
+        Estimator method (``none`` is a ``poly-t`` of degree 0).
+    params : dict
+        Estimator hyper-parameters.
+    n_params : int
+        Thermal parameters (the constant not counted): the complexity of the choice.
+    orders : tuple of int or None
+        Orders in (T, Ṫ, ΔT) of a polynomial candidate (the fast path), else None.
+    """
+
+    name: str
+    family: str
+    method: str
+    params: dict[str, Any] = field(default_factory=dict)
+    n_params: int = 0
+    orders: tuple[int, ...] | None = None
+
+    @property
+    def t_only(self) -> bool:
+        """Whether the candidate uses the temperature alone (a fallback may be one)."""
+        if self.family in ("none", "px4", "ardupilot", "poly-t"):
+            return True
+        return self.orders is not None and not any(self.orders[1:])
+
+
+def candidates(
+    sensor: str,
+    n_inputs: int,
+    families: Sequence[str] = DEFAULT_FAMILIES,
+    hidden: Sequence[int] = HIDDEN,
+) -> list[Candidate]:
+    """The candidates of one channel.
+
+    Parameters
+    ----------
+    sensor : {"gyro", "accel"}
+        Sensor type (the PX4 fit removes an accelerometer's median).
+    n_inputs : int
+        Inputs available: 2 (T, Ṫ) or 3 (with ΔT).
+    families : sequence of str
+        Among :data:`FAMILIES`.
+    hidden : sequence of int
+        Hidden-layer sizes of the ``neural`` candidates.
+
+    Returns
+    -------
+    list of Candidate
+    """
+    unknown = [f for f in families if f not in FAMILIES]
+    if unknown or not families:
+        raise ValueError(f"candidate families must be among {', '.join(FAMILIES)}, got {unknown}")
+    out: list[Candidate] = []
+    fams = [f for f in FAMILIES if f in families]
+    for fam in fams:
+        if fam == "none":
+            out.append(Candidate("none", fam, "poly-t", {"degree": 0}, 0, (0, 0, 0)))
+        elif fam in ("px4", "ardupilot"):
+            out.append(Candidate(fam, fam, fam, {"sensor": sensor}, 3))
+        elif fam == "poly-t":
+            for d in range(1, MAX_ORDERS[0] + 1):
+                out.append(Candidate(f"poly-t {d}", fam, "poly-t", {"degree": d}, d, (d, 0, 0)))
+        elif fam == "regression":
+            s_max = MAX_ORDERS[2] if n_inputs >= 3 else 0
+            for p in range(1, MAX_ORDERS[0] + 1):
+                for q in range(MAX_ORDERS[1] + 1):
+                    for s in range(s_max + 1):
+                        if q == s == 0:
+                            continue
+                        orders = (p, q, s) if n_inputs >= 3 else (p, q)
+                        params = dict(
+                            zip(("t_order", "rate_order", "grad_order"), orders, strict=False)
+                        )
+                        if n_inputs < 3:
+                            params["grad_order"] = 0
+                        out.append(
+                            Candidate(
+                                "regression " + ",".join(map(str, orders)),
+                                fam,
+                                "regression",
+                                params,
+                                p + q + s,
+                                (p, q, s),
+                            )
+                        )
+        else:  # neural
+            for n in hidden:
+                out.append(
+                    Candidate(f"neural {n}", fam, "neural", {"hidden": int(n)}, n * (n_inputs + 2))
+                )
+    return out
+
+
+@dataclass(frozen=True)
+class Folds:
+    """Held-out folds of a training set.
+
+    Attributes
+    ----------
+    codes : ndarray of int, shape (n,)
+        Fold of each row.
+    names : tuple of str
+        Fold names (a run, ``<run>/heat1``, ``<run>/cool2``, ``<run>/block3``...).
+    scheme : str
+        ``leave-one-run-out``, ``legs`` or ``blocks``.
+    """
+
+    codes: np.ndarray
+    names: tuple[str, ...]
+    scheme: str
+
+
+def _legs(temp: np.ndarray, min_frac: float = 0.05) -> list[tuple[int, int, str]]:
+    """Heating and cooling legs of one run: (start, stop, "heat" | "cool")."""
+    n = temp.size
+    step = max(1, n // 20000)
+    tz = temp[::step]
+    span = float(np.ptp(tz)) if tz.size else 0.0
+    h = max(1.0, 0.1 * span)
+    turns = [0]
+    direction = 0  # 0: not yet moved by h, 1: heating, -1: cooling
+    first = float(tz[0]) if tz.size else 0.0
+    ext_i, ext_v = 0, first
+    for i in range(1, tz.size):
+        v = float(tz[i])
+        if direction == 0:
+            if abs(v - first) >= h:
+                direction, ext_i, ext_v = (1 if v > first else -1), i, v
+        elif direction * (v - ext_v) > 0:  # further along the current leg
+            ext_i, ext_v = i, v
+        elif abs(v - ext_v) >= h:  # turned back by more than the hysteresis
+            turns.append(ext_i)
+            direction, ext_i, ext_v = -direction, i, v
+    bounds = [t * step for t in turns] + [n]
+    legs: list[tuple[int, int, str]] = []
+    for a, b in itertools.pairwise(bounds):
+        if b <= a:
+            continue
+        kind = "heat" if temp[b - 1] >= temp[a] else "cool"
+        if legs and (b - a) < min_frac * n:
+            pa, _, pk = legs[-1]
+            legs[-1] = (pa, b, pk)
+        else:
+            legs.append((a, b, kind))
+    return legs
+
+
+def holdout_folds(
+    run_codes: np.ndarray, runs: Sequence[str], temp: np.ndarray, min_runs: int = 3
+) -> Folds:
+    """Folds for the held-out choice (see the module docstring).
+
+    Parameters
+    ----------
+    run_codes : ndarray of int, shape (n,)
+        Run of each row (each run one contiguous block, rows in time order).
+    runs : sequence of str
+        Run names.
+    temp : ndarray, shape (n,) [°C]
+        Temperature (legs are cut at its turning points).
+    min_runs : int
+        Leave-one-run-out from this many runs on.
+
+    Returns
+    -------
+    Folds
+    """
+    present = np.unique(run_codes)
+    if present.size >= min_runs:
+        remap = np.full(len(runs), -1)
+        remap[present] = np.arange(present.size)
+        return Folds(remap[run_codes], tuple(runs[k] for k in present), "leave-one-run-out")
+    pieces: list[tuple[np.ndarray, str]] = []
+    for k in present:
+        rows = np.flatnonzero(run_codes == k)
+        for a, b, kind in _legs(temp[rows]):
+            pieces.append((rows[a:b], f"{runs[k]}/{kind}"))
+    scheme = "legs"
+    if len(pieces) < 2:
+        per = math.ceil(4 / len(pieces))
+        split = []
+        for rows, name in pieces:
+            for i, part in enumerate(np.array_split(rows, per)):
+                split.append((part, f"{name}/block{i + 1}"))
+        pieces, scheme = split, "blocks"
+    codes = np.empty(run_codes.size, dtype=np.int64)
+    names = []
+    for i, (rows, name) in enumerate(pieces):
+        codes[rows] = i
+        names.append(name if sum(nm == name for _, nm in pieces) == 1 else f"{name}{i + 1}")
+    return Folds(codes, tuple(names), scheme)
+
+
+def make_estimator(cand: Candidate, random_state: int = 0, screen: bool = False) -> Any:
+    """The unfitted estimator of a candidate (``screen``: the neural screening budget)."""
+    from rinscal.calibration.baselines import BASELINES
+
+    if cand.method in BASELINES:
+        return BASELINES[cand.method](**cand.params)
+    est = ESTIMATORS[cand.method]()
+    params = dict(cand.params)
+    if cand.method == "neural":
+        params["random_state"] = random_state
+        if screen:
+            params.update(NEURAL_SCREEN)
+    est.set_params(**params)
+    return est
+
+
+def fit_estimator(est: Any, x: np.ndarray, y: np.ndarray, groups: np.ndarray, t: np.ndarray) -> Any:
+    """Fit any candidate's estimator (each takes what it needs: run codes, time)."""
+    if est.method in ("px4", "ardupilot"):
+        return est.fit(x, y, groups=groups, t=t)
+    if est.method == "neural":
+        return est.fit(x, y, groups=groups)
+    return est.fit(x, y)
+
+
+def _ss_about_mean(resid: np.ndarray) -> float:
+    return float(np.sum((resid - resid.mean()) ** 2)) if resid.size else 0.0
+
+
+def _polynomial_scores(
+    x: np.ndarray,
+    y: np.ndarray,
+    folds: np.ndarray,
+    n_folds: int,
+    cands: Sequence[Candidate],
+    scored: np.ndarray,
+) -> dict[str, tuple[np.ndarray, float]]:
+    """Held-out SS about the fold mean per fold (``scored`` rows), and the training RSS."""
+    d = x.shape[1]
+    max_orders = list(MAX_ORDERS[:d])
+    cs = [_center_scale(x[:, v]) for v in range(d)]
+    basis = _power_basis([c for c, _ in cs], [s for _, s in cs], max_orders)
+    n_terms = 1 + sum(max_orders)
+
+    def factor(sel: np.ndarray) -> np.ndarray:
+        pad = np.zeros((n_terms + 1, n_terms + 1))
+        if sel.any():
+            r = tsqr(basis, x[sel], y[sel], n_terms)
+            pad[: r.shape[0]] = r
+        return pad
+
+    rs, rs_scored, counts = [], [], []
+    for k in range(n_folds):
+        sel = folds == k
+        rs.append(factor(sel))
+        part = sel & scored
+        rs_scored.append(rs[-1] if part.sum() == sel.sum() else factor(part))
+        counts.append(int(part.sum()))
+    start = np.cumsum([1, *max_orders[:-1]])
+    out: dict[str, tuple[np.ndarray, float]] = {}
+    for cand in cands:
+        assert cand.orders is not None
+        cols = [0]
+        for v, o in enumerate(cand.orders[:d]):
+            cols.extend(range(int(start[v]), int(start[v]) + o))
+        sel = [*cols, n_terms]
+        m = len(cols)
+        ss = np.empty(n_folds)
+        for k in range(n_folds):
+            train = np.vstack([rs[j][:, sel] for j in range(n_folds) if j != k])
+            rt = np.linalg.qr(train, mode="r")
+            if m > 1 and design_condition(rt[:, :m]) > COND_ERROR:
+                ss[k] = np.nan
+                continue
+            beta = np.append(solve_r(rt, m)[0], -1.0)
+            rk = rs_scored[k][:, sel]
+            total = float(np.sum((rk @ beta) ** 2))
+            mean = float(rk[0] @ beta) * float(rk[0, 0]) / max(counts[k], 1)
+            ss[k] = max(total - counts[k] * mean**2, 0.0)
+        full = np.linalg.qr(np.vstack([r[:, sel] for r in rs]), mode="r")
+        out[cand.name] = (ss, solve_r(full, m)[1])
+    return out
+
+
+@dataclass(frozen=True)
+class Selection:
+    """The held-out choice of one channel.
+
+    Attributes
+    ----------
+    chosen : Candidate
+        The model to fit on all the data.
+    fallback : Candidate
+        The T-only candidate used outside the joint domain (policy ``fallback``).
+    folds : Folds
+        The folds.
+    tolerance : float
+        Relative tolerance of the choice.
+    table : list of dict
+        One row per candidate: ``name``, ``method``, ``n_params``, ``heldout_rms`` (None if
+        the candidate could not be fitted on some fold), ``fold_rms`` (per fold), and
+        ``train_rms`` (fit on all the data; polynomial candidates only, else None), in the
+        log's units.
+    """
+
+    chosen: Candidate
+    fallback: Candidate
+    folds: Folds
+    tolerance: float
+    table: list[dict[str, Any]]
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-able form (the model file's ``selection`` entry)."""
+        return {
+            "scheme": self.folds.scheme,
+            "folds": list(self.folds.names),
+            "tolerance": float(self.tolerance),
+            "chosen": self.chosen.name,
+            "fallback": self.fallback.name,
+            "table": self.table,
+        }
+
+
+def choose(
+    cands: Sequence[Candidate],
+    fold_mse: np.ndarray,
+    tolerance: float = DEFAULT_TOLERANCE,
+) -> Candidate:
+    """The simplest candidate within noise of the best held-out error.
+
+    Parameters
+    ----------
+    cands : sequence of Candidate
+        In preference order.
+    fold_mse : ndarray, shape (len(cands), folds)
+        Held-out mean square error about each fold's mean; NaN where a candidate could not
+        be fitted (it is then never chosen).
+    tolerance : float
+        Relative tolerance on the best pooled mean square error.
+
+    Returns
+    -------
+    Candidate
+        Let ``b`` be the candidate of the lowest mean held-out MSE. A candidate is within
+        noise of it when the mean over folds of its paired MSE difference to ``b`` is at
+        most one standard error of that mean (the one-standard-error rule, Breiman et al.
+        1984; Hastie, Tibshirani, Friedman 2009, §7.10) or at most ``tolerance`` times
+        ``b``'s mean MSE. Among those: the fewest thermal parameters, then the lowest
+        error, then the first in order.
+    """
+    mse = np.asarray(fold_mse, dtype=np.float64)
+    ok = np.all(np.isfinite(mse), axis=1)
+    if not ok.any():
+        raise ValueError("no candidate could be fitted on the held-out folds")
+    mean = np.where(ok, mse.mean(axis=1) if mse.size else np.inf, np.inf)
+    b = int(np.argmin(mean))
+    k = mse.shape[1]
+    near = []
+    for i in np.flatnonzero(ok):
+        d = mse[i] - mse[b]
+        se = float(np.std(d, ddof=1) / math.sqrt(k)) if k > 1 else 0.0
+        if d.mean() <= max(se, tolerance * mean[b]):
+            near.append((cands[i].n_params, float(mean[i]), int(i)))
+    return cands[min(near)[2]]
+
+
+def select_channel(
+    x: np.ndarray,
+    y: np.ndarray,
+    run_codes: np.ndarray,
+    runs: Sequence[str],
+    t: np.ndarray,
+    cands: Sequence[Candidate],
+    tolerance: float = DEFAULT_TOLERANCE,
+    random_state: int = 0,
+) -> Selection:
+    """Score every candidate on held-out folds and choose one.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n, d)
+        Training inputs ``T`` [°C], ``Ṫ`` [°C/min] (, ``ΔT`` [°C]), inlier rows only.
+    y : ndarray, shape (n,)
+        The channel's output [log units].
+    run_codes : ndarray of int, shape (n,)
+        Run of each row.
+    runs : sequence of str
+        Run names.
+    t : ndarray, shape (n,) [s]
+        Time since each run's power-on.
+    cands : sequence of Candidate
+        From :func:`candidates`.
+    tolerance : float
+        Relative tolerance of :func:`choose`.
+    random_state : int
+        Seed of neural candidates.
+
+    Returns
+    -------
+    Selection
+    """
+    if not 0 <= tolerance < 1:
+        raise ValueError(f"tolerance must be in [0, 1), got {tolerance!r}")
+    folds = holdout_folds(run_codes, runs, x[:, 0])
+    nf = len(folds.names)
+    scored = np.zeros(x.shape[0], dtype=bool)
+    for k in range(nf):
+        te = folds.codes == k
+        t_train = x[~te, 0]
+        scored[te] = (x[te, 0] >= t_train.min()) & (x[te, 0] <= t_train.max())
+    counts = np.bincount(folds.codes[scored], minlength=nf)
+    poly = [c for c in cands if c.orders is not None]
+    fast = _polynomial_scores(x, y, folds.codes, nf, poly, scored) if poly else {}
+    n_total = int(counts.sum())
+    table, mse_rows = [], []
+    for cand in cands:
+        train_rms = None
+        if cand.name in fast:
+            ss, rss = fast[cand.name]
+            train_rms = math.sqrt(rss / n_total)
+        else:
+            ss = np.empty(nf)
+            for k in range(nf):
+                tr, te = folds.codes != k, (folds.codes == k) & scored
+                est = make_estimator(cand, random_state, screen=True)
+                try:
+                    with warnings.catch_warnings():
+                        warnings.simplefilter("ignore")
+                        fit_estimator(est, x[tr], y[tr], run_codes[tr], t[tr])
+                    ss[k] = _ss_about_mean(y[te] - est.predict(x[te]))
+                except (ValueError, DesignError):
+                    ss[k] = np.nan
+        ss[counts == 0] = 0.0
+        fold_rms = np.sqrt(ss / np.maximum(counts, 1))
+        score = float(math.sqrt(np.sum(ss) / n_total)) if np.all(np.isfinite(ss)) else None
+        mse_rows.append((ss / np.maximum(counts, 1))[counts > 0])
+        table.append(
+            {
+                "name": cand.name,
+                "method": "none" if cand.family == "none" else cand.method,
+                "n_params": int(cand.n_params),
+                "heldout_rms": score,
+                "fold_rms": [None if not np.isfinite(v) else float(v) for v in fold_rms],
+                "train_rms": train_rms,
+            }
+        )
+    mse = np.vstack(mse_rows)
+    chosen = choose(cands, mse, tolerance)
+    t_only = [i for i, c in enumerate(cands) if c.t_only]
+    fallback = choose([cands[i] for i in t_only], mse[t_only], tolerance)
+    return Selection(chosen, fallback, folds, float(tolerance), table)
