@@ -130,7 +130,7 @@ def test_compensate_refuses_to_overwrite_inputs(logs, tmp_path) -> None:
             "error",
         ],
     )
-    assert res.exit_code == 2 and "training range" in res.output
+    assert res.exit_code == 2 and "outside [" in res.output and "training data" in res.output
     assert not (tmp_path / "x.csv").exists()
 
 
@@ -155,12 +155,23 @@ def test_select_json(logs) -> None:
 def test_export_formats(logs, tmp_path) -> None:
     model = tmp_path / "p.json"
     _ok(["fit", logs["soak"], "--method", "poly-t", "--out", model])
+    ids = ["--gyro-id", "2293768", "--accel-id", "2294024"]
     for fmt, name, needle in (
         ("px4", "t.params", "TC_A0_X3_2"),
         ("ardupilot", "t.parm", "INS_TCAL1_GYR3_Z"),
         ("c", "t.h", "static inline double rinscal_accel_z"),
     ):
-        _ok(["export", model, "--format", fmt, "--out", tmp_path / name])
+        _ok(
+            [
+                "export",
+                model,
+                "--format",
+                fmt,
+                "--out",
+                tmp_path / name,
+                *(ids if fmt == "px4" else []),
+            ]
+        )
         assert needle in (tmp_path / name).read_text()
     res = runner.invoke(app, ["export", str(model), "--format", "c", "--out", str(model)])
     assert res.exit_code == 2 and "refusing to overwrite" in res.output

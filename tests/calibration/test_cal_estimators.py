@@ -205,9 +205,24 @@ def test_neural_split_is_by_contiguous_blocks_of_each_run() -> None:
     ],
     # The thermal estimators read the columns T, Ṫ, ΔT by position and ignore the rest; the
     # generic regression data set of check_regressors_train hides its one informative
-    # feature among ten, so scoring it is not meaningful for them.
+    # feature among ten, so scoring it is not meaningful for them. The integer data of
+    # check_estimators_dtypes (three distinct values per column) and the quantised data of
+    # check_positive_only_tag_during_fit cannot determine a cubic: the polynomial estimators
+    # refuse rank-deficient designs (rinscal.calibration.guards), as they must.
     expected_failed_checks=lambda est: {
-        "check_regressors_train": "uses only the first 1-3 columns (T, Tdot, dT)"
+        "check_regressors_train": "uses only the first 1-3 columns (T, Tdot, dT)",
+        **(
+            {}
+            if isinstance(est, Neural)
+            else {
+                "check_estimators_dtypes": "refuses a rank-deficient design (3 distinct T)",
+            }
+        ),
+        **(
+            {"check_positive_only_tag_during_fit": "a segment's design is rank-deficient"}
+            if isinstance(est, Sectional)
+            else {}
+        ),
     },
 )
 def test_sklearn_estimator_conventions(estimator, check) -> None:

@@ -140,7 +140,7 @@ def test_wrong_schema_version(saved) -> None:
     path, doc = saved
     doc["schema_version"] = SCHEMA_VERSION + 1
     path.write_text(_rewrite(doc))
-    with pytest.raises(ModelFileError, match="unsupported schema_version 2"):
+    with pytest.raises(ModelFileError, match=f"unsupported schema_version {SCHEMA_VERSION + 1}"):
         ThermalModelFile.load(path)
 
 

@@ -186,23 +186,26 @@ def check_design(r: np.ndarray, x: np.ndarray, orders: Sequence[int], what: str)
 
 
 def temperature_resolution(values: np.ndarray) -> float:
-    """Resolution of a temperature reading: the smallest step between distinct values.
+    """Resolution of a temperature reading: the smallest change between consecutive samples.
+
+    A quantised reading changes in multiples of its step, and a slowly varying temperature
+    changes by one step at a time, so the smallest nonzero change is the step (O(n), no
+    sort).
 
     Parameters
     ----------
     values : ndarray [°C]
-        Readings (NaN ignored).
+        Readings in time order (NaN ignored).
 
     Returns
     -------
     float [°C]
-        The smallest positive difference between sorted distinct values (``inf`` if fewer
-        than two distinct values).
+        The smallest nonzero ``|v[i+1] − v[i]|`` (``inf`` if the reading never changes).
     """
-    v = np.unique(values[np.isfinite(values)])
-    if v.size < 2:
-        return float("inf")
-    return float(np.min(np.diff(v)))
+    v = values[np.isfinite(values)]
+    d = np.abs(np.diff(v))
+    d = d[d > 0]
+    return float(d.min()) if d.size else float("inf")
 
 
 def check_temperatures(

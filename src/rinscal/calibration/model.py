@@ -443,7 +443,15 @@ class ThermalModel:
                 selection=self.selections_[c],
             )
         src: dict[str, Any] = {"runs": list(self.features_.runs)}
-        for key in ("latitude_deg", "heading_deg", "altitude_m", "protocol", "imu", "seed"):
+        for key in (
+            "latitude_deg",
+            "heading_deg",
+            "altitude_m",
+            "protocol",
+            "imu",
+            "seed",
+            "device_ids",
+        ):
             if key in self.meta_:
                 src[key] = self.meta_[key]
         src.update(source or {})

@@ -30,12 +30,16 @@ from rinscal.cli._options import (
 if TYPE_CHECKING:
     import pandas as pd
 
-_METHODS = ("poly-t", "sectional", "regression", "neural")
+_METHODS = ("auto", "poly-t", "sectional", "regression", "neural", "px4", "ardupilot")
 
 ModelOpt = Annotated[Path, typer.Option("--model", "-m", help="Thermal model file (JSON).")]
 PolicyOpt = Annotated[
     str,
-    typer.Option("--policy", help="Outside the training range: clamp, extrapolate or error."),
+    typer.Option(
+        "--policy",
+        help="Outside the training data: clamp (inputs to their range), fallback (the "
+        "channel's T-only model outside the joint domain), extrapolate or error.",
+    ),
 ]
 JsonOpt = Annotated[bool, typer.Option("--json", help="Print JSON instead of a table.")]
 
@@ -75,6 +79,20 @@ def _floats(text: str | None, option: str) -> tuple[float, ...] | None:
         raise fail(f"{option}: {text!r} is not a comma-separated list of numbers") from None
 
 
+def model_label(cm: Any) -> str:
+    """A channel's model in words: the auto choice, or the method and its settings."""
+    if cm.selection is not None:
+        return str(cm.selection["chosen"])
+    p = cm.params
+    if p["method"] == "regression":
+        return "regression " + ",".join(str(o) for o in p["orders"])
+    if p["method"] == "poly-t":
+        return "none" if len(p["coef"]) == 1 else f"poly-t {len(p['coef']) - 1}"
+    if p["method"] == "neural":
+        return f"neural {len(p['b'])}"
+    return str(p["method"])
+
+
 def _fmt(v: Any, digits: int = 4) -> str:
     try:
         f = float(v)
@@ -88,10 +106,35 @@ def _fmt(v: Any, digits: int = 4) -> str:
 @app.command("fit")
 def fit(
     log: LogArg,
-    method: Annotated[
-        str, typer.Option("--method", help="poly-t, sectional, regression or neural.")
-    ],
     out: Annotated[Path, typer.Option("--out", "-o", help="Model file to write (JSON).")],
+    method: Annotated[
+        str,
+        typer.Option(
+            "--method",
+            help="auto (each channel's model chosen by held-out error), poly-t, sectional, "
+            "regression, neural, px4 or ardupilot.",
+        ),
+    ] = "auto",
+    candidates: Annotated[
+        str | None,
+        typer.Option(
+            "--candidates",
+            help="auto: candidate families, e.g. none,px4,ardupilot,poly-t,regression,neural "
+            "(default all but neural).",
+        ),
+    ] = None,
+    tolerance: Annotated[
+        float,
+        typer.Option(
+            "--tolerance",
+            help="auto: also take a simpler model within this relative tolerance of the best "
+            "held-out mean square error (the one-standard-error rule always applies).",
+        ),
+    ] = 0.0,
+    temp_range: Annotated[
+        str,
+        typer.Option("--temp-range", help="Plausible temperature readings LO,HI in °C."),
+    ] = "-60,150",
     orders: Annotated[
         str | None,
         typer.Option(
@@ -127,7 +170,12 @@ def fit(
     sep: SepOpt = None,
     temp_col: TempColOpt = None,
 ) -> None:
-    """Fit a thermal model per channel and write it as a JSON model file."""
+    """Fit a thermal model per channel and write it as a JSON model file.
+
+    With --method auto (the default) each channel gets the model of least held-out error
+    among no compensation, the PX4 and ArduPilot fits, cubic-type polynomials in T and the
+    paper's regression, the simplest within noise of the best.
+    """
     import warnings
 
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
@@ -138,12 +186,19 @@ def fit(
         MissingGradientWarning,
         build_features,
     )
+    from rinscal.calibration.guards import TrainingDataWarning
     from rinscal.calibration.model import ThermalModel
     from rinscal.cli._app import console, err_console, fail
     from rinscal.errors import RinscalError
 
     if method not in _METHODS:
         raise fail(f"--method must be one of {', '.join(_METHODS)}, got {method!r}")
+    lo_hi = _floats(temp_range, "--temp-range")
+    if lo_hi is None or len(lo_hi) != 2 or not lo_hi[0] < lo_hi[1]:
+        raise fail(f"--temp-range must be LO,HI in °C with LO < HI, got {temp_range!r}")
+    fams = None if candidates is None else tuple(v.strip() for v in candidates.split(","))
+    if fams is not None and method != "auto":
+        raise fail("--candidates applies to --method auto only")
     inputs = [log] + ([map_file] if map_file is not None else [])
     refuse_inputs(out, inputs)
     params: dict[str, Any] = {}
@@ -169,6 +224,9 @@ def fit(
                 use_gradient=False if no_gradient else None,
                 random_state=seed,
                 estimator_params=params or None,
+                tolerance=tolerance,
+                temp_range=(lo_hi[0], lo_hi[1]),
+                **({"candidates": fams} if fams is not None else {}),
             )
             progress.update(task, description="features")
             with warnings.catch_warnings(record=True) as caught:
@@ -190,46 +248,78 @@ def fit(
             def step(channel: str) -> None:
                 progress.update(task, advance=1, description=f"fitted {channel}")
 
-            model.fit(df, meta, features=feats, on_channel=step)
+            with warnings.catch_warnings(record=True) as fit_warnings:
+                warnings.simplefilter("always", TrainingDataWarning)
+                model.fit(df, meta, features=feats, on_channel=step, source=str(log))
             mf = model.to_file(source={"log": log.name})
             mf.save(out)
     except RinscalError as exc:
         raise fail(str(exc)) from None
+    for w in fit_warnings:
+        if issubclass(w.category, TrainingDataWarning):
+            err_console.print(
+                f"[yellow]warning:[/] {escape(str(log))}: {escape(str(w.message))}",
+                highlight=False,
+            )
     table = Table(title=f"{method} model of {log.name}: training residual (Eq. 16)")
-    for name in ("channel", "unit", "samples", "outliers", "T range [°C]", "RMS", "RMS*"):
-        table.add_column(name, justify="right" if name != "channel" else "left")
+    cols = ["channel", "model", "samples", "outliers", "T range [°C]", "RMS*"]
+    if method == "auto":
+        cols += ["held-out", "none held-out"]
+    for name in cols:
+        table.add_column(name, justify="left" if name in ("channel", "model") else "right")
     for c in mf.channels:
         cm = mf.models[c]
         m = cm.metrics
-        table.add_row(
-            c,
-            cm.unit or "?",
+        row = [
+            f"{c} ({cm.unit or '?'})",
+            model_label(cm),
             f"{int(m['n_train']):,}",
             f"{int(m['n_outliers']):,}",
             f"{cm.train_range[0, 0]:.2f} .. {cm.train_range[0, 1]:.2f}",
-            _fmt(m["rms_train"]),
             _fmt(m["rms_train_about_run_mean"]),
-        )
+        ]
+        if method == "auto" and cm.selection is not None:
+            by_name = {r["name"]: r for r in cm.selection["table"]}
+            row += [
+                _fmt(by_name[cm.selection["chosen"]]["heldout_rms"]),
+                _fmt(by_name.get("none", {}).get("heldout_rms")),
+            ]
+        table.add_row(*row)
     console.print(table)
-    console.print(
-        f"RMS* about each run's mean residual (turn-on offsets removed). wrote {out}",
-        highlight=False,
-        soft_wrap=True,
-    )
+    note = "RMS* of the training residual about each run's mean (turn-on offsets removed)."
+    if method == "auto":
+        first = next(iter(mf.models.values())).selection or {}
+        note += (
+            f" Held-out: {first.get('scheme', '?')} over {len(first.get('folds', []))} folds "
+            "(rinscal select LOG --method auto shows every candidate)."
+        )
+    console.print(f"{note} wrote {out}", highlight=False, soft_wrap=True)
 
 
 @app.command("select")
 def select(
     log: LogArg,
-    method: Annotated[str, typer.Option("--method", help="regression or neural.")],
+    method: Annotated[
+        str,
+        typer.Option(
+            "--method",
+            help="auto (every candidate of fit --method auto, held-out folds as there), "
+            "regression or neural.",
+        ),
+    ] = "auto",
     tolerance: Annotated[
-        float,
+        float | None,
         typer.Option(
             "--tolerance",
-            help="Recommend the smallest setting within this relative "
-            "tolerance of the best held-out RMS.",
+            help="Recommend the smallest setting within this relative tolerance of the best "
+            "held-out RMS (regression/neural: default 0.02; auto: default 0, on top of the "
+            "one-standard-error rule).",
         ),
-    ] = 0.02,
+    ] = None,
+    candidates: Annotated[
+        str | None,
+        typer.Option("--candidates", help="auto: candidate families (as fit --candidates)."),
+    ] = None,
     settings: Annotated[
         str | None,
         typer.Option("--settings", help="Orders or neuron counts to try, e.g. 1,2,3,4."),
@@ -250,9 +340,21 @@ def select(
     sep: SepOpt = None,
     temp_col: TempColOpt = None,
 ) -> None:
-    """Training and leave-one-run-out RMS per channel for orders 1-4 or 1-8 neurons."""
+    """Held-out RMS per channel: of every auto candidate, or of orders 1-4 / 1-8 neurons."""
     import warnings
 
+    if method == "auto":
+        _select_auto(
+            log,
+            tolerance or 0.0,
+            candidates,
+            window,
+            seed,
+            as_json,
+            (map_file, col, time_col, time_unit, sep, temp_col),
+        )
+        return
+    tolerance = 0.02 if tolerance is None else tolerance
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
     from rich.table import Table
 
@@ -337,6 +439,92 @@ def select(
     )
 
 
+def _select_auto(
+    log: Path,
+    tolerance: float,
+    candidates: str | None,
+    window: float,
+    seed: int,
+    as_json: bool,
+    read_args: tuple[Any, ...],
+) -> None:
+    """``select --method auto``: every candidate's held-out RMS, the choice and the fallback."""
+    import warnings
+
+    from rich.table import Table
+
+    from rinscal.calibration.features import DerivativeConfig
+    from rinscal.calibration.model import ThermalModel
+    from rinscal.cli._app import console, err_console, fail
+    from rinscal.errors import RinscalError
+
+    fams = None if candidates is None else tuple(v.strip() for v in candidates.split(","))
+    try:
+        with err_console.status("selecting (held-out fits of every candidate)"):
+            df, meta = _read(log, *read_args)
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                model = ThermalModel(
+                    "auto",
+                    derivative=DerivativeConfig(window),
+                    random_state=seed,
+                    tolerance=tolerance,
+                    **({"candidates": fams} if fams is not None else {}),
+                )
+                mf = model.fit(df, meta, source=str(log)).to_file()
+    except RinscalError as exc:
+        raise fail(str(exc)) from None
+    for w in caught:
+        if issubclass(w.category, UserWarning):
+            err_console.print(f"[yellow]warning:[/] {escape(str(w.message))}", highlight=False)
+    if as_json:
+        doc = {
+            "log": log.name,
+            "rms": "held-out RMS about each fold's mean, log units",
+            "channels": {
+                c: {"unit": mf.models[c].unit, **(mf.models[c].selection or {})}
+                for c in mf.channels
+            },
+        }
+        typer.echo(json.dumps(doc, indent=1))
+        return
+    for c in mf.channels:
+        sel = mf.models[c].selection or {}
+        table = Table(
+            title=f"{c} ({mf.models[c].unit or '?'}): held-out RMS, {sel.get('scheme')} over "
+            f"{len(sel.get('folds', []))} folds ({', '.join(sel.get('folds', []))})"
+        )
+        for name in ("candidate", "params", "held-out RMS", "per fold", "train RMS", ""):
+            table.add_column(name, justify="left" if name in ("candidate", "") else "right")
+        rows = sorted(
+            sel.get("table", []),
+            key=lambda r: (r["heldout_rms"] is None, r["heldout_rms"] or 0.0),
+        )
+        for r in rows:
+            mark = []
+            if r["name"] == sel.get("chosen"):
+                mark.append("[bold green]chosen[/]")
+            if r["name"] == sel.get("fallback"):
+                mark.append("fallback")
+            table.add_row(
+                r["name"],
+                str(r["n_params"]),
+                _fmt(r["heldout_rms"], 5),
+                " ".join(_fmt(v, 3) for v in r["fold_rms"]),
+                _fmt(r["train_rms"], 5),
+                ", ".join(mark),
+            )
+        console.print(table)
+    console.print(
+        "chosen: the fewest thermal parameters within one standard error (paired over folds) "
+        f"of the best held-out error{f' or within {tolerance:.1%}' if tolerance else ''}; "
+        "fallback: the same among models of T alone, used outside the training domain "
+        "(compensate --policy fallback)",
+        highlight=False,
+        soft_wrap=True,
+    )
+
+
 @app.command("compensate")
 def compensate_cmd(
     log: LogArg,
@@ -391,10 +579,13 @@ def compensate_cmd(
     n_flag = int(res[FLAG_COLUMN].sum())
     console.print(
         f"wrote {out}: {len(res):,} rows, {len(mf.channels)} channel(s) compensated with the "
-        f"{mf.method} model; {n_flag:,} row(s) outside the training range ({policy})",
+        f"{mf.method} model; {n_flag:,} row(s) outside the training data ({policy})",
         highlight=False,
         soft_wrap=True,
     )
+    share = res.groupby(df["run"], sort=False)[FLAG_COLUMN].mean()
+    for run, frac in share.items():
+        console.print(f"  {run}: {frac:.1%} of rows flagged", highlight=False)
 
 
 @app.command("evaluate")
@@ -408,6 +599,14 @@ def evaluate_cmd(
     step_window: Annotated[
         float, typer.Option("--step-window", help="Fit window on each side of an edge, seconds.")
     ] = 120.0,
+    allan_plot: Annotated[
+        Path | None,
+        typer.Option(
+            "--allan-plot",
+            help="Write the Allan deviation of raw and compensated output (log-log, one "
+            "panel per channel, longest run) to this PNG.",
+        ),
+    ] = None,
     as_json: JsonOpt = False,
     map_file: MapOpt = None,
     col: ColOpt = None,
@@ -416,67 +615,119 @@ def evaluate_cmd(
     sep: SepOpt = None,
     temp_col: TempColOpt = None,
 ) -> None:
-    """RMS (Eq. 16, about each run's mean) before/after compensation; steps at segment edges."""
+    """RMS (Eq. 16, about each run's mean) before/after compensation; steps at segment edges.
+
+    Also: each channel's model (the auto choice), the share of samples outside the training
+    data per run, and the Allan deviation noise parameters of raw and compensated output.
+    """
     from rich.table import Table
 
-    from rinscal.calibration.evaluate import StepConfig, evaluate
+    from rinscal.calibration.evaluate import StepConfig, allan_table, evaluate
     from rinscal.calibration.modelfile import POLICIES, ThermalModelFile
     from rinscal.cli._app import console, fail
     from rinscal.errors import RinscalError
 
     if policy not in POLICIES:
         raise fail(f"--policy must be one of {', '.join(POLICIES)}, got {policy!r}")
+    inputs = [log, model] + ([map_file] if map_file is not None else [])
+    if allan_plot is not None:
+        refuse_inputs(allan_plot, inputs)
     try:
         mf = ThermalModelFile.load(model)
         df, _ = _read(log, map_file, col, time_col, time_unit, sep, temp_col)
-        res = evaluate(
-            df,
-            mf,
-            policy,
-            "causal" if causal else None,
-            StepConfig(window_s=step_window),  # type: ignore[arg-type]
-        )
+        deriv = "causal" if causal else None
+        res = evaluate(df, mf, policy, deriv, StepConfig(window_s=step_window))  # type: ignore[arg-type]
+        allan, curves = allan_table(df, mf, policy, deriv)  # type: ignore[arg-type]
+        if allan_plot is not None:
+            _write_allan_plot(allan_plot, curves, mf, log.name)
     except RinscalError as exc:
         raise fail(str(exc)) from None
+    labels = {c: model_label(mf.models[c]) for c in mf.channels}
     if as_json:
         doc = {
             "log": log.name,
             "model": model.name,
             "method": mf.method,
+            "channel_models": labels,
             "policy": policy,
             "rms": "Eq. 16 about each run's mean, inlier samples, log units",
             "step": f"difference of {step_window:g} s linear fits before/after an edge crossing",
+            "out_of_range": "samples outside the training range or joint domain",
             "rows": json.loads(res.to_json(orient="records")),
+            "allan": json.loads(allan.to_json(orient="records")),
         }
         typer.echo(json.dumps(doc, indent=1))
         return
     table = Table(
         title=f"{mf.method} model on {log.name}: RMS about each run's mean (Eq. 16); "
-        "largest step at a segment edge"
+        "largest step at a segment edge; share outside the training data"
     )
     for name in (
         "run",
         "channel",
+        "model",
         "RMS before",
         "RMS after",
         "after/before",
+        "flagged",
         "edges crossed",
         "step raw",
         "step comp.",
     ):
-        table.add_column(name, justify="left" if name in ("run", "channel") else "right")
+        table.add_column(name, justify="left" if name in ("run", "channel", "model") else "right")
     for _, r in res.iterrows():
         table.add_row(
             str(r["run"]),
             f"{r['channel']} ({r['unit'] or '?'})",
+            labels[r["channel"]],
             _fmt(r["rms_before"]),
             _fmt(r["rms_after"]),
             _fmt(r["ratio"], 3),
+            f"{r['out_of_range'] / max(r['samples'], 1):.1%}",
             str(int(r["crossings"])),
             _fmt(r["max_step_before"], 3),
             _fmt(r["max_step_after"], 3),
         )
     console.print(table)
+    if not allan.empty:
+        at = Table(
+            title=escape(
+                "Allan deviation (overlapping), IEEE Std 952 slopes: N random walk "
+                "[unit·√s] at τ = 1 s, B bias instability [unit] (at τ), K rate random walk "
+                "[unit/√s] at τ = 3 s; '-' where the curve has no such region"
+            )
+        )
+        for name in ("run", "channel", "output", "N", "B", "τ(B) [s]", "K"):
+            at.add_column(name, justify="left" if name in ("run", "channel", "output") else "right")
+        for _, r in allan.iterrows():
+            at.add_row(
+                str(r["run"]),
+                f"{r['channel']} ({r['unit'] or '?'})",
+                str(r["output"]),
+                _fmt(r["n"], 3),
+                _fmt(r["b"], 3),
+                _fmt(r["b_tau_s"], 3),
+                _fmt(r["k"], 3),
+            )
+        console.print(at)
+    if allan_plot is not None:
+        console.print(f"wrote {allan_plot}", highlight=False)
+
+
+def _write_allan_plot(path: Path, curves: Any, mf: Any, name: str) -> None:
+    """The Allan figure of the longest run, written atomically."""
+    from rinscal.io import write_atomic
+    from rinscal.report.allan_plot import allan_figure
+
+    if not curves:
+        return
+    run = max(
+        curves,
+        key=lambda r: max((len(v) for c in curves[r].values() for v in c.values()), default=0),
+    )
+    units = {c: mf.models[c].unit or "?" for c in mf.channels}
+    fig = allan_figure(curves[run], units, title=f"{name}, run {run}: Allan deviation")
+    write_atomic(path, lambda tmp: fig.savefig(tmp, format="png", dpi=110))
 
 
 @app.command("export")
