@@ -453,6 +453,14 @@ class Sectional(_ThermalEstimator):
     def _edges(self, t: np.ndarray) -> np.ndarray:
         if self.edges is not None:
             e = np.asarray(self.edges, dtype=np.float64).ravel()
+            lo, hi = float(t.min()), float(t.max())
+            outside = [float(v) for v in e if not lo < v < hi]
+            if outside:
+                raise ValueError(
+                    f"segment edge(s) {', '.join(f'{v:g}' for v in outside)} °C lie outside "
+                    f"the training temperatures ({lo:.4g} … {hi:.4g} °C): a segment there "
+                    "holds no data; give edges inside the data's range"
+                )
         elif self.set_points is not None and len(self.set_points) >= 2:
             sp = np.unique(np.asarray(self.set_points, dtype=np.float64))
             e = 0.5 * (sp[1:] + sp[:-1])

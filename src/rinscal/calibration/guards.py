@@ -39,6 +39,7 @@ __all__ = [
     "TrainingDataWarning",
     "check_design",
     "check_temperatures",
+    "collinear_inputs",
     "design_condition",
     "diagnose_inputs",
     "temperature_resolution",
@@ -92,6 +93,39 @@ def design_condition(r: np.ndarray) -> float:
     return float("inf") if s[-1] <= 0 else float(s[0] / s[-1])
 
 
+def collinear_inputs(x: np.ndarray, orders: Sequence[int]) -> list[str]:
+    """Pairs of used inputs that are collinear (``|r| >`` :data:`COLLINEAR_R`), in words.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n, k)
+        Inputs ``T`` [°C], ``Ṫ`` [°C/min], ``ΔT`` [°C].
+    orders : sequence of int
+        Polynomial order of each input (0: unused).
+
+    Returns
+    -------
+    list of str
+        One sentence per collinear pair (O(n): correlations only).
+    """
+    found: list[str] = []
+    used = [v for v, o in enumerate(orders) if o > 0]
+    for i, a in enumerate(used):
+        for b in used[i + 1 :]:
+            xa, xb = x[:, a], x[:, b]
+            if np.ptp(xa) == 0 or np.ptp(xb) == 0:
+                continue
+            r = float(np.corrcoef(xa, xb)[0, 1])
+            if abs(r) > COLLINEAR_R:
+                found.append(
+                    f"{INPUT_LABELS[a]} and {INPUT_LABELS[b]} are collinear (r = {r:.5f}), as "
+                    "on a single exponential warm-up, so their terms cannot be told apart: "
+                    "record runs at other chamber temperatures or a ramp, or leave the "
+                    "rate term out (--orders p,0,s or --method poly-t)"
+                )
+    return found
+
+
 def diagnose_inputs(x: np.ndarray, orders: Sequence[int]) -> list[str]:
     """Why a polynomial design in the inputs may be singular, in words.
 
@@ -122,19 +156,7 @@ def diagnose_inputs(x: np.ndarray, orders: Sequence[int]) -> list[str]:
                 f"{name} takes only {distinct.size} distinct values (steps of {step:.3g}), too "
                 f"few for a polynomial of order {orders[v]}: quantised temperatures?"
             )
-    for i, a in enumerate(used):
-        for b in used[i + 1 :]:
-            xa, xb = x[:, a], x[:, b]
-            if np.ptp(xa) == 0 or np.ptp(xb) == 0:
-                continue
-            r = float(np.corrcoef(xa, xb)[0, 1])
-            if abs(r) > COLLINEAR_R:
-                found.append(
-                    f"{INPUT_LABELS[a]} and {INPUT_LABELS[b]} are collinear (r = {r:.5f}), as "
-                    "on a single exponential warm-up: record runs at other chamber "
-                    "temperatures or a ramp, or drop the rate term"
-                )
-    return found
+    return found + collinear_inputs(x, orders)
 
 
 def check_design(r: np.ndarray, x: np.ndarray, orders: Sequence[int], what: str) -> float:
@@ -159,7 +181,8 @@ def check_design(r: np.ndarray, x: np.ndarray, orders: Sequence[int], what: str)
     Raises
     ------
     DesignError
-        Condition number above :data:`COND_ERROR`.
+        Condition number above :data:`COND_ERROR`, or two used inputs collinear
+        (:func:`collinear_inputs`): the split of the fit between them would be arbitrary.
 
     Warns
     -----
@@ -167,6 +190,11 @@ def check_design(r: np.ndarray, x: np.ndarray, orders: Sequence[int], what: str)
         Condition number above :data:`COND_WARN`.
     """
     cond = design_condition(r)
+    collinear = collinear_inputs(x, orders)
+    if collinear:
+        raise DesignError(
+            f"the training data cannot determine a {what} model: {'; '.join(collinear)}"
+        )
     if cond <= COND_WARN:
         return cond
     why = diagnose_inputs(x, orders)

@@ -130,7 +130,7 @@ def fit(
             help="auto: also take a simpler model within this relative tolerance of the best "
             "held-out mean square error (the one-standard-error rule always applies).",
         ),
-    ] = 0.0,
+    ] = 0.005,
     temp_range: Annotated[
         str,
         typer.Option("--temp-range", help="Plausible temperature readings LO,HI in °C."),
@@ -312,8 +312,8 @@ def select(
         typer.Option(
             "--tolerance",
             help="Recommend the smallest setting within this relative tolerance of the best "
-            "held-out RMS (regression/neural: default 0.02; auto: default 0, on top of the "
-            "one-standard-error rule).",
+            "held-out RMS (regression/neural: default 0.02; auto: of the mean square error, "
+            "default 0.005, on top of the one-standard-error rule).",
         ),
     ] = None,
     candidates: Annotated[
@@ -346,7 +346,7 @@ def select(
     if method == "auto":
         _select_auto(
             log,
-            tolerance or 0.0,
+            0.005 if tolerance is None else tolerance,
             candidates,
             window,
             seed,

@@ -1,0 +1,259 @@
+"""``fit --method auto``: held-out choice, joint-domain check and fallback.
+
+Physics first: a log whose drift is a cubic in T gets a model of T alone, one with a
+temperature-rate term gets a rate term, pure noise gets no compensation; the fast held-out
+path equals fitting every fold by hand; the joint domain flags the real log's hot-and-cooling
+leg, and the fallback keeps the network from making it worse than no compensation.
+"""
+
+from __future__ import annotations
+
+import json
+import warnings
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from rinscal.calibration._domain import fit_domain, inside_domain
+from rinscal.calibration.auto import (
+    Candidate,
+    _polynomial_scores,
+    candidates,
+    choose,
+    holdout_folds,
+    select_channel,
+)
+from rinscal.calibration.compensate import compensate
+from rinscal.calibration.estimators import Regression
+from rinscal.calibration.evaluate import evaluate
+from rinscal.calibration.model import ThermalModel
+from rinscal.calibration.modelfile import ThermalModelFile
+from rinscal.schema import CHANNELS
+from tests._shared import real_log_path
+
+META = {"units": {"gyro": "deg/h", "accel": "ug"}}
+
+
+def _runs(n_runs: int = 5, n: int = 1200, seed: int = 0) -> tuple[np.ndarray, ...]:
+    """Cold starts at several set points: x (T, Ṫ [°C/min], ΔT), run codes, time."""
+    rng = np.random.default_rng(seed)
+    xs, codes, ts = [], [], []
+    for k in range(n_runs):
+        t = (np.arange(n) + 1.0) * 3.0
+        tau = 700.0 + 300.0 * k
+        temp = 5.0 + 9.0 * k + 15.0 * (1 - np.exp(-t / tau)) + rng.normal(0, 0.01, n)
+        rate = 15.0 / tau * np.exp(-t / tau) * 60.0
+        grad = 2.0 * np.exp(-t / 500.0) + 0.3
+        xs.append(np.column_stack([temp, rate, grad]))
+        codes.append(np.full(n, k))
+        ts.append(t)
+    return np.vstack(xs), np.concatenate(codes), np.concatenate(ts)
+
+
+def _chosen(y_of_x, seed: int = 0, noise: float = 1.0) -> tuple[Candidate, dict]:
+    x, codes, t = _runs(seed=seed)
+    rng = np.random.default_rng(seed + 100)
+    y = y_of_x(x) + rng.normal(0, noise, x.shape[0])
+    cands = candidates("accel", 3)
+    sel = select_channel(x, y, codes, [f"r{k}" for k in range(5)], t, cands)
+    return sel.chosen, {r["name"]: r for r in sel.table}
+
+
+def test_a_cubic_in_t_gets_a_model_of_t_alone() -> None:
+    chosen, table = _chosen(lambda x: 40 * (x[:, 0] - 25) + 0.5 * (x[:, 0] - 25) ** 2)
+    assert chosen.t_only and chosen.family != "none", chosen
+    assert table[chosen.name]["heldout_rms"] < 1.1  # the noise, σ = 1
+
+
+def test_a_rate_term_is_found_when_it_is_there() -> None:
+    chosen, table = _chosen(lambda x: 5 * (x[:, 0] - 25) + 300 * x[:, 1])
+    assert chosen.orders is not None and chosen.orders[1] >= 1, chosen
+    best_t_only = min(
+        r["heldout_rms"]
+        for r in table.values()
+        if r["heldout_rms"] is not None and r["name"].startswith(("poly-t", "px4", "ardupilot"))
+    )
+    assert table[chosen.name]["heldout_rms"] < 0.5 * best_t_only
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_noise_alone_gets_no_compensation(seed) -> None:
+    chosen, _ = _chosen(lambda x: np.zeros(x.shape[0]), seed=seed)
+    assert chosen.name == "none"
+
+
+@pytest.mark.parametrize("seed", [3, 4, 5, 6])
+def test_the_choice_is_never_worse_than_none_on_held_out_data(seed) -> None:
+    rng = np.random.default_rng(seed)
+    a, b = rng.normal(0, 1, 2)
+    chosen, table = _chosen(lambda x: a * (x[:, 0] - 25) + b * 20 * x[:, 1], seed=seed)
+    assert table[chosen.name]["heldout_rms"] <= table["none"]["heldout_rms"]
+
+
+def test_held_out_scores_equal_fitting_each_fold_by_hand() -> None:
+    x, codes, _ = _runs(n_runs=4, n=700, seed=9)
+    rng = np.random.default_rng(9)
+    y = 3 * x[:, 0] + 50 * x[:, 1] ** 2 - 4 * x[:, 2] + rng.normal(0, 0.3, x.shape[0])
+    scored = rng.random(x.shape[0]) > 0.2  # score a subset of each held-out fold
+    cands = [c for c in candidates("accel", 3) if c.name in ("none", "regression 2,1,3")]
+    fast = _polynomial_scores(x, y, codes, 4, cands, scored)
+    for cand in cands:
+        ss, _ = fast[cand.name]
+        for k in range(4):
+            tr, te = codes != k, (codes == k) & scored
+            p, q, s = cand.orders
+            if p == 0:  # none: a constant, the held-out residual about its own mean
+                resid = y[te]
+            else:
+                est = Regression(t_order=p, rate_order=q, grad_order=s).fit(x[tr], y[tr])
+                resid = y[te] - est.predict(x[te])
+            expect = np.sum((resid - resid.mean()) ** 2)
+            assert ss[k] == pytest.approx(expect, rel=1e-8), (cand.name, k)
+
+
+def test_one_standard_error_rule() -> None:
+    cands = [
+        Candidate("none", "none", "poly-t", {}, 0),
+        Candidate("a", "poly-t", "poly-t", {}, 2),
+        Candidate("b", "regression", "regression", {}, 6),
+    ]
+    # b is best on average, a is within one standard error of b: a is chosen
+    mse = np.array([[9.0, 9.5, 8.5], [4.1, 3.0, 4.4], [3.8, 3.2, 3.9]])
+    assert choose(cands, mse).name == "a"
+    # b beats a on every fold by a margin far above the spread: b
+    mse[1] = [5.0, 5.1, 5.0]
+    assert choose(cands, mse, tolerance=0.0).name == "b"
+    # a relative tolerance widens "within noise"
+    assert choose(cands, mse, tolerance=0.5).name == "a"
+    # a candidate that failed on a fold is never chosen
+    mse[2, 0] = np.nan
+    assert choose(cands, mse).name == "a"
+
+
+def test_folds_leave_one_run_out_legs_and_blocks() -> None:
+    x, codes, _ = _runs(n_runs=3, n=100)
+    f = holdout_folds(codes, ["a", "b", "c"], x[:, 0])
+    assert f.scheme == "leave-one-run-out" and f.names == ("a", "b", "c")
+    assert np.array_equal(f.codes, codes)
+    # one thermal cycle: cool, heat, cool
+    temp = np.concatenate([np.linspace(50, -10, 400), np.linspace(-10, 70, 500)])
+    temp = np.concatenate([temp, np.linspace(70, 40, 300)])
+    f = holdout_folds(np.zeros(temp.size, dtype=int), ["cycle"], temp)
+    assert f.scheme == "legs" and f.names == ("cycle/cool1", "cycle/heat", "cycle/cool3")
+    assert np.abs(np.bincount(f.codes) - [400, 500, 300]).max() <= 1  # turns at the extremes
+    # one monotone warm-up: contiguous blocks
+    f = holdout_folds(np.zeros(800, dtype=int), ["w"], np.linspace(10, 30, 800))
+    assert f.scheme == "blocks" and len(f.names) == 4
+    assert np.all(np.diff(f.codes) >= 0)
+
+
+def test_domain_grid_flags_what_the_data_never_covered() -> None:
+    # an L of training data: low T at any rate, or any T at low rate
+    rng = np.random.default_rng(0)
+    x = np.column_stack([rng.uniform(0, 60, 20000), rng.uniform(-3, 3, 20000)])
+    x = x[(x[:, 0] < 20) | (x[:, 1] < -1)]
+    d = fit_domain(x)
+    probe = np.array([[50.0, 2.5], [10.0, 2.5], [50.0, -2.5], [61.0, -2.0], [75.0, -2.0]])
+    assert inside_domain(d, probe).tolist() == [False, True, True, True, False]
+    json.dumps(d)  # a plain JSON object
+
+
+def test_auto_model_file_round_trip_and_version_1(tmp_path, soak_small) -> None:
+    log, _, meta = soak_small
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        mf = ThermalModel("auto").fit(log, meta).to_file()
+    path = mf.save(tmp_path / "auto.json")
+    back = ThermalModelFile.load(path)
+    assert back.method == "auto"
+    for c in CHANNELS:
+        sel = back.models[c].selection
+        assert sel["scheme"] == "leave-one-run-out" and len(sel["folds"]) == 7
+        assert {r["name"] for r in sel["table"]} >= {"none", "px4", "ardupilot", "poly-t 3"}
+        assert back.models[c].fallback is not None
+    x = np.column_stack([np.linspace(5, 50, 50), np.zeros(50), np.ones(50)])
+    for c in CHANNELS:
+        assert np.array_equal(
+            back.predict_channel(c, x, "fallback")[0], mf.predict_channel(c, x, "fallback")[0]
+        )
+    # a version-1 file (no domain, fallback, selection) still loads and compensates
+    ref = ThermalModel("regression").fit(log, meta).to_file()
+    doc = ref.to_dict()
+    doc["schema_version"] = 1
+    for cm in doc["payload"]["channel_models"].values():
+        for key in ("domain", "fallback", "selection"):
+            del cm[key]
+    from rinscal.calibration.modelfile import payload_sha256
+
+    doc["sha256"] = payload_sha256(doc["payload"])
+    old = ThermalModelFile.from_dict(doc)
+    assert old.models["gyro_x"].domain is None
+    inputs = (x[:, 0], x[:, 1], x[:, 2])
+    assert np.array_equal(old.predict(*inputs), ref.predict(*inputs))
+
+
+def _real_legs():
+    from rinscal.experiments.calibration_tables import real_log_legs, tofupilot_mapping
+    from rinscal.io import read_log
+
+    path = real_log_path()
+    if not path.exists():
+        pytest.skip(f"real log not found at {path}")
+    log = real_log_legs(read_log(path, tofupilot_mapping()))
+    units = {c: "rad/s" if c.startswith("gyro") else "m/s^2" for c in CHANNELS}
+    return log[log["run"] != "leg3_cool"], log[log["run"] == "leg3_cool"], {"units": units}
+
+
+def test_joint_domain_flags_the_real_logs_hot_and_cooling_samples() -> None:
+    train, test, meta = _real_legs()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        mf = ThermalModel("regression").fit(train, meta).to_file()
+    out = compensate(test, mf, "clamp")
+    flagged = out["out_of_range"].to_numpy()
+    t_cool_max = train.loc[train["run"] == "leg1_cool", "temp_in"].max()  # 51.6 °C
+    temp = test["temp_in"].to_numpy()
+    hot_cooling = temp > t_cool_max + 4.0  # beyond one grid cell (3.8 °C) of the data
+    assert hot_cooling.sum() > 1000
+    # every input lies in its own training range: only the joint check can flag these
+    assert temp.min() > train["temp_in"].min() and temp.max() < train["temp_in"].max() + 0.01
+    assert flagged[hot_cooling].mean() > 0.95
+    # (the rest of leg 3 cools at −2.5 °C/min where leg 1 cooled at −7 to −8.5 °C/min: it is
+    # outside the data too, and flagged); the training legs themselves are not flagged
+    assert compensate(train, mf, "clamp")["out_of_range"].mean() < 0.005
+
+
+def test_fallback_keeps_the_network_from_making_accel_x_worse() -> None:
+    train, test, meta = _real_legs()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        mf = ThermalModel("neural", channels=("accel_x",), random_state=0).fit(train, meta)
+    mf = mf.to_file()
+    ev = {p: evaluate(test, mf, p).iloc[0] for p in ("clamp", "fallback")}
+    none = ev["clamp"]["rms_before"]
+    assert ev["fallback"]["rms_after"] < none
+    assert ev["fallback"]["out_of_range"] > 0.4 * len(test)
+    # on the flagged rows the output is the channel's cubic in T (clamped), exactly
+    out = compensate(test, mf, "fallback")
+    flagged = out["out_of_range"].to_numpy()
+    cm = mf.models["accel_x"]
+    from rinscal.calibration._inference import predict_params
+
+    t = np.clip(test["temp_in"].to_numpy()[flagged], *cm.train_range[0])
+    expect = test["accel_x"].to_numpy()[flagged] - predict_params(cm.fallback, t[:, None])
+    assert np.allclose(out["accel_x"].to_numpy()[flagged], expect, rtol=0, atol=1e-12)
+
+
+def test_auto_on_the_real_log_is_never_worse_than_none_on_its_held_out_legs() -> None:
+    train, _, meta = _real_legs()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        mf = ThermalModel("auto").fit(train, meta).to_file()
+    for c in CHANNELS:
+        sel = mf.models[c].selection
+        assert sel["scheme"] == "legs" and sel["folds"] == ["leg1_cool/cool", "leg2_heat/heat"]
+        rows = {r["name"]: r for r in sel["table"]}
+        assert rows[sel["chosen"]]["heldout_rms"] <= rows["none"]["heldout_rms"]
+    frame = pd.DataFrame(mf.models["accel_x"].selection["table"])
+    assert len(frame) == 19 and frame["heldout_rms"].notna().all()  # T, Ṫ: no ΔT candidates
