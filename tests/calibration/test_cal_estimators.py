@@ -133,8 +133,12 @@ def test_sectional_edges_are_midpoints_of_the_set_points() -> None:
 
 def test_sectional_refuses_an_empty_segment() -> None:
     x = _features()
-    with pytest.raises(ValueError, match=r"segment 7 .* no training sample"):
+    with pytest.raises(ValueError, match=r"segment edge\(s\) 60 °C lie outside the training"):
         Sectional(edges=[5, 10, 15, 20, 25, 60]).fit(x, x[:, 0])
+    # edges inside the range that leave a segment empty (a gap in the data) are refused too
+    gap = x[(x[:, 0] < 20) | (x[:, 0] > 30)]
+    with pytest.raises(ValueError, match=r"segment 3 .* no training sample"):
+        Sectional(edges=[10, 22, 28]).fit(gap, gap[:, 0])
 
 
 def test_poly_t_recovers_a_cubic_about_its_reference() -> None:

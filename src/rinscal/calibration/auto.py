@@ -18,7 +18,9 @@ Folds (:func:`holdout_folds`)
 
 Candidates (:func:`candidates`)
     ``none`` (a constant: no thermal compensation), ``ardupilot`` and ``px4`` (the field's
-    own fits, :mod:`rinscal.calibration.baselines`), ``poly-t`` of degree 1-4, ``regression``
+    own fits, :mod:`rinscal.calibration.baselines`; on held-out folds each tool's filter runs
+    once per run and its fit on at most :data:`SCREEN_ROWS` filtered samples, the chosen one
+    is refitted exactly on all the data), ``poly-t`` of degree 1-4, ``regression``
     with ``p`` = 1..4, ``q`` = 0..3, ``s`` = 0..3 (``s`` only with ``ΔT``; ``q = s = 0`` is
     ``poly-t``), and on request ``neural`` with 2, 4 and 6 hidden neurons (screened with
     ``max_samples`` 5000 and one start, refitted with the defaults if chosen; not in the
@@ -39,12 +41,13 @@ from __future__ import annotations
 import itertools
 import math
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
+from rinscal.calibration._inference import predict_params
 from rinscal.calibration.estimators import (
     ESTIMATORS,
     _center_scale,
@@ -87,6 +90,8 @@ MAX_ORDERS: tuple[int, int, int] = (4, 3, 3)
 HIDDEN: tuple[int, ...] = (2, 4, 6)
 #: Screening budget of a neural candidate's held-out fits.
 NEURAL_SCREEN: dict[str, int] = {"max_samples": 5000, "n_init": 1}
+#: Filtered samples (every k-th) the PX4 and ArduPilot fits of a held-out fold use at most.
+SCREEN_ROWS = 500_000
 
 
 @dataclass(frozen=True)
@@ -316,6 +321,56 @@ def fit_estimator(est: Any, x: np.ndarray, y: np.ndarray, groups: np.ndarray, t:
     return est.fit(x, y)
 
 
+def _baseline_screens(
+    temp: np.ndarray,
+    y: np.ndarray,
+    run_codes: np.ndarray,
+    t: np.ndarray,
+    folds: np.ndarray,
+    cands: Sequence[Candidate],
+) -> Callable[[str, int], dict[str, Any]]:
+    """Held-out fits of the PX4 and ArduPilot candidates, each tool's filter run once.
+
+    Each tool's filter (PX4's 31-sample median, ArduPilot's 2 s moving average) runs once
+    per run over the whole log; the rest of its fit (range, median, bins, cubic) is redone
+    on the training folds' filtered samples, every k-th of them so that at most
+    :data:`SCREEN_ROWS` are used (the fits average thousands of smooth samples per degree).
+    A filter window that straddles a fold boundary sees a few seconds of the held-out fold.
+    Returns ``fit(method, k)``: the parameters with fold ``k`` held out.
+    """
+    from rinscal.calibration.baselines import (
+        ardupilot_fit_smoothed,
+        ardupilot_smoothed,
+        px4_filtered,
+        px4_fit_filtered,
+    )
+
+    methods = {c.method: c for c in cands if c.method in ("px4", "ardupilot")}
+    pre: dict[str, tuple[np.ndarray, ...]] = {}
+    if "px4" in methods:
+        pre["px4"] = px4_filtered(temp, y, run_codes)
+    if "ardupilot" in methods:
+        t_s, y_s, _, _, rows = ardupilot_smoothed(temp, y, t, run_codes)
+        pre["ardupilot"] = (t_s, y_s, folds[rows])
+
+    def thin(mask: np.ndarray) -> np.ndarray:
+        idx = np.flatnonzero(mask)
+        return idx[:: max(1, math.ceil(idx.size / SCREEN_ROWS))]
+
+    def fit(method: str, k: int) -> dict[str, Any]:
+        sensor = methods[method].params.get("sensor", "gyro")
+        if method == "px4":
+            tf, yf = pre["px4"]
+            i = thin(folds != k)
+            return px4_fit_filtered(tf[i], yf[i], sensor=sensor)
+        t_s, y_s, f_s = pre["ardupilot"]
+        i = thin(f_s != k)
+        j = thin(folds != k)
+        return ardupilot_fit_smoothed(t_s[i], y_s[i], temp[j], y[j], sensor=sensor)
+
+    return fit
+
+
 def _ss_about_mean(resid: np.ndarray) -> float:
     return float(np.sum((resid - resid.mean()) ** 2)) if resid.size else 0.0
 
@@ -501,17 +556,41 @@ def select_channel(
     """
     if not 0 <= tolerance < 1:
         raise ValueError(f"tolerance must be in [0, 1), got {tolerance!r}")
+    from threadpoolctl import threadpool_limits
+
+    # thousands of tiny factorisations: BLAS threads only add overhead (and spin when the
+    # process is pinned to one core)
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _select(x, y, run_codes, runs, t, cands, tolerance, random_state)
+
+
+def _select(
+    x: np.ndarray,
+    y: np.ndarray,
+    run_codes: np.ndarray,
+    runs: Sequence[str],
+    t: np.ndarray,
+    cands: Sequence[Candidate],
+    tolerance: float,
+    random_state: int,
+) -> Selection:
     folds = holdout_folds(run_codes, runs, x[:, 0])
     nf = len(folds.names)
+    # score a held-out sample only within the training folds' temperature range: outside it
+    # compensation clamps, and extrapolating in T is not what the choice is about
     scored = np.zeros(x.shape[0], dtype=bool)
+    rows = [np.flatnonzero(folds.codes == k) for k in range(nf)]
+    temps = [x[r, 0] for r in rows]
+    lo = np.array([v.min() for v in temps])
+    hi = np.array([v.max() for v in temps])
     for k in range(nf):
-        te = folds.codes == k
-        t_train = x[~te, 0]
-        scored[te] = (x[te, 0] >= t_train.min()) & (x[te, 0] <= t_train.max())
+        others = np.arange(nf) != k
+        scored[rows[k]] = (temps[k] >= lo[others].min()) & (temps[k] <= hi[others].max())
     counts = np.bincount(folds.codes[scored], minlength=nf)
     poly = [c for c in cands if c.orders is not None]
     fast = _polynomial_scores(x, y, folds.codes, nf, poly, scored) if poly else {}
     n_total = int(counts.sum())
+    baseline_fold = _baseline_screens(x[:, 0], y, run_codes, t, folds.codes, cands)
     table, mse_rows = [], []
     for cand in cands:
         train_rms = None
@@ -522,12 +601,17 @@ def select_channel(
             ss = np.empty(nf)
             for k in range(nf):
                 tr, te = folds.codes != k, (folds.codes == k) & scored
-                est = make_estimator(cand, random_state, screen=True)
                 try:
                     with warnings.catch_warnings():
                         warnings.simplefilter("ignore")
-                        fit_estimator(est, x[tr], y[tr], run_codes[tr], t[tr])
-                    ss[k] = _ss_about_mean(y[te] - est.predict(x[te]))
+                        if cand.method in ("px4", "ardupilot"):
+                            params = baseline_fold(cand.method, k)
+                            pred = predict_params(params, x[te])
+                        else:
+                            est = make_estimator(cand, random_state, screen=True)
+                            fit_estimator(est, x[tr], y[tr], run_codes[tr], t[tr])
+                            pred = est.predict(x[te])
+                    ss[k] = _ss_about_mean(y[te] - pred)
                 except (ValueError, DesignError):
                     ss[k] = np.nan
         ss[counts == 0] = 0.0

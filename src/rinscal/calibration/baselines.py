@@ -89,9 +89,13 @@ __all__ = [
     "ArduPilotFit",
     "PX4Fit",
     "ardupilot_fit",
+    "ardupilot_fit_smoothed",
+    "ardupilot_smoothed",
     "ardupilot_window",
     "moving_average",
+    "px4_filtered",
     "px4_fit",
+    "px4_fit_filtered",
     "px4_median_filter",
     "px4_resample",
     "run_bounds",
@@ -187,7 +191,10 @@ def _prepare(
 
 def _polyfit3(x: np.ndarray, y: np.ndarray, what: str) -> np.ndarray:
     """``np.polyfit(x, y, 3)``, refusing fewer than 4 distinct abscissae."""
-    k = np.unique(x).size
+    # distinct values of a subsample first: a full sort of millions of rows only if needed
+    k = np.unique(x[:: max(1, x.size // 100_000)]).size
+    if k <= _DEGREE:
+        k = np.unique(x).size
     if k <= _DEGREE:
         raise ValueError(
             f"a cubic in temperature needs at least {_DEGREE + 1} distinct {what}, got {k}"
@@ -300,11 +307,59 @@ def px4_fit(
         On bad input, or fewer than 4 distinct temperatures (bins) to fit a cubic.
     """
     sensor = _check_sensor(sensor)
+    temp, yf = px4_filtered(temp, y, groups)
+    return px4_fit_filtered(temp, yf, sensor=sensor, resample=resample)
+
+
+def px4_filtered(temp: Any, y: Any, groups: Any = None) -> tuple[np.ndarray, np.ndarray]:
+    """The first step of :func:`px4_fit`: NaN rows dropped, the 31-sample median per run.
+
+    Parameters
+    ----------
+    temp : array_like, shape (n,) [°C]
+        Inner temperature.
+    y : array_like, shape (n,) [output units]
+        Raw output of one channel.
+    groups : array_like, shape (n,), optional
+        Run code of each row; None: one run.
+
+    Returns
+    -------
+    temp : ndarray [°C]
+        Temperatures of the kept rows.
+    yf : ndarray [output units]
+        Their median-filtered output.
+    """
     temp, y, bounds, _ = _prepare(temp, y, groups)
+    yf = np.concatenate([px4_median_filter(y[a:b]) for a, b in itertools.pairwise(bounds)])
+    return temp, yf
+
+
+def px4_fit_filtered(
+    temp: np.ndarray, yf: np.ndarray, *, sensor: str = "gyro", resample: bool = True
+) -> dict[str, Any]:
+    """The rest of :func:`px4_fit` on filtered samples (:func:`px4_filtered`).
+
+    Parameters
+    ----------
+    temp : ndarray, shape (n,) [°C]
+        Temperatures.
+    yf : ndarray, shape (n,) [output units]
+        Median-filtered output.
+    sensor : {"gyro", "accel"}
+        ``"accel"`` subtracts the median of ``yf``.
+    resample : bool
+        Fit the 2000 bin means, or every sample.
+
+    Returns
+    -------
+    dict
+        ``px4`` parameters (see :func:`px4_fit`).
+    """
+    sensor = _check_sensor(sensor)
     t_min, t_max = float(np.min(temp)), float(np.max(temp))
     t_ref = 0.5 * (t_min + t_max)
     t_rel = temp - t_ref
-    yf = np.concatenate([px4_median_filter(y[a:b]) for a, b in itertools.pairwise(bounds)])
     if sensor == "accel":
         yf = yf - np.median(yf)
     if resample:
@@ -429,10 +484,36 @@ def ardupilot_fit(
         raise ValueError(
             "the ArduPilot fit smooths over 2 s: pass t, the time [s] since each run's power-on"
         )
+    t_s, y_s, temp, y, _ = ardupilot_smoothed(temp, y, t, groups, window_s=w_s)
+    return ardupilot_fit_smoothed(t_s, y_s, temp, y, sensor=sensor)
+
+
+def ardupilot_smoothed(
+    temp: Any, y: Any, t: Any, groups: Any = None, *, window_s: int = ARDUPILOT_WINDOW_S
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The first step of :func:`ardupilot_fit`: the 2 s moving average of each run.
+
+    Parameters
+    ----------
+    temp, y, t, groups
+        As for :func:`ardupilot_fit`.
+    window_s : int
+        Moving-average width [s].
+
+    Returns
+    -------
+    t_s, y_s : ndarray
+        Smoothed temperature [°C] and output (complete windows of every run).
+    temp, y : ndarray
+        The kept (non-NaN) rows, for the constant term.
+    rows : ndarray of int
+        For each smoothed sample, the kept row at the middle of its window.
+    """
     temp, y, bounds, tt = _prepare(temp, y, groups, t)
     if tt is None:  # pragma: no cover - _prepare returns t when given one
         raise ValueError("t is missing")
-    ts, ys = [], []
+    w_s = int(window_s)
+    ts, ys, rows = [], [], []
     for a, b in itertools.pairwise(bounds):
         if b - a < 2:
             continue
@@ -440,13 +521,36 @@ def ardupilot_fit(
         if w > 1:
             ts.append(moving_average(temp[a:b], w))
             ys.append(moving_average(y[a:b], w))
+            rows.append(a + w // 2 + np.arange(ts[-1].size))
         else:
             ts.append(temp[a:b])
             ys.append(y[a:b])
+            rows.append(np.arange(a, b))
     if not ts or sum(v.size for v in ts) == 0:
         raise ValueError("no run is longer than its moving-average window")
-    t_s = np.concatenate(ts)
-    y_s = np.concatenate(ys)
+    return np.concatenate(ts), np.concatenate(ys), temp, y, np.concatenate(rows)
+
+
+def ardupilot_fit_smoothed(
+    t_s: np.ndarray, y_s: np.ndarray, temp: np.ndarray, y: np.ndarray, *, sensor: str = "gyro"
+) -> dict[str, Any]:
+    """The rest of :func:`ardupilot_fit` on smoothed samples (:func:`ardupilot_smoothed`).
+
+    Parameters
+    ----------
+    t_s, y_s : ndarray
+        Smoothed temperature [°C] and output.
+    temp, y : ndarray
+        Raw rows [°C, output units] for the constant term ``coef[0]``.
+    sensor : {"gyro", "accel"}
+        ``"accel"`` subtracts the mean smoothed output (only the dropped constant changes).
+
+    Returns
+    -------
+    dict
+        ``ardupilot`` parameters (see :func:`ardupilot_fit`).
+    """
+    sensor = _check_sensor(sensor)
     t_min, t_max = float(np.min(t_s)), float(np.max(t_s))
     if sensor == "accel":
         y_s = y_s - np.mean(y_s)
