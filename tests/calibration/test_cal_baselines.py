@@ -13,13 +13,8 @@ import pytest
 from sklearn.base import clone
 
 from rinscal.calibration._inference import n_inputs, predict_params, validate_params
-from rinscal.calibration.baselines import (
-    BASELINES,
-    ArduPilotFit,
-    PX4Fit,
-    ardupilot_fit,
-    px4_fit,
-)
+from rinscal.calibration.baselines import ardupilot_fit, px4_fit
+from rinscal.calibration.estimators import BASELINES, ArduPilotFit, PX4Fit
 
 # true thermal error about 25 °C: [a0, a1, a2, a3] in output units / °C^k (deg/h-like);
 # increasing on 5..45 °C (a1 + 2 a2 d + 3 a3 d² > 0 for |d| ≤ 20)

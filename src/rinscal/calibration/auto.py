@@ -26,7 +26,9 @@ Candidates (:func:`candidates`)
     ``max_samples`` 5000 and one start, refitted with the defaults if chosen; not in the
     default set: its held-out fits cost minutes on a 7-run log).
 
-The polynomial candidates share one pass over the data: per fold the triangular factor of
+Above :data:`SCREEN_SAMPLES` inlier samples the held-out scores use every k-th sample (the
+chosen model is fitted on all of them). The polynomial candidates share one pass over the
+data: per fold the triangular factor of
 the largest design (:func:`rinscal.calibration.estimators.tsqr`); any candidate on any
 training folds is then a QR of the stacked column subsets, and its held-out residual sum of
 squares and mean follow from the held-out fold's factor (``‖R_k [β; −1]‖²``; the first row
@@ -47,14 +49,8 @@ from typing import Any
 
 import numpy as np
 
+from rinscal.calibration._fit import _center_scale, _power_basis, fit_params, solve_r, tsqr
 from rinscal.calibration._inference import predict_params
-from rinscal.calibration.estimators import (
-    ESTIMATORS,
-    _center_scale,
-    _power_basis,
-    solve_r,
-    tsqr,
-)
 from rinscal.calibration.guards import (
     COND_ERROR,
     DesignError,
@@ -70,8 +66,8 @@ __all__ = [
     "Selection",
     "candidates",
     "choose",
+    "fit_candidate",
     "holdout_folds",
-    "make_estimator",
     "select_channel",
 ]
 
@@ -92,6 +88,10 @@ HIDDEN: tuple[int, ...] = (2, 4, 6)
 NEURAL_SCREEN: dict[str, int] = {"max_samples": 5000, "n_init": 1}
 #: Filtered samples (every k-th) the PX4 and ArduPilot fits of a held-out fold use at most.
 SCREEN_ROWS = 500_000
+#: Samples (every k-th) the held-out scores of a channel use at most; the chosen model is
+#: fitted on all of them. At 100 Hz over 7 × 3 h this keeps one sample in eight (12.5 Hz),
+#: far above the bandwidth of a thermal drift.
+SCREEN_SAMPLES = 1_000_000
 
 
 @dataclass(frozen=True)
@@ -296,29 +296,54 @@ def holdout_folds(
     return Folds(codes, tuple(names), scheme)
 
 
-def make_estimator(cand: Candidate, random_state: int = 0, screen: bool = False) -> Any:
-    """The unfitted estimator of a candidate (``screen``: the neural screening budget)."""
-    from rinscal.calibration.baselines import BASELINES
+def _used_inputs(cand: Candidate, d: int) -> int:
+    """Feature columns a candidate's fit should see (trailing unused inputs dropped)."""
+    if cand.orders is None:
+        return d
+    used = [v + 1 for v, o in enumerate(cand.orders[:d]) if o > 0]
+    return max(used, default=1)
 
-    if cand.method in BASELINES:
-        return BASELINES[cand.method](**cand.params)
-    est = ESTIMATORS[cand.method]()
-    params = dict(cand.params)
+
+def fit_candidate(
+    cand: Candidate,
+    x: np.ndarray,
+    y: np.ndarray,
+    groups: np.ndarray,
+    t: np.ndarray,
+    random_state: int = 0,
+    screen: bool = False,
+) -> dict[str, Any]:
+    """Fit a candidate; its parameters (``screen``: a network's screening budget).
+
+    Parameters
+    ----------
+    cand : Candidate
+        The candidate.
+    x : ndarray, shape (n, d)
+        ``T`` [°C], ``Ṫ`` [°C/min] (, ``ΔT`` [°C]).
+    y : ndarray, shape (n,)
+        Output [log units].
+    groups : ndarray of int, shape (n,)
+        Run of each row.
+    t : ndarray, shape (n,) [s]
+        Time since each run's power-on.
+    random_state : int
+        Seed of a network.
+    screen : bool
+        Held-out screening (:data:`NEURAL_SCREEN`) rather than the final fit.
+
+    Returns
+    -------
+    dict
+        Parameters (see :mod:`rinscal.calibration._inference`).
+    """
+    hyper = dict(cand.params)
     if cand.method == "neural":
-        params["random_state"] = random_state
+        hyper["random_state"] = random_state
         if screen:
-            params.update(NEURAL_SCREEN)
-    est.set_params(**params)
-    return est
-
-
-def fit_estimator(est: Any, x: np.ndarray, y: np.ndarray, groups: np.ndarray, t: np.ndarray) -> Any:
-    """Fit any candidate's estimator (each takes what it needs: run codes, time)."""
-    if est.method in ("px4", "ardupilot"):
-        return est.fit(x, y, groups=groups, t=t)
-    if est.method == "neural":
-        return est.fit(x, y, groups=groups)
-    return est.fit(x, y)
+            hyper.update(NEURAL_SCREEN)
+    xs = x[:, : _used_inputs(cand, x.shape[1])]
+    return fit_params(cand.method, hyper, xs, y, groups, t)
 
 
 def _baseline_screens(
@@ -353,20 +378,25 @@ def _baseline_screens(
         t_s, y_s, _, _, rows = ardupilot_smoothed(temp, y, t, run_codes)
         pre["ardupilot"] = (t_s, y_s, folds[rows])
 
-    def thin(mask: np.ndarray) -> np.ndarray:
-        idx = np.flatnonzero(mask)
-        return idx[:: max(1, math.ceil(idx.size / SCREEN_ROWS))]
+    train_rows: dict[tuple[str, int], np.ndarray] = {}
+
+    def thin(kind: str, codes: np.ndarray, k: int) -> np.ndarray:
+        key = (kind, k)
+        if key not in train_rows:
+            idx = np.flatnonzero(codes != k)
+            train_rows[key] = idx[:: max(1, math.ceil(idx.size / SCREEN_ROWS))]
+        return train_rows[key]
 
     def fit(method: str, k: int) -> dict[str, Any]:
         sensor = methods[method].params.get("sensor", "gyro")
         if method == "px4":
             tf, yf = pre["px4"]
-            i = thin(folds != k)
+            i = thin("rows", folds, k)
             return px4_fit_filtered(tf[i], yf[i], sensor=sensor)
         t_s, y_s, f_s = pre["ardupilot"]
-        i = thin(f_s != k)
-        j = thin(folds != k)
-        return ardupilot_fit_smoothed(t_s[i], y_s[i], temp[j], y[j], sensor=sensor)
+        i = thin("smoothed", f_s, k)
+        # the constant term (from the raw rows) does not change a held-out RMS about the mean
+        return ardupilot_fit_smoothed(t_s[i], y_s[i], t_s[i[:1]], y_s[i[:1]], sensor=sensor)
 
     return fit
 
@@ -400,9 +430,13 @@ def _polynomial_scores(
     rs, rs_scored, counts = [], [], []
     for k in range(n_folds):
         sel = folds == k
-        rs.append(factor(sel))
         part = sel & scored
-        rs_scored.append(rs[-1] if part.sum() == sel.sum() else factor(part))
+        rs_scored.append(factor(part))
+        rest = sel & ~scored
+        if rest.any():  # one pass over the fold: its factor from the two disjoint parts
+            rs.append(np.linalg.qr(np.vstack([rs_scored[-1], factor(rest)]), mode="r"))
+        else:
+            rs.append(rs_scored[-1])
         counts.append(int(part.sum()))
     start = np.cumsum([1, *max_orders[:-1]])
     out: dict[str, tuple[np.ndarray, float]] = {}
@@ -586,11 +620,18 @@ def _select(
     for k in range(nf):
         others = np.arange(nf) != k
         scored[rows[k]] = (temps[k] >= lo[others].min()) & (temps[k] <= hi[others].max())
-    counts = np.bincount(folds.codes[scored], minlength=nf)
-    poly = [c for c in cands if c.orders is not None]
-    fast = _polynomial_scores(x, y, folds.codes, nf, poly, scored) if poly else {}
-    n_total = int(counts.sum())
+    # the PX4/ArduPilot filters run on every sample; the held-out scores use every k-th
     baseline_fold = _baseline_screens(x[:, 0], y, run_codes, t, folds.codes, cands)
+    step = max(1, math.ceil(x.shape[0] / SCREEN_SAMPLES))
+    if step > 1:
+        x, y, run_codes, t = x[::step], y[::step], run_codes[::step], t[::step]
+        codes, scored = folds.codes[::step], scored[::step]
+    else:
+        codes = folds.codes
+    counts = np.bincount(codes[scored], minlength=nf)
+    poly = [c for c in cands if c.orders is not None]
+    fast = _polynomial_scores(x, y, codes, nf, poly, scored) if poly else {}
+    n_total = int(counts.sum())
     table, mse_rows = [], []
     for cand in cands:
         train_rms = None
@@ -600,7 +641,7 @@ def _select(
         else:
             ss = np.empty(nf)
             for k in range(nf):
-                tr, te = folds.codes != k, (folds.codes == k) & scored
+                tr, te = codes != k, (codes == k) & scored
                 try:
                     with warnings.catch_warnings():
                         warnings.simplefilter("ignore")
@@ -608,9 +649,10 @@ def _select(
                             params = baseline_fold(cand.method, k)
                             pred = predict_params(params, x[te])
                         else:
-                            est = make_estimator(cand, random_state, screen=True)
-                            fit_estimator(est, x[tr], y[tr], run_codes[tr], t[tr])
-                            pred = est.predict(x[te])
+                            params = fit_candidate(
+                                cand, x[tr], y[tr], run_codes[tr], t[tr], random_state, True
+                            )
+                            pred = predict_params(params, x[te])
                     ss[k] = _ss_about_mean(y[te] - pred)
                 except (ValueError, DesignError):
                     ss[k] = np.nan

@@ -74,20 +74,14 @@ import operator
 from typing import Any
 
 import numpy as np
-from scipy import ndimage
-from sklearn.utils.validation import column_or_1d, validate_data
 
 from rinscal.calibration._inference import ARDUPILOT_T_REF, predict_params
-from rinscal.calibration.estimators import _ThermalEstimator
 
 __all__ = [
     "ARDUPILOT_WINDOW_S",
-    "BASELINES",
     "PX4_MEDIAN_KERNEL",
     "PX4_N_BINS",
     "SENSORS",
-    "ArduPilotFit",
-    "PX4Fit",
     "ardupilot_fit",
     "ardupilot_fit_smoothed",
     "ardupilot_smoothed",
@@ -229,6 +223,8 @@ def px4_median_filter(y: np.ndarray, kernel: int = PX4_MEDIAN_KERNEL) -> np.ndar
     y = np.asarray(y, dtype=np.float64)
     if y.size == 0:
         return y.copy()
+    from scipy import ndimage
+
     return ndimage.median_filter(y, size=kernel, mode="constant", cval=0.0)
 
 
@@ -567,144 +563,3 @@ def ardupilot_fit_smoothed(
 
 
 # ----------------------------------------------------------------------------- estimators
-
-
-def _fit_inputs(est: _ThermalEstimator, X: Any, y: Any) -> tuple[np.ndarray, np.ndarray]:
-    """``X`` validated (finite, sets ``n_features_in_``); ``y`` 1-D float, NaN allowed."""
-    if y is None:
-        raise ValueError(f"{type(est).__name__} requires y to be passed, but the target y is None")
-    X = validate_data(est, X, dtype=np.float64, ensure_min_features=1, ensure_min_samples=2)
-    y = column_or_1d(np.asarray(y, dtype=np.float64), warn=True)
-    if y.shape != (X.shape[0],):
-        raise ValueError(f"y must have {X.shape[0]} entries, got shape {y.shape}")
-    return X, y
-
-
-class PX4Fit(_ThermalEstimator):
-    """PX4's thermal fit (``Tools/process_sensor_caldata.py``) as an estimator.
-
-    31-sample running median per run, accelerometers minus their median, 2000 equal
-    temperature bins, ``np.polyfit`` cubic about the middle of the temperature range; see
-    :func:`px4_fit` and the module docstring.
-    ``f = Σ_k coef_[k] (clip(T, t_min_, t_max_) − t_ref_)^k``.
-
-    Parameters
-    ----------
-    sensor : {"gyro", "accel"}
-        Sensor type of the channel.
-    resample : bool
-        Fit the bin means (default, as the script) or every sample (``--no_resample``).
-
-    Attributes
-    ----------
-    t_ref_, t_min_, t_max_ : float [°C]
-        ``TC_*_TREF``, ``TC_*_TMIN``, ``TC_*_TMAX``.
-    coef_ : ndarray, shape (4,) [output units / °C^k]
-        ``TC_*_X0 .. X3``.
-    params_ : dict
-        Plain ``px4`` parameters.
-    """
-
-    method = "px4"
-
-    def __init__(self, sensor: str = "gyro", resample: bool = True) -> None:
-        self.sensor = sensor
-        self.resample = resample
-
-    def fit(self, X: Any, y: Any, groups: Any = None, t: Any = None) -> PX4Fit:
-        """Fit one channel.
-
-        Parameters
-        ----------
-        X : array_like, shape (n, k)
-            Features; only the first column ``T`` [°C] is used.
-        y : array_like, shape (n,) [output units]
-            Raw output; NaN rows are dropped before filtering.
-        groups : array_like, shape (n,), optional
-            Run code of each row (runs contiguous, rows in time order); None: one run.
-        t : array_like, shape (n,), optional [s]
-            Time since power-on; not used by PX4 (accepted for a uniform call).
-
-        Returns
-        -------
-        PX4Fit
-        """
-        X, y = _fit_inputs(self, X, y)
-        p = px4_fit(X[:, 0], y, groups, sensor=self.sensor, resample=bool(self.resample))
-        self.t_ref_, self.t_min_, self.t_max_ = p["t_ref"], p["t_min"], p["t_max"]
-        self.coef_ = np.asarray(p["coef"])
-        self.params_ = p
-        return self
-
-
-class ArduPilotFit(_ThermalEstimator):
-    """ArduPilot's thermal fit (``Tools/scripts/tempcal_IMU.py``) as an estimator.
-
-    2 s moving average per run, ``np.polyfit`` cubic in ``T − 35 °C`` whose constant
-    ArduPilot drops, range clamped to the smoothed temperatures as the firmware does; see
-    :func:`ardupilot_fit` and the module docstring.
-    ``f = Σ_k coef_[k] (clip(T, t_min_, t_max_) − 35)^k``, ``coef_[0]`` the training level.
-
-    Parameters
-    ----------
-    sensor : {"gyro", "accel"}
-        Sensor type of the channel (changes only the dropped constant of the fit).
-    window_s : int
-        Moving-average width [s] (2, as the script).
-
-    Attributes
-    ----------
-    t_ref_ : float [°C]
-        35.
-    t_min_, t_max_ : float [°C]
-        ``INS_TCALn_TMIN``, ``INS_TCALn_TMAX``.
-    coef_ : ndarray, shape (4,) [output units / °C^k]
-        Training level, then ``INS_TCALn_*1..3`` × 1e-6.
-    params_ : dict
-        Plain ``ardupilot`` parameters.
-    """
-
-    method = "ardupilot"
-
-    def __init__(self, sensor: str = "gyro", window_s: int = ARDUPILOT_WINDOW_S) -> None:
-        self.sensor = sensor
-        self.window_s = window_s
-
-    def fit(self, X: Any, y: Any, groups: Any = None, t: Any = None) -> ArduPilotFit:
-        """Fit one channel.
-
-        Parameters
-        ----------
-        X : array_like, shape (n, k)
-            Features; only the first column ``T`` [°C] is used.
-        y : array_like, shape (n,) [output units]
-            Raw output; NaN rows are dropped before smoothing.
-        groups : array_like, shape (n,), optional
-            Run code of each row (runs contiguous, rows in time order); None: one run.
-        t : array_like, shape (n,) [s]
-            Time since each run's power-on (sets the 2 s window); required.
-
-        Returns
-        -------
-        ArduPilotFit
-
-        Raises
-        ------
-        ValueError
-            If ``t`` is None, among others.
-        """
-        if t is None:
-            raise ValueError(
-                "ArduPilotFit.fit needs t, the time [s] since each run's power-on: "
-                "ArduPilot smooths over 2 s before fitting"
-            )
-        X, y = _fit_inputs(self, X, y)
-        p = ardupilot_fit(X[:, 0], y, t, groups, sensor=self.sensor, window_s=self.window_s)
-        self.t_ref_, self.t_min_, self.t_max_ = p["t_ref"], p["t_min"], p["t_max"]
-        self.coef_ = np.asarray(p["coef"])
-        self.params_ = p
-        return self
-
-
-#: Estimator class of each baseline method name (to be merged into ``ESTIMATORS``).
-BASELINES: dict[str, type[_ThermalEstimator]] = {"px4": PX4Fit, "ardupilot": ArduPilotFit}

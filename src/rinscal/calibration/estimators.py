@@ -36,20 +36,33 @@ for millions of samples. Coefficients are also reportable in the paper's raw for
 from __future__ import annotations
 
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.exceptions import ConvergenceWarning
-from sklearn.utils.validation import check_is_fitted, validate_data
+from sklearn.utils.validation import check_is_fitted, column_or_1d, validate_data
 
+from rinscal.calibration._fit import (
+    fit_poly_t,
+    fit_regression,
+    fit_sectional,
+    lstsq_qr,
+    sectional_edges,
+    solve_r,
+    tsqr,
+)
 from rinscal.calibration._inference import predict_params, raw_polynomial
-from rinscal.calibration.guards import check_design
+from rinscal.calibration.baselines import ARDUPILOT_WINDOW_S, ardupilot_fit, px4_fit
 
 __all__ = [
+    "ALL_ESTIMATORS",
+    "BASELINES",
     "ESTIMATORS",
+    "ArduPilotFit",
     "Neural",
+    "PX4Fit",
     "PolyT",
     "Regression",
     "Sectional",
@@ -58,194 +71,6 @@ __all__ = [
     "solve_r",
     "tsqr",
 ]
-
-_BLOCK = 1 << 18
-_SUB_BLOCK = 1 << 14
-
-
-def tsqr(
-    basis: Callable[[np.ndarray], np.ndarray],
-    x: np.ndarray,
-    y: np.ndarray,
-    n_terms: int,
-    block: int = _BLOCK,
-) -> np.ndarray:
-    """Triangular factor ``R`` of ``[A | y]`` by blocked (TSQR) QR, ``A = basis(x)``.
-
-    ``A`` is never formed whole: each block of rows of ``x`` is expanded by ``basis`` and
-    reduced to its ``R`` factor, and the stacked factors are reduced again. ``RᵀR =
-    [A | y]ᵀ[A | y]``, so ``R`` (or any subset of its columns, reduced again) carries
-    everything a least-squares fit of ``y`` on columns of ``A`` needs.
-
-    Parameters
-    ----------
-    basis : callable
-        ``basis(x_block) -> ndarray, shape (rows, n_terms)``.
-    x : ndarray, shape (n, k)
-        Inputs.
-    y : ndarray, shape (n,)
-        Targets.
-    n_terms : int
-        Columns of ``A``.
-    block : int
-        Rows per block.
-
-    Returns
-    -------
-    ndarray, shape (min(n, n_terms + 1), n_terms + 1)
-    """
-    rs = []
-    for s in range(0, x.shape[0], block):
-        a = basis(x[s : s + block])
-        aug = np.empty((a.shape[0], n_terms + 1))
-        aug[:, :n_terms] = a
-        aug[:, n_terms] = y[s : s + block]
-        # Householder QR of a tall block is memory-bound: sub-blocks that stay in cache
-        # are ~4× faster than one long factorisation
-        for u in range(0, aug.shape[0], _SUB_BLOCK):
-            rs.append(np.linalg.qr(aug[u : u + _SUB_BLOCK], mode="r"))
-    return rs[0] if len(rs) == 1 else np.linalg.qr(np.vstack(rs), mode="r")
-
-
-def solve_r(r: np.ndarray, n_terms: int) -> tuple[np.ndarray, float]:
-    """Least-squares solution and residual sum of squares from the ``R`` of ``[A | y]``.
-
-    Parameters
-    ----------
-    r : ndarray, shape (k, n_terms + 1)
-        Triangular factor (see :func:`tsqr`).
-    n_terms : int
-        Columns of ``A``.
-
-    Returns
-    -------
-    beta : ndarray, shape (n_terms,)
-        Solution (minimum-norm when rank deficient).
-    rss : float
-        Residual sum of squares.
-    """
-    k = min(n_terms, r.shape[0])
-    rk = np.zeros((n_terms, n_terms))
-    rk[:k] = r[:k, :n_terms]
-    qty = np.zeros(n_terms)
-    qty[:k] = r[:k, n_terms]
-    beta = np.linalg.lstsq(rk, qty, rcond=None)[0]
-    rss = float(r[n_terms, n_terms] ** 2) if r.shape[0] > n_terms else 0.0
-    return beta, rss
-
-
-def lstsq_qr(
-    basis: Callable[[np.ndarray], np.ndarray],
-    x: np.ndarray,
-    y: np.ndarray,
-    n_terms: int,
-    block: int = _BLOCK,
-) -> tuple[np.ndarray, float]:
-    """Least squares ``min ‖A β − y‖`` by blocked QR of ``[A | y]`` (never normal equations).
-
-    :func:`tsqr` then :func:`solve_r`; the small triangular system is solved by
-    ``numpy.linalg.lstsq`` (minimum-norm when rank deficient).
-
-    Parameters
-    ----------
-    basis : callable
-        ``basis(x_block) -> ndarray, shape (rows, n_terms)``.
-    x : ndarray, shape (n, k)
-        Inputs.
-    y : ndarray, shape (n,)
-        Targets.
-    n_terms : int
-        Columns of ``A``.
-    block : int
-        Rows per block.
-
-    Returns
-    -------
-    beta : ndarray, shape (n_terms,)
-        Solution.
-    rss : float
-        Residual sum of squares.
-    """
-    return solve_r(tsqr(basis, x, y, n_terms, block), n_terms)
-
-
-def _checked_lstsq(
-    basis: Callable[[np.ndarray], np.ndarray],
-    x: np.ndarray,
-    y: np.ndarray,
-    orders: Sequence[int],
-    what: str,
-) -> np.ndarray:
-    """:func:`lstsq_qr` that refuses a rank-deficient design (:func:`check_design`)."""
-    n_terms = 1 + int(sum(orders))
-    r = tsqr(basis, x, y, n_terms)
-    if x.shape[0] > n_terms:  # fewer rows are caught by the callers' own checks
-        check_design(r[:, :n_terms], x, orders, what)
-    return solve_r(r, n_terms)[0]
-
-
-def _center_scale(x: np.ndarray) -> tuple[float, float]:
-    """Centre and half-range of ``x``, mapping it onto ``[−1, 1]`` (half-range 1 if 0)."""
-    lo, hi = float(np.min(x)), float(np.max(x))
-    c = 0.5 * (lo + hi)
-    s = 0.5 * (hi - lo)
-    if not s > 1e-12 * max(1.0, abs(c)):
-        s = 1.0
-    return c, s
-
-
-def _power_basis(
-    center: Sequence[float], scale: Sequence[float], orders: Sequence[int]
-) -> Callable[[np.ndarray], np.ndarray]:
-    """Basis ``[1, z_0 .. z_0^p, z_1 .. z_1^q, ...]`` with ``z_v = (x_v − c_v)/s_v``."""
-    n_terms = 1 + int(sum(orders))
-
-    def basis(x: np.ndarray) -> np.ndarray:
-        a = np.empty((x.shape[0], n_terms))
-        a[:, 0] = 1.0
-        col = 1
-        for v, order in enumerate(orders):
-            if order == 0:
-                continue
-            z = (x[:, v] - center[v]) / scale[v]
-            a[:, col] = z
-            for _ in range(1, order):
-                a[:, col + 1] = a[:, col] * z
-                col += 1
-            col += 1
-        return a
-
-    return basis
-
-
-def _split_coef(beta: np.ndarray, orders: Sequence[int]) -> tuple[float, list[list[float]]]:
-    coef, col = [], 1
-    for order in orders:
-        coef.append([float(c) for c in beta[col : col + order]])
-        col += order
-    return float(beta[0]), coef
-
-
-def _fit_power(
-    x: np.ndarray, y: np.ndarray, orders: Sequence[int], what: str = "regression"
-) -> dict[str, Any]:
-    """Fit ``intercept + Σ_v Σ_k coef[v][k] z_v^(k+1)``; return the regression parameters.
-
-    Raises :class:`~rinscal.calibration.guards.DesignError` on a rank-deficient design.
-    """
-    cs = [_center_scale(x[:, v]) for v in range(len(orders))]
-    center = [c for c, _ in cs]
-    scale = [s for _, s in cs]
-    label = f"{what} {tuple(int(o) for o in orders)}"
-    beta = _checked_lstsq(_power_basis(center, scale, orders), x, y, orders, label)
-    intercept, coef = _split_coef(beta, orders)
-    return {
-        "orders": [int(o) for o in orders],
-        "center": center,
-        "scale": scale,
-        "intercept": intercept,
-        "coef": coef,
-    }
 
 
 class _ThermalEstimator(RegressorMixin, BaseEstimator):
@@ -328,20 +153,9 @@ class PolyT(_ThermalEstimator):
         PolyT
         """
         X, y = self._validate_fit(X, y)
-        deg = int(self.degree)
-        if deg < 0 or deg > 7:
-            raise ValueError(f"degree must be 0..7, got {self.degree!r}")
-        t = X[:, 0]
-        t_ref = 0.5 * (t.min() + t.max()) if self.t_ref is None else float(self.t_ref)
-        s = float(np.max(np.abs(t - t_ref)))
-        s = s if s > 0 else 1.0
-        beta = _checked_lstsq(
-            _power_basis([t_ref], [s], [deg]), X, y, [deg], f"degree-{deg} poly-t"
-        )
-        coef = beta / s ** np.arange(deg + 1)
-        self.t_ref_ = float(t_ref)
-        self.coef_ = coef
-        self.params_ = {"method": self.method, "t_ref": self.t_ref_, "coef": coef.tolist()}
+        self.params_ = fit_poly_t(X, y, self.degree, self.t_ref)
+        self.t_ref_ = float(self.params_["t_ref"])
+        self.coef_ = np.asarray(self.params_["coef"])
         return self
 
     def raw_coefficients(self) -> np.ndarray:
@@ -394,14 +208,9 @@ class Regression(_ThermalEstimator):
         Regression
         """
         X, y = self._validate_fit(X, y)
-        orders = [int(self.t_order), int(self.rate_order), int(self.grad_order)]
-        if any(o < 0 or o > 8 for o in orders):
-            raise ValueError(f"orders must be 0..8, got {orders}")
-        orders = orders[: min(3, X.shape[1])]
-        p = _fit_power(X, y, orders)
-        self.orders_ = tuple(orders)
-        self.intercept_ = p["intercept"]
-        self.params_ = {"method": self.method, **p}
+        self.params_ = fit_regression(X, y, self.t_order, self.rate_order, self.grad_order)
+        self.orders_ = tuple(self.params_["orders"])
+        self.intercept_ = self.params_["intercept"]
         return self
 
     def raw_coefficients(self) -> dict[str, Any]:
@@ -455,35 +264,7 @@ class Sectional(_ThermalEstimator):
         self.rate_order = rate_order
 
     def _edges(self, t: np.ndarray) -> np.ndarray:
-        if self.edges is not None:
-            e = np.asarray(self.edges, dtype=np.float64).ravel()
-            lo, hi = float(t.min()), float(t.max())
-            outside = [float(v) for v in e if not lo < v < hi]
-            if outside:
-                raise ValueError(
-                    f"segment edge(s) {', '.join(f'{v:g}' for v in outside)} °C lie outside "
-                    f"the training temperatures ({lo:.4g} … {hi:.4g} °C): a segment there "
-                    "holds no data; give edges inside the data's range"
-                )
-        elif self.set_points is not None and len(self.set_points) >= 2:
-            sp = np.unique(np.asarray(self.set_points, dtype=np.float64))
-            e = 0.5 * (sp[1:] + sp[:-1])
-        else:
-            k = int(self.n_segments)
-            if k < 1:
-                raise ValueError(f"n_segments must be at least 1, got {self.n_segments!r}")
-            q = np.unique(np.quantile(t, np.arange(1, k) / k, method="lower"))
-            # keep only edges that leave a training sample in every segment
-            kept: list[float] = []
-            prev = -np.inf
-            for edge in q[q < t.max()]:
-                if np.any((t > prev) & (t <= edge)):
-                    kept.append(float(edge))
-                    prev = edge
-            e = np.asarray(kept)
-        if not np.all(np.isfinite(e)) or np.any(np.diff(e) <= 0):
-            raise ValueError(f"segment edges must be finite and strictly increasing, got {e}")
-        return e
+        return sectional_edges(t, self.edges, self.set_points, self.n_segments)
 
     def fit(self, X: Any, y: Any) -> Sectional:
         """Fit one polynomial per segment by QR least squares.
@@ -505,35 +286,10 @@ class Sectional(_ThermalEstimator):
             If a segment holds no training sample.
         """
         X, y = self._validate_fit(X, y)
-        orders = [int(self.t_order), int(self.rate_order)]
-        if any(o < 0 or o > 8 for o in orders):
-            raise ValueError(f"orders must be 0..8, got {orders}")
-        edges = self._edges(X[:, 0])
-        seg = np.searchsorted(edges, X[:, 0], side="left")
-        centers, scales, intercepts, coefs = [], [], [], []
-        bounds = [-np.inf, *edges.tolist(), np.inf]
-        for k in range(edges.size + 1):
-            sel = seg == k
-            if not sel.any():
-                raise ValueError(
-                    f"temperature segment {k + 1} ({bounds[k]} < T <= {bounds[k + 1]} °C) holds "
-                    "no training sample; give segment edges that the data cover"
-                )
-            p = _fit_power(X[sel][:, :2], y[sel], orders, f"sectional segment {k + 1}")
-            centers.append(p["center"])
-            scales.append(p["scale"])
-            intercepts.append(p["intercept"])
-            coefs.append(p["coef"])
-        self.edges_ = edges
-        self.params_ = {
-            "method": self.method,
-            "orders": orders,
-            "edges": edges.tolist(),
-            "center": centers,
-            "scale": scales,
-            "intercept": intercepts,
-            "coef": coefs,
-        }
+        self.params_ = fit_sectional(
+            X, y, self._edges(X[:, 0]), int(self.t_order), int(self.rate_order)
+        )
+        self.edges_ = np.asarray(self.params_["edges"])
         return self
 
     def raw_coefficients(self) -> dict[str, Any]:
@@ -862,3 +618,150 @@ ESTIMATORS: dict[str, type[_ThermalEstimator]] = {
     "regression": Regression,
     "neural": Neural,
 }
+
+
+# ----------------------------------------------------------------- the field's own fits
+
+
+def _fit_inputs(est: _ThermalEstimator, X: Any, y: Any) -> tuple[np.ndarray, np.ndarray]:
+    """``X`` validated (finite, sets ``n_features_in_``); ``y`` 1-D float, NaN allowed."""
+    if y is None:
+        raise ValueError(f"{type(est).__name__} requires y to be passed, but the target y is None")
+    X = validate_data(est, X, dtype=np.float64, ensure_min_features=1, ensure_min_samples=2)
+    y = column_or_1d(np.asarray(y, dtype=np.float64), warn=True)
+    if y.shape != (X.shape[0],):
+        raise ValueError(f"y must have {X.shape[0]} entries, got shape {y.shape}")
+    return X, y
+
+
+class PX4Fit(_ThermalEstimator):
+    """PX4's thermal fit (``Tools/process_sensor_caldata.py``) as an estimator.
+
+    31-sample running median per run, accelerometers minus their median, 2000 equal
+    temperature bins, ``np.polyfit`` cubic about the middle of the temperature range; see
+    :func:`px4_fit` and the module docstring.
+    ``f = Σ_k coef_[k] (clip(T, t_min_, t_max_) − t_ref_)^k``.
+
+    Parameters
+    ----------
+    sensor : {"gyro", "accel"}
+        Sensor type of the channel.
+    resample : bool
+        Fit the bin means (default, as the script) or every sample (``--no_resample``).
+
+    Attributes
+    ----------
+    t_ref_, t_min_, t_max_ : float [°C]
+        ``TC_*_TREF``, ``TC_*_TMIN``, ``TC_*_TMAX``.
+    coef_ : ndarray, shape (4,) [output units / °C^k]
+        ``TC_*_X0 .. X3``.
+    params_ : dict
+        Plain ``px4`` parameters.
+    """
+
+    method = "px4"
+
+    def __init__(self, sensor: str = "gyro", resample: bool = True) -> None:
+        self.sensor = sensor
+        self.resample = resample
+
+    def fit(self, X: Any, y: Any, groups: Any = None, t: Any = None) -> PX4Fit:
+        """Fit one channel.
+
+        Parameters
+        ----------
+        X : array_like, shape (n, k)
+            Features; only the first column ``T`` [°C] is used.
+        y : array_like, shape (n,) [output units]
+            Raw output; NaN rows are dropped before filtering.
+        groups : array_like, shape (n,), optional
+            Run code of each row (runs contiguous, rows in time order); None: one run.
+        t : array_like, shape (n,), optional [s]
+            Time since power-on; not used by PX4 (accepted for a uniform call).
+
+        Returns
+        -------
+        PX4Fit
+        """
+        X, y = _fit_inputs(self, X, y)
+        p = px4_fit(X[:, 0], y, groups, sensor=self.sensor, resample=bool(self.resample))
+        self.t_ref_, self.t_min_, self.t_max_ = p["t_ref"], p["t_min"], p["t_max"]
+        self.coef_ = np.asarray(p["coef"])
+        self.params_ = p
+        return self
+
+
+class ArduPilotFit(_ThermalEstimator):
+    """ArduPilot's thermal fit (``Tools/scripts/tempcal_IMU.py``) as an estimator.
+
+    2 s moving average per run, ``np.polyfit`` cubic in ``T − 35 °C`` whose constant
+    ArduPilot drops, range clamped to the smoothed temperatures as the firmware does; see
+    :func:`ardupilot_fit` and the module docstring.
+    ``f = Σ_k coef_[k] (clip(T, t_min_, t_max_) − 35)^k``, ``coef_[0]`` the training level.
+
+    Parameters
+    ----------
+    sensor : {"gyro", "accel"}
+        Sensor type of the channel (changes only the dropped constant of the fit).
+    window_s : int
+        Moving-average width [s] (2, as the script).
+
+    Attributes
+    ----------
+    t_ref_ : float [°C]
+        35.
+    t_min_, t_max_ : float [°C]
+        ``INS_TCALn_TMIN``, ``INS_TCALn_TMAX``.
+    coef_ : ndarray, shape (4,) [output units / °C^k]
+        Training level, then ``INS_TCALn_*1..3`` × 1e-6.
+    params_ : dict
+        Plain ``ardupilot`` parameters.
+    """
+
+    method = "ardupilot"
+
+    def __init__(self, sensor: str = "gyro", window_s: int = ARDUPILOT_WINDOW_S) -> None:
+        self.sensor = sensor
+        self.window_s = window_s
+
+    def fit(self, X: Any, y: Any, groups: Any = None, t: Any = None) -> ArduPilotFit:
+        """Fit one channel.
+
+        Parameters
+        ----------
+        X : array_like, shape (n, k)
+            Features; only the first column ``T`` [°C] is used.
+        y : array_like, shape (n,) [output units]
+            Raw output; NaN rows are dropped before smoothing.
+        groups : array_like, shape (n,), optional
+            Run code of each row (runs contiguous, rows in time order); None: one run.
+        t : array_like, shape (n,) [s]
+            Time since each run's power-on (sets the 2 s window); required.
+
+        Returns
+        -------
+        ArduPilotFit
+
+        Raises
+        ------
+        ValueError
+            If ``t`` is None, among others.
+        """
+        if t is None:
+            raise ValueError(
+                "ArduPilotFit.fit needs t, the time [s] since each run's power-on: "
+                "ArduPilot smooths over 2 s before fitting"
+            )
+        X, y = _fit_inputs(self, X, y)
+        p = ardupilot_fit(X[:, 0], y, t, groups, sensor=self.sensor, window_s=self.window_s)
+        self.t_ref_, self.t_min_, self.t_max_ = p["t_ref"], p["t_min"], p["t_max"]
+        self.coef_ = np.asarray(p["coef"])
+        self.params_ = p
+        return self
+
+
+#: Estimator class of each of the field's methods.
+BASELINES: dict[str, type[_ThermalEstimator]] = {"px4": PX4Fit, "ardupilot": ArduPilotFit}
+
+#: Estimator class of every method (the paper's, the baseline, the field's own fits).
+ALL_ESTIMATORS: dict[str, type[_ThermalEstimator]] = {**ESTIMATORS, **BASELINES}

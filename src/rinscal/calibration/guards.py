@@ -55,8 +55,10 @@ RESOLUTION_LIMIT_C = 0.1
 COND_ERROR = 1e10
 #: Condition number above which a fit is warned about.
 COND_WARN = 1e5
-#: ``|r|`` above which two inputs are called collinear.
+#: ``|r|`` above which two inputs are called collinear: a warning.
 COLLINEAR_R = 0.999
+#: ``|r|`` above which they are refused (a single exponential warm-up gives |r| > 0.99999).
+COLLINEAR_ERROR_R = 0.99999
 
 
 class TrainingDataWarning(UserWarning):
@@ -93,7 +95,9 @@ def design_condition(r: np.ndarray) -> float:
     return float("inf") if s[-1] <= 0 else float(s[0] / s[-1])
 
 
-def collinear_inputs(x: np.ndarray, orders: Sequence[int]) -> list[str]:
+def collinear_inputs(
+    x: np.ndarray, orders: Sequence[int], limit: float = COLLINEAR_ERROR_R
+) -> list[str]:
     """Pairs of used inputs that are collinear (``|r| >`` :data:`COLLINEAR_R`), in words.
 
     Parameters
@@ -102,23 +106,26 @@ def collinear_inputs(x: np.ndarray, orders: Sequence[int]) -> list[str]:
         Inputs ``T`` [°C], ``Ṫ`` [°C/min], ``ΔT`` [°C].
     orders : sequence of int
         Polynomial order of each input (0: unused).
+    limit : float
+        ``|r|`` above which a pair is reported.
 
     Returns
     -------
     list of str
-        One sentence per collinear pair (O(n): correlations only).
+        One sentence per collinear pair (correlations over at most ~400 000 samples).
     """
     found: list[str] = []
     used = [v for v, o in enumerate(orders) if o > 0]
     for i, a in enumerate(used):
         for b in used[i + 1 :]:
-            xa, xb = x[:, a], x[:, b]
+            step = max(1, x.shape[0] // 200_000)  # a correlation needs no million samples
+            xa, xb = x[::step, a], x[::step, b]
             if np.ptp(xa) == 0 or np.ptp(xb) == 0:
                 continue
             r = float(np.corrcoef(xa, xb)[0, 1])
-            if abs(r) > COLLINEAR_R:
+            if abs(r) > limit:
                 found.append(
-                    f"{INPUT_LABELS[a]} and {INPUT_LABELS[b]} are collinear (r = {r:.5f}), as "
+                    f"{INPUT_LABELS[a]} and {INPUT_LABELS[b]} are collinear (r = {r:.6f}), as "
                     "on a single exponential warm-up, so their terms cannot be told apart: "
                     "record runs at other chamber temperatures or a ramp, or leave the "
                     "rate term out (--orders p,0,s or --method poly-t)"
@@ -156,10 +163,16 @@ def diagnose_inputs(x: np.ndarray, orders: Sequence[int]) -> list[str]:
                 f"{name} takes only {distinct.size} distinct values (steps of {step:.3g}), too "
                 f"few for a polynomial of order {orders[v]}: quantised temperatures?"
             )
-    return found + collinear_inputs(x, orders)
+    return found + collinear_inputs(x, orders, COLLINEAR_R)
 
 
-def check_design(r: np.ndarray, x: np.ndarray, orders: Sequence[int], what: str) -> float:
+def check_design(
+    r: np.ndarray,
+    x: np.ndarray,
+    orders: Sequence[int],
+    what: str,
+    warn_collinear: bool = True,
+) -> float:
     """Refuse a rank-deficient polynomial design, warn about an ill-conditioned one.
 
     Parameters
@@ -172,6 +185,9 @@ def check_design(r: np.ndarray, x: np.ndarray, orders: Sequence[int], what: str)
         Polynomial order of each input.
     what : str
         The model, for messages (e.g. ``"regression (3, 3, 3)"``).
+    warn_collinear : bool
+        Warn about inputs collinear below the error level (off for a sectional model's
+        segments, each of which is one warm-up by design).
 
     Returns
     -------
@@ -181,19 +197,28 @@ def check_design(r: np.ndarray, x: np.ndarray, orders: Sequence[int], what: str)
     Raises
     ------
     DesignError
-        Condition number above :data:`COND_ERROR`, or two used inputs collinear
-        (:func:`collinear_inputs`): the split of the fit between them would be arbitrary.
+        Condition number above :data:`COND_ERROR`, or two used inputs collinear beyond
+        :data:`COLLINEAR_ERROR_R` (:func:`collinear_inputs`): the split of the fit between
+        them would be arbitrary.
 
     Warns
     -----
     TrainingDataWarning
-        Condition number above :data:`COND_WARN`.
+        Condition number above :data:`COND_WARN`, or inputs collinear beyond
+        :data:`COLLINEAR_R`.
     """
     cond = design_condition(r)
     collinear = collinear_inputs(x, orders)
     if collinear:
         raise DesignError(
             f"the training data cannot determine a {what} model: {'; '.join(collinear)}"
+        )
+    near = collinear_inputs(x, orders, COLLINEAR_R) if warn_collinear else []
+    if near:
+        warnings.warn(
+            f"{what} model is weakly determined by the training data: {'; '.join(near)}",
+            TrainingDataWarning,
+            stacklevel=3,
         )
     if cond <= COND_WARN:
         return cond

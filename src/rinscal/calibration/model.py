@@ -28,17 +28,15 @@ import pandas as pd
 
 from rinscal._version import __version__
 from rinscal.calibration._domain import fit_domain
-from rinscal.calibration._inference import n_inputs, predict_params
+from rinscal.calibration._fit import fit_params, fit_poly_t
+from rinscal.calibration._inference import METHODS, n_inputs, predict_params
 from rinscal.calibration.auto import (
     DEFAULT_FAMILIES,
     DEFAULT_TOLERANCE,
-    Candidate,
     candidates,
-    fit_estimator,
-    make_estimator,
+    fit_candidate,
     select_channel,
 )
-from rinscal.calibration.estimators import ESTIMATORS
 from rinscal.calibration.features import (
     DerivativeConfig,
     Features,
@@ -56,7 +54,7 @@ __all__ = ["DEFAULTS", "FIT_METHODS", "ThermalModel", "site_reference", "unit_fa
 
 #: Methods ``ThermalModel`` fits: the paper's and the baseline, the field's own fits, and
 #: ``auto`` (each channel's model chosen by held-out error).
-FIT_METHODS: tuple[str, ...] = (AUTO, *ESTIMATORS, "px4", "ardupilot")
+FIT_METHODS: tuple[str, ...] = (AUTO, *METHODS)
 
 #: Hyper-parameters of each method by sensor type (``"gyro"``, ``"accel"``).
 DEFAULTS: dict[str, dict[str, dict[str, Any]]] = {
@@ -185,8 +183,8 @@ class ThermalModel:
 
     Attributes
     ----------
-    estimators_ : dict of str to estimator
-        Fitted estimator per channel.
+    params_ : dict of str to dict
+        Fitted parameters per channel (see :mod:`rinscal.calibration._inference`).
     features_ : Features
         Training features (kept for diagnostics; not written to the model file).
     """
@@ -253,7 +251,26 @@ class ThermalModel:
                 raise ConfigError(f"tolerance must be in [0, 1), got {self.tolerance}")
 
     def estimator_for(self, channel: str, set_pts: np.ndarray | None = None) -> Any:
-        """The unfitted estimator of one channel, with its hyper-parameters.
+        """The unfitted scikit-learn estimator of one channel, with its hyper-parameters.
+
+        Parameters
+        ----------
+        channel : str
+            Channel.
+        set_pts : ndarray, optional [°C]
+            Soak set points (``sectional`` segment edges when ``edges`` is None).
+        """
+        from rinscal.calibration.estimators import ALL_ESTIMATORS
+
+        est = ALL_ESTIMATORS[self.method]()
+        try:
+            est.set_params(**self.hyper_for(channel, set_pts))
+        except ValueError as exc:
+            raise ConfigError(f"{self.method} estimator: {exc}") from None
+        return est
+
+    def hyper_for(self, channel: str, set_pts: np.ndarray | None = None) -> dict[str, Any]:
+        """Hyper-parameters of one channel's model (as the estimator classes name them).
 
         Parameters
         ----------
@@ -279,15 +296,8 @@ class ThermalModel:
                 params["edges"] = list(self.edges)
             elif set_pts is not None and set_pts.size >= 2:
                 params["set_points"] = set_pts.tolist()
-        if self.method in ("px4", "ardupilot"):
-            cand = Candidate(self.method, self.method, self.method, params, 3)
-            return make_estimator(cand)
-        est = ESTIMATORS[self.method]()
-        try:
-            est.set_params(**params, **self.estimator_params)
-        except ValueError as exc:
-            raise ConfigError(f"{self.method} estimator: {exc}") from None
-        return est
+        params.update(self.estimator_params)
+        return params
 
     def _set_points(self, log: pd.DataFrame, feats: Features, j: int) -> np.ndarray | None:
         sp = set_points(log)
@@ -356,7 +366,7 @@ class ThermalModel:
         )
         self.features_ = feats
         self.meta_ = dict(meta or {})
-        self.estimators_: dict[str, Any] = {}
+        self.params_: dict[str, dict[str, Any]] = {}
         self.set_points_: dict[str, np.ndarray | None] = {}
         self.train_range_: dict[str, np.ndarray] = {}
         self.metrics_: dict[str, dict[str, float]] = {}
@@ -380,19 +390,18 @@ class ThermalModel:
                     sel = select_channel(
                         xo, yo, codes, feats.runs, to, cands, self.tolerance, self.random_state
                     )
-                    est = _fit_candidate(sel.chosen, xo, yo, codes, to, self.random_state)
-                    fb = _fit_candidate(sel.fallback, xo, yo, codes, to, self.random_state)
+                    params = fit_candidate(sel.chosen, xo, yo, codes, to, self.random_state)
+                    fb = fit_candidate(sel.fallback, xo, yo, codes, to, self.random_state)
                     self.selections_[c] = sel.to_dict()
                 else:
-                    est = self.estimator_for(c, sp)
-                    fit_estimator(est, xo, yo, codes, to)
+                    hyper = self.hyper_for(c, sp)
+                    params = fit_params(self.method, hyper, xo, yo, codes, to)
                     fb = _cubic_fallback(xo, yo)
                     self.selections_[c] = None
-            except (DesignError, ValueError) as exc:
+            except (DesignError, ValueError, TypeError) as exc:
                 raise ConfigError(f"{what}: {self.method} fit failed: {exc}") from None
-            self.estimators_[c] = est
-            self.fallbacks_[c] = None if fb is None else fb.export_params()
-            params = est.export_params()
+            self.params_[c] = params
+            self.fallbacks_[c] = fb
             k = n_inputs(params)
             self.train_range_[c] = np.column_stack([xo[:, :k].min(axis=0), xo[:, :k].max(axis=0)])
             constant = params["method"] == "poly-t" and len(params["coef"]) == 1
@@ -420,18 +429,18 @@ class ThermalModel:
         source : mapping, optional
             Extra provenance written under ``source`` (e.g. the log's file name).
         """
-        if not hasattr(self, "estimators_"):
+        if not hasattr(self, "params_"):
             raise ConfigError("the thermal model is not fitted yet")
         units, factors = unit_factors(self.meta_, self.channels)
         ref = site_reference(self.meta_, factors, self.channels)
         models = {}
         for c in self.channels:
-            est = self.estimators_[c]
-            edges = getattr(est, "edges_", None)
+            params = self.params_[c]
+            edges = params.get("edges") if params["method"] == "sectional" else None
             if edges is None:
                 edges = _edges_from(self.set_points_.get(c))
             models[c] = ChannelModel(
-                params=est.export_params(),
+                params=params,
                 train_range=self.train_range_[c],
                 unit=units[c],
                 unit_to_si=factors[c],
@@ -467,34 +476,11 @@ class ThermalModel:
         )
 
 
-def _used_inputs(cand: Candidate, d: int) -> int:
-    """Feature columns a candidate's fit should see (trailing unused inputs dropped)."""
-    if cand.orders is None:
-        return d
-    used = [v + 1 for v, o in enumerate(cand.orders[:d]) if o > 0]
-    return max(used, default=1)
-
-
-def _fit_candidate(
-    cand: Candidate,
-    x: np.ndarray,
-    y: np.ndarray,
-    codes: np.ndarray,
-    t: np.ndarray,
-    random_state: int,
-) -> Any:
-    """Fit a chosen candidate on all the training data (a network with its full budget)."""
-    est = make_estimator(cand, random_state)
-    return fit_estimator(est, x[:, : _used_inputs(cand, x.shape[1])], y, codes, t)
-
-
-def _cubic_fallback(x: np.ndarray, y: np.ndarray) -> Any:
+def _cubic_fallback(x: np.ndarray, y: np.ndarray) -> dict[str, Any] | None:
     """The T-only fallback of a fixed method: a cubic in T (None if T cannot carry one)."""
-    from rinscal.calibration.estimators import PolyT
-
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            return PolyT(degree=3).fit(x[:, :1], y)
+            return fit_poly_t(x[:, :1], y, 3)
     except (DesignError, ValueError):
         return None

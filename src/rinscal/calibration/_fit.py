@@ -1,0 +1,455 @@
+"""Fitting of the polynomial thermal models and dispatch of every method: numpy only.
+
+The numerics behind :mod:`rinscal.calibration.estimators` (whose scikit-learn classes call
+these functions) and what :class:`rinscal.calibration.model.ThermalModel` calls directly, so
+that fitting ``poly-t``, ``sectional``, ``regression``, ``px4`` or ``ardupilot`` never imports
+scikit-learn (about 1 s of a command's start-up); only ``neural`` does.
+
+Polynomial inputs are mapped onto ``[−1, 1]`` (centre and half-range, as
+``astropy.modeling`` does), and the least-squares problem is solved by a blocked QR
+factorisation of ``[A | y]`` (TSQR; never the normal equations), so memory stays bounded for
+millions of samples. Feature matrices have columns ``T`` [°C], ``Ṫ`` [°C/min], ``ΔT`` [°C];
+outputs are in the log's units.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from rinscal.calibration.guards import check_design
+
+__all__ = [
+    "fit_params",
+    "fit_poly_t",
+    "fit_regression",
+    "fit_sectional",
+    "lstsq_qr",
+    "sectional_edges",
+    "solve_r",
+    "tsqr",
+]
+
+_BLOCK = 1 << 18
+_SUB_BLOCK = 1 << 14
+
+
+def tsqr(
+    basis: Callable[[np.ndarray], np.ndarray],
+    x: np.ndarray,
+    y: np.ndarray,
+    n_terms: int,
+    block: int = _BLOCK,
+) -> np.ndarray:
+    """Triangular factor ``R`` of ``[A | y]`` by blocked (TSQR) QR, ``A = basis(x)``.
+
+    ``A`` is never formed whole: each block of rows of ``x`` is expanded by ``basis`` and
+    reduced to its ``R`` factor, and the stacked factors are reduced again. ``RᵀR =
+    [A | y]ᵀ[A | y]``, so ``R`` (or any subset of its columns, reduced again) carries
+    everything a least-squares fit of ``y`` on columns of ``A`` needs.
+
+    Parameters
+    ----------
+    basis : callable
+        ``basis(x_block) -> ndarray, shape (rows, n_terms)``.
+    x : ndarray, shape (n, k)
+        Inputs.
+    y : ndarray, shape (n,)
+        Targets.
+    n_terms : int
+        Columns of ``A``.
+    block : int
+        Rows per block.
+
+    Returns
+    -------
+    ndarray, shape (min(n, n_terms + 1), n_terms + 1)
+    """
+    rs = []
+    for s in range(0, x.shape[0], block):
+        a = basis(x[s : s + block])
+        aug = np.empty((a.shape[0], n_terms + 1))
+        aug[:, :n_terms] = a
+        aug[:, n_terms] = y[s : s + block]
+        # Householder QR of a tall block is memory-bound: sub-blocks that stay in cache
+        # are ~4× faster than one long factorisation
+        for u in range(0, aug.shape[0], _SUB_BLOCK):
+            rs.append(np.linalg.qr(aug[u : u + _SUB_BLOCK], mode="r"))
+    return rs[0] if len(rs) == 1 else np.linalg.qr(np.vstack(rs), mode="r")
+
+
+def solve_r(r: np.ndarray, n_terms: int) -> tuple[np.ndarray, float]:
+    """Least-squares solution and residual sum of squares from the ``R`` of ``[A | y]``.
+
+    Parameters
+    ----------
+    r : ndarray, shape (k, n_terms + 1)
+        Triangular factor (see :func:`tsqr`).
+    n_terms : int
+        Columns of ``A``.
+
+    Returns
+    -------
+    beta : ndarray, shape (n_terms,)
+        Solution (minimum-norm when rank deficient).
+    rss : float
+        Residual sum of squares.
+    """
+    k = min(n_terms, r.shape[0])
+    rk = np.zeros((n_terms, n_terms))
+    rk[:k] = r[:k, :n_terms]
+    qty = np.zeros(n_terms)
+    qty[:k] = r[:k, n_terms]
+    beta = np.linalg.lstsq(rk, qty, rcond=None)[0]
+    rss = float(r[n_terms, n_terms] ** 2) if r.shape[0] > n_terms else 0.0
+    return beta, rss
+
+
+def lstsq_qr(
+    basis: Callable[[np.ndarray], np.ndarray],
+    x: np.ndarray,
+    y: np.ndarray,
+    n_terms: int,
+    block: int = _BLOCK,
+) -> tuple[np.ndarray, float]:
+    """Least squares ``min ‖A β − y‖`` by blocked QR of ``[A | y]`` (never normal equations).
+
+    :func:`tsqr` then :func:`solve_r`; the small triangular system is solved by
+    ``numpy.linalg.lstsq`` (minimum-norm when rank deficient).
+
+    Parameters
+    ----------
+    basis : callable
+        ``basis(x_block) -> ndarray, shape (rows, n_terms)``.
+    x : ndarray, shape (n, k)
+        Inputs.
+    y : ndarray, shape (n,)
+        Targets.
+    n_terms : int
+        Columns of ``A``.
+    block : int
+        Rows per block.
+
+    Returns
+    -------
+    beta : ndarray, shape (n_terms,)
+        Solution.
+    rss : float
+        Residual sum of squares.
+    """
+    return solve_r(tsqr(basis, x, y, n_terms, block), n_terms)
+
+
+def _checked_lstsq(
+    basis: Callable[[np.ndarray], np.ndarray],
+    x: np.ndarray,
+    y: np.ndarray,
+    orders: Sequence[int],
+    what: str,
+    warn_collinear: bool = True,
+) -> np.ndarray:
+    """:func:`lstsq_qr` that refuses a rank-deficient design (:func:`check_design`)."""
+    n_terms = 1 + int(sum(orders))
+    r = tsqr(basis, x, y, n_terms)
+    if x.shape[0] > n_terms:  # fewer rows are caught by the callers' own checks
+        check_design(r[:, :n_terms], x, orders, what, warn_collinear)
+    return solve_r(r, n_terms)[0]
+
+
+def _center_scale(x: np.ndarray) -> tuple[float, float]:
+    """Centre and half-range of ``x``, mapping it onto ``[−1, 1]`` (half-range 1 if 0)."""
+    lo, hi = float(np.min(x)), float(np.max(x))
+    c = 0.5 * (lo + hi)
+    s = 0.5 * (hi - lo)
+    if not s > 1e-12 * max(1.0, abs(c)):
+        s = 1.0
+    return c, s
+
+
+def _power_basis(
+    center: Sequence[float], scale: Sequence[float], orders: Sequence[int]
+) -> Callable[[np.ndarray], np.ndarray]:
+    """Basis ``[1, z_0 .. z_0^p, z_1 .. z_1^q, ...]`` with ``z_v = (x_v − c_v)/s_v``."""
+    n_terms = 1 + int(sum(orders))
+
+    def basis(x: np.ndarray) -> np.ndarray:
+        a = np.empty((x.shape[0], n_terms))
+        a[:, 0] = 1.0
+        col = 1
+        for v, order in enumerate(orders):
+            if order == 0:
+                continue
+            z = (x[:, v] - center[v]) / scale[v]
+            a[:, col] = z
+            for _ in range(1, order):
+                a[:, col + 1] = a[:, col] * z
+                col += 1
+            col += 1
+        return a
+
+    return basis
+
+
+def _split_coef(beta: np.ndarray, orders: Sequence[int]) -> tuple[float, list[list[float]]]:
+    coef, col = [], 1
+    for order in orders:
+        coef.append([float(c) for c in beta[col : col + order]])
+        col += order
+    return float(beta[0]), coef
+
+
+def _fit_power(
+    x: np.ndarray, y: np.ndarray, orders: Sequence[int], what: str = "regression"
+) -> dict[str, Any]:
+    """Fit ``intercept + Σ_v Σ_k coef[v][k] z_v^(k+1)``; return the regression parameters.
+
+    Raises :class:`~rinscal.calibration.guards.DesignError` on a rank-deficient design.
+    """
+    cs = [_center_scale(x[:, v]) for v in range(len(orders))]
+    center = [c for c, _ in cs]
+    scale = [s for _, s in cs]
+    label = f"{what} {tuple(int(o) for o in orders)}"
+    beta = _checked_lstsq(
+        _power_basis(center, scale, orders), x, y, orders, label, not what.startswith("sectional")
+    )
+    intercept, coef = _split_coef(beta, orders)
+    return {
+        "orders": [int(o) for o in orders],
+        "center": center,
+        "scale": scale,
+        "intercept": intercept,
+        "coef": coef,
+    }
+
+
+def fit_poly_t(
+    X: np.ndarray, y: np.ndarray, degree: int = 3, t_ref: float | None = None
+) -> dict[str, Any]:
+    """``poly-t``: QR least squares on ``(T − t_ref)/s``, ``s`` the largest ``|T − t_ref|``.
+
+    Parameters
+    ----------
+    X : ndarray, shape (n, k)
+        Features; only ``T`` [°C] is used.
+    y : ndarray, shape (n,)
+        Raw output [log units].
+    degree : int
+        0..7.
+    t_ref : float, optional [°C]
+        Reference (default the middle of the range).
+
+    Returns
+    -------
+    dict
+        ``poly-t`` parameters (see :mod:`rinscal.calibration._inference`).
+    """
+    deg = int(degree)
+    if deg < 0 or deg > 7:
+        raise ValueError(f"degree must be 0..7, got {degree!r}")
+    t = X[:, 0]
+    ref = 0.5 * (t.min() + t.max()) if t_ref is None else float(t_ref)
+    s = float(np.max(np.abs(t - ref)))
+    s = s if s > 0 else 1.0
+    beta = _checked_lstsq(_power_basis([ref], [s], [deg]), X, y, [deg], f"degree-{deg} poly-t")
+    coef = beta / s ** np.arange(deg + 1)
+    return {"method": "poly-t", "t_ref": float(ref), "coef": coef.tolist()}
+
+
+def fit_regression(
+    X: np.ndarray, y: np.ndarray, t_order: int = 3, rate_order: int = 3, grad_order: int = 3
+) -> dict[str, Any]:
+    """``regression`` (method 2, Eq. 11): orders ``p, q, s`` in ``T, Ṫ, ΔT``, no cross terms.
+
+    Parameters
+    ----------
+    X : ndarray, shape (n, k)
+        ``T`` [°C], ``Ṫ`` [°C/min], ``ΔT`` [°C] (the first ``min(k, 3)`` are used).
+    y : ndarray, shape (n,)
+        Raw output [log units].
+    t_order, rate_order, grad_order : int
+        0..8.
+
+    Returns
+    -------
+    dict
+        ``regression`` parameters.
+    """
+    orders = [int(t_order), int(rate_order), int(grad_order)]
+    if any(o < 0 or o > 8 for o in orders):
+        raise ValueError(f"orders must be 0..8, got {orders}")
+    orders = orders[: min(3, X.shape[1])]
+    return {"method": "regression", **_fit_power(X, y, orders)}
+
+
+def sectional_edges(
+    t: np.ndarray,
+    edges: Sequence[float] | None = None,
+    set_points: Sequence[float] | None = None,
+    n_segments: int = 7,
+) -> np.ndarray:
+    """Segment edges of a sectional model [°C]: given, set-point midpoints, or quantiles.
+
+    Parameters
+    ----------
+    t : ndarray [°C]
+        Training temperatures.
+    edges : sequence of float, optional [°C]
+        Given edges (each must lie inside the data's range).
+    set_points : sequence of float, optional [°C]
+        Chamber set points: edges at their midpoints.
+    n_segments : int
+        Otherwise: this many segments at quantiles of ``t``.
+
+    Returns
+    -------
+    ndarray [°C]
+        Strictly increasing edges.
+    """
+    if edges is not None:
+        e = np.asarray(edges, dtype=np.float64).ravel()
+        lo, hi = float(t.min()), float(t.max())
+        outside = [float(v) for v in e if not lo < v < hi]
+        if outside:
+            raise ValueError(
+                f"segment edge(s) {', '.join(f'{v:g}' for v in outside)} °C lie outside "
+                f"the training temperatures ({lo:.4g} … {hi:.4g} °C): a segment there "
+                "holds no data; give edges inside the data's range"
+            )
+    elif set_points is not None and len(set_points) >= 2:
+        sp = np.unique(np.asarray(set_points, dtype=np.float64))
+        e = 0.5 * (sp[1:] + sp[:-1])
+    else:
+        k = int(n_segments)
+        if k < 1:
+            raise ValueError(f"n_segments must be at least 1, got {n_segments!r}")
+        q = np.unique(np.quantile(t, np.arange(1, k) / k, method="lower"))
+        # keep only edges that leave a training sample in every segment
+        kept: list[float] = []
+        prev = -np.inf
+        for edge in q[q < t.max()]:
+            if np.any((t > prev) & (t <= edge)):
+                kept.append(float(edge))
+                prev = edge
+        e = np.asarray(kept)
+    if not np.all(np.isfinite(e)) or np.any(np.diff(e) <= 0):
+        raise ValueError(f"segment edges must be finite and strictly increasing, got {e}")
+    return e
+
+
+def fit_sectional(
+    X: np.ndarray, y: np.ndarray, edges: np.ndarray, t_order: int = 3, rate_order: int = 3
+) -> dict[str, Any]:
+    """``sectional`` (method 1, Eq. 15): one polynomial in ``T``, ``Ṫ`` per segment.
+
+    Parameters
+    ----------
+    X : ndarray, shape (n, k), k ≥ 2
+        ``T`` [°C] and ``Ṫ`` [°C/min].
+    y : ndarray, shape (n,)
+        Raw output [log units].
+    edges : ndarray [°C]
+        Segment edges (:func:`sectional_edges`).
+    t_order, rate_order : int
+        0..8.
+
+    Returns
+    -------
+    dict
+        ``sectional`` parameters.
+
+    Raises
+    ------
+    ValueError
+        If a segment holds no training sample.
+    """
+    orders = [int(t_order), int(rate_order)]
+    if any(o < 0 or o > 8 for o in orders):
+        raise ValueError(f"orders must be 0..8, got {orders}")
+    edges = np.asarray(edges, dtype=np.float64)
+    seg = np.searchsorted(edges, X[:, 0], side="left")
+    centers, scales, intercepts, coefs = [], [], [], []
+    bounds = [-np.inf, *edges.tolist(), np.inf]
+    for k in range(edges.size + 1):
+        sel = seg == k
+        if not sel.any():
+            raise ValueError(
+                f"temperature segment {k + 1} ({bounds[k]} < T <= {bounds[k + 1]} °C) holds "
+                "no training sample; give segment edges that the data cover"
+            )
+        p = _fit_power(X[sel][:, :2], y[sel], orders, f"sectional segment {k + 1}")
+        centers.append(p["center"])
+        scales.append(p["scale"])
+        intercepts.append(p["intercept"])
+        coefs.append(p["coef"])
+    return {
+        "method": "sectional",
+        "orders": orders,
+        "edges": edges.tolist(),
+        "center": centers,
+        "scale": scales,
+        "intercept": intercepts,
+        "coef": coefs,
+    }
+
+
+def fit_params(
+    method: str,
+    hyper: Mapping[str, Any],
+    X: np.ndarray,
+    y: np.ndarray,
+    groups: np.ndarray | None = None,
+    t: np.ndarray | None = None,
+) -> dict[str, Any]:
+    """Fit one channel with any method; the parameters its model file stores.
+
+    Parameters
+    ----------
+    method : str
+        ``poly-t``, ``regression``, ``sectional``, ``px4``, ``ardupilot`` or ``neural``.
+    hyper : mapping
+        Hyper-parameters, as the estimator classes name them (``degree``, ``t_ref``;
+        ``t_order``, ``rate_order``, ``grad_order``; ``edges``, ``set_points``,
+        ``n_segments``; ``sensor``, ``resample``, ``window_s``; the network's).
+    X : ndarray, shape (n, k)
+        ``T`` [°C], ``Ṫ`` [°C/min] (, ``ΔT`` [°C]), finite.
+    y : ndarray, shape (n,)
+        Raw output [log units].
+    groups : ndarray of int, optional
+        Run of each row (the filters of ``px4``/``ardupilot``, the network's validation).
+    t : ndarray, optional [s]
+        Time since each run's power-on (``ardupilot``).
+
+    Returns
+    -------
+    dict
+        Parameters (see :mod:`rinscal.calibration._inference`).
+    """
+    h = dict(hyper)
+    if method == "poly-t":
+        return fit_poly_t(X, y, h.get("degree", 3), h.get("t_ref"))
+    if method == "regression":
+        return fit_regression(
+            X, y, h.get("t_order", 3), h.get("rate_order", 3), h.get("grad_order", 3)
+        )
+    if method == "sectional":
+        edges = sectional_edges(
+            X[:, 0], h.get("edges"), h.get("set_points"), h.get("n_segments", 7)
+        )
+        return fit_sectional(X, y, edges, h.get("t_order", 3), h.get("rate_order", 3))
+    if method == "px4":
+        from rinscal.calibration.baselines import px4_fit
+
+        return px4_fit(X[:, 0], y, groups, **h)
+    if method == "ardupilot":
+        from rinscal.calibration.baselines import ardupilot_fit
+
+        return ardupilot_fit(X[:, 0], y, t, groups, **h)
+    if method == "neural":
+        from rinscal.calibration.estimators import Neural
+
+        est = Neural()
+        est.set_params(**h)
+        return est.fit(X, y, groups=groups).params_
+    raise ValueError(f"unknown method {method!r}")
