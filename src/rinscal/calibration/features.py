@@ -26,9 +26,7 @@ from typing import Literal
 
 import numpy as np
 import pandas as pd
-from scipy.ndimage import median_filter
 
-from rinscal.calibration._rate import causal_slope, centred_slope_run
 from rinscal.errors import ConfigError, LogError
 from rinscal.schema import CHAMBER, CHANNELS, RUN, TEMP_OUT, TIME, temperature_column
 from rinscal.units import MIN_TO_S
@@ -265,6 +263,8 @@ def temperature_rate(t: np.ndarray, temp: np.ndarray, derivative: DerivativeConf
     -------
     ndarray, same shape as ``temp`` [°C/min]
     """
+    from rinscal.calibration._rate import causal_slope, centred_slope_run  # numba: on demand
+
     temp = np.asarray(temp, dtype=np.float64)
     x = temp.reshape(temp.shape[0], -1)
     if derivative.kind == "causal":
@@ -279,6 +279,12 @@ def _odd_window(t: np.ndarray, window_s: float) -> int:
     k = round(window_s / dt) if dt > 0 else 5
     k = max(k, 5)
     return k if k % 2 else k + 1
+
+
+def _median_filter(y: np.ndarray, size: int, mode: str) -> np.ndarray:
+    from scipy.ndimage import median_filter  # imported when needed: a command starts faster
+
+    return median_filter(y, size=size, mode=mode)
 
 
 def outlier_mask(t: np.ndarray, y: np.ndarray, config: OutlierConfig) -> np.ndarray:
@@ -315,7 +321,7 @@ def outlier_mask(t: np.ndarray, y: np.ndarray, config: OutlierConfig) -> np.ndar
             idx = np.flatnonzero(ok)
             near = idx[np.clip(np.searchsorted(idx, np.arange(col.size)), 0, idx.size - 1)]
             filled = col[near]
-        med = median_filter(filled, size=k, mode="nearest")
+        med = _median_filter(filled, size=k, mode="nearest")
         resid = np.abs(col - med)
         mad = float(np.median(resid[ok]))
         if mad > 0:
@@ -355,6 +361,7 @@ def build_features(
     channels: Sequence[str] = CHANNELS,
     *,
     use_gradient: bool | None = None,
+    with_rate: bool = True,
 ) -> Features:
     """Build the model inputs of every channel, run by run.
 
@@ -371,6 +378,9 @@ def build_features(
     use_gradient : bool, optional
         None (default): use ΔT when the log has ``temp_out``, warn when it has not. True:
         require ``temp_out``. False: leave ΔT out.
+    with_rate : bool
+        Compute the rate ``Ṫ`` (False: zeros, for models of ``T`` alone; the compiled rate
+        kernel is then not even loaded).
 
     Returns
     -------
@@ -423,7 +433,7 @@ def build_features(
         if idx.size and idx[-1] - idx[0] + 1 == idx.size:
             r = slice(int(idx[0]), int(idx[-1]) + 1)
         tr = t[r]
-        rate_u[r] = temperature_rate(tr, tmat_u[r], derivative)
+        rate_u[r] = temperature_rate(tr, tmat_u[r], derivative) if with_rate else 0.0
         if outliers.enabled:
             o = outlier_mask(tr, output[r], outliers)
             outl[r] = o

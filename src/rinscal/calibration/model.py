@@ -55,6 +55,8 @@ __all__ = ["DEFAULTS", "FIT_METHODS", "ThermalModel", "site_reference", "unit_fa
 #: Methods ``ThermalModel`` fits: the paper's and the baseline, the field's own fits, and
 #: ``auto`` (each channel's model chosen by held-out error).
 FIT_METHODS: tuple[str, ...] = (AUTO, *METHODS)
+#: Methods whose model uses the temperature alone.
+T_ONLY_METHODS: tuple[str, ...] = ("poly-t", "px4", "ardupilot")
 
 #: Hyper-parameters of each method by sensor type (``"gyro"``, ``"accel"``).
 DEFAULTS: dict[str, dict[str, dict[str, Any]]] = {
@@ -269,6 +271,11 @@ class ThermalModel:
             raise ConfigError(f"{self.method} estimator: {exc}") from None
         return est
 
+    @property
+    def needs_rate(self) -> bool:
+        """Whether the method uses ``Ṫ`` (models of ``T`` alone skip computing it)."""
+        return self.method not in T_ONLY_METHODS
+
     def hyper_for(self, channel: str, set_pts: np.ndarray | None = None) -> dict[str, Any]:
         """Hyper-parameters of one channel's model (as the estimator classes name them).
 
@@ -362,7 +369,12 @@ class ThermalModel:
         except ValueError as exc:
             raise ConfigError(f"{where}{exc}") from None
         feats = features or build_features(
-            log, self.derivative, self.outliers, self.channels, use_gradient=self.use_gradient
+            log,
+            self.derivative,
+            self.outliers,
+            self.channels,
+            use_gradient=self.use_gradient,
+            with_rate=self.needs_rate,
         )
         self.features_ = feats
         self.meta_ = dict(meta or {})

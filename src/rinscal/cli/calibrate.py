@@ -237,6 +237,7 @@ def fit(
                     model.outliers,
                     model.channels,
                     use_gradient=model.use_gradient,
+                    with_rate=model.needs_rate,
                 )
             for w in caught:
                 if issubclass(w.category, MissingGradientWarning):
