@@ -1,11 +1,11 @@
 """``fit --method auto``: each channel's model chosen by held-out error.
 
 Per channel, every candidate is fitted on all folds but one and scored on the fold left out;
-the score is the RMS of the held-out residual about each fold's own mean (a turn-on offset is
-not thermal), pooled over the folds. The choice is the simplest candidate (fewest thermal
-parameters) within noise of the best: the one-standard-error rule on the paired per-fold
-differences of held-out mean square error, or within 0.5 % of the best mean square error
-(:func:`choose`), so a choice within noise of a simpler one goes to the simpler. "No
+the score is the RMS of the held-out residual averaged over 60 s blocks (:data:`BLOCK_S`: the
+slow part a thermal model is for; white noise averages out), about each fold's own mean (a
+turn-on offset is not thermal), pooled over the folds. The choice is the simplest candidate
+(fewest thermal parameters) within noise of the best, the one-standard-error rule
+(:func:`choose`): a choice within noise of a simpler one goes to the simpler. "No
 compensation" is a candidate, so on the held-out data the choice is never worse than doing
 nothing.
 
@@ -76,10 +76,8 @@ FAMILIES: tuple[str, ...] = ("none", "ardupilot", "px4", "poly-t", "regression",
 #: Families tried by default.
 DEFAULT_FAMILIES: tuple[str, ...] = ("none", "ardupilot", "px4", "poly-t", "regression")
 #: Default relative tolerance of the choice on the mean square error, on top of the
-#: one-standard-error rule: on pure white noise a model fitted on some runs lowers the
-#: held-out MSE of others by chance correlation with its smooth inputs, by ~0.1 % for a few
-#: thousand samples per run, consistently enough over a few folds to pass the rule alone.
-DEFAULT_TOLERANCE = 0.005
+#: one-standard-error rule.
+DEFAULT_TOLERANCE = 0.0
 #: Largest orders of the polynomial candidates (T, Ṫ, ΔT).
 MAX_ORDERS: tuple[int, int, int] = (4, 3, 3)
 #: Hidden-layer sizes screened when ``neural`` is a candidate.
@@ -88,6 +86,10 @@ HIDDEN: tuple[int, ...] = (2, 4, 6)
 NEURAL_SCREEN: dict[str, int] = {"max_samples": 5000, "n_init": 1}
 #: Filtered samples (every k-th) the PX4 and ArduPilot fits of a held-out fold use at most.
 SCREEN_ROWS = 500_000
+#: Averaging block of the held-out residual [s]: the score is the RMS of 60 s means of the
+#: residual, the part of the error a thermal model is for; white noise averages out
+#: (by √(rate × 60 s)) and no longer hides thermal differences at high sample rates.
+BLOCK_S = 60.0
 #: Samples (every k-th) the held-out scores of a channel use at most; the chosen model is
 #: fitted on all of them. At 100 Hz over 7 × 3 h this keeps one sample in eight (12.5 Hz),
 #: far above the bandwidth of a thermal drift.
@@ -401,6 +403,29 @@ def _baseline_screens(
     return fit
 
 
+def _averaging_blocks(
+    folds: np.ndarray, run_codes: np.ndarray, t: np.ndarray, scored: np.ndarray
+) -> np.ndarray:
+    """Number the scored rows' averaging blocks (:data:`BLOCK_S` of one run and fold); −1 else."""
+    out = np.full(folds.size, -1, dtype=np.int64)
+    idx = np.flatnonzero(scored)
+    if not idx.size:
+        return out
+    key = np.column_stack([folds[idx], run_codes[idx], np.floor(t[idx] / BLOCK_S)])
+    change = np.concatenate([[0], np.any(np.diff(key, axis=0) != 0, axis=1).astype(np.int64)])
+    out[idx] = np.cumsum(change)
+    return out
+
+
+def _block_means(resid: np.ndarray, ids: np.ndarray) -> np.ndarray:
+    """Means of a residual over its blocks (``ids`` increasing)."""
+    if not resid.size:
+        return resid
+    ids = ids - ids[0]
+    cnt = np.bincount(ids)
+    return np.bincount(ids, weights=resid)[cnt > 0] / cnt[cnt > 0]
+
+
 def _ss_about_mean(resid: np.ndarray) -> float:
     return float(np.sum((resid - resid.mean()) ** 2)) if resid.size else 0.0
 
@@ -411,9 +436,12 @@ def _polynomial_scores(
     folds: np.ndarray,
     n_folds: int,
     cands: Sequence[Candidate],
-    scored: np.ndarray,
+    blocks: np.ndarray,
 ) -> dict[str, tuple[np.ndarray, float]]:
-    """Held-out SS about the fold mean per fold (``scored`` rows), and the training RSS."""
+    """Held-out SS of block means about the fold mean, per fold, and the training RSS.
+
+    ``blocks`` numbers the scored rows' averaging blocks (−1: not scored).
+    """
     d = x.shape[1]
     max_orders = list(MAX_ORDERS[:d])
     cs = [_center_scale(x[:, v]) for v in range(d)]
@@ -427,17 +455,34 @@ def _polynomial_scores(
             pad[: r.shape[0]] = r
         return pad
 
+    def block_factor(sel: np.ndarray) -> tuple[np.ndarray, int]:
+        """``R`` of the block means of ``[A | y]`` over the selected rows, and the blocks."""
+        idx = np.flatnonzero(sel)
+        pad = np.zeros((n_terms + 1, n_terms + 1))
+        if not idx.size:
+            return pad, 0
+        ids = blocks[idx] - blocks[idx[0]]  # increasing along the rows
+        nb = int(ids[-1]) + 1
+        sums = np.zeros((nb, n_terms + 1))
+        for s in range(0, idx.size, 1 << 16):
+            rows = idx[s : s + (1 << 16)]
+            a = basis(x[rows])
+            for j in range(n_terms):
+                sums[:, j] += np.bincount(ids[s : s + (1 << 16)], weights=a[:, j], minlength=nb)
+            sums[:, n_terms] += np.bincount(ids[s : s + (1 << 16)], weights=y[rows], minlength=nb)
+        cnt = np.bincount(ids, minlength=nb)
+        means = sums[cnt > 0] / cnt[cnt > 0, None]
+        r = np.linalg.qr(means, mode="r")
+        pad[: r.shape[0]] = r
+        return pad, int(means.shape[0])
+
     rs, rs_scored, counts = [], [], []
     for k in range(n_folds):
         sel = folds == k
-        part = sel & scored
-        rs_scored.append(factor(part))
-        rest = sel & ~scored
-        if rest.any():  # one pass over the fold: its factor from the two disjoint parts
-            rs.append(np.linalg.qr(np.vstack([rs_scored[-1], factor(rest)]), mode="r"))
-        else:
-            rs.append(rs_scored[-1])
-        counts.append(int(part.sum()))
+        rs.append(factor(sel))
+        r, nb = block_factor(sel & (blocks >= 0))
+        rs_scored.append(r)
+        counts.append(nb)
     start = np.cumsum([1, *max_orders[:-1]])
     out: dict[str, tuple[np.ndarray, float]] = {}
     refused = {
@@ -530,12 +575,13 @@ def choose(
     Returns
     -------
     Candidate
-        Let ``b`` be the candidate of the lowest mean held-out MSE. A candidate is within
-        noise of it when the mean over folds of its paired MSE difference to ``b`` is at
-        most one standard error of that mean (the one-standard-error rule, Breiman et al.
-        1984; Hastie, Tibshirani, Friedman 2009, §7.10) or at most ``tolerance`` times
-        ``b``'s mean MSE. Among those: the fewest thermal parameters, then the lowest
-        error, then the first in order.
+        Let ``b`` be the candidate of the lowest mean held-out MSE over the folds. A
+        candidate is within noise of it when its mean is at most one standard error of
+        ``b``'s mean above it (the one-standard-error rule: Breiman et al. 1984; Hastie,
+        Tibshirani, Friedman 2009, §7.10; the standard error is the spread of ``b``'s fold
+        errors over √folds), or at most ``tolerance`` times ``b``'s mean above it. Among
+        those: the fewest thermal parameters, then the lowest error, then the first in
+        order.
     """
     mse = np.asarray(fold_mse, dtype=np.float64)
     ok = np.all(np.isfinite(mse), axis=1)
@@ -544,12 +590,9 @@ def choose(
     mean = np.where(ok, mse.mean(axis=1) if mse.size else np.inf, np.inf)
     b = int(np.argmin(mean))
     k = mse.shape[1]
-    near = []
-    for i in np.flatnonzero(ok):
-        d = mse[i] - mse[b]
-        se = float(np.std(d, ddof=1) / math.sqrt(k)) if k > 1 else 0.0
-        if d.mean() <= max(se, tolerance * mean[b]):
-            near.append((cands[i].n_params, float(mean[i]), int(i)))
+    se = float(np.std(mse[b], ddof=1) / math.sqrt(k)) if k > 1 else 0.0
+    limit = mean[b] + max(se, tolerance * mean[b])
+    near = [(cands[i].n_params, float(mean[i]), int(i)) for i in np.flatnonzero(mean <= limit)]
     return cands[min(near)[2]]
 
 
@@ -628,9 +671,12 @@ def _select(
         codes, scored = folds.codes[::step], scored[::step]
     else:
         codes = folds.codes
-    counts = np.bincount(codes[scored], minlength=nf)
+    blocks = _averaging_blocks(codes, run_codes, t, scored)
+    counts = np.array(
+        [len(np.unique(blocks[(codes == k) & (blocks >= 0)])) for k in range(nf)], dtype=int
+    )
     poly = [c for c in cands if c.orders is not None]
-    fast = _polynomial_scores(x, y, codes, nf, poly, scored) if poly else {}
+    fast = _polynomial_scores(x, y, codes, nf, poly, blocks) if poly else {}
     n_total = int(counts.sum())
     table, mse_rows = [], []
     for cand in cands:
@@ -653,7 +699,7 @@ def _select(
                                 cand, x[tr], y[tr], run_codes[tr], t[tr], random_state, True
                             )
                             pred = predict_params(params, x[te])
-                    ss[k] = _ss_about_mean(y[te] - pred)
+                    ss[k] = _ss_about_mean(_block_means(y[te] - pred, blocks[te]))
                 except (ValueError, DesignError):
                     ss[k] = np.nan
         ss[counts == 0] = 0.0

@@ -130,7 +130,7 @@ def fit(
             help="auto: also take a simpler model within this relative tolerance of the best "
             "held-out mean square error (the one-standard-error rule always applies).",
         ),
-    ] = 0.005,
+    ] = 0.0,
     temp_range: Annotated[
         str,
         typer.Option("--temp-range", help="Plausible temperature readings LO,HI in °C."),
@@ -314,7 +314,7 @@ def select(
             "--tolerance",
             help="Recommend the smallest setting within this relative tolerance of the best "
             "held-out RMS (regression/neural: default 0.02; auto: of the mean square error, "
-            "default 0.005, on top of the one-standard-error rule).",
+            "default 0, on top of the one-standard-error rule).",
         ),
     ] = None,
     candidates: Annotated[
@@ -347,7 +347,7 @@ def select(
     if method == "auto":
         _select_auto(
             log,
-            0.005 if tolerance is None else tolerance,
+            0.0 if tolerance is None else tolerance,
             candidates,
             window,
             seed,
