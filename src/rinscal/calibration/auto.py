@@ -12,9 +12,9 @@ nothing.
 Folds (:func:`holdout_folds`)
     Leave-one-run-out when the log has three runs or more. Otherwise each run is cut into its
     heating and cooling legs (turning points of the temperature, with a hysteresis of
-    max(1 °C, 10 % of the run's span)); if that gives fewer than three legs, each leg is cut
-    into contiguous blocks (four folds in all, at least). Never random rows: neighbouring
-    samples of a slow thermal signal are not independent.
+    max(1 °C, 10 % of the run's span)), and each leg into contiguous blocks so that there are
+    at least :data:`MIN_FOLDS` folds (a standard error needs several). Never random rows:
+    neighbouring samples of a slow thermal signal are not independent.
 
 Candidates (:func:`candidates`)
     ``none`` (a constant: no thermal compensation), ``ardupilot`` and ``px4`` (the field's
@@ -80,6 +80,9 @@ DEFAULT_FAMILIES: tuple[str, ...] = ("none", "ardupilot", "px4", "poly-t", "regr
 DEFAULT_TOLERANCE = 0.0
 #: Largest orders of the polynomial candidates (T, Ṫ, ΔT).
 MAX_ORDERS: tuple[int, int, int] = (4, 3, 3)
+#: Without three runs, legs are cut into contiguous blocks until there are this many folds
+#: (a standard error of held-out error needs several).
+MIN_FOLDS = 8
 #: Hidden-layer sizes screened when ``neural`` is a candidate.
 HIDDEN: tuple[int, ...] = (2, 4, 6)
 #: Screening budget of a neural candidate's held-out fits.
@@ -282,19 +285,25 @@ def holdout_folds(
         rows = np.flatnonzero(run_codes == k)
         for a, b, kind in _legs(temp[rows]):
             pieces.append((rows[a:b], f"{runs[k]}/{kind}"))
-    scheme = "legs"
-    if len(pieces) < 2:
-        per = math.ceil(4 / len(pieces))
-        split = []
-        for rows, name in pieces:
-            for i, part in enumerate(np.array_split(rows, per)):
-                split.append((part, f"{name}/block{i + 1}"))
-        pieces, scheme = split, "blocks"
+    # unique names: a run's second cooling leg is cool2
+    seen: dict[str, int] = {}
+    named = []
+    for rows, name in pieces:
+        seen[name] = seen.get(name, 0) + 1
+        named.append((rows, name))
+    count = dict.fromkeys(seen, 0)
+    pieces = []
+    for rows, name in named:
+        count[name] += 1
+        pieces.append((rows, name if seen[name] == 1 else f"{name}{count[name]}"))
+    scheme = "legs" if len(pieces) >= 2 else "blocks"
+    per = math.ceil(MIN_FOLDS / len(pieces))
     codes = np.empty(run_codes.size, dtype=np.int64)
     names = []
-    for i, (rows, name) in enumerate(pieces):
-        codes[rows] = i
-        names.append(name if sum(nm == name for _, nm in pieces) == 1 else f"{name}{i + 1}")
+    for rows, name in pieces:
+        for i, part in enumerate(np.array_split(rows, per)):
+            codes[part] = len(names)
+            names.append(f"{name}/{i + 1}" if per > 1 else name)
     return Folds(codes, tuple(names), scheme)
 
 

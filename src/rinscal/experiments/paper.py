@@ -272,6 +272,9 @@ class CalibrationResult:
         The repeat run's x-axis outputs before and after each compensation, for Figures 7-8.
     imu : ImuConfig or None
         The plant the calibration data were simulated on.
+    allan_curves : dict or None
+        Allan deviation of the repeat run per channel: ``{channel: {"raw": AllanCurve,
+        "compensated": AllanCurve}}`` (method 2, policy clamp).
     """
 
     logs: dict[str, pd.DataFrame]
@@ -282,6 +285,7 @@ class CalibrationResult:
     tables: dict[str, pd.DataFrame] = field(default_factory=dict)
     repeat_curves: pd.DataFrame | None = None
     imu: ImuConfig | None = None
+    allan_curves: dict[str, Any] | None = None
 
 
 def _fit(
@@ -433,7 +437,8 @@ def calibration_stage(
     ``table6``, ``table8_accel_x``, ``table8_gyro_x`` (coefficients), ``table5`` and
     ``table7`` (training and held-out RMS per setting), ``heldout_residual`` (thermal
     residual on the repeat and ramp runs, per method), ``repeat_steps`` (steps at the
-    segment edges on the repeat run).
+    segment edges on the repeat run), ``allan_repeat`` (IEEE Std 952 noise parameters of the
+    repeat run's raw and method-2-compensated output).
     """
     imu = imu or load_plant(cfg.imu)
     note = step or (lambda _msg: None)
@@ -474,6 +479,12 @@ def calibration_stage(
     res.tables["repeat_steps"] = steps[steps["log"] == "repeat"].drop(columns="log")
     res.tables["ramp_steps"] = steps[steps["log"] == "ramp"].drop(columns="log")
     res.repeat_curves = repeat_curves(models, logs["repeat"])
+    note("Allan deviation of the repeat run")
+    from rinscal.calibration.evaluate import allan_table
+
+    allan, curves = allan_table(logs["repeat"], models["regression"], "clamp")
+    res.tables["allan_repeat"] = allan.drop(columns=["rate_hz"])
+    res.allan_curves = next(iter(curves.values()), None)
     return res
 
 

@@ -486,6 +486,18 @@ def build_report(
     )
     s.text(_repeat_words(tables["repeat_steps"]))
     s.figure("repeat", figures["repeat"], "Figures 7 and 8: repeat cold start at 25 °C")
+    if "allan" in figures:
+        s.text(
+            "The Allan deviation (overlapping) of the repeat run before and after method 2, "
+            "with the noise parameters read from the curves by the IEEE Std 952 slopes: N, the "
+            "angle or velocity random walk (σ at τ = 1 s on the −½ line, unit·√s), B, the bias "
+            "instability (the flat minimum ÷ 0.664, at τ(B)), K, the rate random walk (σ at "
+            "τ = 3 s on the +½ line, unit/√s); empty where the curve has no region of that "
+            "slope. Compensation acts at long averaging times: the thermal drift that bends a "
+            "raw curve upwards there is what it removes; the white noise (N) is untouched."
+        )
+        s.table("allan_repeat", tables["allan_repeat"], "Allan deviation noise parameters")
+        s.figure("allan", figures["allan"], "Allan deviation of the repeat run, raw and method 2")
 
     ramp = [r for r in nav if r.job.experiment == "ramp"]
     s = rep.section("Navigation in the chamber ramp (Figure 9)", "ramp")
@@ -721,6 +733,14 @@ def render_figures(
         ),
         "temperatures": fig_temperatures(nav),
     }
+    if cal.allan_curves:
+        from rinscal.report.allan_plot import allan_figure
+
+        units = {c: cal.metas["repeat"]["units"].get(c, "?") for c in cal.allan_curves}
+        figs["allan"] = allan_figure(cal.allan_curves, units, title="Repeat run at 25 °C")
+        order = list(figs)  # in the report's order: right after the repeat figure
+        order.insert(order.index("repeat") + 1, order.pop(order.index("allan")))
+        figs = {k: figs[k] for k in order}
     return {k: figure_to_png(f) for k, f in figs.items()}
 
 
