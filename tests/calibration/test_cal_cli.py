@@ -211,3 +211,59 @@ def test_foreign_log_through_options(tmp_path) -> None:
     assert "temp_out" in res.output  # the gradient drops out, with a warning
     mf = ThermalModelFile.load(out)
     assert not mf.use_gradient and mf.models["accel_x"].static_reference is None
+
+
+def test_auto_is_the_default_and_every_command_shows_its_choice(logs, tmp_path) -> None:
+    model = tmp_path / "auto.json"
+    text = _ok(["fit", logs["soak"], "--out", model])
+    mf = ThermalModelFile.load(model)
+    assert mf.method == "auto"
+    chosen = {c: mf.models[c].selection["chosen"] for c in CHANNELS}
+    assert "leave-one-run-out over 7 folds" in " ".join(text.split())
+    # select --method auto: every candidate with its held-out RMS, the choice marked
+    text = _ok(["select", logs["soak"], "--json"])
+    doc = json.loads(text)
+    assert doc["channels"]["accel_z"]["chosen"] == chosen["accel_z"]
+    assert {r["name"] for r in doc["channels"]["gyro_x"]["table"]} >= {"none", "px4", "ardupilot"}
+    # evaluate: the model per channel, the flagged share, the Allan table and plot
+    fig = tmp_path / "allan.png"
+    text = _ok(["evaluate", logs["repeat"], "--model", model, "--allan-plot", fig])
+    flat = " ".join(text.split())
+    assert "Allan deviation (overlapping)" in flat and "outside the training data" in flat
+    assert fig.stat().st_size > 20_000
+    doc = json.loads(_ok(["evaluate", logs["repeat"], "--model", model, "--json"]))
+    assert doc["channel_models"] == chosen
+    assert {r["output"] for r in doc["allan"]} == {"raw", "compensated"}
+    # compensate --policy fallback: the share of flagged rows per run
+    out = tmp_path / "comp.csv"
+    text = _ok(
+        ["compensate", logs["repeat"], "--model", model, "--out", out, "--policy", "fallback"]
+    )
+    assert "repeat_+25C:" in text and "% of rows flagged" in text
+
+
+def test_fit_guard_messages_name_the_file(logs, tmp_path) -> None:
+    bad = tmp_path / "hot.csv"
+    log = read_log(logs["soak"])
+    log.loc[5, "temp_out"] = 1e300
+    write_log(log, bad)
+    res = runner.invoke(
+        app, ["fit", str(bad), "--method", "poly-t", "--out", str(tmp_path / "m.json")]
+    )
+    assert res.exit_code == 2
+    assert f"{bad}: column 'temp_out'" in res.output and "data row 6" in res.output
+    # the range is an option
+    res = runner.invoke(
+        app,
+        [
+            "fit",
+            str(bad),
+            "--method",
+            "poly-t",
+            "--temp-range",
+            "-60,1e301",
+            "--out",
+            str(tmp_path / "m.json"),
+        ],
+    )
+    assert res.exit_code == 0, res.output
