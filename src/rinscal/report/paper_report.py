@@ -488,15 +488,19 @@ def build_report(
     s.figure("repeat", figures["repeat"], "Figures 7 and 8: repeat cold start at 25 °C")
     if "allan" in figures:
         s.text(
-            "The Allan deviation (overlapping) of the repeat run before and after method 2, "
-            "with the noise parameters read from the curves by the IEEE Std 952 slopes: N, the "
-            "angle or velocity random walk (σ at τ = 1 s on the −½ line, unit·√s), B, the bias "
-            "instability (the flat minimum ÷ 0.664, at τ(B)), K, the rate random walk (σ at "
-            "τ = 3 s on the +½ line, unit/√s); empty where the curve has no region of that "
-            "slope. Compensation acts at long averaging times: the thermal drift that bends a "
-            "raw curve upwards there is what it removes; the white noise (N) is untouched."
+            "Noise parameters of the repeat run before and after method 2, read from its "
+            "overlapping Allan deviation by the IEEE Std 952 slopes: N, the angle or velocity "
+            "random walk (σ at τ = 1 s on the −½ line, unit·√s), B, the bias instability (the "
+            "flat minimum ÷ 0.664, at τ(B)), K, the rate random walk (σ at τ = 3 s on the +½ "
+            "line, unit/√s); empty where the curve has no region of that slope."
         )
         s.table("allan_repeat", tables["allan_repeat"], "Allan deviation noise parameters")
+        s.text(
+            "The figure below draws those Allan deviations, raw and compensated, per channel. "
+            "Compensation acts at long averaging times: the thermal drift that bends a raw "
+            "curve upwards there is what it removes; the white noise (the −½ slope at short "
+            "times) is untouched."
+        )
         s.figure("allan", figures["allan"], "Allan deviation of the repeat run, raw and method 2")
 
     ramp = [r for r in nav if r.job.experiment == "ramp"]
