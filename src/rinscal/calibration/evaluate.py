@@ -28,7 +28,7 @@ import pandas as pd
 
 from rinscal.calibration.allan import AllanCurve
 from rinscal.calibration.compensate import model_features, predict_log
-from rinscal.calibration.features import OutlierConfig
+from rinscal.calibration.features import Features, OutlierConfig
 from rinscal.calibration.modelfile import Policy, ThermalModelFile
 from rinscal.errors import ConfigError
 
@@ -156,6 +156,44 @@ def edge_steps(
     return out
 
 
+#: Features of a log and the model's output and flags on it (:func:`prepare`).
+Prepared = tuple[Features, np.ndarray, np.ndarray]
+
+
+def prepare(
+    log: pd.DataFrame,
+    model: ThermalModelFile,
+    policy: Policy = "clamp",
+    derivative_kind: str | None = None,
+    outliers: OutlierConfig | None = None,
+) -> Prepared:
+    """Features of a log (outliers masked as for fitting) and the model's output on it.
+
+    Parameters
+    ----------
+    log : DataFrame
+        Validated calibration log.
+    model : ThermalModelFile
+        The model.
+    policy : {"clamp", "fallback", "extrapolate", "error"}
+        Handling of samples outside the training data.
+    derivative_kind : {"centred", "causal"}, optional
+        Override the model's derivative kind.
+    outliers : OutlierConfig, optional
+        Outlier masking (default: as for fitting).
+
+    Returns
+    -------
+    features : Features
+    f : ndarray, shape (n, m) [log units]
+        Modelled output per channel.
+    flagged : ndarray of bool, shape (n, m)
+    """
+    feats = model_features(log, model, derivative_kind, outliers or OutlierConfig())
+    f, flags = predict_log(log, model, policy, derivative_kind, features=feats)
+    return feats, f, flags
+
+
 def evaluate(
     log: pd.DataFrame,
     model: ThermalModelFile,
@@ -164,6 +202,7 @@ def evaluate(
     step: StepConfig | None = None,
     outliers: OutlierConfig | None = None,
     edges: np.ndarray | list[float] | None = None,
+    prepared: Prepared | None = None,
 ) -> pd.DataFrame:
     """RMS before/after compensation and the largest step at a segment edge, per run and channel.
 
@@ -193,10 +232,12 @@ def evaluate(
         out_of_range, rms_before, rms_after, ratio`` (after/before), ``crossings``,
         ``max_step_before, max_step_after`` (NaN without crossings) and
         ``max_step_time_s, max_step_edge_c`` of the compensated output's largest step.
+
+    ``prepared`` (from :func:`prepare`) spares rebuilding the features and the prediction when
+    :func:`allan_table` evaluates the same log.
     """
     step = step or StepConfig()
-    feats = model_features(log, model, derivative_kind, outliers or OutlierConfig())
-    f, flags = predict_log(log, model, policy, derivative_kind, features=feats)
+    feats, f, flags = prepared or prepare(log, model, policy, derivative_kind, outliers)
     rows = []
     for j, c in enumerate(model.channels):
         cm = model.models[c]
@@ -248,6 +289,7 @@ def allan_table(
     policy: Policy = "clamp",
     derivative_kind: str | None = None,
     outliers: OutlierConfig | None = None,
+    prepared: Prepared | None = None,
 ) -> tuple[pd.DataFrame, dict[str, dict[str, dict[str, AllanCurve]]]]:
     """Allan deviation of the raw and the compensated output, per run and channel.
 
@@ -282,8 +324,7 @@ def allan_table(
     """
     from rinscal.calibration.allan import allan_deviation, noise_parameters
 
-    feats = model_features(log, model, derivative_kind, outliers or OutlierConfig())
-    f, _ = predict_log(log, model, policy, derivative_kind, features=feats)
+    feats, f, _ = prepared or prepare(log, model, policy, derivative_kind, outliers)
     rows: list[dict[str, object]] = []
     curves: dict[str, dict[str, dict[str, AllanCurve]]] = {}
     for k, run in enumerate(feats.runs):

@@ -623,7 +623,7 @@ def evaluate_cmd(
     """
     from rich.table import Table
 
-    from rinscal.calibration.evaluate import StepConfig, allan_table, evaluate
+    from rinscal.calibration.evaluate import StepConfig, allan_table, evaluate, prepare
     from rinscal.calibration.modelfile import POLICIES, ThermalModelFile
     from rinscal.cli._app import console, fail
     from rinscal.errors import RinscalError
@@ -637,8 +637,10 @@ def evaluate_cmd(
         mf = ThermalModelFile.load(model)
         df, _ = _read(log, map_file, col, time_col, time_unit, sep, temp_col)
         deriv = "causal" if causal else None
-        res = evaluate(df, mf, policy, deriv, StepConfig(window_s=step_window))  # type: ignore[arg-type]
-        allan, curves = allan_table(df, mf, policy, deriv)  # type: ignore[arg-type]
+        prepared = prepare(df, mf, policy, deriv)  # type: ignore[arg-type]
+        step = StepConfig(window_s=step_window)
+        res = evaluate(df, mf, policy, deriv, step, prepared=prepared)  # type: ignore[arg-type]
+        allan, curves = allan_table(df, mf, policy, deriv, prepared=prepared)  # type: ignore[arg-type]
         if allan_plot is not None:
             _write_allan_plot(allan_plot, curves, mf, log.name)
     except RinscalError as exc:
