@@ -32,7 +32,15 @@ from rinscal.calibration.features import Features, OutlierConfig
 from rinscal.calibration.modelfile import Policy, ThermalModelFile
 from rinscal.errors import ConfigError
 
-__all__ = ["StepConfig", "edge_crossings", "edge_steps", "evaluate"]
+__all__ = [
+    "Prepared",
+    "StepConfig",
+    "allan_table",
+    "edge_crossings",
+    "edge_steps",
+    "evaluate",
+    "prepare",
+]
 
 
 @dataclass(frozen=True)
