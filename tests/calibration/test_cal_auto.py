@@ -148,14 +148,21 @@ def test_folds_leave_one_run_out_legs_and_blocks() -> None:
     temp = np.concatenate([np.linspace(50, -10, 400), np.linspace(-10, 70, 500)])
     temp = np.concatenate([temp, np.linspace(70, 40, 300)])
     f = holdout_folds(np.zeros(temp.size, dtype=int), ["cycle"], temp)
-    assert f.scheme == "legs" and len(f.names) == 9  # each leg in 3 blocks: 8 folds at least
-    assert f.names[:4] == ("cycle/cool1/1", "cycle/cool1/2", "cycle/cool1/3", "cycle/heat/1")
-    legs = np.bincount(f.codes).reshape(3, 3).sum(axis=1)
-    assert np.abs(legs - [400, 500, 300]).max() <= 1  # turns at the extremes
-    assert np.all(np.diff(f.codes) >= 0)  # contiguous
+    assert f.scheme == "legs" and f.names == ("cycle/cool1", "cycle/heat", "cycle/cool2")
+    assert np.abs(np.bincount(f.codes) - [400, 500, 300]).max() <= 1  # turns at the extremes
+    # each leg is left out whole, and scored in 3 blocks: 8 scoring units at least
+    assert len(f.unit_names) == 9 and f.unit_names[:4] == (
+        "cycle/cool1/1",
+        "cycle/cool1/2",
+        "cycle/cool1/3",
+        "cycle/heat/1",
+    )
+    assert np.array_equal(f.unit_fold, np.repeat([0, 1, 2], 3))
+    assert np.array_equal(f.unit_fold[f.units], f.codes)
+    assert np.all(np.diff(f.units) >= 0)  # contiguous
     # one monotone warm-up: contiguous blocks
     f = holdout_folds(np.zeros(800, dtype=int), ["w"], np.linspace(10, 30, 800))
-    assert f.scheme == "blocks" and len(f.names) == 8
+    assert f.scheme == "blocks" and len(f.names) == 8 and np.array_equal(f.units, f.codes)
     assert np.all(np.diff(f.codes) >= 0)
 
 

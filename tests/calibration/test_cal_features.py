@@ -191,3 +191,16 @@ def test_simulated_rate_matches_the_true_sensor_rate(soak_small) -> None:
     j = np.searchsorted(t, [t[i] - 60, t[i] + 60])
     approx = (temp[j[1]] - temp[j[0]]) / (t[j[1]] - t[j[0]]) * 60
     assert abs(f.rate[r, 3][i] - approx) < 0.02
+
+
+@pytest.mark.parametrize(("n", "k"), [(9, 7), (50, 11), (700, 5), (4001, 101)])
+def test_short_running_median_equals_scipys(n, k) -> None:
+    # the numpy path (short logs: no scipy import) gives scipy's values exactly, ties included
+    from scipy.ndimage import median_filter
+
+    from rinscal.calibration.features import _median_filter
+
+    rng = np.random.default_rng(n)
+    y = rng.normal(size=n)
+    y[::3] = np.round(y[::3])
+    assert np.array_equal(_median_filter(y, k), median_filter(y, size=k, mode="nearest"))

@@ -12,9 +12,11 @@ nothing.
 Folds (:func:`holdout_folds`)
     Leave-one-run-out when the log has three runs or more. Otherwise each run is cut into its
     heating and cooling legs (turning points of the temperature, with a hysteresis of
-    max(1 °C, 10 % of the run's span)), and each leg into contiguous blocks so that there are
-    at least :data:`MIN_FOLDS` folds (a standard error needs several). Never random rows:
-    neighbouring samples of a slow thermal signal are not independent.
+    max(1 °C, 10 % of the run's span)) and each leg is left out in turn; its contiguous blocks
+    (at least :data:`MIN_FOLDS` in all) are scored apart, so that the held-out error has a
+    spread (a standard error needs several values) while a leg, a thermal regime of its own,
+    is never half in the training data. A single leg is cut into blocks left out one by one.
+    Never random rows: neighbouring samples of a slow thermal signal are not independent.
 
 Candidates (:func:`candidates`)
     ``none`` (a constant: no thermal compensation), ``ardupilot`` and ``px4`` (the field's
@@ -208,16 +210,26 @@ class Folds:
     Attributes
     ----------
     codes : ndarray of int, shape (n,)
-        Fold of each row.
+        Fold of each row: what a held-out fit leaves out.
     names : tuple of str
-        Fold names (a run, ``<run>/heat1``, ``<run>/cool2``, ``<run>/block3``...).
+        Fold names (a run, ``<run>/heat``, ``<run>/cool2``, ``<run>/3``...).
     scheme : str
         ``leave-one-run-out``, ``legs`` or ``blocks``.
+    units : ndarray of int, shape (n,)
+        Scoring unit of each row: a fold, or a contiguous block of one (a leg's blocks are
+        scored apart so that the error has a spread, but left out together).
+    unit_names : tuple of str
+        Unit names.
+    unit_fold : ndarray of int
+        Fold of each unit.
     """
 
     codes: np.ndarray
     names: tuple[str, ...]
     scheme: str
+    units: np.ndarray
+    unit_names: tuple[str, ...]
+    unit_fold: np.ndarray
 
 
 def _legs(temp: np.ndarray, min_frac: float = 0.05) -> list[tuple[int, int, str]]:
@@ -279,7 +291,9 @@ def holdout_folds(
     if present.size >= min_runs:
         remap = np.full(len(runs), -1)
         remap[present] = np.arange(present.size)
-        return Folds(remap[run_codes], tuple(runs[k] for k in present), "leave-one-run-out")
+        codes = remap[run_codes]
+        names = tuple(runs[k] for k in present)
+        return Folds(codes, names, "leave-one-run-out", codes, names, np.arange(present.size))
     pieces: list[tuple[np.ndarray, str]] = []
     for k in present:
         rows = np.flatnonzero(run_codes == k)
@@ -296,15 +310,34 @@ def holdout_folds(
     for rows, name in named:
         count[name] += 1
         pieces.append((rows, name if seen[name] == 1 else f"{name}{count[name]}"))
-    scheme = "legs" if len(pieces) >= 2 else "blocks"
     per = math.ceil(MIN_FOLDS / len(pieces))
-    codes = np.empty(run_codes.size, dtype=np.int64)
-    names = []
-    for rows, name in pieces:
+    units = np.empty(run_codes.size, dtype=np.int64)
+    unit_names: list[str] = []
+    leg_of: list[int] = []
+    for j, (rows, name) in enumerate(pieces):
         for i, part in enumerate(np.array_split(rows, per)):
-            codes[part] = len(names)
-            names.append(f"{name}/{i + 1}" if per > 1 else name)
-    return Folds(codes, tuple(names), scheme)
+            units[part] = len(unit_names)
+            unit_names.append(f"{name}/{i + 1}" if per > 1 else name)
+            leg_of.append(j)
+    if len(pieces) >= 2:  # leave one leg out, score its blocks apart
+        codes = np.asarray(leg_of)[units]
+        return Folds(
+            codes,
+            tuple(name for _, name in pieces),
+            "legs",
+            units,
+            tuple(unit_names),
+            np.asarray(leg_of),
+        )
+    # one leg: its blocks are the folds
+    return Folds(
+        units,
+        tuple(unit_names),
+        "blocks",
+        units,
+        tuple(unit_names),
+        np.arange(len(unit_names)),
+    )
 
 
 def _used_inputs(cand: Candidate, d: int) -> int:
@@ -446,11 +479,17 @@ def _polynomial_scores(
     n_folds: int,
     cands: Sequence[Candidate],
     blocks: np.ndarray,
+    units: np.ndarray | None = None,
+    unit_fold: np.ndarray | None = None,
 ) -> dict[str, tuple[np.ndarray, float]]:
-    """Held-out SS of block means about the fold mean, per fold, and the training RSS.
+    """Held-out SS of block means about the unit's mean, per scoring unit, and the training RSS.
 
-    ``blocks`` numbers the scored rows' averaging blocks (−1: not scored).
+    ``blocks`` numbers the scored rows' averaging blocks (−1: not scored); ``units`` and
+    ``unit_fold`` (default: the folds themselves) are the scoring units and their folds.
     """
+    if units is None or unit_fold is None:
+        units, unit_fold = folds, np.arange(n_folds)
+    n_units = int(unit_fold.size)
     d = x.shape[1]
     max_orders = list(MAX_ORDERS[:d])
     cs = [_center_scale(x[:, v]) for v in range(d)]
@@ -485,11 +524,10 @@ def _polynomial_scores(
         pad[: r.shape[0]] = r
         return pad, int(means.shape[0])
 
-    rs, rs_scored, counts = [], [], []
-    for k in range(n_folds):
-        sel = folds == k
-        rs.append(factor(sel))
-        r, nb = block_factor(sel & (blocks >= 0))
+    rs = [factor(folds == k) for k in range(n_folds)]
+    rs_scored, counts = [], []
+    for u in range(n_units):
+        r, nb = block_factor((units == u) & (blocks >= 0))
         rs_scored.append(r)
         counts.append(nb)
     start = np.cumsum([1, *max_orders[:-1]])
@@ -501,25 +539,27 @@ def _polynomial_scores(
     for cand in cands:
         assert cand.orders is not None
         if refused[tuple(min(v, 1) for v in cand.orders[:d])]:
-            out[cand.name] = (np.full(n_folds, np.nan), np.nan)
+            out[cand.name] = (np.full(n_units, np.nan), np.nan)
             continue
         cols = [0]
         for v, o in enumerate(cand.orders[:d]):
             cols.extend(range(int(start[v]), int(start[v]) + o))
         sel = [*cols, n_terms]
         m = len(cols)
-        ss = np.empty(n_folds)
+        ss = np.empty(n_units)
         for k in range(n_folds):
             train = np.vstack([rs[j][:, sel] for j in range(n_folds) if j != k])
             rt = np.linalg.qr(train, mode="r")
+            mine = np.flatnonzero(unit_fold == k)
             if m > 1 and design_condition(rt[:, :m]) > COND_ERROR:
-                ss[k] = np.nan
+                ss[mine] = np.nan
                 continue
             beta = np.append(solve_r(rt, m)[0], -1.0)
-            rk = rs_scored[k][:, sel]
-            total = float(np.sum((rk @ beta) ** 2))
-            mean = float(rk[0] @ beta) * float(rk[0, 0]) / max(counts[k], 1)
-            ss[k] = max(total - counts[k] * mean**2, 0.0)
+            for u in mine:
+                ru = rs_scored[u][:, sel]
+                total = float(np.sum((ru @ beta) ** 2))
+                mean = float(ru[0] @ beta) * float(ru[0, 0]) / max(counts[u], 1)
+                ss[u] = max(total - counts[u] * mean**2, 0.0)
         full = np.linalg.qr(np.vstack([r[:, sel] for r in rs]), mode="r")
         out[cand.name] = (ss, solve_r(full, m)[1])
     return out
@@ -556,7 +596,7 @@ class Selection:
         """JSON-able form (the model file's ``selection`` entry)."""
         return {
             "scheme": self.folds.scheme,
-            "folds": list(self.folds.names),
+            "folds": list(self.folds.unit_names),
             "tolerance": float(self.tolerance),
             "chosen": self.chosen.name,
             "fallback": self.fallback.name,
@@ -677,15 +717,16 @@ def _select(
     step = max(1, math.ceil(x.shape[0] / SCREEN_SAMPLES))
     if step > 1:
         x, y, run_codes, t = x[::step], y[::step], run_codes[::step], t[::step]
-        codes, scored = folds.codes[::step], scored[::step]
+        codes, scored, units = folds.codes[::step], scored[::step], folds.units[::step]
     else:
-        codes = folds.codes
-    blocks = _averaging_blocks(codes, run_codes, t, scored)
+        codes, units = folds.codes, folds.units
+    nu = len(folds.unit_names)
+    blocks = _averaging_blocks(units, run_codes, t, scored)
     counts = np.array(
-        [len(np.unique(blocks[(codes == k) & (blocks >= 0)])) for k in range(nf)], dtype=int
+        [len(np.unique(blocks[(units == u) & (blocks >= 0)])) for u in range(nu)], dtype=int
     )
     poly = [c for c in cands if c.orders is not None]
-    fast = _polynomial_scores(x, y, codes, nf, poly, blocks) if poly else {}
+    fast = _polynomial_scores(x, y, codes, nf, poly, blocks, units, folds.unit_fold) if poly else {}
     n_total = int(counts.sum())
     table, mse_rows = [], []
     for cand in cands:
@@ -694,23 +735,26 @@ def _select(
             ss, rss = fast[cand.name]
             train_rms = math.sqrt(rss / x.shape[0]) if np.isfinite(rss) else None
         else:
-            ss = np.empty(nf)
+            ss = np.empty(nu)
             for k in range(nf):
-                tr, te = codes != k, (codes == k) & scored
+                tr = codes != k
+                mine = np.flatnonzero(folds.unit_fold == k)
                 try:
                     with warnings.catch_warnings():
                         warnings.simplefilter("ignore")
                         if cand.method in ("px4", "ardupilot"):
                             params = baseline_fold(cand.method, k)
-                            pred = predict_params(params, x[te])
                         else:
                             params = fit_candidate(
                                 cand, x[tr], y[tr], run_codes[tr], t[tr], random_state, True
                             )
-                            pred = predict_params(params, x[te])
-                    ss[k] = _ss_about_mean(_block_means(y[te] - pred, blocks[te]))
                 except (ValueError, DesignError):
-                    ss[k] = np.nan
+                    ss[mine] = np.nan
+                    continue
+                for u in mine:
+                    te = (units == u) & scored
+                    pred = predict_params(params, x[te])
+                    ss[u] = _ss_about_mean(_block_means(y[te] - pred, blocks[te]))
         ss[counts == 0] = 0.0
         fold_rms = np.sqrt(ss / np.maximum(counts, 1))
         score = float(math.sqrt(np.sum(ss) / n_total)) if np.all(np.isfinite(ss)) else None

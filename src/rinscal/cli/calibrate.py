@@ -290,10 +290,13 @@ def fit(
     note = "RMS* of the training residual about each run's mean (turn-on offsets removed)."
     if method == "auto":
         first = next(iter(mf.models.values())).selection or {}
-        note += (
-            f" Held-out: {first.get('scheme', '?')} over {len(first.get('folds', []))} folds "
-            "(rinscal select LOG --method auto shows every candidate)."
+        scheme, parts = first.get("scheme", "?"), len(first.get("folds", []))
+        how = (
+            f"leave-one-leg-out, scored on {parts} blocks"
+            if scheme == "legs"
+            else f"{scheme} over {parts} folds"
         )
+        note += f" Held-out: {how} (rinscal select LOG --method auto shows every candidate)."
     console.print(f"{note} wrote {out}", highlight=False, soft_wrap=True)
 
 
