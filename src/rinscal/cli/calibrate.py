@@ -296,7 +296,10 @@ def fit(
             if scheme == "legs"
             else f"{scheme} over {parts} folds"
         )
-        note += f" Held-out: {how} (rinscal select LOG --method auto shows every candidate)."
+        note += (
+            f" Held-out: RMS of 60 s means of the residual, {how} (rinscal select LOG "
+            "--method auto shows every candidate)."
+        )
     console.print(f"{note} wrote {out}", highlight=False, soft_wrap=True)
 
 
@@ -484,7 +487,7 @@ def _select_auto(
     if as_json:
         doc = {
             "log": log.name,
-            "rms": "held-out RMS about each fold's mean, log units",
+            "rms": "held-out RMS of 60 s means of the residual about each part's mean, log units",
             "channels": {
                 c: {"unit": mf.models[c].unit, **(mf.models[c].selection or {})}
                 for c in mf.channels
@@ -495,8 +498,9 @@ def _select_auto(
     for c in mf.channels:
         sel = mf.models[c].selection or {}
         table = Table(
-            title=f"{c} ({mf.models[c].unit or '?'}): held-out RMS, {sel.get('scheme')} over "
-            f"{len(sel.get('folds', []))} folds ({', '.join(sel.get('folds', []))})"
+            title=f"{c} ({mf.models[c].unit or '?'}): held-out RMS of 60 s means, "
+            f"{sel.get('scheme')}, {len(sel.get('folds', []))} scored parts "
+            f"({', '.join(sel.get('folds', []))})"
         )
         for name in ("candidate", "params", "held-out RMS", "per fold", "train RMS", ""):
             table.add_column(name, justify="left" if name in ("candidate", "") else "right")
