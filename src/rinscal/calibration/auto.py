@@ -641,8 +641,18 @@ def choose(
     k = mse.shape[1]
     se = float(np.std(mse[b], ddof=1) / math.sqrt(k)) if k > 1 else 0.0
     limit = mean[b] + max(se, tolerance * mean[b])
-    near = [(cands[i].n_params, float(mean[i]), int(i)) for i in np.flatnonzero(mean <= limit)]
+    near = [(_rank(cands[i]), float(mean[i]), int(i)) for i in np.flatnonzero(mean <= limit)]
     return cands[min(near)[2]]
+
+
+def _rank(cand: Candidate) -> tuple[int, int]:
+    """Preference within noise: nothing, then the field's own fits, then the fewest parameters.
+
+    The field's cubic (PX4's or ArduPilot's) is what a user already has and what the flight
+    software can load (``rinscal export``): another model must beat it by more than noise.
+    """
+    tier = 0 if cand.family == "none" else 1 if cand.family in ("ardupilot", "px4") else 2
+    return tier, cand.n_params
 
 
 def select_channel(
