@@ -629,8 +629,8 @@ def choose(
         ``b``'s mean above it (the one-standard-error rule: Breiman et al. 1984; Hastie,
         Tibshirani, Friedman 2009, §7.10; the standard error is the spread of ``b``'s fold
         errors over √folds), or at most ``tolerance`` times ``b``'s mean above it. Among
-        those: the fewest thermal parameters, then the lowest error, then the first in
-        order.
+        those: no compensation, then the field's own fits, then the fewest thermal
+        parameters (:func:`_rank`), then the lowest error, then the first in order.
     """
     mse = np.asarray(fold_mse, dtype=np.float64)
     ok = np.all(np.isfinite(mse), axis=1)
