@@ -3,9 +3,9 @@
 Per channel, every candidate is fitted on all folds but one and scored on the fold left out;
 the score is the RMS of the held-out residual averaged over 60 s blocks (:data:`BLOCK_S`: the
 slow part a thermal model is for; white noise averages out), about each fold's own mean (a
-turn-on offset is not thermal), pooled over the folds. The choice is the simplest candidate
-(fewest thermal parameters) within noise of the best, the one-standard-error rule
-(:func:`choose`): a choice within noise of a simpler one goes to the simpler. "No
+turn-on offset is not thermal), pooled over the folds. Among the candidates within noise of
+the best (the one-standard-error rule, :func:`choose`) the choice is no compensation, else the
+field's own cubic, else the fewest thermal parameters: within noise, the simpler wins. "No
 compensation" is a candidate, so on the held-out data the choice is never worse than doing
 nothing.
 
