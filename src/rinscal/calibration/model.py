@@ -403,7 +403,11 @@ class ThermalModel:
                         xo, yo, codes, feats.runs, to, cands, self.tolerance, self.random_state
                     )
                     params = fit_candidate(sel.chosen, xo, yo, codes, to, self.random_state)
-                    fb = fit_candidate(sel.fallback, xo, yo, codes, to, self.random_state)
+                    fb = (  # a chosen model of T alone is its own fallback: fit it once
+                        params
+                        if sel.fallback == sel.chosen
+                        else fit_candidate(sel.fallback, xo, yo, codes, to, self.random_state)
+                    )
                     self.selections_[c] = sel.to_dict()
                 else:
                     hyper = self.hyper_for(c, sp)
