@@ -117,26 +117,48 @@ def test_held_out_scores_equal_fitting_each_fold_by_hand() -> None:
             assert ss[k] == pytest.approx(expect, rel=1e-8), (cand.name, k)
 
 
-def test_one_standard_error_rule() -> None:
+def test_within_noise_is_a_paired_t_test_on_log_ratios() -> None:
     cands = [
         Candidate("none", "none", "poly-t", {}, 0),
         Candidate("a", "poly-t", "poly-t", {}, 2),
         Candidate("b", "regression", "regression", {}, 6),
     ]
-    # b is best (mean 3.6, its fold errors spread: SE = 0.321); a (mean 3.833) is within one
-    # SE of it, none (mean 9) is not: a is chosen
+    # b is best (mean 3.6). a against b, unit by unit: ln(4.1/4.1) = 0, ln(3/3) = 0,
+    # ln(4.4/3.7) = 0.1733; mean 0.05776, sample sd 0.1000, SE 0.05776: t = 1.000, below
+    # the 90 % quantile of Student's t with 2 degrees of freedom (1.886): a is within noise
+    # and has fewer parameters. none: ln(9/4.1), ln(9.5/3), ln(8.5/3.7) = 0.786, 1.153, 0.832;
+    # t = 8.0: worse.
     mse = np.array([[9.0, 9.5, 8.5], [4.1, 3.0, 4.4], [4.1, 3.0, 3.7]])
-    se = np.std(mse[2], ddof=1) / np.sqrt(3)
-    assert mse[1].mean() < mse[2].mean() + se < mse[0].mean()
+    d = np.log(mse[1] / mse[2])
+    assert d.mean() / (d.std(ddof=1) / np.sqrt(3)) == pytest.approx(1.0, abs=1e-3)
     assert choose(cands, mse, tolerance=0.0).name == "a"
-    # b beats a by more than its standard error: b
+    # a worse on every unit by 20-70 %: ln ratios 0.198, 0.531, 0.301, t = 3.50 > 1.886
     mse[1] = [5.0, 5.1, 5.0]
     assert choose(cands, mse, tolerance=0.0).name == "b"
-    # a relative tolerance widens "within noise"
+    # ... unless the confidence asked for is higher (97.5 %: t quantile 4.303; none still out)
+    assert choose(cands, mse, tolerance=0.0, confidence=0.975).name == "a"
+    # a relative tolerance widens "within noise": 5.033 <= 1.5 * 3.6
     assert choose(cands, mse, tolerance=0.5).name == "a"
     # a candidate that failed on a fold is never chosen
     mse[2, 0] = np.nan
     assert choose(cands, mse).name == "a"
+
+
+def test_the_field_s_fit_comes_before_other_models_within_noise() -> None:
+    cands = [
+        Candidate("none", "none", "poly-t", {}, 0),
+        Candidate("ardupilot", "ardupilot", "ardupilot", {}, 3),
+        Candidate("px4", "px4", "px4", {}, 3),
+        Candidate("poly-t 1", "poly-t", "poly-t", {}, 1),
+    ]
+    # poly-t 1 best, the two cubics 1-3 % worse unit by unit but not consistently, none
+    # ten times worse: ArduPilot's (the least-squares cubic) before PX4's, before poly-t 1
+    mse = np.array(
+        [[10.0, 11.0, 9.0, 10.0], [1.03, 0.99, 1.02, 1.01], [1.01, 1.0, 1.04, 0.98], [1.0] * 4]
+    )
+    assert choose(cands, mse).name == "ardupilot"
+    mse[1] *= 1.5  # ArduPilot's now clearly worse
+    assert choose(cands, mse).name == "px4"
 
 
 def test_folds_leave_one_run_out_legs_and_blocks() -> None:

@@ -4,10 +4,10 @@ Per channel, every candidate is fitted on all folds but one and scored on the fo
 the score is the RMS of the held-out residual averaged over 60 s blocks (:data:`BLOCK_S`: the
 slow part a thermal model is for; white noise averages out), about each fold's own mean (a
 turn-on offset is not thermal), pooled over the folds. Among the candidates within noise of
-the best (the one-standard-error rule, :func:`choose`) the choice is no compensation, else the
-field's own cubic, else the fewest thermal parameters: within noise, the simpler wins. "No
-compensation" is a candidate, so on the held-out data the choice is never worse than doing
-nothing.
+the best (those a one-sided paired t-test on the folds' log error ratios cannot tell from it,
+:func:`choose`) the choice is no compensation, else the field's own cubic (ArduPilot's, then
+PX4's), else the fewest thermal parameters: within noise, the simpler wins. "No compensation"
+is a candidate, so on the held-out data the choice is never clearly worse than doing nothing.
 
 Folds (:func:`holdout_folds`)
     Leave-one-run-out when the log has three runs or more. Otherwise each run is cut into its
@@ -78,8 +78,11 @@ FAMILIES: tuple[str, ...] = ("none", "ardupilot", "px4", "poly-t", "regression",
 #: Families tried by default.
 DEFAULT_FAMILIES: tuple[str, ...] = ("none", "ardupilot", "px4", "poly-t", "regression")
 #: Default relative tolerance of the choice on the mean square error, on top of the
-#: one-standard-error rule.
+#: paired test (:func:`choose`).
 DEFAULT_TOLERANCE = 0.0
+#: One-sided confidence of the paired test by which a candidate is worse than the best
+#: (:func:`choose`).
+CONFIDENCE = 0.9
 #: Largest orders of the polynomial candidates (T, Ṫ, ΔT).
 MAX_ORDERS: tuple[int, int, int] = (4, 3, 3)
 #: Without three runs, legs are cut into contiguous blocks until there are this many folds
@@ -608,29 +611,36 @@ def choose(
     cands: Sequence[Candidate],
     fold_mse: np.ndarray,
     tolerance: float = DEFAULT_TOLERANCE,
+    confidence: float = CONFIDENCE,
 ) -> Candidate:
-    """The simplest candidate within noise of the best held-out error.
+    """The preferred candidate among those held-out error cannot tell from the best.
 
     Parameters
     ----------
     cands : sequence of Candidate
         In preference order.
-    fold_mse : ndarray, shape (len(cands), folds)
-        Held-out mean square error about each fold's mean; NaN where a candidate could not
-        be fitted (it is then never chosen).
+    fold_mse : ndarray, shape (len(cands), units)
+        Held-out mean square error of each scoring unit; NaN where a candidate could not be
+        fitted (it is then never chosen).
     tolerance : float
-        Relative tolerance on the best pooled mean square error.
+        Relative tolerance on the best mean square error.
+    confidence : float
+        One-sided confidence of the paired test (see below).
 
     Returns
     -------
     Candidate
-        Let ``b`` be the candidate of the lowest mean held-out MSE over the folds. A
-        candidate is within noise of it when its mean is at most one standard error of
-        ``b``'s mean above it (the one-standard-error rule: Breiman et al. 1984; Hastie,
-        Tibshirani, Friedman 2009, §7.10; the standard error is the spread of ``b``'s fold
-        errors over √folds), or at most ``tolerance`` times ``b``'s mean above it. Among
-        those: no compensation, then the field's own fits, then the fewest thermal
-        parameters (:func:`_rank`), then the lowest error, then the first in order.
+        Let ``b`` be the candidate of the lowest mean held-out MSE. Candidate ``i`` is within
+        noise of it unless a one-sided paired t-test on the units' log ratios
+        ``ln(MSE_i / MSE_b)`` says it is worse at ``confidence``: mean over standard error
+        above the Student t quantile of ``units − 1`` degrees of freedom (1.44 for 7 runs at
+        90 %). Paired, because every candidate is scored on the same units, and a hot run's
+        error is larger for all of them; on log ratios, because units' errors differ by orders
+        of magnitude and a model removes a share of each. Also within noise: a mean at most
+        ``tolerance`` times ``b``'s above it. Among those: no compensation, then ArduPilot's
+        fit, then PX4's (the field's cubic; ArduPilot's is the least-squares one, PX4's
+        weighs every temperature bin alike), then the fewest thermal parameters
+        (:func:`_rank`), then the lowest error.
     """
     mse = np.asarray(fold_mse, dtype=np.float64)
     ok = np.all(np.isfinite(mse), axis=1)
@@ -639,19 +649,30 @@ def choose(
     mean = np.where(ok, mse.mean(axis=1) if mse.size else np.inf, np.inf)
     b = int(np.argmin(mean))
     k = mse.shape[1]
-    se = float(np.std(mse[b], ddof=1) / math.sqrt(k)) if k > 1 else 0.0
-    limit = mean[b] + max(se, tolerance * mean[b])
-    near = [(_rank(cands[i]), float(mean[i]), int(i)) for i in np.flatnonzero(mean <= limit)]
-    return cands[min(near)[2]]
+    near = mean <= mean[b] * (1.0 + tolerance)
+    if k > 1:
+        from scipy.special import stdtrit  # Student t quantile (scipy.stats imports slowly)
+
+        floor = 1e-12 * max(float(mean[b]), np.finfo(np.float64).tiny)
+        logs = np.log(np.maximum(mse[ok], floor))
+        diff = logs - np.log(np.maximum(mse[b], floor))
+        avg = diff.mean(axis=1)
+        se = diff.std(axis=1, ddof=1) / math.sqrt(k)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            z = np.where(se > 0, avg / se, np.where(avg > 0, np.inf, 0.0))
+        near[np.flatnonzero(ok)] |= z <= float(stdtrit(k - 1, confidence))
+    near &= ok
+    pick = [(_rank(cands[i]), float(mean[i]), int(i)) for i in np.flatnonzero(near)]
+    return cands[min(pick)[2]]
 
 
 def _rank(cand: Candidate) -> tuple[int, int]:
-    """Preference within noise: nothing, then the field's own fits, then the fewest parameters.
+    """Preference within noise: nothing, ArduPilot's fit, PX4's, then the fewest parameters.
 
-    The field's cubic (PX4's or ArduPilot's) is what a user already has and what the flight
+    The field's cubic (ArduPilot's or PX4's) is what a user already has and what the flight
     software can load (``rinscal export``): another model must beat it by more than noise.
     """
-    tier = 0 if cand.family == "none" else 1 if cand.family in ("ardupilot", "px4") else 2
+    tier = {"none": 0, "ardupilot": 1, "px4": 2}.get(cand.family, 3)
     return tier, cand.n_params
 
 

@@ -128,7 +128,7 @@ def fit(
         typer.Option(
             "--tolerance",
             help="auto: also take a simpler model within this relative tolerance of the best "
-            "held-out mean square error (the one-standard-error rule always applies).",
+            "held-out mean square error (on top of the paired test, which always applies).",
         ),
     ] = 0.0,
     temp_range: Annotated[
@@ -320,7 +320,7 @@ def select(
             "--tolerance",
             help="Recommend the smallest setting within this relative tolerance of the best "
             "held-out RMS (regression/neural: default 0.02; auto: of the mean square error, "
-            "default 0, on top of the one-standard-error rule).",
+            "default 0, on top of the paired test).",
         ),
     ] = None,
     candidates: Annotated[
@@ -524,8 +524,10 @@ def _select_auto(
             )
         console.print(table)
     console.print(
-        "chosen: the fewest thermal parameters within one standard error (paired over folds) "
-        f"of the best held-out error{f' or within {tolerance:.1%}' if tolerance else ''}; "
+        "chosen: among the models a paired t-test (90 %, log ratios over the folds) cannot "
+        "tell from the best held-out error"
+        f"{f' or within {tolerance:.1%} of it' if tolerance else ''}: none, then ArduPilot's "
+        "fit, then PX4's, then the fewest thermal parameters; "
         "fallback: the same among models of T alone, used outside the training domain "
         "(compensate --policy fallback)",
         highlight=False,
