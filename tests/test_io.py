@@ -312,10 +312,13 @@ def foreign_mapping(**kw) -> ColumnMapping:
 
 def test_mapping_renames_converts_time_per_run_and_scales(tmp_path):
     p = write_text(tmp_path, "foreign.txt.csv", FOREIGN)
-    m = foreign_mapping(scale={"accel_z": 1e-3})
+    m = foreign_mapping(scale={"accel_z": 1e-3}, relative_time=True)
     df = read_log(p, m)
     assert df["run"].tolist() == ["A", "A", "A", "B", "B"]
     np.testing.assert_allclose(df["time_s"], [0.0, 0.010, 0.030, 0.0, 0.5], rtol=0, atol=1e-15)
+    # without relative_time (the default) the time is as given, converted to seconds
+    as_given = read_log(p, foreign_mapping())
+    np.testing.assert_allclose(as_given["time_s"], [1000.0, 1000.01, 1000.03, 5.0, 5.5], rtol=0)
     assert df["temp_in"].tolist() == [20.5, 20.6, 20.7, 30.0, 30.1]
     np.testing.assert_allclose(df["accel_z"], 6e-3)
     assert "status" not in df.columns and "T" not in df.columns
@@ -325,7 +328,14 @@ def test_absolute_microsecond_time_is_exact(tmp_path):
     t_us = np.array([256551281491968, 256551281997598, 256551282503295])
     text = "t;a;b;c;d;e;f;temp\n" + "".join(f"{t};1;2;3;4;5;6;20\n" for t in t_us)
     cols = dict(zip("abcdef", CHANNELS, strict=True))
-    m = ColumnMapping(columns=cols, time="t", time_unit="us", temperature="temp", separator=";")
+    m = ColumnMapping(
+        columns=cols,
+        time="t",
+        time_unit="us",
+        temperature="temp",
+        separator=";",
+        relative_time=True,
+    )
     df = read_log(write_text(tmp_path, "abs.csv", text), m)
     # differences taken in integers: exact to the microsecond despite 2.6e14 offsets
     assert df["time_s"].tolist() == [0.0, 0.50563, 1.011327]

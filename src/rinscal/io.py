@@ -11,7 +11,8 @@ temperature) is read through a :class:`ColumnMapping`, from a small TOML file
     # tofupilot_mapping.toml
     separator = "tab"            # "tab", "comma", "semicolon" or "auto"
     time = "timestamp"           # foreign time column ...
-    time_unit = "us"             # ... in s, ms or us; made relative to each run's first sample
+    time_unit = "us"             # ... in s, ms or us
+    relative_time = true         # shift each run to start at 0 (default false: time as given)
     temperature = "imu.temperature"   # one shared inner temperature -> temp_in
     drop = ["imu.status"]        # columns to leave out
     run = "thermal_cycle"        # run name when the log has no run column (default: file stem)
@@ -129,8 +130,8 @@ class ColumnMapping:
     time_unit : {"s", "ms", "us"}
         Unit of the time column; it is converted to seconds.
     relative_time : bool
-        Make time relative to the first sample of each run (default), e.g. for an absolute
-        µs timestamp.
+        Shift each run's time so that its first sample is at 0 s, e.g. for an absolute µs
+        timestamp. Off by default: time is read as given (only its unit converted).
     separator : {"auto", "tab", "comma", "semicolon"}, optional
         Field separator of a text file; ``None`` (default) follows the suffix
         (``.tsv`` tab, ``.csv`` comma); ``"auto"`` guesses from the header line.
@@ -150,7 +151,7 @@ class ColumnMapping:
     columns: Mapping[str, str] = field(default_factory=dict)
     time: str | None = None
     time_unit: str = "s"
-    relative_time: bool = True
+    relative_time: bool = False
     separator: str | None = None
     temperature: str | None = None
     run: str | None = None
@@ -294,6 +295,7 @@ def mapping_from_options(
     run: str | None = None,
     drop: Sequence[str] = (),
     scale: Sequence[str] = (),
+    relative_time: bool | None = None,
 ) -> ColumnMapping | None:
     """Build (or override) a mapping from command-line style options.
 
@@ -309,6 +311,8 @@ def mapping_from_options(
         Foreign columns to leave out.
     scale : sequence of str
         ``"channel=factor"`` pairs.
+    relative_time : bool, optional
+        Override the mapping's ``relative_time`` (None: keep it; off without a mapping).
 
     Returns
     -------
@@ -342,6 +346,7 @@ def mapping_from_options(
         "separator": separator,
         "temperature": temperature,
         "run": run,
+        "relative_time": relative_time,
     }
     given = {k: v for k, v in given.items() if v is not None}
     if base is None and not (given or columns or drop or scale):
@@ -439,14 +444,17 @@ def _separator(p: Path, fmt: Format, mapping: ColumnMapping | None, header: str)
     return sep
 
 
-def _read_table(p: Path, fmt: Format, mapping: ColumnMapping | None) -> pd.DataFrame:
+def _read_table(
+    p: Path, fmt: Format, mapping: ColumnMapping | None
+) -> tuple[pd.DataFrame, str | None]:
+    """The file's table and its separator (None for Parquet)."""
     if fmt == "parquet":
         with p.open("rb") as fh:
             magic = fh.read(4)
         if magic != b"PAR1":
             raise LogError(f"{p}: not a Parquet file (no PAR1 magic number)")
         try:
-            return _read_parquet_columns(p)
+            return _read_parquet_columns(p), None
         except Exception as exc:  # pyarrow raises many types for a damaged file
             raise LogError(f"{p}: unreadable Parquet file: {exc}") from None
     header = _sniff_text(p)
@@ -462,13 +470,18 @@ def _read_table(p: Path, fmt: Format, mapping: ColumnMapping | None) -> pd.DataF
     run_name = RUN
     if mapping is not None:
         run_name = next((f for f, c in mapping.columns.items() if c == RUN), RUN)
+    owned = _owned_columns(mapping)
     try:
         header_cols = pd.read_csv(p, sep=sep, nrows=0, encoding="utf-8-sig").columns
-        na = {c: [""] if c == run_name else list(_NA_STRINGS) for c in header_cols}
+        # columns the reader owns are numbers (pandas' missing-value strings are NaN); the run
+        # name and every other column are text kept exactly as written ("NA" stays "NA")
+        text = [c for c in header_cols if c == run_name or c not in owned]
+        na = {c: list(_NA_STRINGS) for c in header_cols if c not in text}
+        na[run_name] = [""]
         df = pd.read_csv(
             p,
             sep=sep,
-            dtype={run_name: str},
+            dtype=dict.fromkeys(text, str),
             encoding="utf-8-sig",
             keep_default_na=False,
             na_values=na,
@@ -488,7 +501,15 @@ def _read_table(p: Path, fmt: Format, mapping: ColumnMapping | None) -> pd.DataF
             f"{p}: not a table: only one column {str(df.columns[0])[:60]!r} with "
             f"{seps.get(sep, repr(sep))} separation{hint}"
         )
-    return df
+    return df, sep
+
+
+def _owned_columns(mapping: ColumnMapping | None) -> set[str]:
+    """Columns of a file that the reader parses as numbers: canonical or mapped onto one."""
+    owned = set(CANONICAL)
+    if mapping is not None:
+        owned |= set(mapping.foreign_columns())
+    return owned
 
 
 def _apply_mapping(
@@ -544,6 +565,58 @@ def _first_of_run(run: pd.Series) -> np.ndarray:
     return first[codes]
 
 
+@dataclass(frozen=True)
+class SourceLog:
+    """A log as read: the canonical frame and the file's own table, for writing back.
+
+    Attributes
+    ----------
+    log : DataFrame
+        The validated canonical log (see :func:`rinscal.schema.validate_log`).
+    raw : DataFrame
+        The file's table as read, every column under its own name and in its own order
+        (columns the reader does not own as text, exactly as written).
+    names : dict of str to str
+        Canonical name -> the file's name, for renamed columns.
+    scale : dict of str to float
+        Channel -> factor the mapping multiplied it by.
+    sep : str or None
+        Field separator of a text file (None for Parquet): a text file is written back with it.
+    """
+
+    log: pd.DataFrame
+    raw: pd.DataFrame
+    names: dict[str, str]
+    scale: dict[str, float]
+    sep: str | None = None
+
+    def write_back(
+        self, values: Mapping[str, np.ndarray], extra: Mapping[str, Any]
+    ) -> pd.DataFrame:
+        """The file's table with some canonical channels replaced and columns appended.
+
+        Parameters
+        ----------
+        values : mapping of str to ndarray
+            Canonical channel -> new values in canonical units (divided back by the
+            mapping's scale), written under the file's name for the channel.
+        extra : mapping of str to array-like
+            Columns to add (or replace, if the file has them) at the end.
+
+        Returns
+        -------
+        DataFrame
+            Same rows, same columns in the same order (then ``extra``); every column not
+            named is the file's own, untouched.
+        """
+        out = self.raw.copy()
+        for c, v in values.items():
+            out[self.names.get(c, c)] = np.asarray(v, dtype=np.float64) / self.scale.get(c, 1.0)
+        for name, v in extra.items():
+            out[name] = v
+        return out
+
+
 def read_log(
     path: str | os.PathLike[str],
     mapping: ColumnMapping | None = None,
@@ -565,12 +638,27 @@ def read_log(
     -------
     DataFrame
         The validated canonical log (see :func:`rinscal.schema.validate_log`), rows in file
-        order, RangeIndex.
+        order, RangeIndex; columns the reader does not own are text, as written.
 
     Raises
     ------
     LogError
         Naming the file, the column and the first offending data row.
+    """
+    return read_log_source(path, mapping, fmt=fmt).log
+
+
+def read_log_source(
+    path: str | os.PathLike[str],
+    mapping: ColumnMapping | None = None,
+    *,
+    fmt: str | None = None,
+) -> SourceLog:
+    """Read and validate a calibration log, keeping the file's own table (see :func:`read_log`).
+
+    Returns
+    -------
+    SourceLog
     """
     p = Path(path)
     f = format_of(p, fmt)
@@ -578,11 +666,13 @@ def read_log(
         raise LogError(f"{p}: no such file")
     if p.is_dir():
         raise LogError(f"{p}: is a folder, not a log file")
-    df = _read_table(p, f, mapping)
-    names: dict[str, str] = {}
+    raw, sep = _read_table(p, f, mapping)
+    df, names = raw, {}
     if mapping is not None:
-        df, names = _apply_mapping(df, mapping, p)
-    return validate_log(df, source=str(p), names=names)
+        df, names = _apply_mapping(raw, mapping, p)
+    log = validate_log(df, source=str(p), names=names)
+    scale = dict(mapping.scale) if mapping is not None else {}
+    return SourceLog(log, raw, names, scale, sep)
 
 
 # --------------------------------------------------------------------------- writing
@@ -623,6 +713,7 @@ def write_log(
     *,
     fmt: str | None = None,
     validate: bool = True,
+    sep: str | None = None,
 ) -> None:
     """Write a calibration log atomically, losslessly.
 
@@ -639,6 +730,8 @@ def write_log(
         Format, overriding the suffix.
     validate : bool
         Validate the log first (default) so that no invalid log is ever written.
+    sep : str, optional
+        Field separator of a text file (default: tab for ``.tsv``, comma for ``.csv``).
 
     Raises
     ------
@@ -658,7 +751,7 @@ def write_log(
         else:
             df.to_csv(
                 tmp,
-                sep="\t" if f == "tsv" else ",",
+                sep=sep or ("\t" if f == "tsv" else ","),
                 index=False,
                 float_format=None,
                 lineterminator="\n",

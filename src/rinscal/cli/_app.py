@@ -12,6 +12,7 @@ app = typer.Typer(
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
+    rich_markup_mode=None,  # help text is plain: units in brackets ([h], [s]) are kept
 )
 
 #: Messages and tables go to stderr-free stdout; errors to stderr.

@@ -11,6 +11,8 @@ import typer
 if TYPE_CHECKING:
     import pandas as pd
 
+    from rinscal.io import SourceLog
+
 LogArg = Annotated[Path, typer.Argument(help="Calibration log (.csv, .tsv or .parquet).")]
 MapOpt = Annotated[
     Path | None, typer.Option("--map", help="Column mapping (TOML) for a foreign log.")
@@ -23,6 +25,14 @@ TimeColOpt = Annotated[str | None, typer.Option("--time-col", help="Foreign time
 TimeUnitOpt = Annotated[str | None, typer.Option("--time-unit", help="Time unit: s, ms or us.")]
 SepOpt = Annotated[
     str | None, typer.Option("--sep", help="Separator: tab, comma, semicolon or auto.")
+]
+RelTimeOpt = Annotated[
+    bool,
+    typer.Option(
+        "--relative-time",
+        help="Shift each run's time to start at 0 s (for an absolute timestamp); "
+        "off unless given: time is read as it is, only converted to seconds.",
+    ),
 ]
 TempColOpt = Annotated[
     str | None,
@@ -83,13 +93,34 @@ def read_foreign_log(
     temp_col: str | None = None,
     drop: list[str] | None = None,
     run_name: str | None = None,
+    relative_time: bool = False,
 ) -> tuple[pd.DataFrame, dict[str, Any]]:
     """Read a log through a mapping file and/or options, with its metadata.
 
     The metadata is the log's sidecar ``.meta.json``; where it gives no units, the mapping's
-    units are used. ``meta["log"]`` is the log's file name.
+    units are used. ``meta["log"]`` is the log's file name. ``relative_time`` turns the
+    mapping's relative time on (a mapping file may also ask for it).
     """
-    from rinscal.io import mapping_from_options, read_log, read_mapping, read_meta
+    src, meta = read_foreign_source(
+        log, map_file, col, time_col, time_unit, sep, temp_col, drop, run_name, relative_time
+    )
+    return src.log, meta
+
+
+def read_foreign_source(
+    log: Path,
+    map_file: Path | None = None,
+    col: list[str] | None = None,
+    time_col: str | None = None,
+    time_unit: str | None = None,
+    sep: str | None = None,
+    temp_col: str | None = None,
+    drop: list[str] | None = None,
+    run_name: str | None = None,
+    relative_time: bool = False,
+) -> tuple[SourceLog, dict[str, Any]]:
+    """:func:`read_foreign_log`, keeping the file's own table (to write it back)."""
+    from rinscal.io import mapping_from_options, read_log_source, read_mapping, read_meta
     from rinscal.schema import CHANNELS
 
     base = read_mapping(map_file) if map_file is not None else None
@@ -102,12 +133,13 @@ def read_foreign_log(
         temperature=temp_col,
         run=run_name,
         drop=drop or (),
+        relative_time=True if relative_time else None,
     )
-    df = read_log(log, mapping)
+    src = read_log_source(log, mapping)
     meta = dict(read_meta(log) or {})
     if "units" not in meta and mapping is not None:
         units = {c: u for c in CHANNELS if (u := mapping.unit_of(c))}
         if units:
             meta["units"] = units
     meta.setdefault("log", log.name)
-    return df, meta
+    return src, meta

@@ -19,11 +19,13 @@ from rinscal.cli._options import (
     ColOpt,
     LogArg,
     MapOpt,
+    RelTimeOpt,
     SepOpt,
     TempColOpt,
     TimeColOpt,
     TimeUnitOpt,
     read_foreign_log,
+    read_foreign_source,
     refuse_inputs,
 )
 
@@ -52,9 +54,12 @@ def _read(
     time_unit: str | None,
     sep: str | None,
     temp_col: str | None,
+    relative_time: bool = False,
 ) -> tuple[pd.DataFrame, dict[str, Any]]:
     """Read a log and its metadata (units from the mapping when there is no sidecar)."""
-    return read_foreign_log(log, map_file, col, time_col, time_unit, sep, temp_col)
+    return read_foreign_log(
+        log, map_file, col, time_col, time_unit, sep, temp_col, relative_time=relative_time
+    )
 
 
 def _ints(text: str | None, option: str) -> tuple[int, ...] | None:
@@ -169,6 +174,7 @@ def fit(
     time_unit: TimeUnitOpt = None,
     sep: SepOpt = None,
     temp_col: TempColOpt = None,
+    relative_time: RelTimeOpt = False,
 ) -> None:
     """Fit a thermal model per channel and write it as a JSON model file.
 
@@ -214,7 +220,7 @@ def fit(
             transient=True,
         ) as progress:
             task = progress.add_task("reading log", total=None)
-            df, meta = _read(log, map_file, col, time_col, time_unit, sep, temp_col)
+            df, meta = _read(log, map_file, col, time_col, time_unit, sep, temp_col, relative_time)
             model = ThermalModel(
                 method,
                 orders=_ints(orders, "--orders"),
@@ -346,6 +352,7 @@ def select(
     time_unit: TimeUnitOpt = None,
     sep: SepOpt = None,
     temp_col: TempColOpt = None,
+    relative_time: RelTimeOpt = False,
 ) -> None:
     """Held-out RMS per channel: of every auto candidate, or of orders 1-4 / 1-8 neurons."""
     import warnings
@@ -358,7 +365,7 @@ def select(
             window,
             seed,
             as_json,
-            (map_file, col, time_col, time_unit, sep, temp_col),
+            (map_file, col, time_col, time_unit, sep, temp_col, relative_time),
         )
         return
     tolerance = 0.02 if tolerance is None else tolerance
@@ -385,7 +392,7 @@ def select(
             transient=True,
         ) as progress:
             task = progress.add_task("reading log", total=None)
-            df, meta = _read(log, map_file, col, time_col, time_unit, sep, temp_col)
+            df, meta = _read(log, map_file, col, time_col, time_unit, sep, temp_col, relative_time)
             progress.update(task, description="selecting", total=6 * len(tried))
 
             def step(channel: str, setting: int) -> None:
@@ -550,6 +557,7 @@ def compensate_cmd(
     time_unit: TimeUnitOpt = None,
     sep: SepOpt = None,
     temp_col: TempColOpt = None,
+    relative_time: RelTimeOpt = False,
 ) -> None:
     """Compensate every sensor channel (Eq. 10); add the out_of_range flag column."""
     from rich.progress import Progress
@@ -558,7 +566,7 @@ def compensate_cmd(
     from rinscal.calibration.modelfile import POLICIES, ThermalModelFile
     from rinscal.cli._app import console, err_console, fail
     from rinscal.errors import RinscalError
-    from rinscal.io import meta_path, write_log, write_meta
+    from rinscal.io import format_of, meta_path, write_log, write_meta
 
     if policy not in POLICIES:
         raise fail(f"--policy must be one of {', '.join(POLICIES)}, got {policy!r}")
@@ -568,11 +576,19 @@ def compensate_cmd(
         with Progress(console=err_console, transient=True) as progress:
             task = progress.add_task("reading", total=3)
             mf = ThermalModelFile.load(model)
-            df, meta = _read(log, map_file, col, time_col, time_unit, sep, temp_col)
+            src, meta = read_foreign_source(
+                log, map_file, col, time_col, time_unit, sep, temp_col, None, None, relative_time
+            )
+            df = src.log
             progress.update(task, advance=1, description="compensating")
             res = compensate(df, mf, policy, "causal" if causal else None)  # type: ignore[arg-type]
             progress.update(task, advance=1, description="writing")
-            write_log(res, out)
+            # the file's own table back, its channels compensated, nothing else touched
+            table = src.write_back(
+                {c: res[c].to_numpy() for c in mf.channels}, {FLAG_COLUMN: res[FLAG_COLUMN]}
+            )
+            same_kind = format_of(out) != "parquet" and format_of(log) != "parquet"
+            write_log(table, out, validate=False, sep=src.sep if same_kind else None)
             if meta:
                 meta = dict(meta)
                 meta["compensated"] = {
@@ -624,6 +640,7 @@ def evaluate_cmd(
     time_unit: TimeUnitOpt = None,
     sep: SepOpt = None,
     temp_col: TempColOpt = None,
+    relative_time: RelTimeOpt = False,
 ) -> None:
     """RMS (Eq. 16, about each run's mean) before/after compensation; steps at segment edges.
 
@@ -644,7 +661,7 @@ def evaluate_cmd(
         refuse_inputs(allan_plot, inputs)
     try:
         mf = ThermalModelFile.load(model)
-        df, _ = _read(log, map_file, col, time_col, time_unit, sep, temp_col)
+        df, _ = _read(log, map_file, col, time_col, time_unit, sep, temp_col, relative_time)
         deriv = "causal" if causal else None
         prepared = prepare(df, mf, policy, deriv)  # type: ignore[arg-type]
         step = StepConfig(window_s=step_window)

@@ -14,6 +14,7 @@ from rinscal.cli._options import (
     ImuOpt,
     LogArg,
     MapOpt,
+    RelTimeOpt,
     RunNameOpt,
     SepOpt,
     TempColOpt,
@@ -42,6 +43,7 @@ def plot(
     time_unit: TimeUnitOpt = None,
     sep: SepOpt = None,
     temp_col: TempColOpt = None,
+    relative_time: RelTimeOpt = False,
     drop: DropOpt = None,
     run_name: RunNameOpt = None,
     title: Annotated[str | None, typer.Option("--title", help="Figure title.")] = None,
@@ -67,7 +69,16 @@ def plot(
         with Progress(console=console, transient=True) as progress:
             task = progress.add_task("reading log", total=3)
             df, meta = read_foreign_log(
-                log, map_file, col, time_col, time_unit, sep, temp_col, drop, run_name
+                log,
+                map_file,
+                col,
+                time_col,
+                time_unit,
+                sep,
+                temp_col,
+                drop,
+                run_name,
+                relative_time,
             )
             progress.update(task, advance=1, description="drawing")
 

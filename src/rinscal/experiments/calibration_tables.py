@@ -194,6 +194,7 @@ def tofupilot_mapping() -> Any:
         columns=cols,
         time="timestamp",
         time_unit="us",
+        relative_time=True,
         separator="tab",
         temperature="imu.temperature",
         drop=("imu.status",),
