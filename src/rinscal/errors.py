@@ -21,3 +21,38 @@ class ModelFileError(RinscalError, ValueError):
 
 class RangeError(RinscalError, ValueError):
     """An input lies outside the range a model was trained on and the policy is ``error``."""
+
+
+class OutputError(RinscalError, OSError):
+    """An output file or folder cannot be written: the message names the path and the cause."""
+
+
+def describe_os_error(exc: OSError, path: object = None) -> str:
+    """A one-line message for an operating-system error, naming the path and what to do.
+
+    Parameters
+    ----------
+    exc : OSError
+        The error (permission denied, no such folder, disk full, ...).
+    path : path-like, optional
+        The path the user gave (default: the one the error names).
+
+    Returns
+    -------
+    str
+    """
+    import errno
+
+    where = str(path if path is not None else (exc.filename or "output"))
+    why = exc.strerror or str(exc)
+    hint = {
+        errno.EACCES: "choose another location or change the folder's permissions",
+        errno.EPERM: "choose another location or change the folder's permissions",
+        errno.EROFS: "the file system is read-only; choose another location",
+        errno.ENOENT: "the folder does not exist; create it or choose another",
+        errno.ENOSPC: "the disk is full; free space or choose another location",
+        errno.EDQUOT: "the disk quota is exceeded; free space or choose another location",
+        errno.EISDIR: "that is a folder; give a file name",
+        errno.ENOTDIR: "a part of the path is a file, not a folder",
+    }.get(exc.errno or 0)
+    return f"{where}: cannot write: {why}" + (f"; {hint}" if hint else "")

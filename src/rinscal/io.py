@@ -49,7 +49,7 @@ from typing import Any, Literal
 import numpy as np
 import pandas as pd
 
-from rinscal.errors import ConfigError, LogError
+from rinscal.errors import ConfigError, LogError, OutputError, describe_os_error
 from rinscal.schema import (
     CANONICAL,
     CHANNELS,
@@ -683,10 +683,14 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; move it onto ``path`` if the block succeeds.
 
     The temporary file keeps the suffix of ``path`` (writers that pick the format from it
-    work) and is removed if the block raises.
+    work) and is removed if the block raises. An operating-system error (permission, missing
+    folder, full disk) becomes :class:`rinscal.errors.OutputError` naming ``path``.
     """
     p = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=f".tmp{p.suffix}", dir=p.parent)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=f".tmp{p.suffix}", dir=p.parent)
+    except OSError as exc:
+        raise OutputError(describe_os_error(exc, p)) from None
     os.close(fd)
     tmp_path = Path(tmp)
     try:
@@ -696,6 +700,10 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
         os.umask(umask)
         os.chmod(tmp_path, 0o666 & ~umask)
         os.replace(tmp_path, p)
+    except OutputError:
+        raise
+    except OSError as exc:  # disk full while writing, a folder in the way of the name...
+        raise OutputError(describe_os_error(exc, p)) from None
     finally:
         with contextlib.suppress(FileNotFoundError):
             tmp_path.unlink()

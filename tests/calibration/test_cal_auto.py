@@ -298,3 +298,26 @@ def test_auto_on_the_real_log_is_never_worse_than_none_on_its_held_out_legs() ->
         assert rows[sel["chosen"]]["heldout_rms"] <= rows["none"]["heldout_rms"]
     frame = pd.DataFrame(mf.models["accel_x"].selection["table"])
     assert len(frame) == 19 and frame["heldout_rms"].notna().all()  # T, Ṫ: no ΔT candidates
+
+
+def test_the_field_s_final_fit_reuses_its_filter_and_equals_the_tool_s_fit() -> None:
+    from rinscal.calibration.auto import _baseline_screens
+    from rinscal.calibration.baselines import ardupilot_fit, px4_fit
+
+    x, codes, t = _runs(n_runs=4, n=900, seed=11)
+    rng = np.random.default_rng(11)
+    y = 0.02 * (x[:, 0] - 20) ** 2 + rng.normal(0, 0.1, x.shape[0])
+    cands = candidates("accel", 3, families=("px4", "ardupilot"))
+    fit = _baseline_screens(x[:, 0], y, codes, t, codes, cands)
+    want = {
+        "px4": px4_fit(x[:, 0], y, codes, sensor="accel"),
+        "ardupilot": ardupilot_fit(x[:, 0], y, t, codes, sensor="accel"),
+    }
+    for method, expect in want.items():
+        got = fit(method, None)
+        assert got.keys() == expect.keys()
+        for key, value in expect.items():
+            if isinstance(value, str):
+                assert got[key] == value
+            else:
+                np.testing.assert_allclose(got[key], value, rtol=1e-12, atol=0, err_msg=key)

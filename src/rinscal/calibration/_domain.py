@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["DEFAULT_BINS", "fit_domain", "inside_domain", "validate_domain"]
+__all__ = ["DEFAULT_BINS", "column_range", "fit_domain", "inside_domain", "validate_domain"]
 
 #: Cells per input.
 DEFAULT_BINS = 24
@@ -38,6 +38,29 @@ def _cells(x: np.ndarray, lo: np.ndarray, hi: np.ndarray, bins: np.ndarray) -> n
     width = np.where(hi > lo, (hi - lo) / bins, 1.0)
     idx = np.floor((x - lo) / width).astype(np.int64)
     return np.clip(idx, 0, bins - 1)
+
+
+def column_range(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Least and greatest value of each column of ``x`` (n, k), one column at a time.
+
+    (``x.min(axis=0)`` on a row-major (n, 3) array runs several times slower.)
+    """
+    lo = np.array([x[:, v].min() for v in range(x.shape[1])], dtype=np.float64)
+    hi = np.array([x[:, v].max() for v in range(x.shape[1])], dtype=np.float64)
+    return lo, hi
+
+
+def _flat_cells(x: np.ndarray, lo: np.ndarray, hi: np.ndarray, bins: np.ndarray) -> np.ndarray:
+    """Row-major flat cell number of each sample (the cells of :func:`_cells`), shape (n,)."""
+    cols = np.ascontiguousarray(x.T)  # one input per row: contiguous arithmetic
+    flat = np.zeros(x.shape[0], dtype=np.int64)
+    for v in range(lo.size):
+        width = (hi[v] - lo[v]) / bins[v] if hi[v] > lo[v] else 1.0
+        idx = np.floor((cols[v] - lo[v]) / width).astype(np.int64)
+        np.clip(idx, 0, bins[v] - 1, out=idx)
+        flat *= bins[v]
+        flat += idx
+    return flat
 
 
 def fit_domain(x: np.ndarray, bins: int = DEFAULT_BINS) -> dict[str, Any]:
@@ -59,11 +82,13 @@ def fit_domain(x: np.ndarray, bins: int = DEFAULT_BINS) -> dict[str, Any]:
     if x.ndim != 2 or x.shape[0] == 0 or not 1 <= x.shape[1] <= 3:
         raise ValueError(f"need a non-empty (n, 1..3) input matrix, got shape {x.shape}")
     k = x.shape[1]
-    lo, hi = x.min(axis=0), x.max(axis=0)
+    lo, hi = column_range(x)
     nb = np.full(k, int(bins), dtype=np.int64)
     nb[hi <= lo] = 1  # a constant input: one cell
-    occ = np.zeros(tuple(nb), dtype=bool)
-    occ[tuple(_cells(x, lo, hi, nb).T)] = True
+    occ = np.zeros(int(np.prod(nb)), dtype=bool)
+    for s in range(0, x.shape[0], 1 << 16):  # flat cell numbers, a block of rows at a time
+        occ[_flat_cells(x[s : s + (1 << 16)], lo, hi, nb)] = True
+    occ = occ.reshape(tuple(nb))
     for axis in range(k):  # dilate by one cell: a separable 3×3(×3) box
         grown = occ.copy()
         lead = [slice(None)] * k

@@ -93,7 +93,7 @@ HIDDEN: tuple[int, ...] = (2, 4, 6)
 #: Screening budget of a neural candidate's held-out fits.
 NEURAL_SCREEN: dict[str, int] = {"max_samples": 5000, "n_init": 1}
 #: Filtered samples (every k-th) the PX4 and ArduPilot fits of a held-out fold use at most.
-SCREEN_ROWS = 500_000
+SCREEN_ROWS = 200_000
 #: Averaging block of the held-out residual [s]: the score is the RMS of 60 s means of the
 #: residual, the part of the error a thermal model is for; white noise averages out
 #: (by √(rate × 60 s)) and no longer hides thermal differences at high sample rates.
@@ -400,7 +400,7 @@ def _baseline_screens(
     t: np.ndarray,
     folds: np.ndarray,
     cands: Sequence[Candidate],
-) -> Callable[[str, int], dict[str, Any]]:
+) -> Callable[[str, int | None], dict[str, Any]]:
     """Held-out fits of the PX4 and ArduPilot candidates, each tool's filter run once.
 
     Each tool's filter (PX4's 31-sample median, ArduPilot's 2 s moving average) runs once
@@ -408,7 +408,9 @@ def _baseline_screens(
     on the training folds' filtered samples, every k-th of them so that at most
     :data:`SCREEN_ROWS` are used (the fits average thousands of smooth samples per degree).
     A filter window that straddles a fold boundary sees a few seconds of the held-out fold.
-    Returns ``fit(method, k)``: the parameters with fold ``k`` held out.
+    Returns ``fit(method, k)``: the parameters with fold ``k`` held out, or with ``k`` None
+    the tool's own fit on every row (equal to :func:`rinscal.calibration.baselines.px4_fit`
+    and ``ardupilot_fit`` on the same data, the filter not run again).
     """
     from rinscal.calibration.baselines import (
         ardupilot_fit_smoothed,
@@ -420,28 +422,30 @@ def _baseline_screens(
     methods = {c.method: c for c in cands if c.method in ("px4", "ardupilot")}
     pre: dict[str, tuple[np.ndarray, ...]] = {}
     if "px4" in methods:
-        pre["px4"] = px4_filtered(temp, y, run_codes)
+        pre["px4"] = (*px4_filtered(temp, y, run_codes), folds)
     if "ardupilot" in methods:
-        t_s, y_s, _, _, rows = ardupilot_smoothed(temp, y, t, run_codes)
-        pre["ardupilot"] = (t_s, y_s, folds[rows])
+        t_s, y_s, t_kept, y_kept, rows = ardupilot_smoothed(temp, y, t, run_codes)
+        pre["ardupilot"] = (t_s, y_s, folds[rows], t_kept, y_kept)
 
-    train_rows: dict[tuple[str, int], np.ndarray] = {}
+    def thin(codes: np.ndarray, k: int) -> np.ndarray:
+        """Every step-th row, those of fold ``k`` left out: at most about SCREEN_ROWS."""
+        n_train = codes.size - int(np.count_nonzero(codes == k))
+        rows = np.arange(0, codes.size, max(1, math.ceil(n_train / SCREEN_ROWS)))
+        return rows[codes[rows] != k]
 
-    def thin(kind: str, codes: np.ndarray, k: int) -> np.ndarray:
-        key = (kind, k)
-        if key not in train_rows:
-            idx = np.flatnonzero(codes != k)
-            train_rows[key] = idx[:: max(1, math.ceil(idx.size / SCREEN_ROWS))]
-        return train_rows[key]
-
-    def fit(method: str, k: int) -> dict[str, Any]:
+    def fit(method: str, k: int | None) -> dict[str, Any]:
+        """The held-out fit without fold ``k``; ``k`` None: the tool's exact fit on all rows."""
         sensor = methods[method].params.get("sensor", "gyro")
         if method == "px4":
-            tf, yf = pre["px4"]
-            i = thin("rows", folds, k)
+            tf, yf, codes = pre["px4"]
+            if k is None:
+                return px4_fit_filtered(tf, yf, sensor=sensor)
+            i = thin(codes, k)
             return px4_fit_filtered(tf[i], yf[i], sensor=sensor)
-        t_s, y_s, f_s = pre["ardupilot"]
-        i = thin("smoothed", f_s, k)
+        t_s, y_s, f_s, t_kept, y_kept = pre["ardupilot"]
+        if k is None:
+            return ardupilot_fit_smoothed(t_s, y_s, t_kept, y_kept, sensor=sensor)
+        i = thin(f_s, k)
         # the constant term (from the raw rows) does not change a held-out RMS about the mean
         return ardupilot_fit_smoothed(t_s[i], y_s[i], t_s[i[:1]], y_s[i[:1]], sensor=sensor)
 
@@ -587,6 +591,10 @@ class Selection:
         the candidate could not be fitted on some fold), ``fold_rms`` (per fold), and
         ``train_rms`` (fit on all the data; polynomial candidates only, else None), in the
         log's units.
+    fitted : dict of str to dict
+        Parameters on all the data of the chosen and fallback candidates that the selection
+        could fit without another pass (the field's fits, their filters already run);
+        :func:`fit_candidate` for the others.
     """
 
     chosen: Candidate
@@ -594,6 +602,7 @@ class Selection:
     folds: Folds
     tolerance: float
     table: list[dict[str, Any]]
+    fitted: dict[str, dict[str, Any]] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-able form (the model file's ``selection`` entry)."""
@@ -804,4 +813,9 @@ def _select(
     chosen = choose(cands, mse, tolerance)
     t_only = [i for i, c in enumerate(cands) if c.t_only]
     fallback = choose([cands[i] for i in t_only], mse[t_only], tolerance)
-    return Selection(chosen, fallback, folds, float(tolerance), table)
+    fitted = {
+        c.name: baseline_fold(c.method, None)
+        for c in (chosen, fallback)
+        if c.method in ("px4", "ardupilot")
+    }
+    return Selection(chosen, fallback, folds, float(tolerance), table, fitted)

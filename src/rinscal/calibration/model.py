@@ -27,7 +27,7 @@ import numpy as np
 import pandas as pd
 
 from rinscal._version import __version__
-from rinscal.calibration._domain import fit_domain
+from rinscal.calibration._domain import column_range, fit_domain
 from rinscal.calibration._fit import fit_params, fit_poly_t
 from rinscal.calibration._inference import METHODS, n_inputs, predict_params
 from rinscal.calibration.auto import (
@@ -387,7 +387,9 @@ class ThermalModel:
         self.selections_: dict[str, dict[str, Any] | None] = {}
         for j, c in enumerate(self.channels):
             x = feats.matrix(j)
-            ok = feats.inlier[:, j] & np.all(np.isfinite(x), axis=1)
+            ok = feats.inlier[:, j].copy()
+            for v in range(x.shape[1]):  # column by column: several times faster than axis=1
+                ok &= np.isfinite(x[:, v])
             if ok.sum() < 2:
                 raise ConfigError(f"{where}{c}: fewer than 2 usable samples to fit")
             sp = self._set_points(log, feats, j)
@@ -402,11 +404,13 @@ class ThermalModel:
                     sel = select_channel(
                         xo, yo, codes, feats.runs, to, cands, self.tolerance, self.random_state
                     )
-                    params = fit_candidate(sel.chosen, xo, yo, codes, to, self.random_state)
-                    fb = (  # a chosen model of T alone is its own fallback: fit it once
+                    data = (xo, yo, codes, to, self.random_state)
+                    params = sel.fitted.get(sel.chosen.name) or fit_candidate(sel.chosen, *data)
+                    # a chosen model of T alone is its own fallback: fit it once
+                    fb = (
                         params
                         if sel.fallback == sel.chosen
-                        else fit_candidate(sel.fallback, xo, yo, codes, to, self.random_state)
+                        else sel.fitted.get(sel.fallback.name) or fit_candidate(sel.fallback, *data)
                     )
                     self.selections_[c] = sel.to_dict()
                 else:
@@ -419,7 +423,7 @@ class ThermalModel:
             self.params_[c] = params
             self.fallbacks_[c] = fb
             k = n_inputs(params)
-            self.train_range_[c] = np.column_stack([xo[:, :k].min(axis=0), xo[:, :k].max(axis=0)])
+            self.train_range_[c] = np.column_stack(column_range(xo[:, :k]))
             constant = params["method"] == "poly-t" and len(params["coef"]) == 1
             self.domains_[c] = None if constant else fit_domain(xo[:, :k])
             resid = predict_params(params, xo) - yo

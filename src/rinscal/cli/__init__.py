@@ -8,7 +8,10 @@ into a message and an exit code.
 from __future__ import annotations
 
 from rinscal.cli import calibrate, navigate, reproduce, simulate, study  # noqa: F401  (registers)
-from rinscal.cli._app import app
+from rinscal.cli._app import app, guard_os_errors
+
+for _info in app.registered_commands:  # one place turns OS errors into a message
+    _info.callback = guard_os_errors(_info.callback)
 
 
 def main() -> None:

@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import functools
+from collections.abc import Callable
+from typing import Any
+
 import typer
 from rich.console import Console
 from rich.markup import escape
@@ -32,6 +36,30 @@ def fail(message: str, code: int = 2) -> typer.Exit:
     """
     err_console.print(f"[bold red]error:[/] {escape(message)}", highlight=False, soft_wrap=True)
     return typer.Exit(code)
+
+
+def guard_os_errors(command: Callable[..., Any] | None) -> Callable[..., Any] | None:
+    """Wrap a command: an operating-system error becomes one line naming the path, exit 2.
+
+    Permission denied, a missing folder, a full disk: wherever a command meets one (an output
+    folder it creates, a figure it saves), the user reads the path and what to do, not a
+    traceback.
+    """
+    if command is None:
+        return None
+
+    @functools.wraps(command)
+    def run(*args: Any, **kwargs: Any) -> Any:
+        from rinscal.errors import describe_os_error
+
+        try:
+            return command(*args, **kwargs)
+        except OSError as exc:
+            if exc.filename is None:  # not about a path: a bug or the system, not the input
+                raise
+            raise fail(describe_os_error(exc).replace("cannot write", "cannot use")) from None
+
+    return run
 
 
 def _version(value: bool) -> None:

@@ -53,12 +53,19 @@ ImuOpt = Annotated[
 ]
 AlignLengthOpt = Annotated[
     float,
-    typer.Option("--align-s", help="Self-alignment length [s]: coarse (60 s) + Kalman filter."),
+    typer.Option(
+        "--align-s",
+        min=60.0,
+        max=7200.0,
+        help="Self-alignment length [s], 60-7200: coarse (60 s) + Kalman filter.",
+    ),
 ]
 AlignStartOpt = Annotated[
     float,
     typer.Option(
         "--align-start-s",
+        min=0.0,
+        max=86400.0,
         help="Seconds after power-on at which the alignment starts (the unit warms before "
         "it; navigation starts at align-start-s + align-s).",
     ),

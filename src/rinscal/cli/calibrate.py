@@ -132,6 +132,8 @@ def fit(
         float,
         typer.Option(
             "--tolerance",
+            min=0.0,
+            max=0.99,
             help="auto: also take a simpler model within this relative tolerance of the best "
             "held-out mean square error (on top of the paired test, which always applies).",
         ),
@@ -148,14 +150,18 @@ def fit(
         ),
     ] = None,
     hidden: Annotated[
-        int | None, typer.Option("--hidden", help="neural: hidden neurons (default 2 / 6).")
+        int | None,
+        typer.Option(
+            "--hidden", min=1, max=64, help="neural: hidden neurons, 1-64 (default 2 / 6)."
+        ),
     ] = None,
     edges: Annotated[
         str | None,
         typer.Option("--edges", help="sectional: segment edges in °C, e.g. 3.5,10.5,17.5."),
     ] = None,
     window: Annotated[
-        float, typer.Option("--window", help="Temperature-rate window, seconds.")
+        float,
+        typer.Option("--window", min=1.0, max=3600.0, help="Temperature-rate window [s], 1-3600."),
     ] = 60.0,
     causal: Annotated[
         bool, typer.Option("--causal", help="Causal temperature rate (for real-time use).")
@@ -165,9 +171,13 @@ def fit(
     ] = False,
     max_samples: Annotated[
         int | None,
-        typer.Option("--max-samples", help="neural: decimate training to this many rows."),
+        typer.Option(
+            "--max-samples", min=100, help="neural: decimate training to this many rows (≥ 100)."
+        ),
     ] = None,
-    seed: Annotated[int, typer.Option("--seed", help="neural: seed of the first start.")] = 0,
+    seed: Annotated[
+        int, typer.Option("--seed", min=0, help="neural: seed of the first start (≥ 0).")
+    ] = 0,
     map_file: MapOpt = None,
     col: ColOpt = None,
     time_col: TimeColOpt = None,
@@ -324,6 +334,8 @@ def select(
         float | None,
         typer.Option(
             "--tolerance",
+            min=0.0,
+            max=0.99,
             help="Recommend the smallest setting within this relative tolerance of the best "
             "held-out RMS (regression/neural: default 0.02; auto: of the mean square error, "
             "default 0, on top of the paired test).",
@@ -338,13 +350,18 @@ def select(
         typer.Option("--settings", help="Orders or neuron counts to try, e.g. 1,2,3,4."),
     ] = None,
     window: Annotated[
-        float, typer.Option("--window", help="Temperature-rate window, seconds.")
+        float,
+        typer.Option("--window", min=1.0, max=3600.0, help="Temperature-rate window [s], 1-3600."),
     ] = 60.0,
     max_samples: Annotated[
         int | None,
-        typer.Option("--max-samples", help="neural: decimate training to this many rows."),
+        typer.Option(
+            "--max-samples", min=100, help="neural: decimate training to this many rows (≥ 100)."
+        ),
     ] = 20000,
-    seed: Annotated[int, typer.Option("--seed", help="neural: seed of the first start.")] = 0,
+    seed: Annotated[
+        int, typer.Option("--seed", min=0, help="neural: seed of the first start (≥ 0).")
+    ] = 0,
     as_json: JsonOpt = False,
     map_file: MapOpt = None,
     col: ColOpt = None,
@@ -623,7 +640,13 @@ def evaluate_cmd(
         bool, typer.Option("--causal", help="Use the causal temperature rate.")
     ] = False,
     step_window: Annotated[
-        float, typer.Option("--step-window", help="Fit window on each side of an edge, seconds.")
+        float,
+        typer.Option(
+            "--step-window",
+            min=1.0,
+            max=86400.0,
+            help="Fit window on each side of an edge [s], 1-86400.",
+        ),
     ] = 120.0,
     allan_plot: Annotated[
         Path | None,

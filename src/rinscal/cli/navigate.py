@@ -42,10 +42,18 @@ def navigate(
     ] = None,
     hours: Annotated[
         float | None,
-        typer.Option(help="Run length [h] (vehicle: driving time). Default 4, 2, 1.9, 4.5 h."),
+        typer.Option(
+            min=0.01,
+            max=72.0,
+            help="Run length [h], 0.01-72 (vehicle: driving time). Default 4, 2, 1.9, 4.5 h.",
+        ),
     ] = None,
-    rate: Annotated[float, typer.Option("--rate", help="IMU rate [Hz].")] = 100.0,
-    seed: Annotated[int, typer.Option(help="Seed of the sensor noise and turn-on offsets.")] = 0,
+    rate: Annotated[
+        float, typer.Option("--rate", min=1.0, max=2000.0, help="IMU rate [Hz], 1-2000.")
+    ] = 100.0,
+    seed: Annotated[
+        int, typer.Option(min=0, help="Seed of the sensor noise and turn-on offsets (≥ 0).")
+    ] = 0,
     imu: Annotated[
         str | None,
         typer.Option(

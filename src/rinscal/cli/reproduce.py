@@ -24,9 +24,12 @@ def reproduce(
         bool, typer.Option("--quick", help="Shorter runs, lower rates (under 3 min on 2 cores).")
     ] = False,
     jobs: Annotated[
-        int, typer.Option("--jobs", "-j", min=1, help="Parallel processes for navigation runs.")
+        int,
+        typer.Option(
+            "--jobs", "-j", min=1, max=1024, help="Parallel processes for navigation runs, 1-1024."
+        ),
     ] = 1,
-    seed: Annotated[int, typer.Option("--seed", help="Seed of every random number.")] = 0,
+    seed: Annotated[int, typer.Option("--seed", min=0, help="Seed of every random number.")] = 0,
     imu: ImuOpt = DEFAULT_PRESET,
     align_s: AlignLengthOpt = 600.0,
     align_start_s: AlignStartOpt = 0.0,
@@ -36,6 +39,7 @@ def reproduce(
             "--units",
             "-n",
             min=0,
+            max=100000,
             help="Also run the navigation part as a study over N units (OUT/study, on Dask "
             "with --jobs workers; resumable): the claims with 95 % intervals.",
         ),

@@ -22,14 +22,26 @@ def study(
     ],
     units: Annotated[
         int | None,
-        typer.Option("--units", "-n", help="Number of units (default: the spec's)."),
+        typer.Option(
+            "--units",
+            "-n",
+            min=1,
+            max=100000,
+            help="Number of units, 1-100000 (default: the spec's).",
+        ),
     ] = None,
     quick: Annotated[
         bool, typer.Option("--quick", help="The spec's [quick] sizes: lower rates, shorter runs.")
     ] = False,
     workers: Annotated[
         int | None,
-        typer.Option("--workers", "-w", help="Local worker processes (default: one per core)."),
+        typer.Option(
+            "--workers",
+            "-w",
+            min=1,
+            max=1024,
+            help="Local worker processes, 1-1024 (default: one per core).",
+        ),
     ] = None,
     scheduler: Annotated[
         str | None,
