@@ -169,7 +169,7 @@ def test_file_missing_a_column(tmp_path):
         read_log(tmp_path / "m.csv")
     msg = str(info.value)
     assert "m.csv" in msg and "missing required column(s) 'accel_y'" in msg
-    assert "columns found: time_s, run" in msg
+    assert "columns found: 'time_s', 'run'" in msg
 
 
 def test_file_with_non_numeric_value(tmp_path):

@@ -384,7 +384,12 @@ def format_of(path: str | os.PathLike[str], fmt: str | None = None) -> Format:
     if suffix not in FORMATS:
         raise LogError(
             f"{path}: unknown log file suffix {suffix or '(none)'!r}; "
-            f"use {', '.join(FORMATS)} (or give the format explicitly)"
+            f"use {', '.join(FORMATS)}"
+            + (
+                "; compressed logs are not read: decompress it first (e.g. gunzip -k)"
+                if suffix in (".gz", ".bz2", ".xz", ".zip", ".zst")
+                else ""
+            )
         )
     return FORMATS[suffix]
 
@@ -521,7 +526,8 @@ def _apply_mapping(
     if missing:
         raise LogError(
             f"{p}: column(s) {', '.join(map(repr, missing))} named in the mapping are not in "
-            f"the file (columns found: {', '.join(cols[:20])}{', ...' if len(cols) > 20 else ''})"
+            f"the file (columns found: {', '.join(map(repr, cols[:20]))}"
+            f"{', ...' if len(cols) > 20 else ''})"
         )
     rename = dict(mapping.columns)
     if mapping.time is not None:

@@ -266,10 +266,17 @@ def validate_log(
         raise LogError(f"{source}: duplicate column(s) {', '.join(map(repr, dup))}")
     missing = [c for c in REQUIRED if c not in cols]
     if missing:
+        padded = [c for c in cols if c != c.strip() and c.strip() in CANONICAL]
+        hint = (
+            f"; column name(s) {', '.join(map(repr, padded))} have spaces around them: "
+            "remove the spaces in the header, or map them with --col"
+            if padded
+            else "; a foreign log needs a column mapping"
+        )
         raise LogError(
             f"{source}: missing required column(s) {', '.join(map(repr, missing))} "
-            f"(columns found: {', '.join(cols[:20])}{', ...' if len(cols) > 20 else ''}); "
-            "a foreign log needs a column mapping"
+            f"(columns found: {', '.join(map(repr, cols[:20]))}"
+            f"{', ...' if len(cols) > 20 else ''}){hint}"
         )
     per_channel = [c for c in TEMP_CHANNELS if c in cols]
     if len(per_channel) < len(TEMP_CHANNELS) and TEMP_IN not in cols:
@@ -351,6 +358,7 @@ def _check_runs(
         r, p = int(rows[j]), int(prev[j])
         raise LogError(
             f"{source}: {_label(TIME, names)}, data row {r + 1}: time not strictly increasing "
-            f"within run {run.iloc[r]!r} ({t[r]!r} s after {t[p]!r} s at data row {p + 1}) "
+            f"within run {run.iloc[r]!r} ({float(t[r]):.10g} s after {float(t[p]):.10g} s "
+            f"at data row {p + 1}) "
             f"({_ROWS})"
         )

@@ -126,8 +126,9 @@ def predict_log(
             if i is None:
                 raise
             run = feats.runs[feats.run_codes[i]]
+            what = getattr(exc, "what", str(exc))
             raise RangeError(
-                f"{exc} [data row {i + 1}, run {run!r}, time {feats.time_s[i]:.6g} s]"
+                f"{c}: data row {i + 1} (run {run!r}, time {feats.time_s[i]:.6g} s) has {what}"
             ) from None
     return f, flags
 

@@ -558,20 +558,23 @@ class ThermalModelFile:
             flags |= ~inside_domain(cm.domain, xs)
         if policy == "error" and flags.any():
             i = int(np.argmax(flags))
+            unit = (" °C", " °C/min", " °C")
             which = [
-                f"{INPUT_NAMES[j]}={xs[i, j]:.6g} outside [{lo[j]:.6g}, {hi[j]:.6g}]"
+                f"{INPUT_NAMES[j]} = {xs[i, j]:.6g}{unit[j]} outside "
+                f"[{lo[j]:.6g}, {hi[j]:.6g}]{unit[j]}"
                 for j in range(k)
                 if not lo[j] <= xs[i, j] <= hi[j]
             ]
             if not which:
-                point = ", ".join(f"{INPUT_NAMES[j]}={xs[i, j]:.6g}" for j in range(k))
+                point = ", ".join(f"{INPUT_NAMES[j]} = {xs[i, j]:.6g}{unit[j]}" for j in range(k))
                 which = [f"({point}) outside the joint domain of the training data"]
-            err = RangeError(
-                f"{channel}: sample {i} has {', '.join(which)} (the training data; "
-                f"{int(flags.sum())} sample(s) flagged); use policy clamp, fallback or "
-                "extrapolate to compensate anyway"
+            what = (
+                f"{', '.join(which)} (the training data; {int(flags.sum())} row(s) flagged); "
+                "use policy clamp, fallback or extrapolate to compensate anyway"
             )
+            err = RangeError(f"{channel}: input row {i + 1} has {what}")
             err.row = i  # type: ignore[attr-defined]
+            err.what = what  # type: ignore[attr-defined]
             raise err
         if policy in ("clamp", "fallback") and outside.any():
             x = x.copy()

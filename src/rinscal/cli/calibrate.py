@@ -582,7 +582,7 @@ def compensate_cmd(
     from rinscal.calibration.compensate import FLAG_COLUMN, compensate
     from rinscal.calibration.modelfile import POLICIES, ThermalModelFile
     from rinscal.cli._app import console, err_console, fail
-    from rinscal.errors import RinscalError
+    from rinscal.errors import RangeError, RinscalError
     from rinscal.io import format_of, meta_path, write_log, write_meta
 
     if policy not in POLICIES:
@@ -617,6 +617,8 @@ def compensate_cmd(
                 }
                 write_meta(meta, out)
             progress.update(task, advance=1)
+    except RangeError as exc:  # about a data row of LOG: name the file
+        raise fail(f"{log}: {exc}") from None
     except RinscalError as exc:
         raise fail(str(exc)) from None
     n_flag = int(res[FLAG_COLUMN].sum())
@@ -675,7 +677,7 @@ def evaluate_cmd(
     from rinscal.calibration.evaluate import StepConfig, allan_table, evaluate, prepare
     from rinscal.calibration.modelfile import POLICIES, ThermalModelFile
     from rinscal.cli._app import console, fail
-    from rinscal.errors import RinscalError
+    from rinscal.errors import RangeError, RinscalError
 
     if policy not in POLICIES:
         raise fail(f"--policy must be one of {', '.join(POLICIES)}, got {policy!r}")
@@ -692,6 +694,8 @@ def evaluate_cmd(
         allan, curves = allan_table(df, mf, policy, deriv, prepared=prepared)  # type: ignore[arg-type]
         if allan_plot is not None:
             _write_allan_plot(allan_plot, curves, mf, log.name)
+    except RangeError as exc:  # about a data row of LOG: name the file
+        raise fail(f"{log}: {exc}") from None
     except RinscalError as exc:
         raise fail(str(exc)) from None
     labels = {c: model_label(mf.models[c]) for c in mf.channels}
