@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import csv
 import io
+import os
 from pathlib import Path
 
 import numpy as np
@@ -157,3 +158,153 @@ def test_csv_round_trip_of_any_extra_text_is_exact(tmp_path, model_file, texts) 
     a = list(csv.DictReader(io.StringIO(src.read_text(encoding="utf-8"), newline="")))
     b = list(csv.DictReader(io.StringIO(out.read_text(encoding="utf-8"), newline="")))
     assert [r["extra"] for r in a] == [r["extra"] for r in b]
+
+
+# ------------------------------------------------------------------ static reference
+
+
+def _foreign(tmp_path: Path) -> tuple[Path, list[str]]:
+    """A foreign one-run log whose accelerometer z reads −9.8 m/s² plus a thermal drift."""
+    log = _log(n=300, runs=1)
+    log["accel_z"] = -9.8 + 0.002 * (log["temp_in"] - 25.0)
+    src = tmp_path / "foreign.csv"
+    log.rename(columns={c: f"imu_{c}" for c in CHANNELS}).to_csv(src, index=False)
+    opts = [x for c in CHANNELS for x in ("--col", f"imu_{c}={c}")]
+    return src, opts
+
+
+def test_a_foreign_log_keeps_gravity_when_told_how(tmp_path) -> None:
+    src, opts = _foreign(tmp_path)
+    for extra, expect_z in (([], 0.0), (["--static-ref", "mean"], None)):
+        model = tmp_path / f"m{len(extra)}.json"
+        code, text = _invoke(["fit", src, "--method", "poly-t", "--out", model, *opts, *extra])
+        assert code == 0, text
+        out = tmp_path / f"out{len(extra)}.csv"
+        code, text = _invoke(["compensate", src, "-m", model, "--out", out, *opts])
+        assert code == 0, text
+        z = pd.read_csv(out)["imu_accel_z"]
+        if expect_z is None:  # the static level kept: the training mean, about −9.8
+            assert abs(z.mean() - (-9.8)) < 0.01 and z.std() < 1e-3
+            assert "training mean (fit --static-ref mean)" in text
+        else:  # no reference: gravity goes with the thermal bias, and the user is told
+            assert abs(z.mean()) < 1e-6
+            assert "no static reference" in text and "--latitude/--heading" in text
+
+
+def test_static_ref_values_and_site_are_checked(tmp_path) -> None:
+    src, opts = _foreign(tmp_path)
+    model = tmp_path / "m.json"
+    code, text = _invoke(
+        ["fit", src, "--out", model, *opts, "--method", "poly-t", "--static-ref", "accel_q=1"]
+    )
+    assert code == 2 and "--static-ref: 'accel_q=1' is not CHANNEL=VALUE" in text
+    code, text = _invoke(["fit", src, "--out", model, *opts, "--latitude", "45"])
+    assert code == 2 and "--latitude and --heading go together" in text
+    code, text = _invoke(
+        ["fit", src, "--out", model, *opts, "--method", "poly-t", "--static-ref", "accel_z=-9.8"]
+    )
+    assert code == 0, text
+    out = tmp_path / "o.csv"
+    code, text = _invoke(["compensate", src, "-m", model, "--out", out, *opts])
+    assert code == 0 and "accel_z -9.8" in text and "values given at fit time" in text
+    z = pd.read_csv(out)["imu_accel_z"]
+    assert abs(z.mean() - (-9.8)) < 1e-3
+
+
+# ------------------------------------------------------------------ units
+
+
+def test_units_that_differ_from_the_model_are_refused(tmp_path, model_file) -> None:
+    from rinscal.io import write_meta
+
+    src = tmp_path / "pulses.csv"
+    write_log(_log(), src)
+    write_meta({"units": {"gyro": "pulse", "accel": "pulse"}}, src)
+    # a model fitted in deg/h and ug
+    train = tmp_path / "t.csv"
+    write_log(_log(), train)
+    write_meta({"units": {"gyro": "deg/h", "accel": "ug"}}, train)
+    model = tmp_path / "m.json"
+    assert _invoke(["fit", train, "--method", "poly-t", "--out", model])[0] == 0
+    for cmd in (["compensate", "--out", tmp_path / "o.csv"], ["evaluate"]):
+        code, text = _invoke([cmd[0], src, "-m", model, *cmd[1:]])
+        assert code == 2, text
+        assert "units differ from the model's" in text
+        assert "gyro_x: model in 'deg/h', log in 'pulse'" in text and "--ignore-units" in text
+    code, text = _invoke(
+        ["compensate", src, "-m", model, "--out", tmp_path / "o.csv", "--ignore-units"]
+    )
+    assert code == 0, text
+
+
+# ------------------------------------------------------------------ OS errors, bounds, memory
+
+
+@pytest.mark.parametrize(
+    ("errno_", "words"),
+    [(13, "Permission denied; choose another location"), (28, "the disk is full")],
+)
+def test_os_errors_on_output_name_the_path(tmp_path, model_file, monkeypatch, errno_, words):
+    import tempfile
+
+    def refuse(*args, **kwargs):
+        raise OSError(errno_, os.strerror(errno_), kwargs.get("dir", "?"))
+
+    src = tmp_path / "in.csv"
+    write_log(_log(), src)
+    monkeypatch.setattr(tempfile, "mkstemp", refuse)
+    out = tmp_path / "out.csv"
+    code, text = _invoke(["compensate", src, "-m", model_file, "--out", out])
+    assert code == 2 and "Traceback" not in text
+    assert f"{out}: cannot write:" in text and words.split(";")[-1].strip() in text
+
+
+def test_an_output_folder_that_is_a_file_is_named(tmp_path) -> None:
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    code, text = _invoke(["navigate", "-s", "quasi-static", "--out", blocker / "sub"])
+    assert code == 2 and "Traceback" not in text and str(blocker) in text
+
+
+def test_numeric_options_are_bounded() -> None:
+    code, text = _invoke(["navigate", "-s", "quasi-static", "--rate", "1e9", "--out", "x"])
+    assert code == 2 and "'--rate'" in text and "1.0<=x<=2000.0" in text
+    code, text = _invoke(["simulate", "soak", "--hours", "-1", "--out", "x.csv"])
+    assert code == 2 and "'--hours'" in text
+
+
+def test_simulate_refuses_what_memory_cannot_hold(tmp_path, monkeypatch) -> None:
+    import rinscal._resources as res
+
+    monkeypatch.setattr(res, "available_bytes", lambda: 4 * 2**30)
+    code, text = _invoke(["simulate", "soak", "--rate", "2000", "--out", tmp_path / "big.parquet"])
+    assert code == 2, text
+    assert "needs about" in text and "of memory, more than the 4.0 GiB available" in text
+    assert "lower --rate or --hours" in text and not (tmp_path / "big.parquet").exists()
+
+
+# ------------------------------------------------------------------ messages
+
+
+def test_padded_column_names_are_quoted(tmp_path) -> None:
+    src = tmp_path / "pad.csv"
+    log = _log(n=20, runs=1).rename(columns={"accel_x": " accel_x "})
+    log.to_csv(src, index=False)
+    code, text = _invoke(["fit", src, "--out", tmp_path / "m.json"])
+    assert code == 2 and "' accel_x '" in text and "spaces around them" in text
+
+
+def test_compressed_logs_get_an_answer_that_exists(tmp_path) -> None:
+    src = tmp_path / "log.csv.gz"
+    src.write_bytes(b"\x1f\x8b")
+    code, text = _invoke(["fit", src, "--out", tmp_path / "m.json"])
+    assert code == 2 and "decompress it first" in text and "explicitly" not in text
+
+
+def test_time_errors_print_plain_numbers(tmp_path) -> None:
+    log = _log(n=20, runs=1)
+    log.loc[5, "time_s"] = log.loc[4, "time_s"]
+    src = tmp_path / "t.csv"
+    log.to_csv(src, index=False)
+    code, text = _invoke(["fit", src, "--out", tmp_path / "m.json"])
+    assert code == 2 and "np.float64" not in text and "41 s after 41 s at data row 5" in text

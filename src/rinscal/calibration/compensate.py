@@ -21,6 +21,7 @@ equals :func:`compensate` with ``derivative_kind="causal"`` (same compiled rate 
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -35,7 +36,7 @@ from rinscal.calibration.features import (
     build_features,
 )
 from rinscal.calibration.modelfile import POLICIES, Policy, ThermalModelFile
-from rinscal.errors import LogError, RangeError
+from rinscal.errors import ConfigError, LogError, RangeError
 from rinscal.units import MIN_TO_S
 
 __all__ = [
@@ -260,3 +261,92 @@ class StreamingCompensator:
             out[j] = raw[j] - (f - self._ref[j])
             flag = flag or bool(fl[0])
         return out, flag
+
+
+def check_units(
+    model: ThermalModelFile, meta: Mapping[str, Any] | None, source: str = "log"
+) -> None:
+    """Refuse a log whose channel units differ from those the model was fitted in.
+
+    Parameters
+    ----------
+    model : ThermalModelFile
+        The model (its channels' ``unit``).
+    meta : mapping, optional
+        The log's metadata (``units``: per channel or per sensor type, as written by
+        ``rinscal simulate`` or a mapping's ``[units]``); a channel without a unit on either
+        side is not checked.
+    source : str
+        Name of the log, for the message.
+
+    Raises
+    ------
+    ConfigError
+        Naming every channel whose units differ, with both units.
+    """
+    from rinscal.calibration.model import unit_factors
+
+    units, _ = unit_factors(meta, model.channels)
+    bad = [
+        f"{c}: model in {model.models[c].unit!r}, log in {units[c]!r}"
+        for c in model.channels
+        if model.models[c].unit and units.get(c) and units[c] != model.models[c].unit
+    ]
+    if bad:
+        raise ConfigError(
+            f"{source}: units differ from the model's ({'; '.join(bad)}); convert the log, "
+            "or pass --ignore-units if the numbers are in fact comparable"
+        )
+
+
+def describe_reference(model: ThermalModelFile) -> tuple[str, list[str]]:
+    """What compensation subtracts, in words: ``N − (f − r)`` and where ``r`` comes from.
+
+    Parameters
+    ----------
+    model : ThermalModelFile
+        The model.
+
+    Returns
+    -------
+    summary : str
+        One sentence: the static output ``r`` each channel keeps and its origin (the site's
+        gravity and Earth rate, the training mean, or values given at fit time).
+    missing : list of str
+        Channels without a static reference: compensation removes their whole modelled
+        output, static level (gravity, Earth rate) included.
+    """
+    src = model.source or {}
+    given = src.get("static_reference")
+    if given == "mean":
+        origin = "each channel's training mean (fit --static-ref mean)"
+    elif isinstance(given, Mapping) and given:
+        origin = (
+            "values given at fit time (--static-ref "
+            + ", ".join(f"{c}={v:g}" for c, v in given.items())
+            + ")"
+        )
+    elif "latitude_deg" in src and "heading_deg" in src:
+        origin = (
+            f"gravity and Earth rate at latitude {float(src['latitude_deg']):g}°, heading "
+            f"{float(src['heading_deg']):g}°"
+        )
+    else:
+        origin = "none"
+    missing = [c for c in model.channels if model.models[c].static_reference is None]
+    kept = [c for c in model.channels if c not in missing]
+    if kept:
+
+        def value(c: str) -> str:
+            r = float(model.models[c].static_reference or 0.0)
+            r = 0.0 if abs(r) < 1e-9 else r  # Earth rate on an axis pointing east
+            return f"{c} {r:.6g} {model.models[c].unit or ''}".rstrip()
+
+        refs = ", ".join(value(c) for c in kept)
+        summary = (
+            f"subtracted the modelled thermal bias f − r; r, the static output kept: {refs} "
+            f"({origin})"
+        )
+    else:
+        summary = "subtracted the whole modelled output f (no static reference in the model)"
+    return summary, missing

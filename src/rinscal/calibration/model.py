@@ -385,6 +385,7 @@ class ThermalModel:
         self.domains_: dict[str, dict[str, Any] | None] = {}
         self.fallbacks_: dict[str, dict[str, Any] | None] = {}
         self.selections_: dict[str, dict[str, Any] | None] = {}
+        self.train_mean_: dict[str, float] = {}
         for j, c in enumerate(self.channels):
             x = feats.matrix(j)
             ok = feats.inlier[:, j].copy()
@@ -430,6 +431,7 @@ class ThermalModel:
             sums = np.bincount(codes, weights=resid, minlength=len(feats.runs))
             cnts = np.bincount(codes, minlength=len(feats.runs))
             about = resid - (sums / np.maximum(cnts, 1))[codes]
+            self.train_mean_[c] = float(np.mean(yo))
             self.metrics_[c] = {
                 "rms_train": float(np.sqrt(np.mean(resid**2))),
                 "rms_train_about_run_mean": float(np.sqrt(np.mean(about**2))),
@@ -453,6 +455,11 @@ class ThermalModel:
             raise ConfigError("the thermal model is not fitted yet")
         units, factors = unit_factors(self.meta_, self.channels)
         ref = site_reference(self.meta_, factors, self.channels)
+        given = self.meta_.get("static_reference")
+        if given == "mean":  # keep each channel's training mean level
+            ref = {c: self.train_mean_[c] for c in self.channels}
+        elif isinstance(given, Mapping):
+            ref.update({c: float(v) for c, v in given.items() if c in ref})
         models = {}
         for c in self.channels:
             params = self.params_[c]
@@ -480,6 +487,7 @@ class ThermalModel:
             "imu",
             "seed",
             "device_ids",
+            "static_reference",
         ):
             if key in self.meta_:
                 src[key] = self.meta_[key]

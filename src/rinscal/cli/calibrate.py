@@ -8,6 +8,7 @@ atomically. Library errors become messages and exit code 2.
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
@@ -44,6 +45,13 @@ PolicyOpt = Annotated[
     ),
 ]
 JsonOpt = Annotated[bool, typer.Option("--json", help="Print JSON instead of a table.")]
+IgnoreUnitsOpt = Annotated[
+    bool,
+    typer.Option(
+        "--ignore-units",
+        help="Compensate even where the log's units (metadata or mapping) differ from the model's.",
+    ),
+]
 
 
 def _read(
@@ -60,6 +68,40 @@ def _read(
     return read_foreign_log(
         log, map_file, col, time_col, time_unit, sep, temp_col, relative_time=relative_time
     )
+
+
+def _static_options(
+    latitude: float | None, heading: float | None, static_ref: str | None
+) -> dict[str, Any]:
+    """Metadata for the static reference from ``--latitude/--heading`` and ``--static-ref``."""
+    from rinscal.cli._app import fail
+    from rinscal.schema import CHANNELS
+
+    out: dict[str, Any] = {}
+    if (latitude is None) != (heading is None):
+        raise fail("--latitude and --heading go together (the static output needs both)")
+    if latitude is not None:
+        out["latitude_deg"], out["heading_deg"] = float(latitude), float(heading or 0.0)
+    if static_ref is not None:
+        text = static_ref.strip()
+        if text == "mean":
+            out["static_reference"] = "mean"
+            return out
+        given: dict[str, float] = {}
+        for item in filter(None, (v.strip() for v in text.split(","))):
+            ch, eq, val = item.partition("=")
+            try:
+                number = float(val)
+            except ValueError:
+                number = math.nan
+            if not eq or ch.strip() not in CHANNELS or not math.isfinite(number):
+                raise fail(
+                    f"--static-ref: {item!r} is not CHANNEL=VALUE with a channel among "
+                    f"{', '.join(CHANNELS)} and a finite number (or give 'mean')"
+                )
+            given[ch.strip()] = number
+        out["static_reference"] = given
+    return out
 
 
 def _ints(text: str | None, option: str) -> tuple[int, ...] | None:
@@ -185,6 +227,33 @@ def fit(
     sep: SepOpt = None,
     temp_col: TempColOpt = None,
     relative_time: RelTimeOpt = False,
+    latitude: Annotated[
+        float | None,
+        typer.Option(
+            "--latitude",
+            min=-90.0,
+            max=90.0,
+            help="Site latitude [deg] (with --heading): the static output (gravity, Earth "
+            "rate) compensation keeps; for a log without it in its metadata.",
+        ),
+    ] = None,
+    heading: Annotated[
+        float | None,
+        typer.Option(
+            "--heading",
+            min=-360.0,
+            max=360.0,
+            help="Heading of the IMU's x axis on the table [deg from north] (with --latitude).",
+        ),
+    ] = None,
+    static_ref: Annotated[
+        str | None,
+        typer.Option(
+            "--static-ref",
+            help="Static output compensation keeps, in log units: 'mean' (each channel's "
+            "training mean) or CHANNEL=VALUE pairs, e.g. accel_z=-9.7949,gyro_z=0.",
+        ),
+    ] = None,
 ) -> None:
     """Fit a thermal model per channel and write it as a JSON model file.
 
@@ -231,6 +300,7 @@ def fit(
         ) as progress:
             task = progress.add_task("reading log", total=None)
             df, meta = _read(log, map_file, col, time_col, time_unit, sep, temp_col, relative_time)
+            meta.update(_static_options(latitude, heading, static_ref))
             model = ThermalModel(
                 method,
                 orders=_ints(orders, "--orders"),
@@ -575,11 +645,17 @@ def compensate_cmd(
     sep: SepOpt = None,
     temp_col: TempColOpt = None,
     relative_time: RelTimeOpt = False,
+    ignore_units: IgnoreUnitsOpt = False,
 ) -> None:
     """Compensate every sensor channel (Eq. 10); add the out_of_range flag column."""
     from rich.progress import Progress
 
-    from rinscal.calibration.compensate import FLAG_COLUMN, compensate
+    from rinscal.calibration.compensate import (
+        FLAG_COLUMN,
+        check_units,
+        compensate,
+        describe_reference,
+    )
     from rinscal.calibration.modelfile import POLICIES, ThermalModelFile
     from rinscal.cli._app import console, err_console, fail
     from rinscal.errors import RangeError, RinscalError
@@ -597,6 +673,8 @@ def compensate_cmd(
                 log, map_file, col, time_col, time_unit, sep, temp_col, None, None, relative_time
             )
             df = src.log
+            if not ignore_units:
+                check_units(mf, meta, str(log))
             progress.update(task, advance=1, description="compensating")
             res = compensate(df, mf, policy, "causal" if causal else None)  # type: ignore[arg-type]
             progress.update(task, advance=1, description="writing")
@@ -631,6 +709,17 @@ def compensate_cmd(
     share = res.groupby(df["run"], sort=False)[FLAG_COLUMN].mean()
     for run, frac in share.items():
         console.print(f"  {run}: {frac:.1%} of rows flagged", highlight=False)
+    summary, missing = describe_reference(mf)
+    console.print(summary, highlight=False, soft_wrap=True)
+    if missing:
+        err_console.print(
+            f"warning: {', '.join(missing)}: the model has no static reference, so their "
+            "static level (gravity, Earth rate) was removed with the thermal bias; refit with "
+            "--latitude/--heading or --static-ref to keep it",
+            highlight=False,
+            soft_wrap=True,
+            markup=False,
+        )
 
 
 @app.command("evaluate")
@@ -666,6 +755,7 @@ def evaluate_cmd(
     sep: SepOpt = None,
     temp_col: TempColOpt = None,
     relative_time: RelTimeOpt = False,
+    ignore_units: IgnoreUnitsOpt = False,
 ) -> None:
     """RMS (Eq. 16, about each run's mean) before/after compensation; steps at segment edges.
 
@@ -674,6 +764,7 @@ def evaluate_cmd(
     """
     from rich.table import Table
 
+    from rinscal.calibration.compensate import check_units
     from rinscal.calibration.evaluate import StepConfig, allan_table, evaluate, prepare
     from rinscal.calibration.modelfile import POLICIES, ThermalModelFile
     from rinscal.cli._app import console, fail
@@ -686,7 +777,9 @@ def evaluate_cmd(
         refuse_inputs(allan_plot, inputs)
     try:
         mf = ThermalModelFile.load(model)
-        df, _ = _read(log, map_file, col, time_col, time_unit, sep, temp_col, relative_time)
+        df, meta = _read(log, map_file, col, time_col, time_unit, sep, temp_col, relative_time)
+        if not ignore_units:
+            check_units(mf, meta, str(log))
         deriv = "causal" if causal else None
         prepared = prepare(df, mf, policy, deriv)  # type: ignore[arg-type]
         step = StepConfig(window_s=step_window)
