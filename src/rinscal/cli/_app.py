@@ -8,7 +8,7 @@ from typing import Any
 
 import typer
 from rich.console import Console
-from rich.markup import escape
+from rich.text import Text
 
 app = typer.Typer(
     name="rinscal",
@@ -19,9 +19,16 @@ app = typer.Typer(
     rich_markup_mode=None,  # help text is plain: units in brackets ([h], [s]) are kept
 )
 
-#: Messages and tables go to stderr-free stdout; errors to stderr.
-console = Console()
-err_console = Console(stderr=True)
+#: Messages and tables go to stdout; errors and warnings to stderr. No markup: text in
+#: brackets (units such as [s], TOML sections such as [study]) is printed as it is; styles
+#: are given with :func:`styled`.
+console = Console(markup=False)
+err_console = Console(stderr=True, markup=False)
+
+
+def styled(label: str, style: str, rest: str = "") -> Text:
+    """``label`` in ``style`` (e.g. "bold red"), then ``rest`` as plain text."""
+    return Text.assemble((label, style), rest)
 
 
 def fail(message: str, code: int = 2) -> typer.Exit:
@@ -34,7 +41,7 @@ def fail(message: str, code: int = 2) -> typer.Exit:
     code : int
         Process exit code.
     """
-    err_console.print(f"[bold red]error:[/] {escape(message)}", highlight=False, soft_wrap=True)
+    err_console.print(styled("error:", "bold red", f" {message}"), highlight=False, soft_wrap=True)
     return typer.Exit(code)
 
 

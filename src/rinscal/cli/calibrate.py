@@ -13,7 +13,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
-from rich.markup import escape
 
 from rinscal.cli._app import app
 from rinscal.cli._options import (
@@ -124,6 +123,49 @@ def _floats(text: str | None, option: str) -> tuple[float, ...] | None:
         return tuple(float(v) for v in text.split(","))
     except ValueError:
         raise fail(f"{option}: {text!r} is not a comma-separated list of numbers") from None
+
+
+def _narrow(table: Any, width: int | None = None) -> Any:
+    """Fit a table to the terminal's width without cutting a number.
+
+    Each column gets a fixed width: a number column its widest cell (its header wraps at
+    spaces), a text column its widest line, shrunk (widest first) down to its longest word
+    while the table is too wide. Rich otherwise ends a cut cell with "…", numbers included.
+    """
+    from rich import box
+
+    from rinscal.cli._app import console
+
+    # a rule under the header only: columns are 2 spaces apart, the edges unpadded
+    table.box, table.pad_edge, table.show_edge = box.SIMPLE_HEAD, False, False
+    total = width or console.width
+    cols = table.columns
+    cells = [[str(c) for c in col._cells] for col in cols]
+    heads = [str(col.header) for col in cols]
+
+    def longest_word(texts: list[str]) -> int:
+        return max((len(w) for t in texts for w in t.split()), default=1)
+
+    floor, size = [], []
+    for col, cs, head in zip(cols, cells, heads, strict=True):
+        if col.justify == "right":  # never below its widest number
+            floor.append(max([len(c) for c in cs] or [1]))
+            size.append(max(floor[-1], longest_word([head])))
+        else:
+            floor.append(max(longest_word(cs), longest_word([head])))
+            size.append(max([len(c) for c in cs] + [len(head), 1]))
+    gaps = 3 * (len(cols) - 1)  # padding (1 + 1) and the blank rule between columns
+    while sum(size) + gaps > total:
+        # text first (it wraps at spaces), a number's header only when no text can give way
+        text = [k for k, c in enumerate(cols) if c.justify != "right" and size[k] > floor[k]]
+        shrinkable = text or [k for k in range(len(cols)) if size[k] > floor[k]]
+        if not shrinkable:
+            break
+        k = max(shrinkable, key=lambda v: size[v])
+        size[k] -= 1
+    for col, w in zip(cols, size, strict=True):
+        col.width, col.overflow = w, "fold"
+    return table
 
 
 def model_label(cm: Any) -> str:
@@ -273,7 +315,7 @@ def fit(
     )
     from rinscal.calibration.guards import TrainingDataWarning
     from rinscal.calibration.model import ThermalModel
-    from rinscal.cli._app import console, err_console, fail
+    from rinscal.cli._app import console, err_console, fail, styled
     from rinscal.errors import RinscalError
 
     if method not in _METHODS:
@@ -328,7 +370,7 @@ def fit(
             for w in caught:
                 if issubclass(w.category, MissingGradientWarning):
                     err_console.print(
-                        f"[yellow]warning:[/] {escape(str(w.message))}", highlight=False
+                        styled("warning:", "yellow", f" {w.message}"), highlight=False
                     )
             progress.update(task, description=f"fitting {method}", total=len(model.channels))
 
@@ -345,15 +387,16 @@ def fit(
     for w in fit_warnings:
         if issubclass(w.category, TrainingDataWarning):
             err_console.print(
-                f"[yellow]warning:[/] {escape(str(log))}: {escape(str(w.message))}",
+                styled("warning:", "yellow", f" {log}: {w.message}"),
                 highlight=False,
             )
     table = Table(title=f"{method} model of {log.name}: training residual (Eq. 16)")
-    cols = ["channel", "model", "samples", "outliers", "T range [°C]", "RMS*"]
+    cols = ["channel", "model", "samples", "masked", "T range [°C]", "RMS*"]
     if method == "auto":
         cols += ["held-out", "none held-out"]
     for name in cols:
-        table.add_column(name, justify="left" if name in ("channel", "model") else "right")
+        left = name in ("channel", "model", "T range [°C]")
+        table.add_column(name, justify="left" if left else "right")
     for c in mf.channels:
         cm = mf.models[c]
         m = cm.metrics
@@ -372,8 +415,11 @@ def fit(
                 _fmt(by_name.get("none", {}).get("heldout_rms")),
             ]
         table.add_row(*row)
-    console.print(table)
-    note = "RMS* of the training residual about each run's mean (turn-on offsets removed)."
+    console.print(_narrow(table))
+    note = (
+        "masked: outlier samples left out of the fit; RMS* of the training residual about "
+        "each run's mean (turn-on offsets removed)."
+    )
     if method == "auto":
         first = next(iter(mf.models.values())).selection or {}
         scheme, parts = first.get("scheme", "?"), len(first.get("folds", []))
@@ -462,7 +508,7 @@ def select(
     from rinscal.calibration.features import DerivativeConfig, MissingGradientWarning
     from rinscal.calibration.model import unit_factors
     from rinscal.calibration.selection import DEFAULT_SETTINGS, select_model
-    from rinscal.cli._app import console, err_console, fail
+    from rinscal.cli._app import console, err_console, fail, styled
     from rinscal.errors import RinscalError
 
     if method not in DEFAULT_SETTINGS:
@@ -501,7 +547,7 @@ def select(
         raise fail(str(exc)) from None
     for w in caught:
         if issubclass(w.category, MissingGradientWarning):
-            err_console.print(f"[yellow]warning:[/] {escape(str(w.message))}", highlight=False)
+            err_console.print(styled("warning:", "yellow", f" {w.message}"), highlight=False)
     units, _ = unit_factors(meta)
     if as_json:
         doc = res.to_dict()
@@ -522,7 +568,7 @@ def select(
         for _, r in grp.iterrows():
             mark = []
             if r["setting"] == res.recommended[c]:
-                mark.append("[bold green]recommended[/]")
+                mark.append("recommended")
             if r["setting"] == res.best[c]:
                 mark.append("best")
             table.add_row(
@@ -533,7 +579,7 @@ def select(
                 ", ".join(mark),
             )
         table.add_section()
-    console.print(table)
+    console.print(_narrow(table))
     console.print(
         f"recommended: smallest setting within {tolerance:.1%} of the best held-out RMS",
         highlight=False,
@@ -556,7 +602,7 @@ def _select_auto(
 
     from rinscal.calibration.features import DerivativeConfig
     from rinscal.calibration.model import ThermalModel
-    from rinscal.cli._app import console, err_console, fail
+    from rinscal.cli._app import console, err_console, fail, styled
     from rinscal.errors import RinscalError
 
     fams = None if candidates is None else tuple(v.strip() for v in candidates.split(","))
@@ -577,7 +623,7 @@ def _select_auto(
         raise fail(str(exc)) from None
     for w in caught:
         if issubclass(w.category, UserWarning):
-            err_console.print(f"[yellow]warning:[/] {escape(str(w.message))}", highlight=False)
+            err_console.print(styled("warning:", "yellow", f" {w.message}"), highlight=False)
     if as_json:
         doc = {
             "log": log.name,
@@ -597,7 +643,9 @@ def _select_auto(
             f"({', '.join(sel.get('folds', []))})"
         )
         for name in ("candidate", "params", "held-out RMS", "per fold", "train RMS", ""):
-            table.add_column(name, justify="left" if name in ("candidate", "") else "right")
+            table.add_column(
+                name, justify="left" if name in ("candidate", "per fold", "") else "right"
+            )
         rows = sorted(
             sel.get("table", []),
             key=lambda r: (r["heldout_rms"] is None, r["heldout_rms"] or 0.0),
@@ -605,7 +653,7 @@ def _select_auto(
         for r in rows:
             mark = []
             if r["name"] == sel.get("chosen"):
-                mark.append("[bold green]chosen[/]")
+                mark.append("chosen")
             if r["name"] == sel.get("fallback"):
                 mark.append("fallback")
             table.add_row(
@@ -616,7 +664,7 @@ def _select_auto(
                 _fmt(r["train_rms"], 5),
                 ", ".join(mark),
             )
-        console.print(table)
+        console.print(_narrow(table))
     console.print(
         "chosen: among the models a paired t-test (90 %, log ratios over the folds) cannot "
         "tell from the best held-out error"
@@ -807,25 +855,19 @@ def evaluate_cmd(
         }
         typer.echo(json.dumps(doc, indent=1))
         return
+    steps = bool((res["crossings"] > 0).any())  # step columns only where edges are crossed
     table = Table(
         title=f"{mf.method} model on {log.name}: RMS about each run's mean (Eq. 16); "
-        "largest step at a segment edge; share outside the training data"
+        + ("largest step at a segment edge; " if steps else "")
+        + "share outside the training data"
     )
-    for name in (
-        "run",
-        "channel",
-        "model",
-        "RMS before",
-        "RMS after",
-        "after/before",
-        "flagged",
-        "edges crossed",
-        "step raw",
-        "step comp.",
-    ):
+    names = ["run", "channel", "model", "RMS before", "RMS after", "after/ before", "flagged"]
+    if steps:
+        names += ["edges crossed", "step raw", "step comp."]
+    for name in names:
         table.add_column(name, justify="left" if name in ("run", "channel", "model") else "right")
     for _, r in res.iterrows():
-        table.add_row(
+        cells = [
             str(r["run"]),
             f"{r['channel']} ({r['unit'] or '?'})",
             labels[r["channel"]],
@@ -833,18 +875,20 @@ def evaluate_cmd(
             _fmt(r["rms_after"]),
             _fmt(r["ratio"], 3),
             f"{r['out_of_range'] / max(r['samples'], 1):.1%}",
-            str(int(r["crossings"])),
-            _fmt(r["max_step_before"], 3),
-            _fmt(r["max_step_after"], 3),
-        )
-    console.print(table)
+        ]
+        if steps:
+            cells += [
+                str(int(r["crossings"])),
+                _fmt(r["max_step_before"], 3),
+                _fmt(r["max_step_after"], 3),
+            ]
+        table.add_row(*cells)
+    console.print(_narrow(table))
     if not allan.empty:
         at = Table(
-            title=escape(
-                "Allan deviation (overlapping), IEEE Std 952 slopes: N random walk "
-                "[unit·√s] at τ = 1 s, B bias instability [unit] (at τ), K rate random walk "
-                "[unit/√s] at τ = 3 s; '-' where the curve has no such region"
-            )
+            title="Allan deviation (overlapping), IEEE Std 952 slopes: N random walk "
+            "[unit·√s] at τ = 1 s, B bias instability [unit] (at τ), K rate random walk "
+            "[unit/√s] at τ = 3 s; '-' where the curve has no such region"
         )
         for name in ("run", "channel", "output", "N", "B", "τ(B) [s]", "K"):
             at.add_column(name, justify="left" if name in ("run", "channel", "output") else "right")
@@ -858,7 +902,7 @@ def evaluate_cmd(
                 _fmt(r["b_tau_s"], 3),
                 _fmt(r["k"], 3),
             )
-        console.print(at)
+        console.print(_narrow(at))
     if allan_plot is not None:
         console.print(f"wrote {allan_plot}", highlight=False)
 
@@ -913,7 +957,7 @@ def export_cmd(
         to_px4_params,
     )
     from rinscal.calibration.modelfile import ThermalModelFile
-    from rinscal.cli._app import console, err_console, fail
+    from rinscal.cli._app import console, err_console, fail, styled
     from rinscal.errors import RinscalError
     from rinscal.io import write_atomic
 
@@ -935,5 +979,5 @@ def export_cmd(
         raise fail(str(exc)) from None
     for w in caught:
         if issubclass(w.category, SmallCoefficientWarning):
-            err_console.print(f"[yellow]warning:[/] {escape(str(w.message))}", highlight=False)
+            err_console.print(styled("warning:", "yellow", f" {w.message}"), highlight=False)
     console.print(f"wrote {out} ({fmt}, {mf.method} model)", highlight=False)

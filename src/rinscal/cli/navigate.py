@@ -121,7 +121,6 @@ def navigate(
         raise fail(f"--align-start-s must be >= 0 s, got {align_start_s}")
     if policy not in ("clamp", "extrapolate", "error"):
         raise fail(f"--policy must be clamp, extrapolate or error, got {policy!r}")
-    out.mkdir(parents=True, exist_ok=True)  # before the run: an unusable --out fails at once
 
     try:
         from rinscal.nav.rotation import schedule_from_name
@@ -152,6 +151,7 @@ def navigate(
                 name += "_"
             comps[name] = model_compensator(str(path), plant, policy=policy)
 
+        out.mkdir(parents=True, exist_ok=True)  # before the run: an unusable --out fails at once
         with Progress(
             TextColumn("[progress.description]{task.description}"),
             BarColumn(),

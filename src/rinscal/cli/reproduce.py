@@ -6,7 +6,7 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.markup import escape
+from rich.text import Text
 
 from rinscal.cli._app import app
 from rinscal.cli._options import AlignLengthOpt, AlignStartOpt, ImuOpt
@@ -58,7 +58,7 @@ def reproduce(
 
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from rinscal.cli._app import console, fail
+    from rinscal.cli._app import console, fail, styled
     from rinscal.errors import RinscalError
     from rinscal.experiments.paper import (
         ReproConfig,
@@ -171,13 +171,13 @@ def reproduce(
     write_atomic(written.metrics_path, lambda tmp: tmp.write_text(text))
     console.print(f"wrote {out / 'report.html'} in {total:.0f} s", highlight=False)
     for c in checked.values():
-        mark = "[green]holds[/]" if c["holds"] else "[red]does not hold[/]"
+        mark = styled("holds", "green") if c["holds"] else styled("does not hold", "red")
         tag = "asserted" if c["asserted"] else "reported"
-        console.print(f"  {mark} ({tag}) {escape(c['what'])}", highlight=False)
+        console.print(Text("  ") + mark + Text(f" ({tag}) {c['what']}"), highlight=False)
     if units:
         console.print(
-            f"over {units} units (report: {escape(str(out / 'study' / 'report.html'))}):",
+            f"over {units} units (report: {out / 'study' / 'report.html'}):",
             highlight=False,
         )
         for line in study_lines:
-            console.print(f"  {escape(line)}", highlight=False)
+            console.print(f"  {line}", highlight=False)

@@ -68,7 +68,6 @@ def study(
     an interrupted study resumes with the same command and computes only what is missing.
     Writes OUT/report.html, OUT/tables/*.csv and OUT/summary.json at the end.
     """
-    from rich.markup import escape
     from rich.progress import (
         BarColumn,
         MofNCompleteColumn,
@@ -78,7 +77,7 @@ def study(
         TimeRemainingColumn,
     )
 
-    from rinscal.cli._app import console, fail
+    from rinscal.cli._app import console, fail, styled
     from rinscal.errors import RinscalError
     from rinscal.experiments.runner import StudyStore, run_study
     from rinscal.experiments.study import load_spec, study_tasks
@@ -143,8 +142,12 @@ def study(
         )
         if run.failed:
             console.print(
-                f"[red]{run.failed} task(s) failed[/]: their errors are in "
-                f"{escape(str(out / 'failed'))}; run again with --retry-failed to retry them",
+                styled(
+                    f"{run.failed} task(s) failed",
+                    "red",
+                    f": their errors are in {out / 'failed'}; run again with --retry-failed "
+                    "to retry them",
+                ),
                 highlight=False,
             )
         written = write_study_report(store, s, run)
@@ -152,11 +155,10 @@ def study(
         raise fail(str(exc)) from None
     except KeyboardInterrupt:
         console.print(
-            f"interrupted: what finished is kept in {escape(str(out))}; run the same command "
-            "to resume",
+            f"interrupted: what finished is kept in {out}; run the same command to resume",
             highlight=False,
         )
         raise typer.Exit(130) from None
-    console.print(f"wrote {escape(str(written.report))}", highlight=False)
+    console.print(f"wrote {written.report}", highlight=False)
     for line in written.verdicts:
-        console.print(f"  {escape(line)}", highlight=False)
+        console.print(f"  {line}", highlight=False)
