@@ -805,7 +805,10 @@ def _select(
                 "method": "none" if cand.family == "none" else cand.method,
                 "n_params": int(cand.n_params),
                 "heldout_rms": score,
-                "fold_rms": [None if not np.isfinite(v) else float(v) for v in fold_rms],
+                "fold_rms": [  # None: not fitted, or nothing of the part scored (outside T range)
+                    None if not (np.isfinite(v) and n) else float(v)
+                    for v, n in zip(fold_rms, counts, strict=True)
+                ],
                 "train_rms": train_rms,
             }
         )
