@@ -69,6 +69,75 @@ def guard_os_errors(command: Callable[..., Any] | None) -> Callable[..., Any] | 
     return run
 
 
+def _widths(cols: list[Any], total: int) -> tuple[list[int], list[int]]:
+    """Fixed widths for columns (see :func:`_print_table`), and each column's least width."""
+    floor, size = [], []
+    for col in cols:
+        cells = [str(c) for c in col._cells]
+        head = str(col.header)
+        words = [len(w) for t in [*cells, head] for w in t.split()] or [1]
+        if col.justify == "right":  # never below its widest number; the header wraps
+            floor.append(max([len(c) for c in cells] or [1]))
+            size.append(max(floor[-1], max(len(w) for w in head.split()) if head.split() else 1))
+        else:  # text wraps at spaces, never inside a word
+            floor.append(max(words))
+            size.append(max([len(c) for c in cells] + [len(head), 1]))
+    gaps = 3 * (len(cols) - 1)  # padding (1 + 1) and the blank rule between columns
+    while sum(size) + gaps > total:
+        # text first (it wraps at spaces), a number's header only when no text can give way
+        text = [k for k, c in enumerate(cols) if c.justify != "right" and size[k] > floor[k]]
+        shrinkable = text or [k for k in range(len(cols)) if size[k] > floor[k]]
+        if not shrinkable:
+            break
+        k = max(shrinkable, key=lambda v: size[v])
+        size[k] -= 1
+    return size, floor
+
+
+def print_table(console: Console, table: Any) -> None:
+    """Print a table that fits the terminal's width and cuts no number.
+
+    Columns get fixed widths (:func:`_widths`): a number column its widest cell, its header
+    wrapped; text wrapped at spaces. If even that is too wide, the number columns are split
+    over several tables, each repeating the leading text columns (run, channel, ...). Rich
+    would otherwise end a cut cell with "…", numbers included.
+    """
+    from rich import box
+    from rich.table import Table
+
+    total = console.width
+    cols = list(table.columns)
+    n_id = next((k for k, c in enumerate(cols) if c.justify == "right"), len(cols))
+    ids, rest = cols[:n_id], cols[n_id:]
+    _, floor = _widths(cols, total)
+    chunks: list[list[Any]] = [[]]
+    used = sum(floor[:n_id]) + 3 * max(n_id - 1, 0)
+    for k, col in enumerate(rest):
+        head = max((len(w) for w in str(col.header).split()), default=1)
+        need = max(floor[n_id + k], head) + 3  # a number and its header's longest word
+        if chunks[-1] and used + need > total:
+            chunks.append([])
+            used = sum(floor[:n_id]) + 3 * max(n_id - 1, 0)
+        chunks[-1].append(col)
+        used += need
+    for i, chunk in enumerate(chunks):
+        part = Table(
+            title=table.title if i == 0 else None,
+            box=box.SIMPLE_HEAD,
+            pad_edge=False,
+            show_edge=False,
+        )
+        for col in [*ids, *chunk]:
+            part.add_column(col.header, justify=col.justify)
+        n_rows = len(cols[0]._cells) if cols else 0
+        for r in range(n_rows):
+            part.add_row(*[str(col._cells[r]) for col in [*ids, *chunk]])
+        size, _ = _widths(list(part.columns), total)
+        for col, w in zip(part.columns, size, strict=True):
+            col.width, col.overflow = w, "fold"
+        console.print(part)
+
+
 def _version(value: bool) -> None:
     if value:
         from rinscal import __version__

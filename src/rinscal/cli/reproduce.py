@@ -3,18 +3,36 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
+from rich.table import Table
 from rich.text import Text
 
-from rinscal.cli._app import app
+from rinscal.cli._app import app, print_table
 from rinscal.cli._options import AlignLengthOpt, AlignStartOpt, ImuOpt
 from rinscal.thermal.presets import DEFAULT_PRESET
 
 #: Measured wall time of the full reproduction on a 2-core machine [min] (4 min 7 s with
 #: --jobs 2; the calibration stage, which runs in one process, is most of it).
 FULL_EXPECTED_MIN = 5
+
+
+def _print_headline(console: Any, rows: list[dict[str, Any]]) -> None:
+    """The headline: max position error per method over the lab and vehicle runs [nmi]."""
+    table = Table(title="max position error over the lab and vehicle runs [nmi]")
+    for name in ("method", "runs", "mean", "sd", "min", "max"):
+        table.add_column(name, justify="left" if name == "method" else "right")
+    for r in rows:
+        if r.get("runs") != "lab + vehicle":
+            continue
+        table.add_row(
+            str(r["method"]),
+            str(r["n runs"]),
+            *(f"{r[f'max error {k} [nmi]']:.3f}" for k in ("mean", "sd", "min", "max")),
+        )
+    if table.row_count:
+        print_table(console, table)
 
 
 @app.command("reproduce")
@@ -170,10 +188,15 @@ def reproduce(
     text = json.dumps(metrics, indent=2, allow_nan=True) + "\n"
     write_atomic(written.metrics_path, lambda tmp: tmp.write_text(text))
     console.print(f"wrote {out / 'report.html'} in {total:.0f} s", highlight=False)
+    _print_headline(console, metrics.get("nav_by_method", []))
+    verdicts = Table(title="the paper's claims on this plant")
+    verdicts.add_column("verdict")
+    verdicts.add_column("claim")
     for c in checked.values():
         mark = styled("holds", "green") if c["holds"] else styled("does not hold", "red")
         tag = "asserted" if c["asserted"] else "reported"
-        console.print(Text("  ") + mark + Text(f" ({tag}) {c['what']}"), highlight=False)
+        verdicts.add_row(mark + Text(f" ({tag})"), c["what"])
+    print_table(console, verdicts)
     if units:
         console.print(
             f"over {units} units (report: {out / 'study' / 'report.html'}):",
