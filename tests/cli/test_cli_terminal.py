@@ -62,3 +62,11 @@ def test_evaluate_table_cuts_no_number_at_80_columns(tmp_path) -> None:
             assert _fmt(row[key]) in res.output, (key, _fmt(row[key]))
     for unit in ("(deg/h)", "(ug)", "[unit·√s]", "τ(B)", "[s]"):
         assert unit in _squash(res.output)
+
+
+def test_config_errors_keep_their_section_names(tmp_path) -> None:
+    spec = tmp_path / "bad.toml"
+    spec.write_text('[study]\nname = "x"\nbogus = 1\n', encoding="utf-8")
+    res = runner.invoke(app, ["study", str(spec), "--out", str(tmp_path / "o")], env=ENV)
+    assert res.exit_code == 2, res.output
+    assert "missing [calibration]" in _squash(res.output)  # the section name is kept
