@@ -58,14 +58,14 @@ def _invoke(args: list) -> tuple[int, str]:
 
 
 def test_mapping_options_leave_time_as_given_unless_asked(tmp_path, model_file) -> None:
-    from rinscal.cli._options import read_foreign_log
+    from rinscal.cli._options import read_foreign_source
 
     src = tmp_path / "in.csv"
     _log().to_csv(src, sep=";", index=False)
     # a mapping option (the separator) no longer shifts time: it was 0.0 here before
-    df, _ = read_foreign_log(src, sep="semicolon")
+    df = read_foreign_source(src, sep="semicolon")[0].log
     assert df.groupby("run")["time_s"].first().tolist() == [1.0, 1.0]
-    df, _ = read_foreign_log(src, sep="semicolon", relative_time=True)
+    df = read_foreign_source(src, sep="semicolon", relative_time=True)[0].log
     assert df.groupby("run")["time_s"].first().tolist() == [0.0, 0.0]
     # compensate writes the file's own time column back, and its separator
     for extra in ([], ["--relative-time"]):

@@ -9,7 +9,6 @@ from typing import TYPE_CHECKING, Annotated, Any
 import typer
 
 if TYPE_CHECKING:
-    import pandas as pd
 
     from rinscal.io import SourceLog
 
@@ -90,30 +89,6 @@ def refuse_inputs(out: Path, inputs: list[Path]) -> None:
         raise fail(f"{out}: folder {out.resolve().parent} does not exist")
 
 
-def read_foreign_log(
-    log: Path,
-    map_file: Path | None = None,
-    col: list[str] | None = None,
-    time_col: str | None = None,
-    time_unit: str | None = None,
-    sep: str | None = None,
-    temp_col: str | None = None,
-    drop: list[str] | None = None,
-    run_name: str | None = None,
-    relative_time: bool = False,
-) -> tuple[pd.DataFrame, dict[str, Any]]:
-    """Read a log through a mapping file and/or options, with its metadata.
-
-    The metadata is the log's sidecar ``.meta.json``; where it gives no units, the mapping's
-    units are used. ``meta["log"]`` is the log's file name. ``relative_time`` turns the
-    mapping's relative time on (a mapping file may also ask for it).
-    """
-    src, meta = read_foreign_source(
-        log, map_file, col, time_col, time_unit, sep, temp_col, drop, run_name, relative_time
-    )
-    return src.log, meta
-
-
 def read_foreign_source(
     log: Path,
     map_file: Path | None = None,
@@ -126,7 +101,13 @@ def read_foreign_source(
     run_name: str | None = None,
     relative_time: bool = False,
 ) -> tuple[SourceLog, dict[str, Any]]:
-    """:func:`read_foreign_log`, keeping the file's own table (to write it back)."""
+    """Read a log through a mapping file and/or options: the log as read, and its metadata.
+
+    The metadata is the log's sidecar ``.meta.json``; where it gives no units, the mapping's
+    units are used. ``meta["log"]`` is the log's file name. ``relative_time`` turns the
+    mapping's relative time on (a mapping file may also ask for it). ``.log`` of the
+    result is the canonical frame; ``.raw`` the file's own table, to write it back.
+    """
     from rinscal.io import mapping_from_options, read_log_source, read_mapping, read_meta
     from rinscal.schema import CHANNELS
 

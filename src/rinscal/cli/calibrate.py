@@ -24,7 +24,6 @@ from rinscal.cli._options import (
     TempColOpt,
     TimeColOpt,
     TimeUnitOpt,
-    read_foreign_log,
     read_foreign_source,
     refuse_inputs,
 )
@@ -64,9 +63,10 @@ def _read(
     relative_time: bool = False,
 ) -> tuple[pd.DataFrame, dict[str, Any]]:
     """Read a log and its metadata (units from the mapping when there is no sidecar)."""
-    return read_foreign_log(
+    src, meta = read_foreign_source(
         log, map_file, col, time_col, time_unit, sep, temp_col, relative_time=relative_time
     )
+    return src.log, meta
 
 
 def _static_options(

@@ -21,7 +21,7 @@ from rinscal.cli._options import (
     TimeColOpt,
     TimeUnitOpt,
     is_same_file,
-    read_foreign_log,
+    read_foreign_source,
     refuse_inputs,
 )
 from rinscal.thermal.presets import DEFAULT_PRESET
@@ -68,7 +68,7 @@ def plot(
     try:
         with Progress(console=console, transient=True) as progress:
             task = progress.add_task("reading log", total=3)
-            df, meta = read_foreign_log(
+            src, meta = read_foreign_source(
                 log,
                 map_file,
                 col,
@@ -80,6 +80,7 @@ def plot(
                 run_name,
                 relative_time,
             )
+            df = src.log
             progress.update(task, advance=1, description="drawing")
 
             from rinscal.report.logplot import plot_log, units_from_meta
