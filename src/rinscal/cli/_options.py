@@ -9,7 +9,6 @@ from typing import TYPE_CHECKING, Annotated, Any
 import typer
 
 if TYPE_CHECKING:
-
     from rinscal.io import SourceLog
 
 LogArg = Annotated[Path, typer.Argument(help="Calibration log (.csv, .tsv or .parquet).")]
