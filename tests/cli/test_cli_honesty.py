@@ -308,3 +308,43 @@ def test_time_errors_print_plain_numbers(tmp_path) -> None:
     log.to_csv(src, index=False)
     code, text = _invoke(["fit", src, "--out", tmp_path / "m.json"])
     assert code == 2 and "np.float64" not in text and "41 s after 41 s at data row 5" in text
+
+
+def test_policy_error_names_the_file_and_counts_rows_from_1(tmp_path, model_file) -> None:
+    log = _log()
+    log.loc[log.index[-1], "temp_in"] = 80.0  # the last row, far outside the training data
+    src = tmp_path / "hot.csv"
+    write_log(log, src)
+    code, text = _invoke(
+        ["compensate", src, "-m", model_file, "--policy", "error", "--out", tmp_path / "o.csv"]
+    )
+    assert code == 2, text
+    assert f"{src}: gyro_x: data row {len(log)} (run 'r1'" in " ".join(text.split())
+    assert "T = 80 °C outside" in text and "np.float64" not in text
+
+
+def test_reproduce_headline_fits_80_columns() -> None:
+    from rich.console import Console
+
+    from rinscal.cli.reproduce import _print_headline
+
+    rows = [
+        {
+            "runs": "lab + vehicle",
+            "method": name,
+            "n runs": 13,
+            **{
+                f"max error {k} [nmi]": v
+                for k, v in zip(("mean", "sd", "min", "max"), vals, strict=True)
+            },
+        }
+        for name, vals in (
+            ("uncompensated", (0.9885, 0.7347, 0.2195, 2.6636)),
+            ("method 2 (regression)", (0.4860, 0.3450, 0.0740, 1.2980)),
+        )
+    ]
+    console = Console(width=80, record=True, markup=False)
+    _print_headline(console, rows)
+    text = console.export_text()
+    assert max(len(line) for line in text.splitlines()) <= 80
+    assert "[nmi]" in text and "0.989" in text and "0.486" in text and "2.664" in text
