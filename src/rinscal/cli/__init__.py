@@ -7,10 +7,20 @@ into a message and an exit code.
 
 from __future__ import annotations
 
-from rinscal.cli import calibrate, navigate, reproduce, simulate, study  # noqa: F401  (registers)
+from rinscal.cli import (  # noqa: F401  (registers)
+    calibrate,
+    fleet,
+    navigate,
+    reproduce,
+    simulate,
+    study,
+)
 from rinscal.cli._app import app, guard_os_errors
 
-for _info in app.registered_commands:  # one place turns OS errors into a message
+for _info in [  # one place turns OS errors into a message
+    *app.registered_commands,
+    *(c for g in app.registered_groups for c in g.typer_instance.registered_commands),
+]:
     _info.callback = guard_os_errors(_info.callback)
 
 

@@ -1,0 +1,164 @@
+"""``rinscal fleet fit``: every unit fitted as its own Dask task, resumable, checked against limits.
+
+Six simulated units: one log is corrupt (reported as failed with its error), one has ten times
+the gyro noise (flagged by the noise-density limit), the other four pass; a fleet interrupted
+after two units resumes without refitting them.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from rinscal.calibration.modelfile import ThermalModelFile
+from rinscal.cli import app
+from rinscal.errors import ConfigError
+from rinscal.experiments.fleet import (
+    FleetLimits,
+    FleetStore,
+    _noise_density,
+    fleet_report,
+    run_fleet,
+)
+from rinscal.io import write_log, write_meta
+from rinscal.thermal.protocols import simulate_protocol
+
+LIMITS = "[limits.gyro]\nmax_noise_density = {gyro}\n"
+
+
+@pytest.fixture(scope="module")
+def units(tmp_path_factory) -> dict[str, Path]:
+    """Six units' soak logs (0.5 h, 0.5 Hz): u5 noisy, u6 corrupt."""
+    d = tmp_path_factory.mktemp("fleet")
+    out = {}
+    for k in range(1, 6):
+        log, _, meta = simulate_protocol("soak", hours=0.5, rate_hz=0.5, seed=k)
+        if k == 5:  # ten times the white noise on every gyro
+            rng = np.random.default_rng(5)
+            for c in ("gyro_x", "gyro_y", "gyro_z"):
+                log[c] = log[c] + rng.normal(0, 10 * 0.25, len(log))
+        path = d / f"u{k}.csv"
+        write_log(log, path)
+        write_meta(meta, path)
+        out[f"u{k}"] = path
+    bad = d / "u6.csv"
+    bad.write_text("time_s,run,gyro_x\n0,a,1\n0,a,2\n", encoding="utf-8")
+    out["u6"] = bad
+    return out
+
+
+@pytest.fixture(scope="module")
+def client():
+    from distributed import Client, LocalCluster
+
+    with (
+        LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=False, dashboard_address=":0"
+        ) as cl,
+        Client(cl) as c,
+    ):
+        yield c
+
+
+def test_noise_density_of_white_noise_is_sigma_sqrt_dt() -> None:
+    rng = np.random.default_rng(0)
+    t = np.arange(20000) * 0.5  # 2 Hz
+    y = rng.normal(0, 3.0, t.size) + 0.001 * t  # σ 3 plus a slow drift
+    # white noise of σ per sample at interval dt: density σ·√dt
+    assert _noise_density(y, t, np.zeros(t.size, int)) == pytest.approx(
+        3.0 * np.sqrt(0.5), rel=0.03
+    )
+
+
+def test_fleet_fits_flags_and_reports(units, client, tmp_path) -> None:
+    store = FleetStore(tmp_path / "fleet")
+    run = run_fleet(list(units.values()), store, method="poly-t", client=client)
+    assert (run.units, run.fitted, run.failed, run.skipped) == (6, 5, 1, 0)
+    # every fitted unit: a model file that loads, an export, a summary
+    for name in ("u1", "u2", "u3", "u4", "u5"):
+        mf = ThermalModelFile.load(store.model_path(name))
+        assert mf.method == "poly-t" and mf.source["log"] == f"{name}.csv"
+        assert "static inline double" in store.export_path(name, "c").read_text()
+    # noise limit between the normal units' gyro density and the noisy one's
+    dens = {
+        u: max(s["channels"][c]["noise_density"] for c in ("gyro_x", "gyro_y", "gyro_z"))
+        for u, s in store.summaries().items()
+    }
+    limit = 3 * max(v for u, v in dens.items() if u != "u5")
+    assert dens["u5"] > limit
+    (tmp_path / "lim.toml").write_text(LIMITS.format(gyro=limit), encoding="utf-8")
+    report = fleet_report(store, FleetLimits.from_toml(tmp_path / "lim.toml"))
+    verdict = dict(zip(report.verdicts["unit"], report.verdicts["verdict"], strict=True))
+    assert verdict == {
+        "u1": "pass",
+        "u2": "pass",
+        "u3": "pass",
+        "u4": "pass",
+        "u5": "fail",
+        "u6": "failed",
+    }
+    why = report.verdicts.set_index("unit")["why"]
+    assert "gyro_x noise density" in why["u5"] and "u6.csv" in why["u6"]
+    # the distribution across units: every channel's figures and coefficients over 5 units
+    dist = report.distribution.set_index(["channel", "name"])
+    assert (dist.xs("noise_density", level="name")["n"] == 5).all()
+    assert (dist.xs("coef[1]", level="name")["n"] == 5).all()
+    span = dist.loc[("accel_z", "thermal_span")]
+    assert span["min"] <= span["median"] <= span["max"] and span["sd"] > 0
+
+
+def test_an_interrupted_fleet_resumes_without_refitting(units, client, tmp_path) -> None:
+    store = FleetStore(tmp_path / "fleet")
+    logs = [units[f"u{k}"] for k in range(1, 4)]
+    done: list[str] = []
+
+    def stop_after_one(unit: str, status: str) -> None:
+        done.append(unit)
+        raise KeyboardInterrupt  # as a Ctrl-C would, mid-fleet
+
+    with pytest.raises(KeyboardInterrupt):
+        run_fleet(logs, store, method="poly-t", client=client, on_unit=stop_after_one)
+    stamp = store.model_path(done[0]).stat().st_mtime_ns
+    run = run_fleet(logs, store, method="poly-t", client=client)
+    assert (run.skipped, run.fitted) == (1, 2)
+    assert store.model_path(done[0]).stat().st_mtime_ns == stamp  # not fitted again
+    # a log that changed is fitted again
+    before = store.summary_path("u1").read_text()
+    units["u1"].touch()
+    run = run_fleet(logs, store, method="poly-t", client=client)
+    assert (run.skipped, run.fitted) == (2, 1) and store.summary_path("u1").read_text() != before
+
+
+def test_a_folder_keeps_one_setting_and_limits_are_checked(units, tmp_path) -> None:
+    store = FleetStore(tmp_path / "f")
+    store.open({"method": "auto", "export": "c"})
+    with pytest.raises(ConfigError, match="holds a fleet fitted with"):
+        store.open({"method": "poly-t", "export": "c"})
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[limits.gyro]\nmax_noise = 1\n", encoding="utf-8")
+    with pytest.raises(ConfigError, match=r"\[limits.gyro\]: unknown key 'max_noise'"):
+        FleetLimits.from_toml(bad)
+    bad.write_text("[limits.accel_z]\nmax_thermal_span = -1\n", encoding="utf-8")
+    with pytest.raises(ConfigError, match="max_thermal_span must be a positive number"):
+        FleetLimits.from_toml(bad)
+
+
+def test_fleet_cli_end_to_end(units, tmp_path) -> None:
+    out = tmp_path / "cli"
+    res = CliRunner().invoke(
+        app,
+        ["fleet", "fit", str(units["u1"]), str(units["u6"]), "--out", str(out), "--workers", "1"],
+    )
+    assert res.exit_code == 0, res.output
+    assert "1 fitted, 1 failed" in res.output
+    rows = (out / "verdicts.csv").read_text().splitlines()
+    assert (
+        rows[0] == "unit,verdict,why" and rows[1].startswith("u1,pass") and "u6,failed" in rows[2]
+    )
+    assert json.loads((out / "failed" / "u6.json").read_text())["error"].startswith(
+        str(units["u6"])
+    )
