@@ -761,7 +761,10 @@ def write_log(
 
     def writer(tmp: Path) -> None:
         if f == "parquet":
-            df.to_parquet(tmp, index=False)
+            # dictionary-encode text (run names) only: on float columns the dictionary is
+            # never kept and trying costs half the write time
+            text = [str(c) for c in df.columns if not pd.api.types.is_numeric_dtype(df[c])]
+            df.to_parquet(tmp, index=False, use_dictionary=text)
         else:
             df.to_csv(
                 tmp,

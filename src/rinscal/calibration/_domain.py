@@ -33,13 +33,6 @@ DEFAULT_BINS = 24
 _KEYS = ("lo", "hi", "bins", "runs")
 
 
-def _cells(x: np.ndarray, lo: np.ndarray, hi: np.ndarray, bins: np.ndarray) -> np.ndarray:
-    """Cell index of each sample per input (clipped into the grid), shape (n, k)."""
-    width = np.where(hi > lo, (hi - lo) / bins, 1.0)
-    idx = np.floor((x - lo) / width).astype(np.int64)
-    return np.clip(idx, 0, bins - 1)
-
-
 def column_range(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Least and greatest value of each column of ``x`` (n, k), one column at a time.
 
@@ -51,7 +44,11 @@ def column_range(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _flat_cells(x: np.ndarray, lo: np.ndarray, hi: np.ndarray, bins: np.ndarray) -> np.ndarray:
-    """Row-major flat cell number of each sample (the cells of :func:`_cells`), shape (n,)."""
+    """Row-major flat cell number of each sample, shape (n,).
+
+    Each input's cell is ``floor((x − lo) / width)`` clipped into ``0 .. bins − 1`` (a value
+    just outside the range falls in the edge cell; the box test catches the rest).
+    """
     cols = np.ascontiguousarray(x.T)  # one input per row: contiguous arithmetic
     flat = np.zeros(x.shape[0], dtype=np.int64)
     for v in range(lo.size):
@@ -133,9 +130,16 @@ def inside_domain(domain: Mapping[str, Any], x: np.ndarray) -> np.ndarray:
     k = lo.size
     xs = np.asarray(x, dtype=np.float64)[:, :k]
     width = np.where(hi > lo, (hi - lo) / nb, 0.0)
-    in_box = np.all((xs >= lo - width) & (xs <= hi + width), axis=1)
-    cells = _cells(xs, lo, hi, nb)
-    return in_box & _grid(domain)[tuple(cells.T)]
+    grid = _grid(domain).ravel()
+    out = np.empty(xs.shape[0], dtype=bool)
+    for s in range(0, xs.shape[0], 1 << 16):  # a block of rows at a time, one input per row
+        block = xs[s : s + (1 << 16)]
+        cols = np.ascontiguousarray(block.T)
+        ok = grid[_flat_cells(block, lo, hi, nb)]
+        for v in range(k):
+            ok &= (cols[v] >= lo[v] - width[v]) & (cols[v] <= hi[v] + width[v])
+        out[s : s + block.shape[0]] = ok
+    return out
 
 
 def validate_domain(d: Any, k: int) -> None:

@@ -164,18 +164,45 @@ def compensate(
     RangeError
         Under policy ``error``, naming the channel, row, run and input.
     """
+    values, flagged = compensated_channels(log, model, policy, derivative_kind)
+    out = log.copy()
+    for c, v in values.items():
+        out[c] = v
+    out[FLAG_COLUMN] = flagged
+    return out
+
+
+def compensated_channels(
+    log: pd.DataFrame,
+    model: ThermalModelFile,
+    policy: Policy = "clamp",
+    derivative_kind: str | None = None,
+) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """The compensated channels of a log, ``N − (f − r)``, without copying the log.
+
+    Parameters
+    ----------
+    log, model, policy, derivative_kind
+        As for :func:`compensate`.
+
+    Returns
+    -------
+    values : dict of str to ndarray, shape (n,)
+        Each modelled channel, compensated [log units].
+    flagged : ndarray of bool, shape (n,)
+        The ``out_of_range`` column: some channel's inputs outside its training data.
+    """
     if policy not in POLICIES:
         raise ValueError(f"policy must be one of {', '.join(POLICIES)}, got {policy!r}")
     missing = [c for c in model.channels if c not in log.columns]
     if missing:
         raise LogError(f"log has no column(s) {missing} that the model compensates")
     f, flags = predict_log(log, model, policy, derivative_kind)
-    out = log.copy()
+    values = {}
     for j, c in enumerate(model.channels):
         ref = model.models[c].static_reference or 0.0
-        out[c] = log[c].to_numpy(dtype=np.float64) - (f[:, j] - ref)
-    out[FLAG_COLUMN] = flags.any(axis=1)
-    return out
+        values[c] = log[c].to_numpy(dtype=np.float64) - (f[:, j] - ref)
+    return values, flags.any(axis=1)
 
 
 class StreamingCompensator:

@@ -239,11 +239,16 @@ def run_slices(run: pd.Series | np.ndarray) -> tuple[np.ndarray, tuple[str, ...]
     rows : list of ndarray of int
         Row indices of each run, increasing.
     """
-    codes, uniques = pd.factorize(pd.Series(np.asarray(run)), sort=False)
+    # factorize the column as it is (converting Arrow text to Python objects costs seconds)
+    codes, uniques = pd.factorize(run if isinstance(run, pd.Series) else pd.Series(run), sort=False)
     codes = codes.astype(np.int64, copy=False)
-    order = np.argsort(codes, kind="stable")
-    bounds = np.searchsorted(codes[order], np.arange(len(uniques) + 1))
-    rows = [order[bounds[k] : bounds[k + 1]] for k in range(len(uniques))]
+    if codes.size and np.all(codes[1:] >= codes[:-1]):  # runs one after another: slices
+        bounds = np.searchsorted(codes, np.arange(len(uniques) + 1))
+        rows = [np.arange(bounds[k], bounds[k + 1]) for k in range(len(uniques))]
+    else:
+        order = np.argsort(codes, kind="stable")
+        bounds = np.searchsorted(codes[order], np.arange(len(uniques) + 1))
+        rows = [order[bounds[k] : bounds[k + 1]] for k in range(len(uniques))]
     return codes, tuple(str(u) for u in uniques), rows
 
 

@@ -658,7 +658,7 @@ def compensate_cmd(
     from rinscal.calibration.compensate import (
         FLAG_COLUMN,
         check_units,
-        compensate,
+        compensated_channels,
         describe_reference,
     )
     from rinscal.calibration.modelfile import POLICIES, ThermalModelFile
@@ -681,12 +681,11 @@ def compensate_cmd(
             if not ignore_units:
                 check_units(mf, meta, str(log))
             progress.update(task, advance=1, description="compensating")
-            res = compensate(df, mf, policy, "causal" if causal else None)  # type: ignore[arg-type]
+            kind = "causal" if causal else None
+            values, flagged = compensated_channels(df, mf, policy, kind)  # type: ignore[arg-type]
             progress.update(task, advance=1, description="writing")
             # the file's own table back, its channels compensated, nothing else touched
-            table = src.write_back(
-                {c: res[c].to_numpy() for c in mf.channels}, {FLAG_COLUMN: res[FLAG_COLUMN]}
-            )
+            table = src.write_back(values, {FLAG_COLUMN: flagged})
             same_kind = format_of(out) != "parquet" and format_of(log) != "parquet"
             write_log(table, out, validate=False, sep=src.sep if same_kind else None)
             if meta:
@@ -704,14 +703,16 @@ def compensate_cmd(
         raise fail(f"{log}: {exc}") from None
     except RinscalError as exc:
         raise fail(str(exc)) from None
-    n_flag = int(res[FLAG_COLUMN].sum())
+    n_flag = int(flagged.sum())
     console.print(
-        f"wrote {out}: {len(res):,} rows, {len(mf.channels)} channel(s) compensated with the "
+        f"wrote {out}: {len(table):,} rows, {len(mf.channels)} channel(s) compensated with the "
         f"{mf.method} model; {n_flag:,} row(s) outside the training data ({policy})",
         highlight=False,
         soft_wrap=True,
     )
-    share = res.groupby(df["run"], sort=False)[FLAG_COLUMN].mean()
+    import pandas as pd
+
+    share = pd.Series(flagged).groupby(df["run"].to_numpy(), sort=False).mean()
     for run, frac in share.items():
         console.print(f"  {run}: {frac:.1%} of rows flagged", highlight=False)
     summary, missing = describe_reference(mf)
