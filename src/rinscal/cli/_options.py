@@ -49,6 +49,22 @@ ImuOpt = Annotated[
         help="The simulated IMU: a preset (paper, navigation_grade) or an IMU TOML file.",
     ),
 ]
+WorkersOpt = Annotated[
+    int | None,
+    typer.Option(
+        "--workers",
+        "-w",
+        min=1,
+        max=1024,
+        help="Local worker processes, 1-1024 (default: one per core).",
+    ),
+]
+SchedulerOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--scheduler", help="Run on an existing Dask cluster: its address, tcp://host:8786."
+    ),
+]
 AlignLengthOpt = Annotated[
     float,
     typer.Option(

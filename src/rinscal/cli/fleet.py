@@ -8,6 +8,7 @@ from typing import Annotated
 import typer
 
 from rinscal.cli._app import app, print_table
+from rinscal.cli._options import SchedulerOpt, WorkersOpt
 
 fleet_app = typer.Typer(
     help="Calibrate a fleet of IMUs: one log per unit, fitted in parallel on Dask.",
@@ -37,20 +38,8 @@ def fleet_fit(
             "with max_thermal_span, max_heldout_rms, max_noise_density in the log's units).",
         ),
     ] = None,
-    workers: Annotated[
-        int | None,
-        typer.Option(
-            "--workers",
-            "-w",
-            min=1,
-            max=1024,
-            help="Local worker processes (default: one per core).",
-        ),
-    ] = None,
-    scheduler: Annotated[
-        str | None,
-        typer.Option("--scheduler", help="Run on an existing Dask cluster: tcp://host:8786."),
-    ] = None,
+    workers: WorkersOpt = None,
+    scheduler: SchedulerOpt = None,
     retry_failed: Annotated[
         bool, typer.Option("--retry-failed", help="Fit again the units that failed before.")
     ] = False,

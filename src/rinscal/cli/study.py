@@ -8,6 +8,7 @@ from typing import Annotated
 import typer
 
 from rinscal.cli._app import app
+from rinscal.cli._options import SchedulerOpt, WorkersOpt
 
 
 @app.command("study")
@@ -33,22 +34,8 @@ def study(
     quick: Annotated[
         bool, typer.Option("--quick", help="The spec's [quick] sizes: lower rates, shorter runs.")
     ] = False,
-    workers: Annotated[
-        int | None,
-        typer.Option(
-            "--workers",
-            "-w",
-            min=1,
-            max=1024,
-            help="Local worker processes, 1-1024 (default: one per core).",
-        ),
-    ] = None,
-    scheduler: Annotated[
-        str | None,
-        typer.Option(
-            "--scheduler", help="Run on an existing Dask cluster: its address, tcp://host:8786."
-        ),
-    ] = None,
+    workers: WorkersOpt = None,
+    scheduler: SchedulerOpt = None,
     imu: Annotated[
         str | None,
         typer.Option(
