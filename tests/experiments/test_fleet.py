@@ -162,3 +162,6 @@ def test_fleet_cli_end_to_end(units, tmp_path) -> None:
     assert json.loads((out / "failed" / "u6.json").read_text())["error"].startswith(
         str(units["u6"])
     )
+    page = (out / "report.html").read_text()
+    assert 'data-table="verdicts"' in page and 'data-figure="fleet"' in page
+    assert "2 unit(s): 1 pass, 0 fail, 1 failed to fit" in page

@@ -47,9 +47,10 @@ def fleet_fit(
     """Fit every unit's log as its own task on Dask (resumable) and check it against limits.
 
     Writes into OUT one model file and one export per unit (units/, exports/), the failed
-    units with their error (failed/), and verdicts.csv (pass, fail with the reasons, or
-    failed), figures.csv (every unit's figures and coefficients) and distribution.csv (their
-    spread across units). Units already fitted from the same log are not fitted again.
+    units with their error (failed/), report.html, and verdicts.csv (pass, fail with the
+    reasons, or failed), figures.csv (every unit's figures and coefficients) and
+    distribution.csv (their spread across units). Units already fitted from the same log are
+    not fitted again.
     """
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
     from rich.table import Table
@@ -96,7 +97,7 @@ def fleet_fit(
                 on_unit=lambda unit, status: progress.advance(task),
             )
         report = fleet_report(store, lim)
-        paths = write_fleet_report(store, report)
+        paths = write_fleet_report(store, report, lim.source if limits else "none given")
     except RinscalError as exc:
         raise fail(str(exc)) from None
     console.print(

@@ -541,9 +541,17 @@ def fleet_report(store: FleetStore, limits: FleetLimits | None = None) -> FleetR
     return FleetReport(verd.reset_index(drop=True), figures, dist)
 
 
-def write_fleet_report(store: FleetStore, report: FleetReport) -> dict[str, Path]:
-    """Write ``verdicts.csv``, ``figures.csv`` and ``distribution.csv`` into the folder."""
-    out = {}
+def write_fleet_report(
+    store: FleetStore, report: FleetReport, limits_source: str = "none given"
+) -> dict[str, Path]:
+    """Write ``report.html``, ``verdicts.csv``, ``figures.csv`` and ``distribution.csv``."""
+    from rinscal.report.fleet_report import fleet_html
+
+    options = json.loads((store.root / "fleet.json").read_text("utf-8")).get("options", {})
+    page = fleet_html(report, limits_source, options)
+    html_path = store.root / "report.html"
+    write_atomic(html_path, lambda tmp: tmp.write_text(page, encoding="utf-8"))
+    out = {"report": html_path}
     for name, frame in (
         ("verdicts", report.verdicts),
         ("figures", report.figures),

@@ -1,0 +1,105 @@
+"""The fleet's HTML report: verdicts, and every unit's figures across the fleet.
+
+Built from :class:`rinscal.experiments.fleet.FleetReport` (no file is read here): the verdict
+per unit (pass, fail with the limits exceeded, failed with the error), a figure of the held-out
+residual, thermal span and noise density of every unit per channel, and the distribution table
+of every figure and coefficient across units.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from rinscal.report.html import Report, figure_to_png
+
+__all__ = ["FIGURES", "fleet_figure", "fleet_html"]
+
+#: The per-channel figures drawn, with their labels.
+FIGURES: dict[str, str] = {
+    "heldout_rms": "held-out RMS (training RMS if not auto)",
+    "thermal_span": "modelled thermal span",
+    "noise_density": "white-noise density [unit·√s]",
+}
+
+
+def fleet_figure(figures: pd.DataFrame) -> Any:
+    """Every unit's figures, per channel: rows gyro / accel, columns :data:`FIGURES`.
+
+    Parameters
+    ----------
+    figures : DataFrame
+        ``FleetReport.figures`` (long form).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(11, 6), layout="constrained")
+    axes = fig.subplots(2, len(FIGURES), squeeze=False)
+    for i, sensor in enumerate(("gyro", "accel")):
+        for k, (name, label) in enumerate(FIGURES.items()):
+            ax = axes[i][k]
+            part = figures[figures["channel"].str.startswith(sensor) & (figures["name"] == name)]
+            chans = sorted(part["channel"].unique())
+            for x, c in enumerate(chans):
+                v = part.loc[part["channel"] == c, "value"].to_numpy(dtype=np.float64)
+                v = v[np.isfinite(v)]
+                jitter = np.linspace(-0.15, 0.15, v.size) if v.size > 1 else np.zeros(v.size)
+                ax.plot(x + jitter, v, "o", ms=4, alpha=0.7)
+            ax.set_xticks(range(len(chans)), chans)
+            unit = part["unit_of"].iloc[0] if len(part) else ""
+            ax.set_title(f"{sensor}: {label}" + (f" ({unit})" if unit else ""), fontsize=9)
+            if len(part) and np.nanmin(part["value"]) > 0:
+                ax.set_yscale("log")
+            ax.grid(alpha=0.3)
+    return fig
+
+
+def fleet_html(report: Any, limits_source: str, options: dict[str, Any]) -> str:
+    """The fleet's report as one self-contained HTML page.
+
+    Parameters
+    ----------
+    report : FleetReport
+        From :func:`rinscal.experiments.fleet.fleet_report`.
+    limits_source : str
+        Where the limits came from (a file name, or that none were given).
+    options : dict
+        The fit options (method, export).
+
+    Returns
+    -------
+    str
+    """
+    v = report.verdicts
+    counts = v["verdict"].value_counts()
+    page = Report(
+        "rinscal fleet calibration",
+        f"{len(v)} unit(s): {counts.get('pass', 0)} pass, {counts.get('fail', 0)} fail, "
+        f"{counts.get('failed', 0)} failed to fit; method {options.get('method')}, limits "
+        f"{limits_source}",
+    )
+    s = page.section("Verdicts", "verdicts")
+    s.text(
+        "pass: every channel within the limits; fail: the limits it exceeds; failed: the log "
+        "could not be read or fitted (the error). Without limits every fitted unit passes."
+    )
+    s.table("verdicts", v, "verdict per unit")
+    if not report.figures.empty:
+        s = page.section("Across the fleet", "fleet")
+        s.figure(
+            "fleet",
+            figure_to_png(fleet_figure(report.figures)),
+            "each point a unit: held-out RMS, modelled thermal span and noise density per channel",
+        )
+        s.table(
+            "distribution",
+            report.distribution,
+            "every figure and coefficient across units, per channel and model",
+        )
+    return page.to_html()
