@@ -88,6 +88,16 @@ def test_fleet_fits_flags_and_reports(units, client, tmp_path) -> None:
         u: max(s["channels"][c]["noise_density"] for c in ("gyro_x", "gyro_y", "gyro_z"))
         for u, s in store.summaries().items()
     }
+    # physics: the simulated white noise recovered (ARW [deg/√h] · 60 = [deg/h·√s]; VRW)
+    from rinscal.thermal.plant import load_imu
+
+    noise = load_imu("navigation_grade").noise  # simulate_protocol's default plant
+    for u, summ in store.summaries().items():
+        if u == "u5":
+            continue
+        for c, ch in summ["channels"].items():
+            want = noise.gyro_arw_deg_rth * 60 if c.startswith("gyro") else noise.accel_vrw_ug_rthz
+            assert ch["noise_density"] == pytest.approx(want, rel=0.1), (u, c)
     limit = 3 * max(v for u, v in dens.items() if u != "u5")
     assert dens["u5"] > limit
     (tmp_path / "lim.toml").write_text(LIMITS.format(gyro=limit), encoding="utf-8")
