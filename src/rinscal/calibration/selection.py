@@ -113,6 +113,72 @@ def _fit_predict(
     return est.predict(x[test]) - y[test]
 
 
+def _regression_from_factors(
+    channel: str,
+    x: np.ndarray,
+    y: np.ndarray,
+    codes: np.ndarray,
+    n_runs: int,
+    settings: Sequence[int],
+) -> list[tuple[float, float]]:
+    """Training and leave-one-run-out RMS of ``regression`` orders ``k = k = k``, from factors.
+
+    One pass over the data: per run, the triangular factor ``R_k`` of ``[A | y]`` for the
+    largest orders (TSQR). A fit of any orders on any runs is then a QR of the stacked column
+    subsets of their factors, and a run's residual sum of squares about its own mean follows
+    from its factor: ``‖R_k [β; −1]‖² − n_k m_k²``, ``m_k`` from the first row of ``R_k`` (the
+    design's first column is ones). Equal to refitting from the data (the power basis spans
+    the same polynomials whatever its centring and scaling), without touching the data again.
+    """
+    from rinscal.calibration._fit import _center_scale, _power_basis, solve_r, tsqr
+    from rinscal.calibration.guards import COND_ERROR, design_condition
+
+    d, kmax = x.shape[1], max(settings)
+    cs = [_center_scale(x[:, v]) for v in range(d)]
+    basis = _power_basis([c for c, _ in cs], [h for _, h in cs], [kmax] * d)
+    n_terms = 1 + d * kmax
+    factors, counts = [], np.bincount(codes, minlength=n_runs)
+    for k in range(n_runs):
+        pad = np.zeros((n_terms + 1, n_terms + 1))
+        rows = codes == k
+        if rows.any():
+            r = tsqr(basis, x[rows], y[rows], n_terms)
+            pad[: r.shape[0]] = r
+        factors.append(pad)
+
+    def fit(sel: list[int], runs: list[int], order: int) -> np.ndarray:
+        rt = np.linalg.qr(np.vstack([factors[j][:, sel] for j in runs]), mode="r")
+        m = len(sel) - 1
+        if design_condition(rt[:, :m]) > COND_ERROR:
+            raise ConfigError(
+                f"{channel}: regression fit failed: orders {order},{order},{order} leave the "
+                "design rank-deficient on these runs (too few distinct temperatures or rates)"
+            )
+        return np.append(solve_r(rt, m)[0], -1.0)
+
+    def ss_about_mean(k: int, sel: list[int], beta: np.ndarray) -> float:
+        rk = factors[k][:, sel]
+        total = float(np.sum((rk @ beta) ** 2))
+        mean = float(rk[0] @ beta) * float(rk[0, 0]) / max(int(counts[k]), 1)
+        return max(total - counts[k] * mean**2, 0.0)
+
+    present = [k for k in range(n_runs) if counts[k]]
+    n = int(counts.sum())
+    out = []
+    for order in settings:
+        sel = [0, *(1 + v * kmax + i for v in range(d) for i in range(order)), n_terms]
+        beta = fit(sel, present, order)
+        ss_tr = sum(ss_about_mean(k, sel, beta) for k in present)
+        ss_ho = 0.0
+        for k in present:
+            others = [j for j in present if j != k]
+            if not others:
+                raise ConfigError(f"{channel}: too few samples outside run {k}")
+            ss_ho += ss_about_mean(k, sel, fit(sel, others, order))
+        out.append((float(np.sqrt(ss_tr / n)), float(np.sqrt(ss_ho / n))))
+    return out
+
+
 def select_model(
     log: pd.DataFrame,
     method: str,
@@ -179,7 +245,16 @@ def select_model(
         y = feats.output[:, j]
         codes = feats.run_codes
         held: list[float] = []
-        for s in settings:
+        if method == "regression" and not estimator_params:  # one pass: per-run factors
+            scores = _regression_from_factors(c, x[ok], y[ok], codes[ok], n_runs, settings)
+            for s, (rms_tr, rms_ho) in zip(settings, scores, strict=True):
+                held.append(rms_ho)
+                rows.append(
+                    {"channel": c, "setting": s, "rms_train": rms_tr, "rms_heldout": rms_ho}
+                )
+                if on_fit is not None:
+                    on_fit(c, s)
+        for s in settings if not held else ():
             tm = ThermalModel(
                 method,
                 orders=(s, s, s) if method == "regression" else None,
