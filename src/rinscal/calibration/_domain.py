@@ -43,14 +43,14 @@ def column_range(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return lo, hi
 
 
-def _flat_cells(x: np.ndarray, lo: np.ndarray, hi: np.ndarray, bins: np.ndarray) -> np.ndarray:
+def _flat_cells(cols: np.ndarray, lo: np.ndarray, hi: np.ndarray, bins: np.ndarray) -> np.ndarray:
     """Row-major flat cell number of each sample, shape (n,).
 
-    Each input's cell is ``floor((x − lo) / width)`` clipped into ``0 .. bins − 1`` (a value
-    just outside the range falls in the edge cell; the box test catches the rest).
+    ``cols`` holds one input per row, shape (k, n) (contiguous arithmetic). Each input's cell
+    is ``floor((x − lo) / width)`` clipped into ``0 .. bins − 1`` (a value just outside the
+    range falls in the edge cell; the box test catches the rest).
     """
-    cols = np.ascontiguousarray(x.T)  # one input per row: contiguous arithmetic
-    flat = np.zeros(x.shape[0], dtype=np.int64)
+    flat = np.zeros(cols.shape[1], dtype=np.int64)
     for v in range(lo.size):
         width = (hi[v] - lo[v]) / bins[v] if hi[v] > lo[v] else 1.0
         idx = np.floor((cols[v] - lo[v]) / width).astype(np.int64)
@@ -84,7 +84,7 @@ def fit_domain(x: np.ndarray, bins: int = DEFAULT_BINS) -> dict[str, Any]:
     nb[hi <= lo] = 1  # a constant input: one cell
     occ = np.zeros(int(np.prod(nb)), dtype=bool)
     for s in range(0, x.shape[0], 1 << 16):  # flat cell numbers, a block of rows at a time
-        occ[_flat_cells(x[s : s + (1 << 16)], lo, hi, nb)] = True
+        occ[_flat_cells(np.ascontiguousarray(x[s : s + (1 << 16)].T), lo, hi, nb)] = True
     occ = occ.reshape(tuple(nb))
     for axis in range(k):  # dilate by one cell: a separable 3×3(×3) box
         grown = occ.copy()
@@ -134,8 +134,8 @@ def inside_domain(domain: Mapping[str, Any], x: np.ndarray) -> np.ndarray:
     out = np.empty(xs.shape[0], dtype=bool)
     for s in range(0, xs.shape[0], 1 << 16):  # a block of rows at a time, one input per row
         block = xs[s : s + (1 << 16)]
-        cols = np.ascontiguousarray(block.T)
-        ok = grid[_flat_cells(block, lo, hi, nb)]
+        cols = np.ascontiguousarray(block.T)  # transposed once, for cells and box alike
+        ok = grid[_flat_cells(cols, lo, hi, nb)]
         for v in range(k):
             ok &= (cols[v] >= lo[v] - width[v]) & (cols[v] <= hi[v] + width[v])
         out[s : s + block.shape[0]] = ok

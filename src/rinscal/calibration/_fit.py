@@ -158,6 +158,43 @@ def _checked_lstsq(
     return solve_r(r, n_terms)[0]
 
 
+def fit_factors(factors: Sequence[np.ndarray], sel: Sequence[int]) -> np.ndarray | None:
+    """Least squares on stacked column subsets of triangular factors of ``[A | y]``.
+
+    Parameters
+    ----------
+    factors : sequence of ndarray
+        Factors ``R`` (:func:`tsqr`) of the row sets fitted together.
+    sel : sequence of int
+        Columns: those of ``A`` to fit on, then the ``y`` column last.
+
+    Returns
+    -------
+    ndarray or None
+        ``[β; −1]`` (so that ``R[:, sel] @ it`` is the residual's factor), or None when the
+        design is rank-deficient (equilibrated condition above ``COND_ERROR``).
+    """
+    from rinscal.calibration.guards import COND_ERROR, design_condition
+
+    rt = np.linalg.qr(np.vstack([r[:, sel] for r in factors]), mode="r")
+    m = len(sel) - 1
+    if m > 1 and design_condition(rt[:, :m]) > COND_ERROR:
+        return None
+    return np.append(solve_r(rt, m)[0], -1.0)
+
+
+def factor_ss_about_mean(r: np.ndarray, coef: np.ndarray, n: int) -> float:
+    """Residual sum of squares about its mean, of rows whose ``[A | y]`` factor is ``r``.
+
+    ``r`` holds the selected columns, the design's first column being ones, so its first
+    row is the column sums over √n; ``coef`` is ``[β; −1]`` (:func:`fit_factors`), ``n``
+    the number of rows.
+    """
+    total = float(np.sum((r @ coef) ** 2))
+    mean = float(r[0] @ coef) * float(r[0, 0]) / max(n, 1)
+    return max(total - n * mean**2, 0.0)
+
+
 def _center_scale(x: np.ndarray) -> tuple[float, float]:
     """Centre and half-range of ``x``, mapping it onto ``[−1, 1]`` (half-range 1 if 0)."""
     lo, hi = float(np.min(x)), float(np.max(x))

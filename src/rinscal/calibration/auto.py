@@ -51,13 +51,19 @@ from typing import Any
 
 import numpy as np
 
-from rinscal.calibration._fit import _center_scale, _power_basis, fit_params, solve_r, tsqr
+from rinscal.calibration._fit import (
+    _center_scale,
+    _power_basis,
+    factor_ss_about_mean,
+    fit_factors,
+    fit_params,
+    solve_r,
+    tsqr,
+)
 from rinscal.calibration._inference import predict_params
 from rinscal.calibration.guards import (
-    COND_ERROR,
     DesignError,
     collinear_inputs,
-    design_condition,
 )
 
 __all__ = [
@@ -555,18 +561,13 @@ def _polynomial_scores(
         m = len(cols)
         ss = np.empty(n_units)
         for k in range(n_folds):
-            train = np.vstack([rs[j][:, sel] for j in range(n_folds) if j != k])
-            rt = np.linalg.qr(train, mode="r")
+            beta = fit_factors([rs[j] for j in range(n_folds) if j != k], sel)
             mine = np.flatnonzero(unit_fold == k)
-            if m > 1 and design_condition(rt[:, :m]) > COND_ERROR:
+            if beta is None:
                 ss[mine] = np.nan
                 continue
-            beta = np.append(solve_r(rt, m)[0], -1.0)
             for u in mine:
-                ru = rs_scored[u][:, sel]
-                total = float(np.sum((ru @ beta) ** 2))
-                mean = float(ru[0] @ beta) * float(ru[0, 0]) / max(counts[u], 1)
-                ss[u] = max(total - counts[u] * mean**2, 0.0)
+                ss[u] = factor_ss_about_mean(rs_scored[u][:, sel], beta, int(counts[u]))
         full = np.linalg.qr(np.vstack([r[:, sel] for r in rs]), mode="r")
         out[cand.name] = (ss, solve_r(full, m)[1])
     return out

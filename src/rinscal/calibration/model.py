@@ -388,9 +388,7 @@ class ThermalModel:
         self.train_mean_: dict[str, float] = {}
         for j, c in enumerate(self.channels):
             x = feats.matrix(j)
-            ok = feats.inlier[:, j].copy()
-            for v in range(x.shape[1]):  # column by column: several times faster than axis=1
-                ok &= np.isfinite(x[:, v])
+            ok = feats.usable(j, x)
             if ok.sum() < 2:
                 raise ConfigError(f"{where}{c}: fewer than 2 usable samples to fit")
             sp = self._set_points(log, feats, j)

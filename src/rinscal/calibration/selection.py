@@ -130,8 +130,13 @@ def _regression_from_factors(
     design's first column is ones). Equal to refitting from the data (the power basis spans
     the same polynomials whatever its centring and scaling), without touching the data again.
     """
-    from rinscal.calibration._fit import _center_scale, _power_basis, solve_r, tsqr
-    from rinscal.calibration.guards import COND_ERROR, design_condition
+    from rinscal.calibration._fit import (
+        _center_scale,
+        _power_basis,
+        factor_ss_about_mean,
+        fit_factors,
+        tsqr,
+    )
 
     d, kmax = x.shape[1], max(settings)
     cs = [_center_scale(x[:, v]) for v in range(d)]
@@ -147,20 +152,16 @@ def _regression_from_factors(
         factors.append(pad)
 
     def fit(sel: list[int], runs: list[int], order: int) -> np.ndarray:
-        rt = np.linalg.qr(np.vstack([factors[j][:, sel] for j in runs]), mode="r")
-        m = len(sel) - 1
-        if design_condition(rt[:, :m]) > COND_ERROR:
+        coef = fit_factors([factors[j] for j in runs], sel)
+        if coef is None:
             raise ConfigError(
                 f"{channel}: regression fit failed: orders {order},{order},{order} leave the "
                 "design rank-deficient on these runs (too few distinct temperatures or rates)"
             )
-        return np.append(solve_r(rt, m)[0], -1.0)
+        return coef
 
     def ss_about_mean(k: int, sel: list[int], beta: np.ndarray) -> float:
-        rk = factors[k][:, sel]
-        total = float(np.sum((rk @ beta) ** 2))
-        mean = float(rk[0] @ beta) * float(rk[0, 0]) / max(int(counts[k]), 1)
-        return max(total - counts[k] * mean**2, 0.0)
+        return factor_ss_about_mean(factors[k][:, sel], beta, int(counts[k]))
 
     present = [k for k in range(n_runs) if counts[k]]
     n = int(counts.sum())
@@ -241,7 +242,7 @@ def select_model(
     for c in channels:
         j = feats.channels.index(c)
         x = feats.matrix(j)
-        ok = feats.inlier[:, j] & np.all(np.isfinite(x), axis=1)
+        ok = feats.usable(j, x)
         y = feats.output[:, j]
         codes = feats.run_codes
         held: list[float] = []

@@ -190,7 +190,7 @@ def fit_unit(
     for j, c in enumerate(mf.channels):
         cm = mf.models[c]
         x = feats.matrix(j)
-        ok = np.all(np.isfinite(x), axis=1) & feats.inlier[:, j]
+        ok = feats.usable(j, x)
         step = max(1, int(ok.sum()) // 200_000)
         pred = predict_params(model.params_[c], x[ok][::step])
         sel = cm.selection
