@@ -57,6 +57,7 @@ from rinscal.schema import (
     TEMP_IN,
     TIME,
     as_float,
+    quoted_columns,
     temperature_column,
     validate_log,
 )
@@ -526,8 +527,7 @@ def _apply_mapping(
     if missing:
         raise LogError(
             f"{p}: column(s) {', '.join(map(repr, missing))} named in the mapping are not in "
-            f"the file (columns found: {', '.join(map(repr, cols[:20]))}"
-            f"{', ...' if len(cols) > 20 else ''})"
+            f"the file (columns found: {quoted_columns(cols)})"
         )
     rename = dict(mapping.columns)
     if mapping.time is not None:

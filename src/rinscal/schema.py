@@ -22,7 +22,7 @@ data row 1 is the first sample (line 2 of a CSV/TSV file with a header line).
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 import pandas as pd
@@ -218,6 +218,11 @@ def _run_codes(run: pd.Series) -> tuple[np.ndarray, np.ndarray]:
     return codes.astype(np.int64, copy=False), np.asarray(uniques, dtype=object)
 
 
+def quoted_columns(cols: Sequence[str], most: int = 20) -> str:
+    """Column names for a message: quoted (padding shows), the first ``most``, then "..."."""
+    return ", ".join(map(repr, cols[:most])) + (", ..." if len(cols) > most else "")
+
+
 def validate_log(
     df: pd.DataFrame,
     source: str = "<log>",
@@ -275,8 +280,7 @@ def validate_log(
         )
         raise LogError(
             f"{source}: missing required column(s) {', '.join(map(repr, missing))} "
-            f"(columns found: {', '.join(map(repr, cols[:20]))}"
-            f"{', ...' if len(cols) > 20 else ''}){hint}"
+            f"(columns found: {quoted_columns(cols)}){hint}"
         )
     per_channel = [c for c in TEMP_CHANNELS if c in cols]
     if len(per_channel) < len(TEMP_CHANNELS) and TEMP_IN not in cols:
