@@ -450,19 +450,19 @@ def _separator(p: Path, fmt: Format, mapping: ColumnMapping | None, header: str)
     return sep
 
 
-def _read_table(
-    p: Path, fmt: Format, mapping: ColumnMapping | None
-) -> tuple[pd.DataFrame, str | None]:
-    """The file's table and its separator (None for Parquet)."""
-    if fmt == "parquet":
-        with p.open("rb") as fh:
-            magic = fh.read(4)
-        if magic != b"PAR1":
-            raise LogError(f"{p}: not a Parquet file (no PAR1 magic number)")
-        try:
-            return _read_parquet_columns(p), None
-        except Exception as exc:  # pyarrow raises many types for a damaged file
-            raise LogError(f"{p}: unreadable Parquet file: {exc}") from None
+def _check_parquet(p: Path) -> None:
+    with p.open("rb") as fh:
+        magic = fh.read(4)
+    if magic != b"PAR1":
+        raise LogError(f"{p}: not a Parquet file (no PAR1 magic number)")
+
+
+def _text_options(p: Path, fmt: Format, mapping: ColumnMapping | None) -> dict[str, Any]:
+    """``pandas.read_csv`` options of a text log (``sep`` among them), the header checked.
+
+    Columns the reader owns are numbers (pandas' missing-value strings are NaN); the run name
+    and every other column are text kept exactly as written (``NA`` stays ``NA``).
+    """
     header = _sniff_text(p)
     sep = _separator(p, fmt, mapping, header)
     raw_cols = next(csv.reader([header.lstrip("\ufeff")], delimiter=sep), [])
@@ -477,37 +477,127 @@ def _read_table(
     if mapping is not None:
         run_name = next((f for f, c in mapping.columns.items() if c == RUN), RUN)
     owned = _owned_columns(mapping)
+    header_cols = next(_text_frames(p, {"sep": sep, "nrows": 0, "encoding": "utf-8-sig"})).columns
+    text = [c for c in header_cols if c == run_name or c not in owned]
+    na = {c: list(_NA_STRINGS) for c in header_cols if c not in text}
+    na[run_name] = [""]
+    return {
+        "sep": sep,
+        "dtype": dict.fromkeys(text, str),
+        "encoding": "utf-8-sig",
+        "keep_default_na": False,
+        "na_values": na,
+        **_CSV_READ_KW,
+    }
+
+
+def _text_frames(
+    p: Path, options: Mapping[str, Any], chunksize: int | None = None
+) -> Iterator[pd.DataFrame]:
+    """A text log's table (in pieces of ``chunksize`` rows), read errors as :class:`LogError`."""
     try:
-        header_cols = pd.read_csv(p, sep=sep, nrows=0, encoding="utf-8-sig").columns
-        # columns the reader owns are numbers (pandas' missing-value strings are NaN); the run
-        # name and every other column are text kept exactly as written ("NA" stays "NA")
-        text = [c for c in header_cols if c == run_name or c not in owned]
-        na = {c: list(_NA_STRINGS) for c in header_cols if c not in text}
-        na[run_name] = [""]
-        df = pd.read_csv(
-            p,
-            sep=sep,
-            dtype=dict.fromkeys(text, str),
-            encoding="utf-8-sig",
-            keep_default_na=False,
-            na_values=na,
-            **_CSV_READ_KW,
-        )
+        if chunksize is None:
+            yield pd.read_csv(p, **options)
+            return
+        with pd.read_csv(p, chunksize=chunksize, **options) as reader:
+            yield from reader
     except pd.errors.EmptyDataError:
         raise LogError(f"{p}: empty file, no header and no data") from None
     except pd.errors.ParserError as exc:
         raise LogError(f"{p}: not a well-formed table: {exc}") from None
     except UnicodeDecodeError as exc:
         raise LogError(f"{p}: not a UTF-8 text table: {exc}") from None
-    if df.shape[1] < 2:
-        seps = {"\t": "tab", ",": "comma", ";": "semicolon"}
-        found = [name for s, name in seps.items() if s != sep and s in header]
-        hint = f" (the header contains a {found[0]}: set the separator)" if found else ""
-        raise LogError(
-            f"{p}: not a table: only one column {str(df.columns[0])[:60]!r} with "
-            f"{seps.get(sep, repr(sep))} separation{hint}"
-        )
-    return df, sep
+
+
+def _check_table(p: Path, df: pd.DataFrame, sep: str) -> None:
+    """Refuse a text table of fewer than two columns (most likely the wrong separator)."""
+    if df.shape[1] >= 2:
+        return
+    header = _sniff_text(p)
+    seps = {"\t": "tab", ",": "comma", ";": "semicolon"}
+    found = [name for s, name in seps.items() if s != sep and s in header]
+    hint = f" (the header contains a {found[0]}: set the separator)" if found else ""
+    raise LogError(
+        f"{p}: not a table: only one column {str(df.columns[0])[:60]!r} with "
+        f"{seps.get(sep, repr(sep))} separation{hint}"
+    )
+
+
+def _read_table(
+    p: Path, fmt: Format, mapping: ColumnMapping | None
+) -> tuple[pd.DataFrame, str | None]:
+    """The file's table and its separator (None for Parquet)."""
+    if fmt == "parquet":
+        _check_parquet(p)
+        try:
+            return _read_parquet_columns(p), None
+        except Exception as exc:  # pyarrow raises many types for a damaged file
+            raise LogError(f"{p}: unreadable Parquet file: {exc}") from None
+    options = _text_options(p, fmt, mapping)
+    df = next(_text_frames(p, options))
+    _check_table(p, df, options["sep"])
+    return df, options["sep"]
+
+
+def _table_pieces(
+    p: Path, fmt: Format, mapping: ColumnMapping | None, piece_rows: int
+) -> tuple[Iterator[Any], str | None]:
+    """The file's table in pieces of at most ``piece_rows`` rows, and its separator.
+
+    Parquet pieces are Arrow record batches (joined in Arrow, converted once per run); text
+    pieces are DataFrames.
+    """
+    if fmt == "parquet":
+        import pyarrow.parquet as pq
+
+        _check_parquet(p)
+        try:
+            pf = pq.ParquetFile(p)
+        except Exception as exc:  # pyarrow raises many types for a damaged file
+            raise LogError(f"{p}: unreadable Parquet file: {exc}") from None
+        names = [n for n in pf.schema_arrow.names if not n.startswith("__index_level_")]
+
+        def parquet() -> Iterator[Any]:
+            try:
+                yield from pf.iter_batches(batch_size=piece_rows, columns=names)
+            except Exception as exc:
+                raise LogError(f"{p}: unreadable Parquet file: {exc}") from None
+
+        return parquet(), None
+    options = _text_options(p, fmt, mapping)
+
+    def text() -> Iterator[pd.DataFrame]:
+        for k, df in enumerate(_text_frames(p, options, piece_rows)):
+            if k == 0:
+                _check_table(p, df, options["sep"])
+            yield df
+
+    return text(), options["sep"]
+
+
+def _piece_runs(piece: Any, run_col: str) -> tuple[np.ndarray, np.ndarray, list[object]]:
+    """Start, end and run name of each stretch of equal run names in a piece."""
+    n = len(piece)
+    names = piece.schema.names if not isinstance(piece, pd.DataFrame) else list(piece.columns)
+    if run_col not in names:  # one run (named by the mapping or the file)
+        return np.array([0]), np.array([n]), [run_col]
+    col = piece[run_col] if isinstance(piece, pd.DataFrame) else piece.column(run_col).to_pandas()
+    codes, uniques = pd.factorize(col, sort=False, use_na_sentinel=True)
+    cut = np.flatnonzero(codes[1:] != codes[:-1]) + 1
+    starts = np.concatenate([[0], cut]).astype(np.int64)
+    ends = np.concatenate([cut, [n]]).astype(np.int64)
+    return starts, ends, [None if codes[a] < 0 else uniques[codes[a]] for a in starts]
+
+
+def _piece_table(pieces: list[Any]) -> pd.DataFrame:
+    """One table from consecutive pieces (Arrow batches or DataFrames), RangeIndex."""
+    if not isinstance(pieces[0], pd.DataFrame):
+        import pyarrow as pa
+
+        return pa.Table.from_batches(pieces).to_pandas()
+    if len(pieces) == 1:
+        return pieces[0].reset_index(drop=True)
+    return pd.concat(pieces, ignore_index=True)
 
 
 def _owned_columns(mapping: ColumnMapping | None) -> set[str]:
@@ -588,6 +678,8 @@ class SourceLog:
         Channel -> factor the mapping multiplied it by.
     sep : str or None
         Field separator of a text file (None for Parquet): a text file is written back with it.
+    first_row : int
+        Data rows of the file before this table (a log read run by run, :func:`iter_log_source`).
     """
 
     log: pd.DataFrame
@@ -595,6 +687,7 @@ class SourceLog:
     names: dict[str, str]
     scale: dict[str, float]
     sep: str | None = None
+    first_row: int = 0
 
     def write_back(
         self, values: Mapping[str, np.ndarray], extra: Mapping[str, Any]
@@ -654,6 +747,28 @@ def read_log(
     return read_log_source(path, mapping, fmt=fmt).log
 
 
+def _log_path(path: str | os.PathLike[str], fmt: str | None) -> tuple[Path, Format]:
+    p = Path(path)
+    f = format_of(p, fmt)
+    if not p.exists():
+        raise LogError(f"{p}: no such file")
+    if p.is_dir():
+        raise LogError(f"{p}: is a folder, not a log file")
+    return p, f
+
+
+def _source(
+    p: Path, raw: pd.DataFrame, mapping: ColumnMapping | None, sep: str | None, first_row: int = 0
+) -> SourceLog:
+    """Map and validate the file's table (or one run of it) into a :class:`SourceLog`."""
+    df, names = raw, {}
+    if mapping is not None:
+        df, names = _apply_mapping(raw, mapping, p)
+    log = validate_log(df, source=str(p), names=names, first_row=first_row)
+    scale = dict(mapping.scale) if mapping is not None else {}
+    return SourceLog(log, raw, names, scale, sep, first_row)
+
+
 def read_log_source(
     path: str | os.PathLike[str],
     mapping: ColumnMapping | None = None,
@@ -666,19 +781,91 @@ def read_log_source(
     -------
     SourceLog
     """
-    p = Path(path)
-    f = format_of(p, fmt)
-    if not p.exists():
-        raise LogError(f"{p}: no such file")
-    if p.is_dir():
-        raise LogError(f"{p}: is a folder, not a log file")
+    p, f = _log_path(path, fmt)
     raw, sep = _read_table(p, f, mapping)
-    df, names = raw, {}
+    return _source(p, raw, mapping, sep)
+
+
+class InterleavedRunsError(LogError):
+    """A run continues after another run began: the log cannot be read run by run."""
+
+
+#: Rows per piece read by :func:`iter_log_source` (Parquet batch or CSV chunk).
+PIECE_ROWS = 1 << 20
+
+
+def iter_log_source(
+    path: str | os.PathLike[str],
+    mapping: ColumnMapping | None = None,
+    *,
+    fmt: str | None = None,
+    piece_rows: int | None = None,
+) -> Iterator[SourceLog]:
+    """Read and validate a log run by run: memory bounded by the longest run, not the log.
+
+    The file is read in pieces of ``piece_rows`` rows (Parquet record batches, CSV chunks);
+    the pieces of a run are joined, and each whole run is mapped, validated and yielded as a
+    :class:`SourceLog` (``first_row`` says where it starts in the file). Every run's table is
+    exactly what :func:`read_log_source` gives for its rows.
+
+    Parameters
+    ----------
+    path, mapping, fmt
+        As for :func:`read_log_source`.
+    piece_rows : int, optional
+        Rows read at a time (default :data:`PIECE_ROWS`).
+
+    Yields
+    ------
+    SourceLog
+        One run, in file order.
+
+    Raises
+    ------
+    InterleavedRunsError
+        When a run's rows resume after another run's (read such a log whole, with
+        :func:`read_log_source`).
+    LogError
+        As :func:`read_log_source`, with the row numbers of the whole file.
+    """
+    piece_rows = PIECE_ROWS if piece_rows is None else int(piece_rows)
+    if piece_rows < 1:
+        raise ValueError(f"piece_rows must be at least 1, got {piece_rows}")
+    p, f = _log_path(path, fmt)
+    pieces, sep = _table_pieces(p, f, mapping, int(piece_rows))
+    run_col = RUN
     if mapping is not None:
-        df, names = _apply_mapping(raw, mapping, p)
-    log = validate_log(df, source=str(p), names=names)
-    scale = dict(mapping.scale) if mapping is not None else {}
-    return SourceLog(log, raw, names, scale, sep)
+        run_col = next((k for k, c in mapping.columns.items() if c == RUN), RUN)
+    held: list[Any] = []
+    current: object = None
+    finished: set[object] = set()
+    first = 0
+    head: Any = None
+    for piece in pieces:
+        head = piece.slice(0, 0) if head is None and not isinstance(piece, pd.DataFrame) else head
+        head = piece.iloc[:0] if head is None else head
+        for a, b, v in zip(*_piece_runs(piece, run_col), strict=True):
+            if b <= a:
+                continue
+            seg = piece.iloc[a:b] if isinstance(piece, pd.DataFrame) else piece.slice(a, b - a)
+            if held and v == current:
+                held.append(seg)
+                continue
+            if held:
+                yield _source(p, _piece_table(held), mapping, sep, first)
+                first += sum(len(h) for h in held)
+                finished.add(current)
+            if v in finished:
+                raise InterleavedRunsError(
+                    f"{p}: data row {first + 1}: run {v!r} resumes after other runs began; "
+                    "the log is read whole instead"
+                )
+            held, current = [seg], v
+    if held:
+        yield _source(p, _piece_table(held), mapping, sep, first)
+    else:  # a header and no rows: validation says so
+        empty = pd.DataFrame() if head is None else _piece_table([head])
+        yield _source(p, empty, mapping, sep)
 
 
 # --------------------------------------------------------------------------- writing
@@ -761,10 +948,7 @@ def write_log(
 
     def writer(tmp: Path) -> None:
         if f == "parquet":
-            # dictionary-encode text (run names) only: on float columns the dictionary is
-            # never kept and trying costs half the write time
-            text = [str(c) for c in df.columns if not pd.api.types.is_numeric_dtype(df[c])]
-            df.to_parquet(tmp, index=False, use_dictionary=text)
+            df.to_parquet(tmp, index=False, use_dictionary=_text_columns(df))
         else:
             df.to_csv(
                 tmp,
@@ -775,6 +959,12 @@ def write_log(
             )
 
     write_atomic(p, writer)
+
+
+def _text_columns(df: pd.DataFrame) -> list[str]:
+    """Columns to dictionary-encode in Parquet: text (run names) only; on float columns the
+    dictionary is never kept and trying costs half the write time."""
+    return [str(c) for c in df.columns if not pd.api.types.is_numeric_dtype(df[c])]
 
 
 # --------------------------------------------------------------------------- metadata
@@ -871,14 +1061,22 @@ class LogStreamWriter:
         Format, overriding the suffix.
     validate : bool
         Validate each frame as a calibration log before writing it (off for truth files).
+    sep : str, optional
+        Field separator of a text file (default: tab for ``.tsv``, comma for ``.csv``).
     """
 
     def __init__(
-        self, path: str | os.PathLike[str], *, fmt: str | None = None, validate: bool = True
+        self,
+        path: str | os.PathLike[str],
+        *,
+        fmt: str | None = None,
+        validate: bool = True,
+        sep: str | None = None,
     ) -> None:
         self.path = Path(path)
         self.fmt = format_of(self.path, fmt)
         self.validate = validate
+        self.sep = sep or ("\t" if self.fmt == "tsv" else ",")
         if not self.path.parent.is_dir():
             raise LogError(f"{self.path}: folder {self.path.parent} does not exist")
         self.rows = 0
@@ -905,19 +1103,22 @@ class LogStreamWriter:
                 f"{self.path}: a run has columns {list(df.columns)}, not {self._columns}"
             )
         if self.fmt == "parquet":
-            if not isinstance(df[RUN].dtype, pd.CategoricalDtype):
+            if RUN in df.columns and not isinstance(df[RUN].dtype, pd.CategoricalDtype):
                 df = df.assign(**{RUN: df[RUN].astype("category")})
-            table = pa.Table.from_pandas(df, preserve_index=False)
             if self._writer is None:
-                # dictionary-encode the run names only: noisy floats do not compress
-                self._writer = pq.ParquetWriter(self._tmp, table.schema, use_dictionary=[RUN])
+                table = pa.Table.from_pandas(df, preserve_index=False)
+                self._writer = pq.ParquetWriter(
+                    self._tmp, table.schema, use_dictionary=_text_columns(df)
+                )
+            else:  # every run in the first one's types
+                table = pa.Table.from_pandas(df, schema=self._writer.schema, preserve_index=False)
             self._writer.write_table(table)
         else:
             df.to_csv(
                 self._tmp,
                 mode="w" if self.rows == 0 else "a",
                 header=self.rows == 0,
-                sep="\t" if self.fmt == "tsv" else ",",
+                sep=self.sep,
                 index=False,
                 float_format=None,
                 lineterminator="\n",

@@ -142,6 +142,7 @@ def as_float(
     names: Mapping[str, str] | None = None,
     *,
     copy: bool = True,
+    first_row: int = 0,
 ) -> np.ndarray:
     """Convert one column to float64, refusing any value that is not a number.
 
@@ -159,6 +160,8 @@ def as_float(
         Canonical name -> name in the file, for columns renamed by a mapping.
     copy : bool
         If false, a float64 column is returned without copying (read-only use).
+    first_row : int
+        Rows of the file before ``values`` (a piece of a log read in pieces), for messages.
 
     Returns
     -------
@@ -187,8 +190,8 @@ def as_float(
             if isinstance(val, str) and val.strip().lower() in _NAN_LIKE:
                 continue
             raise LogError(
-                f"{source}: {_label(column, names)}, data row {pos + 1}: non-numeric value "
-                f"{_fmt(val)} ({_ROWS})"
+                f"{source}: {_label(column, names)}, data row {first_row + pos + 1}: "
+                f"non-numeric value {_fmt(val)} ({_ROWS})"
             )
     try:
         return coerced.to_numpy(dtype=np.float64, na_value=np.nan, copy=True)
@@ -203,13 +206,15 @@ def _check_finite(
     names: Mapping[str, str] | None,
     allow_nan: bool,
     why: str,
+    first_row: int = 0,
 ) -> None:
     bad = np.isinf(x) if allow_nan else ~np.isfinite(x)
     if bad.any():
         pos = int(np.argmax(bad))
         what = "missing value (NaN or empty cell)" if np.isnan(x[pos]) else f"value {x[pos]}"
         raise LogError(
-            f"{source}: {_label(column, names)}, data row {pos + 1}: {what}; {why} ({_ROWS})"
+            f"{source}: {_label(column, names)}, data row {first_row + pos + 1}: {what}; {why} "
+            f"({_ROWS})"
         )
 
 
@@ -228,6 +233,7 @@ def validate_log(
     source: str = "<log>",
     *,
     names: Mapping[str, str] | None = None,
+    first_row: int = 0,
 ) -> pd.DataFrame:
     """Check a calibration log against the canonical schema and normalise its types.
 
@@ -240,6 +246,9 @@ def validate_log(
     names : mapping, optional
         Canonical column name -> name in the original file, for logs read through a
         column mapping; only used to make error messages point at the file's columns.
+    first_row : int
+        Data rows of the file before ``df`` (a log read run by run), so that messages give
+        the row's number in the file.
 
     Returns
     -------
@@ -301,31 +310,38 @@ def validate_log(
     if empty.any():
         pos = int(np.argmax(empty))
         raise LogError(
-            f"{source}: {_label(RUN, names)}, data row {pos + 1}: empty run name ({_ROWS})"
+            f"{source}: {_label(RUN, names)}, data row {first_row + pos + 1}: empty run name "
+            f"({_ROWS})"
         )
-    if not pd.api.types.is_string_dtype(run.dtype) or run.dtype == object:
+    if isinstance(run.dtype, pd.CategoricalDtype):  # Parquet's dictionary: names taken once
+        names_ = pd.array(run.cat.categories.astype(str))
+        out[RUN] = pd.Series(names_.take(run.cat.codes.to_numpy()), index=run.index)
+    elif not pd.api.types.is_string_dtype(run.dtype) or run.dtype == object:
         out[RUN] = run.astype(str)
 
     for col in CHANNELS:
-        x = as_float(out[col], source, col, names, copy=False)
-        _check_finite(
-            x, source, col, names, allow_nan=True, why="use an empty cell/NaN for a dropped sample"
-        )
+        x = as_float(out[col], source, col, names, copy=False, first_row=first_row)
+        why = "use an empty cell/NaN for a dropped sample"
+        _check_finite(x, source, col, names, allow_nan=True, why=why, first_row=first_row)
         if out[col].dtype != np.float64:
             out[col] = x
     for col in (TIME, *temperature_columns(out)):
-        x = as_float(out[col], source, col, names, copy=False)
+        x = as_float(out[col], source, col, names, copy=False, first_row=first_row)
         why = "time must be finite" if col == TIME else "temperatures must be finite"
-        _check_finite(x, source, col, names, allow_nan=False, why=why)
+        _check_finite(x, source, col, names, allow_nan=False, why=why, first_row=first_row)
         if out[col].dtype != np.float64:
             out[col] = x
 
-    _check_runs(out[TIME].to_numpy(), out[RUN], source, names)
+    _check_runs(out[TIME].to_numpy(), out[RUN], source, names, first_row)
     return out
 
 
 def _check_runs(
-    t: np.ndarray, run: pd.Series, source: str, names: Mapping[str, str] | None
+    t: np.ndarray,
+    run: pd.Series,
+    source: str,
+    names: Mapping[str, str] | None,
+    first_row: int = 0,
 ) -> None:
     """At least two samples per run, time strictly increasing within each run."""
     codes, uniques = _run_codes(run)
@@ -335,8 +351,8 @@ def _check_runs(
         _, first = np.unique(codes, return_index=True)  # first row of each run, by code
         k = int(short[np.argmin(first[short])])
         raise LogError(
-            f"{source}: {_label(RUN, names)}, data row {first[k] + 1}: run {uniques[k]!r} "
-            f"has {counts[k]} sample(s); a run needs at least 2 ({_ROWS})"
+            f"{source}: {_label(RUN, names)}, data row {first_row + first[k] + 1}: run "
+            f"{uniques[k]!r} has {counts[k]} sample(s); a run needs at least 2 ({_ROWS})"
         )
     n = len(t)
     change = np.flatnonzero(codes[1:] != codes[:-1]) + 1
@@ -361,8 +377,7 @@ def _check_runs(
         j = int(np.argmin(rows))
         r, p = int(rows[j]), int(prev[j])
         raise LogError(
-            f"{source}: {_label(TIME, names)}, data row {r + 1}: time not strictly increasing "
-            f"within run {run.iloc[r]!r} ({float(t[r]):.10g} s after {float(t[p]):.10g} s "
-            f"at data row {p + 1}) "
-            f"({_ROWS})"
+            f"{source}: {_label(TIME, names)}, data row {first_row + r + 1}: time not strictly "
+            f"increasing within run {run.iloc[r]!r} ({float(t[r]):.10g} s after "
+            f"{float(t[p]):.10g} s at data row {first_row + p + 1}) ({_ROWS})"
         )

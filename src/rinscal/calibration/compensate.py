@@ -92,6 +92,7 @@ def predict_log(
     policy: Policy = "extrapolate",
     derivative_kind: str | None = None,
     features: Features | None = None,
+    first_row: int = 0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Modelled output of every channel of a log.
 
@@ -107,6 +108,8 @@ def predict_log(
         Override the model's derivative kind.
     features : Features, optional
         Precomputed :func:`model_features` of ``log``.
+    first_row : int
+        Data rows of the file before ``log`` (a log read run by run), for messages.
 
     Returns
     -------
@@ -129,7 +132,8 @@ def predict_log(
             run = feats.runs[feats.run_codes[i]]
             what = getattr(exc, "what", str(exc))
             raise RangeError(
-                f"{c}: data row {i + 1} (run {run!r}, time {feats.time_s[i]:.6g} s) has {what}"
+                f"{c}: data row {first_row + i + 1} (run {run!r}, time {feats.time_s[i]:.6g} s) "
+                f"has {what}"
             ) from None
     return f, flags
 
@@ -177,6 +181,7 @@ def compensated_channels(
     model: ThermalModelFile,
     policy: Policy = "clamp",
     derivative_kind: str | None = None,
+    first_row: int = 0,
 ) -> tuple[dict[str, np.ndarray], np.ndarray]:
     """The compensated channels of a log, ``N − (f − r)``, without copying the log.
 
@@ -184,6 +189,8 @@ def compensated_channels(
     ----------
     log, model, policy, derivative_kind
         As for :func:`compensate`.
+    first_row : int
+        Data rows of the file before ``log`` (a log read run by run), for messages.
 
     Returns
     -------
@@ -197,7 +204,7 @@ def compensated_channels(
     missing = [c for c in model.channels if c not in log.columns]
     if missing:
         raise LogError(f"log has no column(s) {missing} that the model compensates")
-    f, flags = predict_log(log, model, policy, derivative_kind)
+    f, flags = predict_log(log, model, policy, derivative_kind, first_row=first_row)
     values = {}
     for j, c in enumerate(model.channels):
         ref = model.models[c].static_reference or 0.0

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 import typer
 
 if TYPE_CHECKING:
-    from rinscal.io import SourceLog
+    from rinscal.io import ColumnMapping, SourceLog
 
 LogArg = Annotated[Path, typer.Argument(help="Calibration log (.csv, .tsv or .parquet).")]
 MapOpt = Annotated[
@@ -104,6 +104,54 @@ def refuse_inputs(out: Path, inputs: list[Path]) -> None:
         raise fail(f"{out}: folder {out.resolve().parent} does not exist")
 
 
+def foreign_mapping(
+    map_file: Path | None = None,
+    col: list[str] | None = None,
+    time_col: str | None = None,
+    time_unit: str | None = None,
+    sep: str | None = None,
+    temp_col: str | None = None,
+    drop: list[str] | None = None,
+    run_name: str | None = None,
+    relative_time: bool = False,
+) -> ColumnMapping | None:
+    """The column mapping a mapping file and/or options give (None for a canonical log).
+
+    ``relative_time`` turns the mapping's relative time on (a mapping file may also ask for it).
+    """
+    from rinscal.io import mapping_from_options, read_mapping
+
+    base = read_mapping(map_file) if map_file is not None else None
+    return mapping_from_options(
+        base,
+        columns=col or (),
+        time=time_col,
+        time_unit=time_unit,
+        separator=sep,
+        temperature=temp_col,
+        run=run_name,
+        drop=drop or (),
+        relative_time=True if relative_time else None,
+    )
+
+
+def foreign_meta(log: Path, mapping: ColumnMapping | None) -> dict[str, Any]:
+    """A log's metadata: its sidecar ``.meta.json``, units from the mapping where it has none.
+
+    ``meta["log"]`` is the log's file name.
+    """
+    from rinscal.io import read_meta
+    from rinscal.schema import CHANNELS
+
+    meta = dict(read_meta(log) or {})
+    if "units" not in meta and mapping is not None:
+        units = {c: u for c in CHANNELS if (u := mapping.unit_of(c))}
+        if units:
+            meta["units"] = units
+    meta.setdefault("log", log.name)
+    return meta
+
+
 def read_foreign_source(
     log: Path,
     map_file: Path | None = None,
@@ -118,31 +166,13 @@ def read_foreign_source(
 ) -> tuple[SourceLog, dict[str, Any]]:
     """Read a log through a mapping file and/or options: the log as read, and its metadata.
 
-    The metadata is the log's sidecar ``.meta.json``; where it gives no units, the mapping's
-    units are used. ``meta["log"]`` is the log's file name. ``relative_time`` turns the
-    mapping's relative time on (a mapping file may also ask for it). ``.log`` of the
-    result is the canonical frame; ``.raw`` the file's own table, to write it back.
+    See :func:`foreign_mapping` and :func:`foreign_meta`. ``.log`` of the result is the
+    canonical frame; ``.raw`` the file's own table, to write it back.
     """
-    from rinscal.io import mapping_from_options, read_log_source, read_mapping, read_meta
-    from rinscal.schema import CHANNELS
+    from rinscal.io import read_log_source
 
-    base = read_mapping(map_file) if map_file is not None else None
-    mapping = mapping_from_options(
-        base,
-        columns=col or (),
-        time=time_col,
-        time_unit=time_unit,
-        separator=sep,
-        temperature=temp_col,
-        run=run_name,
-        drop=drop or (),
-        relative_time=True if relative_time else None,
+    mapping = foreign_mapping(
+        map_file, col, time_col, time_unit, sep, temp_col, drop, run_name, relative_time
     )
     src = read_log_source(log, mapping)
-    meta = dict(read_meta(log) or {})
-    if "units" not in meta and mapping is not None:
-        units = {c: u for c in CHANNELS if (u := mapping.unit_of(c))}
-        if units:
-            meta["units"] = units
-    meta.setdefault("log", log.name)
-    return src, meta
+    return src, foreign_meta(log, mapping)

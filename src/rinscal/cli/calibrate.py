@@ -7,8 +7,10 @@ atomically. Library errors become messages and exit code 2.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
+from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
@@ -24,12 +26,18 @@ from rinscal.cli._options import (
     TempColOpt,
     TimeColOpt,
     TimeUnitOpt,
+    foreign_mapping,
+    foreign_meta,
     read_foreign_source,
     refuse_inputs,
 )
 
 if TYPE_CHECKING:
+    import numpy as np
     import pandas as pd
+
+    from rinscal.calibration.modelfile import ThermalModelFile
+    from rinscal.io import SourceLog
 
 _METHODS = ("auto", "poly-t", "sectional", "regression", "neural", "px4", "ardupilot")
 
@@ -653,68 +661,61 @@ def compensate_cmd(
     ignore_units: IgnoreUnitsOpt = False,
 ) -> None:
     """Compensate every sensor channel (Eq. 10); add the out_of_range flag column."""
-    from rich.progress import Progress
-
-    from rinscal.calibration.compensate import (
-        FLAG_COLUMN,
-        check_units,
-        compensated_channels,
-        describe_reference,
-    )
+    from rinscal.calibration.compensate import FLAG_COLUMN, check_units, describe_reference
     from rinscal.calibration.modelfile import POLICIES, ThermalModelFile
     from rinscal.cli._app import console, err_console, fail
     from rinscal.errors import RangeError, RinscalError
-    from rinscal.io import format_of, meta_path, write_log, write_meta
+    from rinscal.io import (
+        InterleavedRunsError,
+        iter_log_source,
+        meta_path,
+        read_log_source,
+        write_meta,
+    )
 
     if policy not in POLICIES:
         raise fail(f"--policy must be one of {', '.join(POLICIES)}, got {policy!r}")
     inputs = [log, meta_path(log), model] + ([map_file] if map_file is not None else [])
     refuse_inputs(out, inputs)
     try:
-        with Progress(console=err_console, transient=True) as progress:
-            task = progress.add_task("reading", total=3)
-            mf = ThermalModelFile.load(model)
-            src, meta = read_foreign_source(
-                log, map_file, col, time_col, time_unit, sep, temp_col, None, None, relative_time
+        mf = ThermalModelFile.load(model)
+        mapping = foreign_mapping(
+            map_file, col, time_col, time_unit, sep, temp_col, relative_time=relative_time
+        )
+        meta = foreign_meta(log, mapping)
+        if not ignore_units:
+            check_units(mf, meta, str(log))
+        kind = "causal" if causal else None
+        try:  # run by run: memory bounded by the longest run
+            rows, shares = _compensate_runs(
+                iter_log_source(log, mapping), mf, policy, kind, out, FLAG_COLUMN
             )
-            df = src.log
-            if not ignore_units:
-                check_units(mf, meta, str(log))
-            progress.update(task, advance=1, description="compensating")
-            kind = "causal" if causal else None
-            values, flagged = compensated_channels(df, mf, policy, kind)  # type: ignore[arg-type]
-            progress.update(task, advance=1, description="writing")
-            # the file's own table back, its channels compensated, nothing else touched
-            table = src.write_back(values, {FLAG_COLUMN: flagged})
-            same_kind = format_of(out) != "parquet" and format_of(log) != "parquet"
-            write_log(table, out, validate=False, sep=src.sep if same_kind else None)
-            if meta:
-                meta = dict(meta)
-                meta["compensated"] = {
-                    "model": model.name,
-                    "sha256": mf.to_dict()["sha256"],
-                    "method": mf.method,
-                    "policy": policy,
-                    "derivative": "causal" if causal else mf.derivative_kind,
-                }
-                write_meta(meta, out)
-            progress.update(task, advance=1)
+        except InterleavedRunsError:  # runs interleaved in the file: read it whole
+            src = read_log_source(log, mapping)
+            rows, shares = _compensate_runs(iter([src]), mf, policy, kind, out, FLAG_COLUMN)
+        if meta:
+            meta = dict(meta)
+            meta["compensated"] = {
+                "model": model.name,
+                "sha256": mf.to_dict()["sha256"],
+                "method": mf.method,
+                "policy": policy,
+                "derivative": "causal" if causal else mf.derivative_kind,
+            }
+            write_meta(meta, out)
     except RangeError as exc:  # about a data row of LOG: name the file
         raise fail(f"{log}: {exc}") from None
     except RinscalError as exc:
         raise fail(str(exc)) from None
-    n_flag = int(flagged.sum())
+    n_flag = sum(k for k, _ in shares.values())
     console.print(
-        f"wrote {out}: {len(table):,} rows, {len(mf.channels)} channel(s) compensated with the "
+        f"wrote {out}: {rows:,} rows, {len(mf.channels)} channel(s) compensated with the "
         f"{mf.method} model; {n_flag:,} row(s) outside the training data ({policy})",
         highlight=False,
         soft_wrap=True,
     )
-    import pandas as pd
-
-    share = pd.Series(flagged).groupby(df["run"].to_numpy(), sort=False).mean()
-    for run, frac in share.items():
-        console.print(f"  {run}: {frac:.1%} of rows flagged", highlight=False)
+    for run, (k, n) in shares.items():
+        console.print(f"  {run}: {k / n:.1%} of rows flagged", highlight=False)
     summary, missing = describe_reference(mf)
     console.print(summary, highlight=False, soft_wrap=True)
     if missing:
@@ -726,6 +727,56 @@ def compensate_cmd(
             soft_wrap=True,
             markup=False,
         )
+
+
+def _compensate_runs(
+    sources: Iterator[SourceLog],
+    mf: ThermalModelFile,
+    policy: str,
+    kind: str | None,
+    out: Path,
+    flag_column: str,
+) -> tuple[int, dict[str, tuple[int, int]]]:
+    """Compensate runs as they are read and write each at once (the file's own table back,
+    its channels compensated, nothing else touched); rows written, and per run the rows
+    flagged out of range and the rows."""
+    from rinscal.calibration.compensate import compensated_channels
+    from rinscal.io import LogStreamWriter, format_of
+
+    shares: dict[str, tuple[int, int]] = {}
+    writer: LogStreamWriter | None = None
+    with contextlib.ExitStack() as stack:
+        for src in sources:
+            if writer is None:
+                same_kind = format_of(out) != "parquet" and src.sep is not None
+                writer = stack.enter_context(
+                    LogStreamWriter(out, validate=False, sep=src.sep if same_kind else None)
+                )
+            values, flagged = compensated_channels(
+                src.log,
+                mf,
+                policy,
+                kind,
+                first_row=src.first_row,  # type: ignore[arg-type]
+            )
+            writer.write(src.write_back(values, {flag_column: flagged}))
+            runs = src.log["run"]
+            for run, k, n in zip(*_run_counts(runs, flagged), strict=True):
+                k0, n0 = shares.get(run, (0, 0))
+                shares[run] = (k0 + k, n0 + n)
+        rows = writer.rows if writer is not None else 0
+    return rows, shares
+
+
+def _run_counts(run: pd.Series, flagged: np.ndarray) -> tuple[list[str], list[int], list[int]]:
+    """Each run's name, flagged rows and rows, in order of first appearance."""
+    import numpy as np
+    import pandas as pd
+
+    codes, names = pd.factorize(run, sort=False)
+    k = np.bincount(codes, weights=flagged, minlength=len(names))
+    n = np.bincount(codes, minlength=len(names))
+    return [str(v) for v in names], [int(v) for v in k], [int(v) for v in n]
 
 
 @app.command("evaluate")
