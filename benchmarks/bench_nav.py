@@ -9,7 +9,8 @@ Targets, on one core:
    navigation, error report): < 10 s wall time and < 2 GB peak memory;
 3. our synthesis + integration against pyins's (``pyins.sim.generate_imu`` +
    ``compute_increments_from_imu`` + ``Integrator``) on the same 2 h, 100 Hz vehicle
-   trajectory: time ratio, and both position errors against the truth.
+   trajectory: time ratio (target: ours at least 10× faster, issue 12), and both position
+   errors against the truth.
 
 Each part runs in its own child process (pinned to the first allowed core) so that its
 peak resident memory is its own; numba kernels are compiled (or loaded from the cache)
@@ -32,6 +33,8 @@ import numpy as np
 TARGET_NS = 150.0
 TARGET_S = 10.0
 TARGET_GB = 2.0
+#: pyins's time over ours for synthesis + integration (issue 12).
+TARGET_PYINS_SPEEDUP = 10.0
 
 
 def _rss_gb() -> float:
@@ -183,8 +186,10 @@ def part_pyins() -> None:
     e_ours, e_pyins = dist(pos_ours, truth) * 1000, dist(pos_p, truth) * 1000
     print(f"  ours  {t_ours:7.2f} s   max position error vs truth {e_ours:8.2f} mm")
     print(f"  pyins {t_pyins:7.2f} s   max position error vs truth {e_pyins:8.2f} mm")
+    speedup = t_pyins / t_ours
     print(
-        f"  time ratio ours/pyins = {t_ours / t_pyins:.3f}  (pyins/ours = {t_pyins / t_ours:.1f}x)"
+        f"  time ratio ours/pyins = {t_ours / t_pyins:.3f}  (pyins/ours = {speedup:.1f}x)  "
+        f"target >= {TARGET_PYINS_SPEEDUP:.0f}x  {_ok(speedup >= TARGET_PYINS_SPEEDUP)}"
     )
     print(f"  peak RSS of this part {_rss_gb():.2f} GB")
 

@@ -2,8 +2,8 @@
 
 Everything here works on plain float64 arrays and scalars in SI units, ENU navigation
 frame, r (rotating IMU) frame increments. The public wrappers live in
-:mod:`rinscal.nav.strapdown`, :mod:`rinscal.nav.imu`, :mod:`rinscal.nav.rotation` and
-:mod:`rinscal.nav.align`.
+:mod:`rinscal.nav.strapdown`, :mod:`rinscal.nav.imu`, :mod:`rinscal.nav.rotation`,
+:mod:`rinscal.nav.trajectory` and :mod:`rinscal.nav.align`.
 
 State vector of the strapdown integrator (``STATE_SIZE`` float64)::
 
@@ -614,6 +614,9 @@ def rotate_increments(
     """
     n = t_edges.shape[0] - 1
     xs = np.empty(4)
+    phi_c = math.nan
+    cp_c = 1.0
+    sp_c = 0.0
     for i in range(n):
         ta = t_edges[i]
         tb = t_edges[i + 1]
@@ -662,8 +665,12 @@ def rotate_increments(
                     tn = mp + hp * GL_X[m]
                     wgt = GL_W[m] * hp
                     phi, _rate, _ = schedule_angle(tn, starts, coefs, period, offset, t_start)
-                    cp = math.cos(phi)
-                    sp = math.sin(phi)
+                    if phi != phi_c:  # the table at rest: one cos and sin for the piece
+                        cp_c = math.cos(phi)
+                        sp_c = math.sin(phi)
+                        phi_c = phi
+                    cp = cp_c
+                    sp = sp_c
                     if const:
                         wx = w_b[0, 0, 0]
                         wy = w_b[0, 0, 1]
@@ -702,6 +709,295 @@ def rotate_increments(
         dv[i, 1] = v1
         dv[i, 2] = v2
         phi_end[i] = phi_b
+
+
+# --------------------------------------------------------------------------- ideal-IMU synthesis
+_TWO_PI = 2.0 * math.pi
+#: Position of the Gauss-Legendre nodes within their interval, as a fraction (0, 1).
+GL_FRAC = 0.5 * (1.0 + GL_X)
+
+
+@_jit
+def _step_value(t: float, x0: float, table: np.ndarray, k: int) -> tuple[float, float, float, int]:
+    """Value, first and second derivative of a smooth-step channel at ``t`` [s].
+
+    ``table`` (m, 4) holds per step its start [s], duration [s], change Δ and the sum of the
+    changes before it (see :class:`rinscal.nav.trajectory.StepChannel`); ``x0`` is the value
+    before the first step. ``k`` is a guess of the step index (the last step starting at or
+    before ``t``, −1 if none), returned updated: sorted times cost no search.
+    """
+    m = table.shape[0]
+    if not (-1 <= k < m and (k < 0 or table[k, 0] <= t) and (k + 1 >= m or t < table[k + 1, 0])):
+        lo = 0
+        hi = m
+        while lo < hi:
+            mid = (lo + hi) // 2
+            if table[mid, 0] <= t:
+                lo = mid + 1
+            else:
+                hi = mid
+        k = lo - 1
+    if k < 0:
+        return x0, 0.0, 0.0, k
+    d = table[k, 1]
+    dl = table[k, 2]
+    x = x0 + table[k, 3]
+    u = (t - table[k, 0]) / d
+    if u < 1.0:
+        a = _TWO_PI * u
+        sa = math.sin(a)
+        return (
+            x + dl * (u - sa / _TWO_PI),
+            dl / d * (1.0 - math.cos(a)),
+            dl / d**2 * _TWO_PI * sa,
+            k,
+        )
+    return x + dl, 0.0, 0.0, k
+
+
+@_jit
+def step_channel_eval(
+    t: np.ndarray, x0: float, table: np.ndarray, x: np.ndarray, xd: np.ndarray, xdd: np.ndarray
+) -> None:
+    """:func:`_step_value` at every element of the 1-D ``t`` [s] (outputs filled in place)."""
+    k = -1
+    for i in range(t.shape[0]):
+        x[i], xd[i], xdd[i], k = _step_value(t[i], x0, table, k)
+
+
+@_jit
+def vehicle_kinematics(
+    t: np.ndarray,
+    speed0: float,
+    speed: np.ndarray,
+    heading0: float,
+    heading: np.ndarray,
+    grade0: float,
+    grade: np.ndarray,
+    v_n: np.ndarray,
+    a_n: np.ndarray,
+    euler: np.ndarray,
+    euler_rate: np.ndarray,
+) -> None:
+    """Kinematics of :class:`rinscal.nav.trajectory.VehicleMotion` at the 1-D times ``t`` [s].
+
+    Speed [m/s], heading [rad] and grade [rad] are smooth-step channels (value before the
+    first step and table, see :func:`_step_value`); the body y axis points along the
+    velocity, pitch is the grade, roll is zero. Fills ``v_n`` [m/s], ``a_n`` [m/s²],
+    ``euler`` [rad] and ``euler_rate`` [rad/s], each (len(t), 3), in place.
+    """
+    ks = -1
+    kh = -1
+    kg = -1
+    h_c = math.nan
+    p_c = math.nan
+    ch = 1.0
+    sh = 0.0
+    cp = 1.0
+    sp = 0.0
+    for i in range(t.shape[0]):
+        ti = t[i]
+        s, sd, _, ks = _step_value(ti, speed0, speed, ks)
+        h, hd, _, kh = _step_value(ti, heading0, heading, kh)
+        p, pd, _, kg = _step_value(ti, grade0, grade, kg)
+        if h != h_c:
+            ch = math.cos(h)
+            sh = math.sin(h)
+            h_c = h
+        if p != p_c:
+            cp = math.cos(p)
+            sp = math.sin(p)
+            p_c = p
+        v_n[i, 0] = s * cp * sh
+        v_n[i, 1] = s * cp * ch
+        v_n[i, 2] = s * sp
+        a_n[i, 0] = sd * cp * sh + s * (-sp * pd * sh + cp * ch * hd)
+        a_n[i, 1] = sd * cp * ch + s * (-sp * pd * ch - cp * sh * hd)
+        a_n[i, 2] = sd * sp + s * cp * pd
+        euler[i, 0] = h
+        euler[i, 1] = p
+        euler[i, 2] = 0.0
+        euler_rate[i, 0] = hd
+        euler_rate[i, 1] = pd
+        euler_rate[i, 2] = 0.0
+
+
+@_jit
+def _sin_cos_near(a: float, sa: float, ca: float, d: float) -> tuple[float, float]:
+    """sin and cos of ``a + d`` [rad] from ``sa = sin a``, ``ca = cos a`` (angle addition).
+
+    For ``|d| <= 1e-3`` rad the series of sin d and cos d are cut after their d⁵ and d⁴
+    terms (error below 1e-20); larger ``d`` calls sin and cos.
+    """
+    if abs(d) > 1e-3:
+        return math.sin(a + d), math.cos(a + d)
+    d2 = d * d
+    sd = d * (1.0 - d2 / 6.0 * (1.0 - d2 / 20.0))
+    cd = 1.0 - d2 / 2.0 * (1.0 - d2 / 12.0)
+    return sa * cd + ca * sd, ca * cd - sa * sd
+
+
+@_jit
+def moving_body_signals(
+    t_edges: np.ndarray,
+    v_n: np.ndarray,
+    a_n: np.ndarray,
+    euler: np.ndarray,
+    euler_rate: np.ndarray,
+    lat0: float,
+    lon0: float,
+    alt0: float,
+    w_b: np.ndarray,
+    f_b: np.ndarray,
+    lat_e: np.ndarray,
+    lon_e: np.ndarray,
+    alt_e: np.ndarray,
+) -> None:
+    """Position by quadrature of the velocity, then the ideal body signals at every node.
+
+    Position (the chunk's latitude by a two-pass fixed point on the meridian radius: the
+    first pass takes ``R_N`` at the chunk's start latitude, the second at the first pass's
+    node latitudes; the node positions are linear between the edges)::
+
+        h' = ∫ v_U,   L' = ∫ v_N / (R_N(L) + h),   λ' = ∫ v_E / ((R_E(L) + h) cos L)
+
+    and then, at each node, the inverse mechanisation (ENU, Groves Ch. 5)::
+
+        ω_ib^b = ω_nb^b(Euler, Euler rates) + C_bn (ω_ie^n + ω_en^n)
+        f^b    = C_bn (v̇ + (2 ω_ie^n + ω_en^n) × v − g^n)
+
+    Parameters
+    ----------
+    t_edges : ndarray, shape (n+1,) [s]
+        Interval edges.
+    v_n, a_n, euler, euler_rate : ndarray, shape (n, 4, 3)
+        ENU velocity [m/s], its derivative [m/s²], heading, pitch, roll [rad] and their rates
+        [rad/s] at the four Gauss-Legendre nodes of each interval.
+    lat0, lon0, alt0 : float [rad, rad, m]
+        Position at ``t_edges[0]``.
+    w_b, f_b : ndarray, shape (n, 4, 3)
+        Output ω_ib^b [rad/s] and f^b [m/s²] at the nodes.
+    lat_e, lon_e, alt_e : ndarray, shape (n+1,)
+        Output position at the edges [rad, rad, m].
+    """
+    n = t_edges.shape[0] - 1
+    s2 = math.sin(lat0) ** 2
+    x = 1.0 - _E2 * s2
+    rn0 = _A * (1.0 - _E2) / (x * math.sqrt(x))
+    lat_e[0] = lat0
+    lon_e[0] = lon0
+    alt_e[0] = alt0
+    s_alt = 0.0
+    s_lat1 = 0.0
+    s_lat = 0.0
+    s_lon = 0.0
+    e0_c = math.nan
+    e1_c = math.nan
+    e2_c = math.nan
+    ch = 1.0
+    sh = 0.0
+    cp = 1.0
+    sp = 0.0
+    cr = 1.0
+    sr = 0.0
+    for i in range(n):
+        h = 0.5 * (t_edges[i + 1] - t_edges[i])
+        # altitude
+        d_alt = 0.0
+        for m in range(4):
+            d_alt += GL_W[m] * h * v_n[i, m, 2]
+        alt_a = alt0 + s_alt
+        # latitude, first pass: R_N at the chunk's start latitude
+        d_lat1 = 0.0
+        for m in range(4):
+            d_lat1 += GL_W[m] * h * v_n[i, m, 1] / (rn0 + (alt_a + GL_FRAC[m] * d_alt))
+        lat_a1 = lat0 + s_lat1
+        s_lat1 += d_lat1
+        # second pass: R_N at the first pass's node latitudes (sines and cosines of the
+        # node latitudes by angle addition from those of the interval's start)
+        lat_a = lat0 + s_lat
+        sA = math.sin(lat_a)
+        cA = math.cos(lat_a)
+        d_lat = 0.0
+        for m in range(4):
+            sL, _ = _sin_cos_near(lat_a, sA, cA, (lat_a1 - lat_a) + GL_FRAC[m] * d_lat1)
+            s2 = sL * sL
+            x = 1.0 - _E2 * s2
+            rn = _A * (1.0 - _E2) / (x * math.sqrt(x))
+            d_lat += GL_W[m] * h * v_n[i, m, 1] / (rn + (alt_a + GL_FRAC[m] * d_alt))
+        # longitude and the body signals at the final node positions
+        d_lon = 0.0
+        for m in range(4):
+            alt = alt_a + GL_FRAC[m] * d_alt
+            sL, cL = _sin_cos_near(lat_a, sA, cA, GL_FRAC[m] * d_lat)
+            s2 = sL * sL
+            x = 1.0 - _E2 * s2
+            sx = math.sqrt(x)
+            ReH = _A / sx + alt
+            RnH = _A * (1.0 - _E2) / (x * sx) + alt
+            vE = v_n[i, m, 0]
+            vN = v_n[i, m, 1]
+            vU = v_n[i, m, 2]
+            d_lon += GL_W[m] * h * vE / (ReH * cL)
+            g = _GE * (1.0 + _K * s2) / sx
+            g = g * (1.0 - 2.0 / _A * (1.0 + _F + _M - 2.0 * _F * s2) * alt + 3.0 * alt**2 / _A**2)
+            # Earth rate and transport rate (ENU)
+            OmN = _RATE * cL
+            OmU = _RATE * sL
+            tE = -vN / RnH
+            tN = vE / ReH
+            tU = vE * (sL / cL) / ReH
+            # attitude C_nb = Rz(−ψ) Rx(θ) Ry(γ) (trig only when an angle changes)
+            e0 = euler[i, m, 0]
+            e1 = euler[i, m, 1]
+            e2 = euler[i, m, 2]
+            if e0 != e0_c:
+                ch = math.cos(e0)
+                sh = math.sin(e0)
+                e0_c = e0
+            if e1 != e1_c:
+                cp = math.cos(e1)
+                sp = math.sin(e1)
+                e1_c = e1
+            if e2 != e2_c:
+                cr = math.cos(e2)
+                sr = math.sin(e2)
+                e2_c = e2
+            c00 = ch * cr + sh * sp * sr
+            c01 = sh * cp
+            c02 = ch * sr - sh * sp * cr
+            c10 = -sh * cr + ch * sp * sr
+            c11 = ch * cp
+            c12 = -sh * sr - ch * sp * cr
+            c20 = -cp * sr
+            c21 = sp
+            c22 = cp * cr
+            # ω_ib^b = ω_nb^b + C_bn ω_in^n
+            hd = euler_rate[i, m, 0]
+            pd = euler_rate[i, m, 1]
+            rd = euler_rate[i, m, 2]
+            wE = tE
+            wN = OmN + tN
+            wU = OmU + tU
+            w_b[i, m, 0] = (pd * cr + hd * sr * cp) + (c00 * wE + c10 * wN + c20 * wU)
+            w_b[i, m, 1] = (rd - hd * sp) + (c01 * wE + c11 * wN + c21 * wU)
+            w_b[i, m, 2] = (pd * sr - hd * cr * cp) + (c02 * wE + c12 * wN + c22 * wU)
+            # f^n = v̇ + (2 ω_ie + ω_en) × v − g^n, then f^b = C_bn f^n
+            kE = tE
+            kN = 2.0 * OmN + tN
+            kU = 2.0 * OmU + tU
+            fE = a_n[i, m, 0] + (kN * vU - kU * vN)
+            fN = a_n[i, m, 1] + (kU * vE - kE * vU)
+            fU = a_n[i, m, 2] + (kE * vN - kN * vE) + g
+            f_b[i, m, 0] = c00 * fE + c10 * fN + c20 * fU
+            f_b[i, m, 1] = c01 * fE + c11 * fN + c21 * fU
+            f_b[i, m, 2] = c02 * fE + c12 * fN + c22 * fU
+        s_lat += d_lat
+        s_lon += d_lon
+        s_alt += d_alt
+        lat_e[i + 1] = lat0 + s_lat
+        lon_e[i + 1] = lon0 + s_lon
+        alt_e[i + 1] = alt0 + s_alt
 
 
 # --------------------------------------------------------------------------- coarse alignment

@@ -15,6 +15,12 @@ smooth pieces we use. For a body at rest the outputs are exactly Earth rate and 
 
 Position is integrated from the velocity in the same quadrature (latitude by a two-pass
 fixed point on the meridian radius), chunk by chunk, so memory stays bounded.
+
+A moving carrier's position, body signals and turntable rotation are computed by the numba
+kernels :func:`rinscal.nav._kernels.moving_body_signals` and
+:func:`rinscal.nav._kernels.rotate_increments`; :func:`body_signals` is the same inverse
+mechanisation in numpy (vectorised, for checks and small inputs). The two agree to rounding
+(``tests/nav/test_synthesis_reference.py``).
 """
 
 from __future__ import annotations
@@ -37,7 +43,6 @@ from rinscal.nav.trajectory import (
 )
 
 _GL_X = _kernels.GL_X
-_GL_W = _kernels.GL_W
 
 
 @dataclass(frozen=True)
@@ -177,14 +182,27 @@ class ImuSynthesizer:
             t_nodes = 0.5 * (edges[:-1] + edges[1:])[:, None] + half * _GL_X[None, :]
             kin_nodes = tr.kinematics(t_nodes)
             kin_edges = tr.kinematics(edges)
-            lat_e, lon_e, alt_e = self._integrate_position(kin_nodes, edges)
-            # position at the nodes: linear between edges (used for Earth rate and gravity)
-            frac = 0.5 * (1.0 + _GL_X)[None, :]
-            lat_nd = lat_e[:-1, None] + frac * np.diff(lat_e)[:, None]
-            alt_nd = alt_e[:-1, None] + frac * np.diff(alt_e)[:, None]
-            w_b, f_b = body_signals(kin_nodes, lat_nd, alt_nd)
-            w_b = np.ascontiguousarray(w_b)
-            f_b = np.ascontiguousarray(f_b)
+            w_b = np.empty((n, 4, 3))
+            f_b = np.empty((n, 4, 3))
+            lat_e = np.empty(n + 1)
+            lon_e = np.empty(n + 1)
+            alt_e = np.empty(n + 1)
+            lat0, lon0, alt0 = self._pos
+            _kernels.moving_body_signals(
+                edges,
+                *(
+                    np.ascontiguousarray(np.broadcast_to(a, (n, 4, 3)), dtype=float)
+                    for a in (kin_nodes.v_n, kin_nodes.a_n, kin_nodes.euler, kin_nodes.euler_rate)
+                ),
+                float(lat0),
+                float(lon0),
+                float(alt0),
+                w_b,
+                f_b,
+                lat_e,
+                lon_e,
+                alt_e,
+            )
             lat, lon, alt = lat_e[1:], lon_e[1:], alt_e[1:]
             v_n = kin_edges.v_n[1:]
             euler = kin_edges.euler[1:]
@@ -198,31 +216,6 @@ class ImuSynthesizer:
         )
         self._k = k0 + n
         return ImuChunk(k0, edges[1:], dtheta, dv, phi, lat, lon, alt, v_n, euler)
-
-    def _integrate_position(
-        self, kin_nodes: Kinematics, edges: NDArray[np.float64]
-    ) -> tuple[NDArray, NDArray, NDArray]:
-        """Latitude, longitude, altitude at the chunk's edges (exact quadrature of v_n)."""
-        lat0, lon0, alt0 = self._pos
-        v = kin_nodes.v_n
-        h = 0.5 * np.diff(edges)
-        w = _GL_W[None, :] * h[:, None]
-        frac = 0.5 * (1.0 + _GL_X)[None, :]
-        # altitude: ∫ v_U; node altitudes need the partial integrals -> cubic via the nodes
-        d_alt = np.sum(w * v[..., 2], axis=1)
-        alt_e = alt0 + np.concatenate([[0.0], np.cumsum(d_alt)])
-        alt_nd = alt_e[:-1, None] + frac * d_alt[:, None]
-        # latitude: two-pass fixed point on R_N(lat)
-        lat_nd = np.full(v.shape[:2], lat0)
-        for _ in range(2):
-            rn, _re = earth.principal_radii(lat_nd)
-            d_lat = np.sum(w * v[..., 1] / (rn + alt_nd), axis=1)
-            lat_e = lat0 + np.concatenate([[0.0], np.cumsum(d_lat)])
-            lat_nd = lat_e[:-1, None] + frac * d_lat[:, None]
-        _rn, re = earth.principal_radii(lat_nd)
-        d_lon = np.sum(w * v[..., 0] / ((re + alt_nd) * np.cos(lat_nd)), axis=1)
-        lon_e = lon0 + np.concatenate([[0.0], np.cumsum(d_lon)])
-        return lat_e, lon_e, alt_e
 
     def chunks(
         self, duration_s: float, chunk_s: float = 60.0, split_at: tuple[float, ...] = ()

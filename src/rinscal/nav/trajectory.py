@@ -27,6 +27,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from rinscal import units
 from rinscal.errors import ConfigError
+from rinscal.nav import _kernels
 
 #: Default site: Nanjing (the paper's lab), as in the navigation-grade IMU preset.
 DEFAULT_LAT_DEG = 32.06
@@ -276,30 +277,26 @@ class StepChannel:
         if np.any(d <= 0) or np.any(s[1:] < s[:-1] + d[:-1] - 1e-9):
             raise ConfigError("step channel: steps must have positive durations and not overlap")
 
+    def table(self) -> NDArray[np.float64]:
+        """The steps as an (m, 4) array for the numba kernels: start [s], duration [s], Δ,
+        and the sum of the Δ before each step."""
+        dl = np.asarray(self.deltas, dtype=float)
+        out = np.empty((dl.size, 4))
+        out[:, 0] = self.starts
+        out[:, 1] = self.durations
+        out[:, 2] = dl
+        out[:, 3] = np.concatenate([[0.0], np.cumsum(dl)])[:-1]
+        return out
+
     def evaluate(self, t: NDArray[np.float64]) -> tuple[NDArray, NDArray, NDArray]:
-        """Value, first and second derivative at ``t``."""
+        """Value, first and second derivative at ``t`` [s] (units of ``x0``, per s, per s²)."""
         t = np.asarray(t, dtype=float)
-        x = np.full(t.shape, float(self.x0))
-        xd = np.zeros(t.shape)
-        xdd = np.zeros(t.shape)
-        if not self.starts:
-            return x, xd, xdd
-        s = np.asarray(self.starts)
-        d = np.asarray(self.durations)
-        dl = np.asarray(self.deltas)
-        before = np.concatenate([[0.0], np.cumsum(dl)])
-        k = np.searchsorted(s, t, side="right") - 1
-        valid = k >= 0
-        kk = np.where(valid, k, 0)
-        u = np.where(valid, (t - s[kk]) / d[kk], 0.0)
-        active = valid & (u < 1.0)
-        x += np.where(valid, before[kk], 0.0)
-        ua = np.where(active, u, 0.0)
-        tp = 2 * math.pi
-        x += np.where(active, dl[kk] * (ua - np.sin(tp * ua) / tp), np.where(valid, dl[kk], 0.0))
-        xd += np.where(active, dl[kk] / d[kk] * (1 - np.cos(tp * ua)), 0.0)
-        xdd += np.where(active, dl[kk] / d[kk] ** 2 * tp * np.sin(tp * ua), 0.0)
-        return x, xd, xdd
+        tf = np.ascontiguousarray(t).reshape(-1)
+        x = np.empty(tf.shape)
+        xd = np.empty(tf.shape)
+        xdd = np.empty(tf.shape)
+        _kernels.step_channel_eval(tf, float(self.x0), self.table(), x, xd, xdd)
+        return x.reshape(t.shape), xd.reshape(t.shape), xdd.reshape(t.shape)
 
 
 @dataclass(frozen=True)
@@ -334,23 +331,25 @@ class VehicleMotion(_Site):
 
     def kinematics(self, t: NDArray[np.float64]) -> Kinematics:
         t = np.asarray(t, dtype=float)
-        s, sd, _ = self.speed.evaluate(t)
-        h, hd, _ = self.heading.evaluate(t)
-        p, pd, _ = self.grade.evaluate(t)
-        ch, sh = np.cos(h), np.sin(h)
-        cp, sp = np.cos(p), np.sin(p)
-        v = np.stack([s * cp * sh, s * cp * ch, s * sp], axis=-1)
-        a = np.stack(
-            [
-                sd * cp * sh + s * (-sp * pd * sh + cp * ch * hd),
-                sd * cp * ch + s * (-sp * pd * ch - cp * sh * hd),
-                sd * sp + s * cp * pd,
-            ],
-            axis=-1,
+        tf = np.ascontiguousarray(t).reshape(-1)
+        shape = (*t.shape, 3)
+        v, a, euler, rate = (np.empty((tf.size, 3)) for _ in range(4))
+        _kernels.vehicle_kinematics(
+            tf,
+            float(self.speed.x0),
+            self.speed.table(),
+            float(self.heading.x0),
+            self.heading.table(),
+            float(self.grade.x0),
+            self.grade.table(),
+            v,
+            a,
+            euler,
+            rate,
         )
-        euler = np.stack([h, p, np.zeros_like(h)], axis=-1)
-        rate = np.stack([hd, pd, np.zeros_like(h)], axis=-1)
-        return Kinematics(v, a, euler, rate)
+        return Kinematics(
+            v.reshape(shape), a.reshape(shape), euler.reshape(shape), rate.reshape(shape)
+        )
 
 
 @dataclass
