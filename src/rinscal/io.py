@@ -551,8 +551,8 @@ def _table_pieces(
         import pyarrow.parquet as pq
 
         _check_parquet(p)
-        try:
-            pf = pq.ParquetFile(p)
+        try:  # buffered reads, no pre-buffering of whole row groups (memory: a piece)
+            pf = pq.ParquetFile(p, buffer_size=1 << 20, pre_buffer=False)
         except Exception as exc:  # pyarrow raises many types for a damaged file
             raise LogError(f"{p}: unreadable Parquet file: {exc}") from None
         names = [n for n in pf.schema_arrow.names if not n.startswith("__index_level_")]
@@ -594,7 +594,10 @@ def _piece_table(pieces: list[Any]) -> pd.DataFrame:
     if not isinstance(pieces[0], pd.DataFrame):
         import pyarrow as pa
 
-        return pa.Table.from_batches(pieces).to_pandas()
+        table = pa.Table.from_batches(pieces)
+        pieces.clear()  # the table holds the only reference: converted, its buffers go
+        # one block per column (no 2-D consolidation copy), Arrow memory freed column by column
+        return table.to_pandas(split_blocks=True, self_destruct=True)
     if len(pieces) == 1:
         return pieces[0].reset_index(drop=True)
     return pd.concat(pieces, ignore_index=True)
@@ -791,7 +794,7 @@ class InterleavedRunsError(LogError):
 
 
 #: Rows per piece read by :func:`iter_log_source` (Parquet batch or CSV chunk).
-PIECE_ROWS = 1 << 20
+PIECE_ROWS = 1 << 18
 
 
 def iter_log_source(
@@ -852,8 +855,9 @@ def iter_log_source(
                 held.append(seg)
                 continue
             if held:
+                rows = sum(len(h) for h in held)
                 yield _source(p, _piece_table(held), mapping, sep, first)
-                first += sum(len(h) for h in held)
+                first += rows
                 finished.add(current)
             if v in finished:
                 raise InterleavedRunsError(

@@ -62,7 +62,18 @@ def _compensate_cli(log_path, model_path, out) -> pd.DataFrame:
     return read_log_source(out).raw
 
 
-@pytest.mark.parametrize("method", ["poly-t", "sectional", "regression", "neural"])
+_SLOW = pytest.mark.slow
+
+
+@pytest.mark.parametrize(
+    "method",
+    [
+        "regression",
+        "neural",
+        pytest.param("poly-t", marks=_SLOW),
+        pytest.param("sectional", marks=_SLOW),
+    ],
+)
 def test_compensate_in_pieces_equals_the_whole_log(
     tmp_path, soak_small, fitted_models, monkeypatch, method
 ) -> None:
@@ -100,3 +111,88 @@ def test_interleaved_runs_are_read_whole(tmp_path, soak_small, fitted_models) ->
     values, _ = compensated_channels(read_log_source(path).log, fitted_models["regression"])
     assert got["run"].tolist() == mixed["run"].tolist()  # rows in the file's order
     np.testing.assert_allclose(got["accel_x"], values["accel_x"], rtol=1e-12)
+
+
+def _leaves(obj, path=""):
+    """Every number of a model file's JSON, by path."""
+    if isinstance(obj, dict):
+        for k, v in obj.items():
+            yield from _leaves(v, f"{path}/{k}")
+    elif isinstance(obj, list):
+        for i, v in enumerate(obj):
+            yield from _leaves(v, f"{path}/{i}")
+    elif isinstance(obj, (int, float)) and not isinstance(obj, bool):
+        yield path, float(obj)
+
+
+@pytest.mark.parametrize(
+    "method",
+    [
+        "regression",
+        "px4",
+        pytest.param("poly-t", marks=_SLOW),
+        pytest.param("sectional", marks=_SLOW),
+        pytest.param("neural", marks=_SLOW),
+        pytest.param("ardupilot", marks=_SLOW),
+        pytest.param("auto", marks=_SLOW),
+    ],
+)
+def test_fit_in_pieces_equals_the_whole_log(tmp_path, soak_small, method) -> None:
+    import warnings
+
+    from rinscal.calibration.model import ThermalModel
+
+    from .conftest import NEURAL_FAST
+
+    log, _, meta = soak_small
+    path = tmp_path / "soak.csv"
+    write_log(log, path)
+    params = NEURAL_FAST if method == "neural" else None
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        whole = ThermalModel(method, estimator_params=params).fit(read_log_source(path).log, meta)
+        pieces = ThermalModel(method, estimator_params=params).fit_runs(
+            ((s.log, s.first_row) for s in iter_log_source(path, piece_rows=500)), meta
+        )
+    a = dict(_leaves(whole.to_file().payload()))
+    b = dict(_leaves(pieces.to_file().payload()))
+    assert a.keys() == b.keys()
+    for key, v in a.items():
+        assert b[key] == pytest.approx(v, rel=1e-9, abs=1e-300), key
+
+
+def test_run_factors_give_the_fit_of_all_rows(soak_small) -> None:
+    """Per-run factors in each run's own scaling, re-expressed in the global one, give the
+    least-squares fit of all rows at once (an independent QR of the stacked design)."""
+    from rinscal.calibration._fit import fit_params
+    from rinscal.calibration._inference import predict_params
+    from rinscal.calibration._runs import RunFits
+    from rinscal.calibration.features import build_features
+
+    log, _, _ = soak_small
+    f = build_features(log)
+    j = 3  # accel_x: cubic in each input
+    x, y = f.matrix(j), f.output[:, j]
+    ok = f.usable(j, x)
+    fits = RunFits("regression", [3, 3, 3], keep_rows=False)
+    for k in range(len(f.runs)):
+        rows = ok & (f.run_codes == k)
+        fits.add(k, x[rows], y[rows], f.time_s[rows])
+    for got, want in (
+        (fits.regression([3, 3, 3]), fit_params("regression", {}, x[ok], y[ok])),
+        (
+            fits.regression([2, 1, 0]),
+            fit_params(
+                "regression", {"t_order": 2, "rate_order": 1, "grad_order": 0}, x[ok], y[ok]
+            ),
+        ),
+        (fits.poly_t(3, t_ref=20.0), fit_params("poly-t", {"t_ref": 20.0}, x[ok], y[ok])),
+    ):
+        pg, pw = predict_params(got, x[ok]), predict_params(want, x[ok])
+        assert np.max(np.abs(pg - pw)) <= 1e-11 * np.max(np.abs(pw))
+        resid = pw - y[ok]
+        total, about, n_runs = fits.residual_ss(got)
+        assert total == pytest.approx(np.sum(resid**2), rel=1e-9)
+        means = np.bincount(f.run_codes[ok], weights=resid) / np.bincount(f.run_codes[ok])
+        assert about == pytest.approx(np.sum((resid - means[f.run_codes[ok]]) ** 2), rel=1e-9)
+        assert n_runs == len(f.runs)

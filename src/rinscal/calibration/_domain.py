@@ -26,7 +26,16 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["DEFAULT_BINS", "column_range", "fit_domain", "inside_domain", "validate_domain"]
+__all__ = [
+    "DEFAULT_BINS",
+    "FINE",
+    "column_range",
+    "domain_from_boxes",
+    "fit_domain",
+    "inside_domain",
+    "occupied_boxes",
+    "validate_domain",
+]
 
 #: Cells per input.
 DEFAULT_BINS = 24
@@ -60,8 +69,100 @@ def _flat_cells(cols: np.ndarray, lo: np.ndarray, hi: np.ndarray, bins: np.ndarr
     return flat
 
 
+#: Fine cells per domain cell of the boxes a piece of data is summarised by.
+FINE = 8
+
+
+def occupied_boxes(x: np.ndarray, cells: int) -> tuple[np.ndarray, np.ndarray]:
+    """The boxes of a fine grid over ``x``'s own range that hold a sample.
+
+    The summary of one piece of training data (a run) from which :func:`domain_from_boxes`
+    builds the joint domain of all pieces without seeing their samples again.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n, k), 1 ≤ k ≤ 3
+        Inputs, finite.
+    cells : int
+        Fine cells per input over ``[min, max]`` of that input in ``x``.
+
+    Returns
+    -------
+    lo, hi : ndarray, shape (b, k) [input units]
+        Corners of the occupied boxes (equal where an input is constant).
+    """
+    x = np.asarray(x, dtype=np.float64)
+    k = x.shape[1]
+    lo, hi = column_range(x)
+    nb = np.full(k, int(cells), dtype=np.int64)
+    nb[hi <= lo] = 1
+    occ = np.zeros(int(np.prod(nb)), dtype=bool)
+    for s in range(0, x.shape[0], 1 << 16):
+        occ[_flat_cells(np.ascontiguousarray(x[s : s + (1 << 16)].T), lo, hi, nb)] = True
+    idx = np.column_stack(np.unravel_index(np.flatnonzero(occ), tuple(nb)))
+    width = np.where(hi > lo, (hi - lo) / nb, 0.0)
+    return lo + idx * width, lo + (idx + 1) * width
+
+
+def domain_from_boxes(
+    boxes: list[tuple[np.ndarray, np.ndarray]],
+    lo: np.ndarray,
+    hi: np.ndarray,
+    bins: int = DEFAULT_BINS,
+) -> dict[str, Any]:
+    """Occupancy grid over ``[lo, hi]`` of the cells that any box touches, dilated by one.
+
+    Parameters
+    ----------
+    boxes : list of (ndarray, ndarray), each shape (b, k)
+        Corners from :func:`occupied_boxes` (first ``k`` inputs used).
+    lo, hi : ndarray, shape (k,) [input units]
+        Training range of each input over all pieces.
+    bins : int
+        Cells per input.
+
+    Returns
+    -------
+    dict
+        ``lo``, ``hi``, ``bins``, ``runs`` (see the module docstring).
+    """
+    lo = np.asarray(lo, dtype=np.float64)
+    hi = np.asarray(hi, dtype=np.float64)
+    k = lo.size
+    nb = np.full(k, int(bins), dtype=np.int64)
+    nb[hi <= lo] = 1  # a constant input: one cell
+    occ = np.zeros(tuple(nb), dtype=bool)
+    width = np.where(hi > lo, (hi - lo) / nb, 1.0)
+    for b_lo, b_hi in boxes:
+        first = np.clip(np.floor((b_lo[:, :k] - lo) / width).astype(np.int64), 0, nb - 1)
+        last = np.clip(np.floor((b_hi[:, :k] - lo) / width).astype(np.int64), 0, nb - 1)
+        # a box is far smaller than a cell: it touches at most two cells per input
+        for shift in np.ndindex(*([2] * k)):
+            cell = first + np.asarray(shift)
+            keep = np.all(cell <= last, axis=1)
+            occ[tuple(cell[keep].T)] = True
+    for axis in range(k):  # dilate by one cell: a separable 3×3(×3) box
+        grown = occ.copy()
+        lead = [slice(None)] * k
+        trail = [slice(None)] * k
+        lead[axis], trail[axis] = slice(1, None), slice(None, -1)
+        grown[tuple(lead)] |= occ[tuple(trail)]
+        grown[tuple(trail)] |= occ[tuple(lead)]
+        occ = grown
+    flat = np.flatnonzero(occ.ravel())
+    breaks = np.flatnonzero(np.diff(flat) != 1) + 1
+    starts = np.concatenate([[0], breaks])
+    ends = np.concatenate([breaks, [flat.size]])
+    runs = [[int(flat[s]), int(e - s)] for s, e in zip(starts, ends, strict=True)]
+    return {"lo": lo.tolist(), "hi": hi.tolist(), "bins": nb.tolist(), "runs": runs}
+
+
 def fit_domain(x: np.ndarray, bins: int = DEFAULT_BINS) -> dict[str, Any]:
     """Occupancy grid of training samples.
+
+    The cells touched by the occupied boxes of a grid :data:`FINE` times finer
+    (:func:`occupied_boxes`), dilated by one cell: the same construction as for data seen a
+    run at a time (a box straddling a cell edge, a tenth of a cell at most, marks both).
 
     Parameters
     ----------
@@ -78,28 +179,8 @@ def fit_domain(x: np.ndarray, bins: int = DEFAULT_BINS) -> dict[str, Any]:
     x = np.asarray(x, dtype=np.float64)
     if x.ndim != 2 or x.shape[0] == 0 or not 1 <= x.shape[1] <= 3:
         raise ValueError(f"need a non-empty (n, 1..3) input matrix, got shape {x.shape}")
-    k = x.shape[1]
     lo, hi = column_range(x)
-    nb = np.full(k, int(bins), dtype=np.int64)
-    nb[hi <= lo] = 1  # a constant input: one cell
-    occ = np.zeros(int(np.prod(nb)), dtype=bool)
-    for s in range(0, x.shape[0], 1 << 16):  # flat cell numbers, a block of rows at a time
-        occ[_flat_cells(np.ascontiguousarray(x[s : s + (1 << 16)].T), lo, hi, nb)] = True
-    occ = occ.reshape(tuple(nb))
-    for axis in range(k):  # dilate by one cell: a separable 3×3(×3) box
-        grown = occ.copy()
-        lead = [slice(None)] * k
-        trail = [slice(None)] * k
-        lead[axis], trail[axis] = slice(1, None), slice(None, -1)
-        grown[tuple(lead)] |= occ[tuple(trail)]
-        grown[tuple(trail)] |= occ[tuple(lead)]
-        occ = grown
-    flat = np.flatnonzero(occ.ravel())
-    breaks = np.flatnonzero(np.diff(flat) != 1) + 1
-    starts = np.concatenate([[0], breaks])
-    ends = np.concatenate([breaks, [flat.size]])
-    runs = [[int(flat[s]), int(e - s)] for s, e in zip(starts, ends, strict=True)]
-    return {"lo": lo.tolist(), "hi": hi.tolist(), "bins": nb.tolist(), "runs": runs}
+    return domain_from_boxes([occupied_boxes(x, bins * FINE)], lo, hi, bins)
 
 
 def _grid(domain: Mapping[str, Any]) -> np.ndarray:

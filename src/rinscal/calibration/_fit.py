@@ -70,7 +70,8 @@ def tsqr(
     rs = []
     for s in range(0, x.shape[0], block):
         a = basis(x[s : s + block])
-        aug = np.empty((a.shape[0], n_terms + 1))
+        # column-major, as LAPACK factors it: each column written and read contiguously
+        aug = np.empty((a.shape[0], n_terms + 1), order="F")
         aug[:, :n_terms] = a
         aug[:, n_terms] = y[s : s + block]
         # Householder QR of a tall block is memory-bound: sub-blocks that stay in cache
@@ -212,7 +213,7 @@ def _power_basis(
     n_terms = 1 + int(sum(orders))
 
     def basis(x: np.ndarray) -> np.ndarray:
-        a = np.empty((x.shape[0], n_terms))
+        a = np.empty((x.shape[0], n_terms), order="F")  # column by column: contiguous
         a[:, 0] = 1.0
         col = 1
         for v, order in enumerate(orders):

@@ -43,6 +43,7 @@ __all__ = [
     "design_condition",
     "diagnose_inputs",
     "temperature_resolution",
+    "warn_resolution",
 ]
 
 #: Names of the feature columns, in order.
@@ -265,17 +266,27 @@ def check_temperatures(
     columns: dict[str, np.ndarray],
     plausible: tuple[float, float] = PLAUSIBLE_TEMP_C,
     rows: np.ndarray | None = None,
-) -> None:
+    *,
+    warn: bool = True,
+) -> dict[str, float]:
     """Check temperature readings: plausible range (error) and resolution (warning).
 
     Parameters
     ----------
     columns : dict of str to ndarray [°C]
-        Temperature columns of a log by name.
+        Temperature columns of a log (or of one of its runs) by name.
     plausible : (float, float) [°C]
         Lowest and highest plausible reading.
     rows : ndarray of int, optional
         Row labels for messages (default 0-based positions).
+    warn : bool
+        Warn about a coarse resolution here (False: the caller combines the returned
+        resolutions of several runs and calls :func:`warn_resolution`).
+
+    Returns
+    -------
+    dict of str to float [°C]
+        Resolution of each column (:func:`temperature_resolution`).
 
     Raises
     ------
@@ -290,6 +301,7 @@ def check_temperatures(
     lo, hi = plausible
     if not lo < hi:
         raise ValueError(f"plausible temperature range must have low < high, got {plausible}")
+    out = {}
     for name, v in columns.items():
         bad = np.flatnonzero(np.isfinite(v) & ((v < lo) | (v > hi)))
         if bad.size:
@@ -300,7 +312,21 @@ def check_temperatures(
                 f"{lo:g} … {hi:g} °C, first at data row {row} ({v[i]:.6g} °C); fix or drop "
                 "those rows, or widen the range with --temp-range LO,HI"
             )
-        res = temperature_resolution(v)
+        out[name] = temperature_resolution(v)
+    if warn:
+        warn_resolution(out)
+    return out
+
+
+def warn_resolution(resolutions: dict[str, float]) -> None:
+    """Warn about each temperature column whose resolution is coarser than the limit.
+
+    Parameters
+    ----------
+    resolutions : dict of str to float [°C]
+        From :func:`check_temperatures` (the least over the runs of a log).
+    """
+    for name, res in resolutions.items():
         if np.isfinite(res) and res > RESOLUTION_LIMIT_C * (1 + 1e-9):
             warnings.warn(
                 f"column {name!r}: temperature resolution {res:.3g} °C is coarser than "
@@ -308,5 +334,5 @@ def check_temperatures(
                 "rate Ṫ and gradient ΔT become staircases and the model is weak; log the "
                 "temperature at full resolution",
                 TrainingDataWarning,
-                stacklevel=2,
+                stacklevel=3,
             )

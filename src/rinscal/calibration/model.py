@@ -19,17 +19,18 @@ reference, training ranges and metrics included) with :meth:`ThermalModel.to_fil
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
 from rinscal._version import __version__
-from rinscal.calibration._domain import column_range, fit_domain
-from rinscal.calibration._fit import fit_params, fit_poly_t
+from rinscal.calibration._fit import fit_params
 from rinscal.calibration._inference import METHODS, n_inputs, predict_params
+from rinscal.calibration._runs import FACTOR_METHODS, FALLBACK_DEGREE, RunFits
 from rinscal.calibration.auto import (
     DEFAULT_FAMILIES,
     DEFAULT_TOLERANCE,
@@ -40,14 +41,20 @@ from rinscal.calibration.auto import (
 from rinscal.calibration.features import (
     DerivativeConfig,
     Features,
+    MissingGradientWarning,
     OutlierConfig,
     build_features,
-    set_points,
+    run_slices,
 )
-from rinscal.calibration.guards import PLAUSIBLE_TEMP_C, DesignError, check_temperatures
+from rinscal.calibration.guards import (
+    PLAUSIBLE_TEMP_C,
+    DesignError,
+    check_temperatures,
+    warn_resolution,
+)
 from rinscal.calibration.modelfile import AUTO, ChannelModel, ThermalModelFile
 from rinscal.errors import ConfigError
-from rinscal.schema import CHANNELS, GYRO_CHANNELS, TEMP_OUT, temperature_column
+from rinscal.schema import CHAMBER, CHANNELS, GYRO_CHANNELS, RUN, TEMP_OUT, temperature_column
 from rinscal.units import DEG_TO_RAD, SENSOR_UNITS
 
 __all__ = ["DEFAULTS", "FIT_METHODS", "ThermalModel", "site_reference", "unit_factors"]
@@ -306,14 +313,23 @@ class ThermalModel:
         params.update(self.estimator_params)
         return params
 
-    def _set_points(self, log: pd.DataFrame, feats: Features, j: int) -> np.ndarray | None:
-        sp = set_points(log)
-        if sp is not None and sp.size >= 2:
-            return sp
-        # no chamber column: the per-run median inner temperature of this channel
-        med = [np.median(feats.temp[feats.run_codes == k, j]) for k in range(len(feats.runs))]
-        pts = np.unique(np.round(np.asarray(med), 1))
-        return pts if pts.size >= 2 else None
+    def _run_fits(self, channel: str, n_inputs: int) -> RunFits:
+        """What this model keeps of each run for one channel (see :mod:`._runs`)."""
+        if self.method == AUTO:
+            return RunFits(AUTO, None, keep_rows=True)
+        hyper = self.hyper_for(channel)
+        t_powers = FALLBACK_DEGREE
+        powers = [0] * n_inputs
+        if self.method == "regression":
+            orders = [hyper["t_order"], hyper["rate_order"], hyper["grad_order"]][:n_inputs]
+            powers = list(orders) + [0] * (n_inputs - len(orders))
+        elif self.method == "poly-t":
+            t_powers = max(t_powers, int(hyper["degree"]))
+        powers[0] = max(powers[0], t_powers)
+        step = None
+        if self.method == "neural" and hyper.get("max_samples") is not None:
+            step = int(hyper["max_samples"])  # the network decimates to this many rows
+        return RunFits(self.method, powers, self.method not in FACTOR_METHODS, step)
 
     def fit(
         self,
@@ -325,6 +341,9 @@ class ThermalModel:
         source: str | None = None,
     ) -> ThermalModel:
         """Fit every channel.
+
+        The log is taken run by run, as :meth:`fit_runs` takes a log read in pieces: the
+        same model, to the last bit.
 
         Parameters
         ----------
@@ -357,17 +376,8 @@ class ThermalModel:
             ill-conditioned design).
         """
         where = f"{source}: " if source else ""
-        tcols = list(dict.fromkeys(temperature_column(log, c) for c in self.channels))
-        if TEMP_OUT in log.columns:
-            tcols.append(TEMP_OUT)
-        try:
-            check_temperatures(
-                {c: log[c].to_numpy(dtype=np.float64) for c in tcols},
-                self.temp_range,
-                rows=np.arange(1, len(log) + 1),
-            )
-        except ValueError as exc:
-            raise ConfigError(f"{where}{exc}") from None
+        _, _, rows = run_slices(log[RUN])
+        res = self._check_temperatures(log, rows, 0, where)  # before any feature is built
         feats = features or build_features(
             log,
             self.derivative,
@@ -377,69 +387,82 @@ class ThermalModel:
             with_rate=self.needs_rate,
         )
         self.features_ = feats
-        self.meta_ = dict(meta or {})
-        self.params_: dict[str, dict[str, Any]] = {}
-        self.set_points_: dict[str, np.ndarray | None] = {}
-        self.train_range_: dict[str, np.ndarray] = {}
-        self.metrics_: dict[str, dict[str, float]] = {}
-        self.domains_: dict[str, dict[str, Any] | None] = {}
-        self.fallbacks_: dict[str, dict[str, Any] | None] = {}
-        self.selections_: dict[str, dict[str, Any] | None] = {}
-        self.train_mean_: dict[str, float] = {}
-        for j, c in enumerate(self.channels):
-            x = feats.matrix(j)
-            ok = feats.usable(j, x)
-            if ok.sum() < 2:
-                raise ConfigError(f"{where}{c}: fewer than 2 usable samples to fit")
-            sp = self._set_points(log, feats, j)
-            self.set_points_[c] = sp
-            xo, yo, codes = x[ok], feats.output[ok, j], feats.run_codes[ok]
-            to = feats.time_s[ok]
-            what = f"{where}{c} (T from column {temperature_column(log, c)!r}"
-            what += f", ΔT = T − {TEMP_OUT})" if feats.has_gradient else ")"
+        fitting = _Fitting(self, feats.has_gradient, where)
+        fitting.add_log(log, feats, rows, res)
+        return fitting.finish(meta, on_channel)
+
+    def fit_runs(
+        self,
+        runs: Iterable[tuple[pd.DataFrame, int]],
+        meta: Mapping[str, Any] | None = None,
+        *,
+        on_channel: Callable[[str], None] | None = None,
+        source: str | None = None,
+    ) -> ThermalModel:
+        """Fit every channel on a log given a run at a time, never holding it whole.
+
+        Parameters
+        ----------
+        runs : iterable of (DataFrame, int)
+            The log's runs in file order, validated, each whole (as
+            :func:`rinscal.io.iter_log_source` yields them; a frame may hold several), and
+            the data rows of the file before each (for messages).
+        meta, on_channel, source
+            As for :meth:`fit`.
+
+        Returns
+        -------
+        ThermalModel
+            The model :meth:`fit` gives for the whole log.
+        """
+        where = f"{source}: " if source else ""
+        fitting: _Fitting | None = None
+        for log, first_row in runs:
+            _, _, rows = run_slices(log[RUN])
+            res = self._check_temperatures(log, rows, first_row, where)
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always", MissingGradientWarning)
+                feats = build_features(
+                    log,
+                    self.derivative,
+                    self.outliers,
+                    self.channels,
+                    use_gradient=self.use_gradient,
+                    with_rate=self.needs_rate,
+                )
+            if fitting is None:  # the missing-gradient warning once, not once per run
+                for w in caught:
+                    warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+                fitting = _Fitting(self, feats.has_gradient, where)
+            elif feats.has_gradient != fitting.has_gradient:
+                raise ConfigError(f"{where}{TEMP_OUT!r} is in some runs and not in others")
+            fitting.add_log(log, feats, rows, res)
+        if fitting is None:
+            raise ConfigError(f"{where}no runs to fit")
+        self.features_ = None
+        return fitting.finish(meta, on_channel)
+
+    def _check_temperatures(
+        self, log: pd.DataFrame, rows: list[np.ndarray], first_row: int, where: str
+    ) -> list[dict[str, float]]:
+        """Plausible range of each run's temperatures (an error); their resolutions."""
+        cols = list(dict.fromkeys(temperature_column(log, c) for c in self.channels))
+        cols += [TEMP_OUT] if TEMP_OUT in log.columns else []
+        temps = {c: log[c].to_numpy(dtype=np.float64) for c in cols}
+        out = []
+        for idx in rows:
             try:
-                if self.method == AUTO:
-                    cands = candidates(sensor_type(c), x.shape[1], self.candidates)
-                    sel = select_channel(
-                        xo, yo, codes, feats.runs, to, cands, self.tolerance, self.random_state
+                out.append(
+                    check_temperatures(
+                        {c: v[idx] for c, v in temps.items()},
+                        self.temp_range,
+                        rows=first_row + idx + 1,
+                        warn=False,
                     )
-                    data = (xo, yo, codes, to, self.random_state)
-                    params = sel.fitted.get(sel.chosen.name) or fit_candidate(sel.chosen, *data)
-                    # a chosen model of T alone is its own fallback: fit it once
-                    fb = (
-                        params
-                        if sel.fallback == sel.chosen
-                        else sel.fitted.get(sel.fallback.name) or fit_candidate(sel.fallback, *data)
-                    )
-                    self.selections_[c] = sel.to_dict()
-                else:
-                    hyper = self.hyper_for(c, sp)
-                    params = fit_params(self.method, hyper, xo, yo, codes, to)
-                    fb = _cubic_fallback(xo, yo)
-                    self.selections_[c] = None
-            except (DesignError, ValueError, TypeError) as exc:
-                raise ConfigError(f"{what}: {self.method} fit failed: {exc}") from None
-            self.params_[c] = params
-            self.fallbacks_[c] = fb
-            k = n_inputs(params)
-            self.train_range_[c] = np.column_stack(column_range(xo[:, :k]))
-            constant = params["method"] == "poly-t" and len(params["coef"]) == 1
-            self.domains_[c] = None if constant else fit_domain(xo[:, :k])
-            resid = predict_params(params, xo) - yo
-            sums = np.bincount(codes, weights=resid, minlength=len(feats.runs))
-            cnts = np.bincount(codes, minlength=len(feats.runs))
-            about = resid - (sums / np.maximum(cnts, 1))[codes]
-            self.train_mean_[c] = float(np.mean(yo))
-            self.metrics_[c] = {
-                "rms_train": float(np.sqrt(np.mean(resid**2))),
-                "rms_train_about_run_mean": float(np.sqrt(np.mean(about**2))),
-                "n_train": float(ok.sum()),
-                "n_outliers": float(feats.report.total(c)),
-                "n_runs": float(np.count_nonzero(cnts)),
-            }
-            if on_channel is not None:
-                on_channel(c)
-        return self
+                )
+            except ValueError as exc:
+                raise ConfigError(f"{where}{exc}") from None
+        return out
 
     def to_file(self, source: Mapping[str, Any] | None = None) -> ThermalModelFile:
         """The fitted model as a model file object (save it with ``.save(path)``).
@@ -476,7 +499,7 @@ class ThermalModel:
                 fallback=self.fallbacks_[c],
                 selection=self.selections_[c],
             )
-        src: dict[str, Any] = {"runs": list(self.features_.runs)}
+        src: dict[str, Any] = {"runs": list(self.runs_)}
         for key in (
             "latitude_deg",
             "heading_deg",
@@ -496,17 +519,206 @@ class ThermalModel:
             models=models,
             derivative_kind=self.derivative.kind,
             derivative_window_s=self.derivative.window_s,
-            use_gradient=self.features_.has_gradient,
+            use_gradient=self.has_gradient_,
             source=src,
             created_by=f"rinscal {__version__}",
         )
 
 
-def _cubic_fallback(x: np.ndarray, y: np.ndarray) -> dict[str, Any] | None:
+def _run_features(feats: Features, k: int, idx: np.ndarray) -> Features:
+    """The features of run ``k`` (rows ``idx``) of a log's features."""
+    if idx.size == feats.run_codes.size:
+        return feats
+    r: slice | np.ndarray = idx
+    if idx.size and idx[-1] - idx[0] + 1 == idx.size:  # one block: views, not copies
+        r = slice(int(idx[0]), int(idx[-1]) + 1)
+    rep = feats.report
+    return dataclasses.replace(
+        feats,
+        temp=feats.temp[r],
+        rate=feats.rate[r],
+        grad=None if feats.grad is None else feats.grad[r],
+        output=feats.output[r],
+        inlier=feats.inlier[r],
+        run_codes=np.zeros(idx.size, dtype=np.int64),
+        runs=(feats.runs[k],),
+        time_s=feats.time_s[r],
+        report=dataclasses.replace(
+            rep,
+            runs=(rep.runs[k],),
+            removed=rep.removed[k : k + 1],
+            missing=rep.missing[k : k + 1],
+            samples=rep.samples[k : k + 1],
+        ),
+    )
+
+
+class _Fitting:
+    """A :class:`ThermalModel`'s fit in progress: what it keeps of each run, then the models.
+
+    Both :meth:`ThermalModel.fit` (a whole log) and :meth:`ThermalModel.fit_runs` (a log
+    read a run at a time) hand it the same runs' features, so both give the same model.
+    """
+
+    def __init__(self, model: ThermalModel, has_gradient: bool, where: str) -> None:
+        self.model = model
+        self.has_gradient = has_gradient
+        self.where = where
+        d = 3 if has_gradient else 2
+        self.fits = {c: model._run_fits(c, d) for c in model.channels}
+        self.runs: list[str] = []
+        self.chamber: list[float] = []  # each run's median chamber temperature
+        self.median_temp: list[np.ndarray] = []  # each run's median T of each channel
+        self.outliers = np.zeros(len(model.channels), dtype=np.int64)
+        self.resolution: dict[str, float] = {}
+        self.tcol: dict[str, str] = {}
+
+    def add_log(
+        self,
+        log: pd.DataFrame,
+        feats: Features,
+        rows: list[np.ndarray],
+        resolution: list[dict[str, float]],
+    ) -> None:
+        """Take in every run of a log (or of a piece of one) and its features."""
+        self.tcol = self.tcol or {c: temperature_column(log, c) for c in self.model.channels}
+        chamber = log[CHAMBER].to_numpy(dtype=np.float64) if CHAMBER in log.columns else None
+        for k, idx in enumerate(rows):
+            name = feats.runs[k]
+            if name in self.runs:
+                raise ConfigError(f"{self.where}run {name!r} given twice")
+            self.runs.append(name)
+            code = len(self.runs) - 1
+            if chamber is not None:
+                self.chamber.append(float(np.median(chamber[idx])))
+            f = _run_features(feats, k, idx)
+            if chamber is None:  # set points from the runs' temperatures instead
+                self.median_temp.append(np.median(f.temp, axis=0))
+            self.outliers += f.report.removed[0]
+            for j, c in enumerate(self.model.channels):
+                x = f.matrix(j)
+                ok = f.usable(j, x)
+                if ok.all():  # the usual case: no copies
+                    self.fits[c].add(code, x, f.output[:, j], f.time_s)
+                else:
+                    self.fits[c].add(code, x[ok], f.output[ok, j], f.time_s[ok])
+            for c, v in resolution[k].items():
+                self.resolution[c] = min(v, self.resolution.get(c, np.inf))
+
+    def set_points(self, j: int) -> np.ndarray | None:
+        """Soak set points: the runs' chamber medians, else their median ``T`` of channel j."""
+        if self.chamber:
+            med = np.asarray(self.chamber)
+            sp = np.unique(np.round(med[np.isfinite(med)], 1))
+            if sp.size >= 2:
+                return sp
+        pts = np.unique(np.round(np.asarray([m[j] for m in self.median_temp]), 1))
+        return pts if pts.size >= 2 else None
+
+    def finish(
+        self, meta: Mapping[str, Any] | None, on_channel: Callable[[str], None] | None
+    ) -> ThermalModel:
+        """Fit every channel from what the runs left; the fitted model."""
+        m = self.model
+        warn_resolution(self.resolution)
+        m.meta_ = dict(meta or {})
+        m.runs_ = tuple(self.runs)
+        m.has_gradient_ = self.has_gradient
+        m.params_ = {}
+        m.set_points_ = {}
+        m.train_range_ = {}
+        m.metrics_ = {}
+        m.domains_ = {}
+        m.fallbacks_ = {}
+        m.selections_ = {}
+        m.train_mean_ = {}
+        for j, c in enumerate(m.channels):
+            fits = self.fits[c]
+            if fits.n < 2:
+                raise ConfigError(f"{self.where}{c}: fewer than 2 usable samples to fit")
+            sp = self.set_points(j)
+            m.set_points_[c] = sp
+            what = f"{self.where}{c} (T from column {self.tcol[c]!r}"
+            what += f", ΔT = T − {TEMP_OUT})" if self.has_gradient else ")"
+            try:
+                params, fb, selection = self._fit_channel(c, fits, sp)
+            except (DesignError, ValueError, TypeError) as exc:
+                raise ConfigError(f"{what}: {m.method} fit failed: {exc}") from None
+            m.params_[c] = params
+            m.fallbacks_[c] = fb
+            m.selections_[c] = selection
+            k = n_inputs(params)
+            m.train_range_[c] = fits.range(k)
+            constant = params["method"] == "poly-t" and len(params["coef"]) == 1
+            m.domains_[c] = None if constant else fits.domain(k)
+            m.train_mean_[c] = fits.sum_y / fits.n
+            m.metrics_[c] = self._metrics(params, fits) | {
+                "n_train": float(fits.n),
+                "n_outliers": float(self.outliers[j]),
+                "n_runs": float(len(fits.counts)),
+            }
+            if on_channel is not None:
+                on_channel(c)
+        return m
+
+    def _fit_channel(
+        self, c: str, fits: RunFits, sp: np.ndarray | None
+    ) -> tuple[dict[str, Any], dict[str, Any] | None, dict[str, Any] | None]:
+        """A channel's parameters, its T-only fallback and ``auto``'s selection record."""
+        m = self.model
+        if m.method == AUTO:
+            xo, yo, codes, to = fits.data()
+            cands = candidates(sensor_type(c), xo.shape[1], m.candidates)
+            sel = select_channel(
+                xo, yo, codes, tuple(self.runs), to, cands, m.tolerance, m.random_state
+            )
+            data = (xo, yo, codes, to, m.random_state)
+            params = sel.fitted.get(sel.chosen.name) or fit_candidate(sel.chosen, *data)
+            # a chosen model of T alone is its own fallback: fit it once
+            fb = (
+                params
+                if sel.fallback == sel.chosen
+                else sel.fitted.get(sel.fallback.name) or fit_candidate(sel.fallback, *data)
+            )
+            return params, fb, sel.to_dict()
+        hyper = m.hyper_for(c, sp)
+        if m.method == "regression":
+            params = fits.regression(
+                [hyper.get("t_order", 3), hyper.get("rate_order", 3), hyper.get("grad_order", 3)]
+            )
+        elif m.method == "poly-t":
+            params = fits.poly_t(hyper.get("degree", 3), hyper.get("t_ref"))
+        else:
+            xo, yo, codes, to = fits.data()
+            params = fit_params(m.method, hyper, xo, yo, codes, to)
+        return params, _cubic_fallback(fits), None
+
+    @staticmethod
+    def _metrics(params: dict[str, Any], fits: RunFits) -> dict[str, float]:
+        """RMS of the training residual, and about each run's mean (Eq. 16)."""
+        if params["method"] in FACTOR_METHODS and fits.factors:
+            total, about, _ = fits.residual_ss(params)
+            n = fits.n
+            return {
+                "rms_train": float(np.sqrt(total / n)),
+                "rms_train_about_run_mean": float(np.sqrt(about / n)),
+            }
+        xo, yo, codes, _ = fits.data()
+        resid = predict_params(params, xo) - yo
+        sums = np.bincount(codes, weights=resid)
+        cnts = np.bincount(codes)
+        about = resid - (sums / np.maximum(cnts, 1))[codes]
+        return {
+            "rms_train": float(np.sqrt(np.mean(resid**2))),
+            "rms_train_about_run_mean": float(np.sqrt(np.mean(about**2))),
+        }
+
+
+def _cubic_fallback(fits: RunFits) -> dict[str, Any] | None:
     """The T-only fallback of a fixed method: a cubic in T (None if T cannot carry one)."""
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            return fit_poly_t(x[:, :1], y, 3)
+            return fits.poly_t(FALLBACK_DEGREE)
     except (DesignError, ValueError):
         return None

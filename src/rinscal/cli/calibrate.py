@@ -273,15 +273,12 @@ def fit(
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
     from rich.table import Table
 
-    from rinscal.calibration.features import (
-        DerivativeConfig,
-        MissingGradientWarning,
-        build_features,
-    )
+    from rinscal.calibration.features import DerivativeConfig, MissingGradientWarning
     from rinscal.calibration.guards import TrainingDataWarning
     from rinscal.calibration.model import ThermalModel
     from rinscal.cli._app import console, err_console, fail, styled
     from rinscal.errors import RinscalError
+    from rinscal.io import InterleavedRunsError, iter_log_source, read_log_source
 
     if method not in _METHODS:
         raise fail(f"--method must be one of {', '.join(_METHODS)}, got {method!r}")
@@ -306,7 +303,10 @@ def fit(
             transient=True,
         ) as progress:
             task = progress.add_task("reading log", total=None)
-            df, meta = _read(log, map_file, col, time_col, time_unit, sep, temp_col, relative_time)
+            mapping = foreign_mapping(
+                map_file, col, time_col, time_unit, sep, temp_col, relative_time=relative_time
+            )
+            meta = foreign_meta(log, mapping)
             meta.update(_static_options(latitude, heading, static_ref))
             model = ThermalModel(
                 method,
@@ -321,34 +321,33 @@ def fit(
                 temp_range=(lo_hi[0], lo_hi[1]),
                 **({"candidates": fams} if fams is not None else {}),
             )
-            progress.update(task, description="features")
-            with warnings.catch_warnings(record=True) as caught:
-                warnings.simplefilter("always", MissingGradientWarning)
-                feats = build_features(
-                    df,
-                    model.derivative,
-                    model.outliers,
-                    model.channels,
-                    use_gradient=model.use_gradient,
-                    with_rate=model.needs_rate,
-                )
-            for w in caught:
-                if issubclass(w.category, MissingGradientWarning):
-                    err_console.print(
-                        styled("warning:", "yellow", f" {w.message}"), highlight=False
-                    )
-            progress.update(task, description=f"fitting {method}", total=len(model.channels))
+
+            def runs(sources: Iterator[SourceLog]) -> Iterator[tuple[pd.DataFrame, int]]:
+                for k, src in enumerate(sources):
+                    progress.update(task, description=f"features of run {k + 1}")
+                    yield src.log, src.first_row
 
             def step(channel: str) -> None:
                 progress.update(task, advance=1, description=f"fitted {channel}")
+                progress.update(task, total=len(model.channels))
 
             with warnings.catch_warnings(record=True) as fit_warnings:
                 warnings.simplefilter("always", TrainingDataWarning)
-                model.fit(df, meta, features=feats, on_channel=step, source=str(log))
+                warnings.simplefilter("always", MissingGradientWarning)
+                try:  # run by run: memory bounded by the longest run
+                    model.fit_runs(
+                        runs(iter_log_source(log, mapping)), meta, on_channel=step, source=str(log)
+                    )
+                except InterleavedRunsError:  # runs interleaved in the file: read it whole
+                    src = read_log_source(log, mapping)
+                    model.fit_runs(runs(iter([src])), meta, on_channel=step, source=str(log))
             mf = model.to_file(source={"log": log.name})
             mf.save(out)
     except RinscalError as exc:
         raise fail(str(exc)) from None
+    for w in fit_warnings:
+        if issubclass(w.category, MissingGradientWarning):
+            err_console.print(styled("warning:", "yellow", f" {w.message}"), highlight=False)
     for w in fit_warnings:
         if issubclass(w.category, TrainingDataWarning):
             err_console.print(
