@@ -711,7 +711,7 @@ class SourceLog:
             Same rows, same columns in the same order (then ``extra``); every column not
             named is the file's own, untouched.
         """
-        out = self.raw.copy()
+        out = self.raw.copy(deep=False)  # new columns replace, the file's table is untouched
         for c, v in values.items():
             out[self.names.get(c, c)] = np.asarray(v, dtype=np.float64) / self.scale.get(c, 1.0)
         for name, v in extra.items():

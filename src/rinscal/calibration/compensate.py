@@ -21,7 +21,7 @@ equals :func:`compensate` with ``derivative_kind="causal"`` (same compiled rate 
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -56,6 +56,7 @@ def model_features(
     model: ThermalModelFile,
     derivative_kind: str | None = None,
     outliers: OutlierConfig | None = None,
+    channels: Sequence[str] | None = None,
 ) -> Features:
     """Features of a log as the model defines them (window, kind, gradient).
 
@@ -69,6 +70,8 @@ def model_features(
         Override the model's derivative kind (e.g. ``"causal"`` for real-time behaviour).
     outliers : OutlierConfig, optional
         Outlier masking (default: none; compensation keeps every sample).
+    channels : sequence of str, optional
+        Those of the model's channels to build (default all).
 
     Returns
     -------
@@ -81,7 +84,7 @@ def model_features(
         log,
         deriv,
         outliers or OutlierConfig(enabled=False),
-        model.channels,
+        model.channels if channels is None else tuple(channels),
         use_gradient=model.use_gradient,
     )
 
@@ -117,12 +120,13 @@ def predict_log(
         Modelled output per channel (:attr:`ThermalModelFile.channels` order).
     out_of_range : ndarray of bool, shape (n, m)
     """
-    feats = features or model_features(log, model, derivative_kind)
     n, m = len(log), len(model.channels)
-    f = np.empty((n, m))
-    flags = np.zeros((n, m), dtype=bool)
+    f = np.empty((n, m), order="F")
+    flags = np.zeros((n, m), dtype=bool, order="F")
     for j, c in enumerate(model.channels):
-        x = feats.matrix(j)
+        # without given features, a channel's at a time: memory of one channel's features
+        feats = features or model_features(log, model, derivative_kind, channels=(c,))
+        x = feats.matrix(c)
         try:
             f[:, j], flags[:, j] = model.predict_channel(c, x, policy)
         except RangeError as exc:

@@ -216,10 +216,12 @@ class Features:
             Columns ``T`` [°C], ``Ṫ`` [°C/min] and, if present, ``ΔT`` [°C].
         """
         j = self._index(channel)
-        cols = [self.temp[:, j], self.rate[:, j]]
-        if self.grad is not None:
-            cols.append(self.grad[:, j])
-        return np.column_stack(cols)
+        cols = [self.temp, self.rate] + ([self.grad] if self.grad is not None else [])
+        # column-major: each input is one contiguous column (fits and checks go by column)
+        x = np.empty((self.temp.shape[0], len(cols)), order="F")
+        for v, a in enumerate(cols):
+            x[:, v] = a[:, j]
+        return x
 
     def usable(self, channel: str | int, x: np.ndarray | None = None) -> np.ndarray:
         """Rows a fit of one channel may use: inliers whose every input is finite.
@@ -388,6 +390,14 @@ def set_points(log: pd.DataFrame, decimals: int = 1) -> np.ndarray | None:
     return np.unique(np.round(med[np.isfinite(med)], decimals))
 
 
+def _columns(log: pd.DataFrame, names: Sequence[str]) -> np.ndarray:
+    """Columns of a log as a column-major (n, len(names)) float64 array."""
+    out = np.empty((len(log), len(names)), order="F")
+    for j, c in enumerate(names):
+        out[:, j] = log[c].to_numpy(dtype=np.float64)
+    return out
+
+
 def build_features(
     log: pd.DataFrame,
     derivative: DerivativeConfig | None = None,
@@ -452,13 +462,15 @@ def build_features(
     t = log[TIME].to_numpy(dtype=np.float64)
     tcols = [temperature_column(log, c) for c in channels]
     uniq = list(dict.fromkeys(tcols))
+    # the rate kernel runs along rows (row-major); the (n, m) features are column-major,
+    # one contiguous column per channel, as every later step reads them
     tmat_u = np.column_stack([log[c].to_numpy(dtype=np.float64) for c in uniq])
     col_of = np.array([uniq.index(c) for c in tcols])
-    temp = tmat_u[:, col_of]
-    output = np.column_stack([log[c].to_numpy(dtype=np.float64) for c in channels])
+    temp = _columns(log, tcols)
+    output = _columns(log, channels)
     codes, runs, rows = run_slices(log[RUN])
     rate_u = np.empty_like(tmat_u)
-    outl = np.zeros((n, m), dtype=bool)
+    outl = np.zeros((n, m), dtype=bool, order="F")
     removed = np.zeros((len(runs), m), dtype=np.int64)
     missing = np.zeros((len(runs), m), dtype=np.int64)
     for k, idx in enumerate(rows):
@@ -473,7 +485,10 @@ def build_features(
             outl[r] = o
             removed[k] = o.sum(axis=0)
         missing[k] = (~np.isfinite(output[r])).sum(axis=0)
-    rate = rate_u[:, col_of]
+    rate = np.empty((n, m), order="F")
+    for j, u in enumerate(col_of):
+        rate[:, j] = rate_u[:, u]
+    del rate_u
     grad = None
     if use_gradient:
         tout = log[TEMP_OUT].to_numpy(dtype=np.float64)

@@ -388,7 +388,7 @@ class ThermalModel:
         )
         self.features_ = feats
         fitting = _Fitting(self, feats.has_gradient, where)
-        fitting.add_log(log, feats, rows, res)
+        fitting.add_features(fitting.add_runs(log, feats.runs, rows, res), feats, rows)
         return fitting.finish(meta, on_channel)
 
     def fit_runs(
@@ -418,25 +418,30 @@ class ThermalModel:
         where = f"{source}: " if source else ""
         fitting: _Fitting | None = None
         for log, first_row in runs:
-            _, _, rows = run_slices(log[RUN])
+            _, names, rows = run_slices(log[RUN])
             res = self._check_temperatures(log, rows, first_row, where)
-            with warnings.catch_warnings(record=True) as caught:
-                warnings.simplefilter("always", MissingGradientWarning)
-                feats = build_features(
-                    log,
-                    self.derivative,
-                    self.outliers,
-                    self.channels,
-                    use_gradient=self.use_gradient,
-                    with_rate=self.needs_rate,
-                )
-            if fitting is None:  # the missing-gradient warning once, not once per run
-                for w in caught:
-                    warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
-                fitting = _Fitting(self, feats.has_gradient, where)
-            elif feats.has_gradient != fitting.has_gradient:
-                raise ConfigError(f"{where}{TEMP_OUT!r} is in some runs and not in others")
-            fitting.add_log(log, feats, rows, res)
+            codes: list[int] | None = None
+            for c in self.channels:  # a channel at a time: memory of one channel's features
+                with warnings.catch_warnings(record=True) as caught:
+                    warnings.simplefilter("always", MissingGradientWarning)
+                    feats = build_features(
+                        log,
+                        self.derivative,
+                        self.outliers,
+                        (c,),
+                        use_gradient=self.use_gradient,
+                        with_rate=self.needs_rate,
+                    )
+                if fitting is None:  # the missing-gradient warning once, not once per run
+                    for w in caught:
+                        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+                    fitting = _Fitting(self, feats.has_gradient, where)
+                elif feats.has_gradient != fitting.has_gradient:
+                    raise ConfigError(f"{where}{TEMP_OUT!r} is in some runs and not in others")
+                if codes is None:
+                    codes = fitting.add_runs(log, names, rows, res)
+                fitting.add_features(codes, feats, rows)
+                del feats
         if fitting is None:
             raise ConfigError(f"{where}no runs to fit")
         self.features_ = None
@@ -573,37 +578,41 @@ class _Fitting:
         self.resolution: dict[str, float] = {}
         self.tcol: dict[str, str] = {}
 
-    def add_log(
-        self,
-        log: pd.DataFrame,
-        feats: Features,
-        rows: list[np.ndarray],
-        resolution: list[dict[str, float]],
-    ) -> None:
-        """Take in every run of a log (or of a piece of one) and its features."""
+    def add_runs(
+        self, log: pd.DataFrame, runs: Sequence[str], rows: list[np.ndarray], resolution: list
+    ) -> list[int]:
+        """Take in the runs of a log (or of a piece of one): names, chamber set points and
+        temperature resolutions; the runs' codes, for :meth:`add_features`."""
         self.tcol = self.tcol or {c: temperature_column(log, c) for c in self.model.channels}
         chamber = log[CHAMBER].to_numpy(dtype=np.float64) if CHAMBER in log.columns else None
-        for k, idx in enumerate(rows):
-            name = feats.runs[k]
+        codes = []
+        for name, idx, res in zip(runs, rows, resolution, strict=True):
             if name in self.runs:
                 raise ConfigError(f"{self.where}run {name!r} given twice")
             self.runs.append(name)
-            code = len(self.runs) - 1
+            codes.append(len(self.runs) - 1)
             if chamber is not None:
                 self.chamber.append(float(np.median(chamber[idx])))
-            f = _run_features(feats, k, idx)
-            if chamber is None:  # set points from the runs' temperatures instead
-                self.median_temp.append(np.median(f.temp, axis=0))
-            self.outliers += f.report.removed[0]
-            for j, c in enumerate(self.model.channels):
-                x = f.matrix(j)
-                ok = f.usable(j, x)
-                if ok.all():  # the usual case: no copies
-                    self.fits[c].add(code, x, f.output[:, j], f.time_s)
-                else:
-                    self.fits[c].add(code, x[ok], f.output[ok, j], f.time_s[ok])
-            for c, v in resolution[k].items():
+            self.median_temp.append(np.full(len(self.model.channels), np.nan))
+            for c, v in res.items():
                 self.resolution[c] = min(v, self.resolution.get(c, np.inf))
+        return codes
+
+    def add_features(self, codes: list[int], feats: Features, rows: list[np.ndarray]) -> None:
+        """Take in the features of some channels (``feats.channels``) of runs ``codes``."""
+        for k, (code, idx) in enumerate(zip(codes, rows, strict=True)):
+            f = _run_features(feats, k, idx)
+            for jj, c in enumerate(f.channels):
+                j = self.model.channels.index(c)
+                if not self.chamber:  # set points from the runs' temperatures instead
+                    self.median_temp[code][j] = np.median(f.temp[:, jj])
+                self.outliers[j] += f.report.removed[0, jj]
+                x = f.matrix(jj)
+                ok = f.usable(jj, x)
+                if ok.all():  # the usual case: no copies
+                    self.fits[c].add(code, x, f.output[:, jj], f.time_s)
+                else:
+                    self.fits[c].add(code, x[ok], f.output[ok, jj], f.time_s[ok])
 
     def set_points(self, j: int) -> np.ndarray | None:
         """Soak set points: the runs' chamber medians, else their median ``T`` of channel j."""
