@@ -1050,8 +1050,9 @@ class LogStreamWriter:
     until :meth:`close` succeeds; on an error the partial file is removed.
 
     Each frame is one or more whole runs with the same columns, stacked in the order
-    written. Parquet gets one row group per frame; CSV/TSV are appended. Use as a context
-    manager::
+    written. Parquet gets row groups of at most :data:`PIECE_ROWS` rows (the writer holds one
+    encoded row group at a time: memory bounded by that, not by a run); CSV/TSV are appended.
+    Use as a context manager::
 
         with LogStreamWriter("soak.parquet") as w:
             for run in runs:
@@ -1116,7 +1117,7 @@ class LogStreamWriter:
                 )
             else:  # every run in the first one's types
                 table = pa.Table.from_pandas(df, schema=self._writer.schema, preserve_index=False)
-            self._writer.write_table(table)
+            self._writer.write_table(table, row_group_size=PIECE_ROWS)
         else:
             df.to_csv(
                 self._tmp,

@@ -196,3 +196,36 @@ def test_run_factors_give_the_fit_of_all_rows(soak_small) -> None:
         means = np.bincount(f.run_codes[ok], weights=resid) / np.bincount(f.run_codes[ok])
         assert about == pytest.approx(np.sum((resid - means[f.run_codes[ok]]) ** 2), rel=1e-9)
         assert n_runs == len(f.runs)
+
+
+def test_select_in_pieces_equals_the_whole_log(tmp_path, soak_small) -> None:
+    from rinscal.calibration.selection import select_model, select_regression_runs
+
+    log, _, _ = soak_small
+    path = tmp_path / "soak.parquet"
+    write_log(log, path)
+    channels = ("gyro_x", "accel_z")
+    whole = select_model(read_log_source(path).log, "regression", (1, 3), channels=channels)
+    pieces = select_regression_runs(
+        (s.log for s in iter_log_source(path, piece_rows=700)), (1, 3), channels=channels
+    )
+    pd.testing.assert_frame_equal(pieces.table, whole.table, rtol=1e-9)
+    assert pieces.recommended == whole.recommended and pieces.runs == whole.runs
+
+
+def test_evaluate_in_pieces_equals_the_whole_log(tmp_path, soak_small, fitted_models) -> None:
+    from rinscal.calibration.evaluate import allan_table, evaluate, evaluate_runs
+
+    log, _, _ = soak_small
+    path = tmp_path / "soak.csv"
+    write_log(log, path)
+    mf = fitted_models["sectional"]  # segment edges: the step columns are filled too
+    whole = read_log_source(path).log
+    res, allan, curves = evaluate_runs(
+        ((s.log, s.first_row) for s in iter_log_source(path, piece_rows=600)), mf
+    )
+    pd.testing.assert_frame_equal(res, evaluate(whole, mf), rtol=1e-12)
+    want_allan, want_curves = allan_table(whole, mf)
+    pd.testing.assert_frame_equal(allan, want_allan, rtol=1e-12)
+    assert curves.keys() == want_curves.keys()
+    assert (res["crossings"] > 0).any()

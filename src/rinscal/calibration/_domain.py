@@ -8,9 +8,13 @@ uses:
 
 * each input's training range ``[lo, hi]`` is cut into ``bins`` equal cells (default 24, so a
   cell is 1/24 of the range: e.g. 3.8 °C of a 91 °C cycle);
-* a cell is occupied if a training sample falls in it; the occupied set is dilated by one
-  cell in every direction (a sample next to the data is in), and stored run-length encoded
-  as ``[[first_flat_index, length], ...]`` (C order);
+* a cell is occupied if a training sample falls in it, or within an eighth of a cell-width
+  of it: the data are summarised, a run at a time, by the boxes of a grid eight times finer
+  over each run's own range that hold a sample (:func:`occupied_boxes`), and a cell is
+  occupied when such a box touches it (:func:`domain_from_boxes`), so a log read run by run
+  and the same log read whole give the same grid; the occupied set is dilated by one cell in
+  every direction (a sample next to the data is in), and stored run-length encoded as
+  ``[[first_flat_index, length], ...]`` (C order);
 * a sample is *inside* when every input lies within ``[lo − w, hi + w]`` (``w`` one cell)
   and its cell is in the dilated set.
 

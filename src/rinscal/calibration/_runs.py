@@ -214,7 +214,15 @@ class RunFits:
         """The thinned rows of every run (collinearity, diagnosis)."""
         return np.concatenate(self.sample)
 
-    def _global(self, keep: Sequence[int], target: Sequence[tuple[float, float]]) -> list:
+    def scaling(self) -> list[tuple[float, float]]:
+        """Centre and half-range of each input over every run (the global basis)."""
+        assert self.lo is not None and self.hi is not None
+        return [_center_scale(np.array(v)) for v in zip(self.lo, self.hi, strict=True)]
+
+    def global_factors(
+        self, keep: Sequence[int], target: Sequence[tuple[float, float]]
+    ) -> list[np.ndarray]:
+        """Each run's factor in the ``target`` scaling with ``keep`` powers of each input."""
         return [
             change_basis(r, cs, self.powers, target, keep)
             for r, cs in zip(self.factors, self.local, strict=True)
@@ -223,7 +231,7 @@ class RunFits:
     def _solve(
         self, keep: Sequence[int], target: Sequence[tuple[float, float]], what: str
     ) -> tuple[np.ndarray, list[np.ndarray]]:
-        runs = self._global(keep, target)
+        runs = self.global_factors(keep, target)
         n_terms = _n_terms(keep)
         r = np.linalg.qr(np.vstack(runs), mode="r")
         if self.n > n_terms:  # fewer rows are refused by the caller
@@ -254,7 +262,7 @@ class RunFits:
         assert self.lo is not None and self.hi is not None
         k = len(self.powers)
         orders = orders[:k]
-        cs = [_center_scale(np.array([self.lo[v], self.hi[v]])) for v in range(len(orders))]
+        cs = self.scaling()[: len(orders)]
         keep = orders + [0] * (k - len(orders))
         target = cs + [(0.0, 1.0)] * (k - len(orders))
         beta, _ = self._solve(keep, target, f"regression {tuple(orders)}")
@@ -288,7 +296,7 @@ class RunFits:
             beta = np.concatenate([[params["intercept"]], *map(np.asarray, params["coef"])])
         coef_y = np.append(beta, -1.0)
         total = about = 0.0
-        for r, cnt in zip(self._global(keep, target), self.counts, strict=True):
+        for r, cnt in zip(self.global_factors(keep, target), self.counts, strict=True):
             total += float(np.sum((r @ coef_y) ** 2))
             about += factor_ss_about_mean(r, coef_y, cnt)
         return total, about, len(self.counts)

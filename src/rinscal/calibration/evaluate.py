@@ -21,6 +21,7 @@ Step at a segment edge (the paper's Figure 7)
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -39,6 +40,7 @@ __all__ = [
     "edge_crossings",
     "edge_steps",
     "evaluate",
+    "evaluate_runs",
     "prepare",
 ]
 
@@ -174,6 +176,7 @@ def prepare(
     policy: Policy = "clamp",
     derivative_kind: str | None = None,
     outliers: OutlierConfig | None = None,
+    first_row: int = 0,
 ) -> Prepared:
     """Features of a log (outliers masked as for fitting) and the model's output on it.
 
@@ -189,6 +192,8 @@ def prepare(
         Override the model's derivative kind.
     outliers : OutlierConfig, optional
         Outlier masking (default: as for fitting).
+    first_row : int
+        Data rows of the file before ``log`` (a log read run by run), for messages.
 
     Returns
     -------
@@ -198,8 +203,50 @@ def prepare(
     flagged : ndarray of bool, shape (n, m)
     """
     feats = model_features(log, model, derivative_kind, outliers or OutlierConfig())
-    f, flags = predict_log(log, model, policy, derivative_kind, features=feats)
+    f, flags = predict_log(log, model, policy, derivative_kind, features=feats, first_row=first_row)
     return feats, f, flags
+
+
+def evaluate_runs(
+    runs: Iterable[tuple[pd.DataFrame, int]],
+    model: ThermalModelFile,
+    policy: Policy = "clamp",
+    derivative_kind: str | None = None,
+    step: StepConfig | None = None,
+) -> tuple[pd.DataFrame, pd.DataFrame, dict[str, dict[str, dict[str, AllanCurve]]]]:
+    """:func:`evaluate` and :func:`allan_table` of a log given a run at a time.
+
+    Both are per run, so each run is prepared, measured and let go; the rows are those of
+    the whole log, in the same order (channel by channel, runs in file order).
+
+    Parameters
+    ----------
+    runs : iterable of (DataFrame, int)
+        The log's runs, each whole and validated, and the data rows of the file before each
+        (as :func:`rinscal.io.iter_log_source` yields them).
+    model, policy, derivative_kind, step
+        As for :func:`evaluate`.
+
+    Returns
+    -------
+    table : DataFrame
+        :func:`evaluate`'s table.
+    allan : DataFrame
+        :func:`allan_table`'s table.
+    curves : dict
+        :func:`allan_table`'s curves.
+    """
+    parts, allans, curves = [], [], {}
+    for log, first_row in runs:
+        prepared = prepare(log, model, policy, derivative_kind, first_row=first_row)
+        parts.append(evaluate(log, model, policy, derivative_kind, step, prepared=prepared))
+        table, c = allan_table(log, model, policy, derivative_kind, prepared=prepared)
+        allans.append(table)
+        curves.update(c)
+    res = pd.concat(parts, ignore_index=True)
+    order = {c: j for j, c in enumerate(model.channels)}
+    res = res.iloc[np.argsort(res["channel"].map(order).to_numpy(), kind="stable")]
+    return res.reset_index(drop=True), pd.concat(allans, ignore_index=True), curves
 
 
 def evaluate(

@@ -15,13 +15,14 @@ whose held-out RMS is within ``tolerance`` (2 % by default) of the best held-out
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
+from rinscal.calibration._runs import RunFits
 from rinscal.calibration.features import (
     DerivativeConfig,
     Features,
@@ -32,7 +33,7 @@ from rinscal.calibration.model import ThermalModel
 from rinscal.errors import ConfigError
 from rinscal.schema import CHANNELS
 
-__all__ = ["DEFAULT_SETTINGS", "SelectionResult", "select_model"]
+__all__ = ["DEFAULT_SETTINGS", "SelectionResult", "select_model", "select_regression_runs"]
 
 #: Settings tried by default: orders 1-4 (regression), 1-8 neurons (neural).
 DEFAULT_SETTINGS: dict[str, tuple[int, ...]] = {
@@ -113,43 +114,25 @@ def _fit_predict(
     return est.predict(x[test]) - y[test]
 
 
-def _regression_from_factors(
-    channel: str,
-    x: np.ndarray,
-    y: np.ndarray,
-    codes: np.ndarray,
-    n_runs: int,
-    settings: Sequence[int],
+def _regression_scores(
+    channel: str, fits: RunFits, settings: Sequence[int]
 ) -> list[tuple[float, float]]:
     """Training and leave-one-run-out RMS of ``regression`` orders ``k = k = k``, from factors.
 
-    One pass over the data: per run, the triangular factor ``R_k`` of ``[A | y]`` for the
-    largest orders (TSQR). A fit of any orders on any runs is then a QR of the stacked column
-    subsets of their factors, and a run's residual sum of squares about its own mean follows
-    from its factor: ``‖R_k [β; −1]‖² − n_k m_k²``, ``m_k`` from the first row of ``R_k`` (the
-    design's first column is ones). Equal to refitting from the data (the power basis spans
-    the same polynomials whatever its centring and scaling), without touching the data again.
+    ``fits`` holds each run's triangular factor ``R_k`` of ``[A | y]`` for the largest orders
+    (:class:`~rinscal.calibration._runs.RunFits`), taken here into the scaling of all runs. A
+    fit of any orders on any runs is then a QR of the stacked column subsets of their
+    factors, and a run's residual sum of squares about its own mean follows from its factor:
+    ``‖R_k [β; −1]‖² − n_k m_k²``, ``m_k`` from the first row of ``R_k`` (the design's first
+    column is ones). Equal to refitting from the data (the power basis spans the same
+    polynomials whatever its centring and scaling), without touching the data again.
     """
-    from rinscal.calibration._fit import (
-        _center_scale,
-        _power_basis,
-        factor_ss_about_mean,
-        fit_factors,
-        tsqr,
-    )
+    from rinscal.calibration._fit import factor_ss_about_mean, fit_factors
 
-    d, kmax = x.shape[1], max(settings)
-    cs = [_center_scale(x[:, v]) for v in range(d)]
-    basis = _power_basis([c for c, _ in cs], [h for _, h in cs], [kmax] * d)
+    d, kmax = len(fits.powers), max(settings)
     n_terms = 1 + d * kmax
-    factors, counts = [], np.bincount(codes, minlength=n_runs)
-    for k in range(n_runs):
-        pad = np.zeros((n_terms + 1, n_terms + 1))
-        rows = codes == k
-        if rows.any():
-            r = tsqr(basis, x[rows], y[rows], n_terms)
-            pad[: r.shape[0]] = r
-        factors.append(pad)
+    factors = fits.global_factors(fits.powers, fits.scaling())
+    present = list(range(len(factors)))
 
     def fit(sel: list[int], runs: list[int], order: int) -> np.ndarray:
         coef = fit_factors([factors[j] for j in runs], sel)
@@ -161,10 +144,9 @@ def _regression_from_factors(
         return coef
 
     def ss_about_mean(k: int, sel: list[int], beta: np.ndarray) -> float:
-        return factor_ss_about_mean(factors[k][:, sel], beta, int(counts[k]))
+        return factor_ss_about_mean(factors[k][:, sel], beta, int(fits.counts[k]))
 
-    present = [k for k in range(n_runs) if counts[k]]
-    n = int(counts.sum())
+    n = fits.n
     out = []
     for order in settings:
         sel = [0, *(1 + v * kmax + i for v in range(d) for i in range(order)), n_terms]
@@ -177,6 +159,117 @@ def _regression_from_factors(
                 raise ConfigError(f"{channel}: too few samples outside run {k}")
             ss_ho += ss_about_mean(k, sel, fit(sel, others, order))
         out.append((float(np.sqrt(ss_tr / n)), float(np.sqrt(ss_ho / n))))
+    return out
+
+
+def _add_runs(fits: RunFits, feats: Features, j: int, code0: int) -> None:
+    """Each run's usable rows of channel ``j`` of ``feats`` into ``fits`` (codes from code0)."""
+    x = feats.matrix(j)
+    ok = feats.usable(j, x)
+    for k in range(len(feats.runs)):
+        rows = ok & (feats.run_codes == k)
+        if rows.any():
+            fits.add(code0 + k, x[rows], feats.output[rows, j], feats.time_s[rows])
+
+
+def _settings(method: str, settings: Sequence[int] | None, tolerance: float) -> tuple[int, ...]:
+    if method not in DEFAULT_SETTINGS:
+        raise ConfigError(f"selection supports regression and neural, not {method!r}")
+    out = tuple(int(s) for s in (settings or DEFAULT_SETTINGS[method]))
+    if not out or any(s < 1 for s in out):
+        raise ConfigError(f"settings must be positive integers, got {out}")
+    if not (np.isfinite(tolerance) and tolerance >= 0):
+        raise ConfigError(f"tolerance must be >= 0, got {tolerance!r}")
+    return out
+
+
+def _two_runs(runs: Sequence[str]) -> None:
+    if len(runs) < 2:
+        raise ConfigError(
+            f"leave-one-run-out needs at least 2 runs; the log has {len(runs)} ({tuple(runs)})"
+        )
+
+
+def _result(
+    method: str,
+    settings: Sequence[int],
+    tolerance: float,
+    runs: Sequence[str],
+    scores: Mapping[str, list[tuple[float, float]]],
+) -> SelectionResult:
+    """The table and the recommended (smallest within tolerance) and best settings."""
+    rows, recommended, best = [], {}, {}
+    for c, sc in scores.items():
+        for s, (rms_tr, rms_ho) in zip(settings, sc, strict=True):
+            rows.append({"channel": c, "setting": s, "rms_train": rms_tr, "rms_heldout": rms_ho})
+        h = np.asarray([ho for _, ho in sc])
+        b = int(np.argmin(h))
+        best[c] = settings[b]
+        within = [s for s, v in zip(settings, h, strict=True) if v <= h[b] * (1 + tolerance)]
+        recommended[c] = min(within)
+    return SelectionResult(
+        method=method,
+        table=pd.DataFrame(rows, columns=["channel", "setting", "rms_train", "rms_heldout"]),
+        recommended=recommended,
+        best=best,
+        tolerance=float(tolerance),
+        runs=tuple(runs),
+    )
+
+
+def select_regression_runs(
+    runs: Iterable[pd.DataFrame],
+    settings: Sequence[int] | None = None,
+    tolerance: float = 0.02,
+    channels: Sequence[str] = CHANNELS,
+    derivative: DerivativeConfig | None = None,
+    outliers: OutlierConfig | None = None,
+    use_gradient: bool | None = None,
+    on_fit: Callable[[str, int], None] | None = None,
+) -> SelectionResult:
+    """:func:`select_model` of ``regression`` for a log given a run at a time.
+
+    Each run's features are built a channel at a time and reduced at once to the run's
+    factors (:class:`~rinscal.calibration._runs.RunFits`); nothing else of the run is kept.
+    The result equals :func:`select_model`'s on the whole log.
+
+    Parameters
+    ----------
+    runs : iterable of DataFrame
+        The log's runs, each whole and validated (e.g. from
+        :func:`rinscal.io.iter_log_source`).
+    settings, tolerance, channels, derivative, outliers, use_gradient, on_fit
+        As for :func:`select_model`.
+    """
+    settings = _settings("regression", settings, tolerance)
+    derivative = derivative or DerivativeConfig()
+    outliers = outliers or OutlierConfig()
+    fits: dict[str, RunFits] = {}
+    names: list[str] = []
+    for log in runs:
+        added: tuple[str, ...] = ()
+        for c in channels:  # a channel at a time: memory of one channel's features
+            feats = build_features(log, derivative, outliers, (c,), use_gradient=use_gradient)
+            acc = fits.setdefault(
+                c, RunFits("regression", [max(settings)] * feats.n_features, keep_rows=False)
+            )
+            _add_runs(acc, feats, 0, len(names))
+            added = feats.runs
+        names.extend(added)
+    _two_runs(names)
+    return _result("regression", settings, tolerance, names, _scores(fits, settings, on_fit))
+
+
+def _scores(
+    fits: Mapping[str, RunFits],
+    settings: Sequence[int],
+    on_fit: Callable[[str, int], None] | None,
+) -> dict[str, list[tuple[float, float]]]:
+    out = {}
+    for c, f in fits.items():
+        out[c] = _regression_scores(c, f, settings)
+        for s in settings if on_fit is not None else ():
+            on_fit(c, s)  # type: ignore[misc]
     return out
 
 
@@ -219,43 +312,30 @@ def select_model(
     -------
     SelectionResult
     """
-    if method not in DEFAULT_SETTINGS:
-        raise ConfigError(f"selection supports regression and neural, not {method!r}")
-    settings = tuple(int(s) for s in (settings or DEFAULT_SETTINGS[method]))
-    if not settings or any(s < 1 for s in settings):
-        raise ConfigError(f"settings must be positive integers, got {settings}")
-    if not (np.isfinite(tolerance) and tolerance >= 0):
-        raise ConfigError(f"tolerance must be >= 0, got {tolerance!r}")
+    settings = _settings(method, settings, tolerance)
     derivative = derivative or DerivativeConfig()
     outliers = outliers or OutlierConfig()
     feats = features or build_features(
         log, derivative, outliers, channels, use_gradient=use_gradient
     )
     n_runs = len(feats.runs)
-    if n_runs < 2:
-        raise ConfigError(
-            f"leave-one-run-out needs at least 2 runs; the log has {n_runs} ({feats.runs})"
-        )
-    rows = []
-    recommended: dict[str, int] = {}
-    best: dict[str, int] = {}
+    _two_runs(feats.runs)
+    if method == "regression" and not estimator_params:  # one pass: per-run factors
+        fits = {}
+        for c in channels:
+            j = feats.channels.index(c)
+            fits[c] = RunFits("regression", [max(settings)] * feats.n_features, keep_rows=False)
+            _add_runs(fits[c], feats, j, 0)
+        return _result(method, settings, tolerance, feats.runs, _scores(fits, settings, on_fit))
+    scores: dict[str, list[tuple[float, float]]] = {}
     for c in channels:
         j = feats.channels.index(c)
         x = feats.matrix(j)
         ok = feats.usable(j, x)
         y = feats.output[:, j]
         codes = feats.run_codes
-        held: list[float] = []
-        if method == "regression" and not estimator_params:  # one pass: per-run factors
-            scores = _regression_from_factors(c, x[ok], y[ok], codes[ok], n_runs, settings)
-            for s, (rms_tr, rms_ho) in zip(settings, scores, strict=True):
-                held.append(rms_ho)
-                rows.append(
-                    {"channel": c, "setting": s, "rms_train": rms_tr, "rms_heldout": rms_ho}
-                )
-                if on_fit is not None:
-                    on_fit(c, s)
-        for s in settings if not held else ():
+        scores[c] = []
+        for s in settings:
             tm = ThermalModel(
                 method,
                 orders=(s, s, s) if method == "regression" else None,
@@ -266,7 +346,6 @@ def select_model(
                 random_state=random_state,
                 estimator_params=estimator_params,
             )
-
             data = (x, y, codes)
             rms_tr = _rms_about_run_mean(
                 _fit_predict(tm.estimator_for(c), method, c, *data, ok, ok), codes[ok], n_runs
@@ -283,21 +362,7 @@ def select_model(
                 resid[np.searchsorted(pos, np.flatnonzero(test))] = _fit_predict(
                     tm.estimator_for(c), method, c, *data, train, test
                 )
-            rms_ho = _rms_about_run_mean(resid, codes[ok], n_runs)
-            held.append(rms_ho)
-            rows.append({"channel": c, "setting": s, "rms_train": rms_tr, "rms_heldout": rms_ho})
+            scores[c].append((rms_tr, _rms_about_run_mean(resid, codes[ok], n_runs)))
             if on_fit is not None:
                 on_fit(c, s)
-        h = np.asarray(held)
-        b = int(np.argmin(h))
-        best[c] = settings[b]
-        within = [s for s, v in zip(settings, h, strict=True) if v <= h[b] * (1 + tolerance)]
-        recommended[c] = min(within)
-    return SelectionResult(
-        method=method,
-        table=pd.DataFrame(rows, columns=["channel", "setting", "rms_train", "rms_heldout"]),
-        recommended=recommended,
-        best=best,
-        tolerance=float(tolerance),
-        runs=feats.runs,
-    )
+    return _result(method, settings, tolerance, feats.runs, scores)

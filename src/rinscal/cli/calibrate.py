@@ -471,9 +471,14 @@ def select(
 
     from rinscal.calibration.features import DerivativeConfig, MissingGradientWarning
     from rinscal.calibration.model import unit_factors
-    from rinscal.calibration.selection import DEFAULT_SETTINGS, select_model
+    from rinscal.calibration.selection import (
+        DEFAULT_SETTINGS,
+        select_model,
+        select_regression_runs,
+    )
     from rinscal.cli._app import console, err_console, fail, styled
     from rinscal.errors import RinscalError
+    from rinscal.io import InterleavedRunsError, iter_log_source, read_log_source
 
     if method not in DEFAULT_SETTINGS:
         raise fail(f"--method must be regression or neural, got {method!r}")
@@ -489,24 +494,45 @@ def select(
             transient=True,
         ) as progress:
             task = progress.add_task("reading log", total=None)
-            df, meta = _read(log, map_file, col, time_col, time_unit, sep, temp_col, relative_time)
-            progress.update(task, description="selecting", total=6 * len(tried))
+            mapping = foreign_mapping(
+                map_file, col, time_col, time_unit, sep, temp_col, relative_time=relative_time
+            )
+            meta = foreign_meta(log, mapping)
 
             def step(channel: str, setting: int) -> None:
                 progress.update(task, advance=1, description=f"{channel}: {setting}")
+                progress.update(task, total=6 * len(tried))
 
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always", MissingGradientWarning)
-                res = select_model(
-                    df,
-                    method,
-                    tried,
-                    tolerance,
-                    derivative=DerivativeConfig(window),
-                    random_state=seed,
-                    estimator_params=params,
-                    on_fit=step,
-                )
+                if method == "regression":  # run by run, from per-run factors
+                    try:
+                        res = select_regression_runs(
+                            (s.log for s in iter_log_source(log, mapping)),
+                            tried,
+                            tolerance,
+                            derivative=DerivativeConfig(window),
+                            on_fit=step,
+                        )
+                    except InterleavedRunsError:  # runs interleaved in the file: read whole
+                        res = select_regression_runs(
+                            [read_log_source(log, mapping).log],
+                            tried,
+                            tolerance,
+                            derivative=DerivativeConfig(window),
+                            on_fit=step,
+                        )
+                else:
+                    res = select_model(
+                        read_log_source(log, mapping).log,
+                        method,
+                        tried,
+                        tolerance,
+                        derivative=DerivativeConfig(window),
+                        random_state=seed,
+                        estimator_params=params,
+                        on_fit=step,
+                    )
     except RinscalError as exc:
         raise fail(str(exc)) from None
     for w in caught:
@@ -821,10 +847,11 @@ def evaluate_cmd(
     from rich.table import Table
 
     from rinscal.calibration.compensate import check_units
-    from rinscal.calibration.evaluate import StepConfig, allan_table, evaluate, prepare
+    from rinscal.calibration.evaluate import StepConfig, evaluate_runs
     from rinscal.calibration.modelfile import POLICIES, ThermalModelFile
     from rinscal.cli._app import console, fail
     from rinscal.errors import RangeError, RinscalError
+    from rinscal.io import InterleavedRunsError, iter_log_source, read_log_source
 
     if policy not in POLICIES:
         raise fail(f"--policy must be one of {', '.join(POLICIES)}, got {policy!r}")
@@ -833,14 +860,20 @@ def evaluate_cmd(
         refuse_inputs(allan_plot, inputs)
     try:
         mf = ThermalModelFile.load(model)
-        df, meta = _read(log, map_file, col, time_col, time_unit, sep, temp_col, relative_time)
+        mapping = foreign_mapping(
+            map_file, col, time_col, time_unit, sep, temp_col, relative_time=relative_time
+        )
+        meta = foreign_meta(log, mapping)
         if not ignore_units:
             check_units(mf, meta, str(log))
         deriv = "causal" if causal else None
-        prepared = prepare(df, mf, policy, deriv)  # type: ignore[arg-type]
         step = StepConfig(window_s=step_window)
-        res = evaluate(df, mf, policy, deriv, step, prepared=prepared)  # type: ignore[arg-type]
-        allan, curves = allan_table(df, mf, policy, deriv, prepared=prepared)  # type: ignore[arg-type]
+        try:  # run by run: memory bounded by the longest run
+            runs = ((s.log, s.first_row) for s in iter_log_source(log, mapping))
+            res, allan, curves = evaluate_runs(runs, mf, policy, deriv, step)  # type: ignore[arg-type]
+        except InterleavedRunsError:  # runs interleaved in the file: read it whole
+            whole = [(read_log_source(log, mapping).log, 0)]
+            res, allan, curves = evaluate_runs(whole, mf, policy, deriv, step)  # type: ignore[arg-type]
         if allan_plot is not None:
             _write_allan_plot(allan_plot, curves, mf, log.name)
     except RangeError as exc:  # about a data row of LOG: name the file
