@@ -44,7 +44,7 @@ import tomllib
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, TypeVar
 
 import numpy as np
 import pandas as pd
@@ -114,6 +114,8 @@ _NA_STRINGS = (
     "<NA>", "N/A", "NA", "NULL", "NaN", "None", "n/a", "nan", "null",
 )  # fmt: skip
 
+
+T = TypeVar("T")
 
 # --------------------------------------------------------------------------- mapping
 
@@ -573,6 +575,23 @@ def _table_pieces(
             yield df
 
     return text(), options["sep"]
+
+
+def by_runs(
+    path: str | os.PathLike[str],
+    mapping: ColumnMapping | None,
+    consume: Callable[[Iterator[SourceLog]], T],
+) -> T:
+    """``consume`` the log's runs as :func:`iter_log_source` reads them, one at a time.
+
+    A log whose runs are interleaved cannot be read run by run: ``consume`` is then called
+    again, from the start, with the whole log as its one item (:func:`read_log_source`);
+    ``consume`` must not have written anything final before it returns.
+    """
+    try:
+        return consume(iter_log_source(path, mapping))
+    except InterleavedRunsError:
+        return consume(iter([read_log_source(path, mapping)]))
 
 
 def _piece_runs(piece: Any, run_col: str) -> tuple[np.ndarray, np.ndarray, list[object]]:

@@ -278,7 +278,7 @@ def fit(
     from rinscal.calibration.model import ThermalModel
     from rinscal.cli._app import console, err_console, fail, styled
     from rinscal.errors import RinscalError
-    from rinscal.io import InterleavedRunsError, iter_log_source, read_log_source
+    from rinscal.io import by_runs
 
     if method not in _METHODS:
         raise fail(f"--method must be one of {', '.join(_METHODS)}, got {method!r}")
@@ -334,13 +334,11 @@ def fit(
             with warnings.catch_warnings(record=True) as fit_warnings:
                 warnings.simplefilter("always", TrainingDataWarning)
                 warnings.simplefilter("always", MissingGradientWarning)
-                try:  # run by run: memory bounded by the longest run
-                    model.fit_runs(
-                        runs(iter_log_source(log, mapping)), meta, on_channel=step, source=str(log)
-                    )
-                except InterleavedRunsError:  # runs interleaved in the file: read it whole
-                    src = read_log_source(log, mapping)
-                    model.fit_runs(runs(iter([src])), meta, on_channel=step, source=str(log))
+                by_runs(  # run by run: memory bounded by the longest run
+                    log,
+                    mapping,
+                    lambda s: model.fit_runs(runs(s), meta, on_channel=step, source=str(log)),
+                )
             mf = model.to_file(source={"log": log.name})
             mf.save(out)
     except RinscalError as exc:
@@ -478,7 +476,7 @@ def select(
     )
     from rinscal.cli._app import console, err_console, fail, styled
     from rinscal.errors import RinscalError
-    from rinscal.io import InterleavedRunsError, iter_log_source, read_log_source
+    from rinscal.io import by_runs, read_log_source
 
     if method not in DEFAULT_SETTINGS:
         raise fail(f"--method must be regression or neural, got {method!r}")
@@ -506,22 +504,17 @@ def select(
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always", MissingGradientWarning)
                 if method == "regression":  # run by run, from per-run factors
-                    try:
-                        res = select_regression_runs(
-                            (s.log for s in iter_log_source(log, mapping)),
+                    res = by_runs(
+                        log,
+                        mapping,
+                        lambda runs: select_regression_runs(
+                            (s.log for s in runs),
                             tried,
                             tolerance,
                             derivative=DerivativeConfig(window),
                             on_fit=step,
-                        )
-                    except InterleavedRunsError:  # runs interleaved in the file: read whole
-                        res = select_regression_runs(
-                            [read_log_source(log, mapping).log],
-                            tried,
-                            tolerance,
-                            derivative=DerivativeConfig(window),
-                            on_fit=step,
-                        )
+                        ),
+                    )
                 else:
                     res = select_model(
                         read_log_source(log, mapping).log,
@@ -687,37 +680,25 @@ def compensate_cmd(
 ) -> None:
     """Compensate every sensor channel (Eq. 10); add the out_of_range flag column."""
     from rinscal.calibration.compensate import FLAG_COLUMN, check_units, describe_reference
-    from rinscal.calibration.modelfile import POLICIES, ThermalModelFile
+    from rinscal.calibration.modelfile import POLICIES
     from rinscal.cli._app import console, err_console, fail
     from rinscal.errors import RangeError, RinscalError
-    from rinscal.io import (
-        InterleavedRunsError,
-        iter_log_source,
-        meta_path,
-        read_log_source,
-        write_meta,
-    )
+    from rinscal.io import by_runs, meta_path, write_meta
 
     if policy not in POLICIES:
         raise fail(f"--policy must be one of {', '.join(POLICIES)}, got {policy!r}")
     inputs = [log, meta_path(log), model] + ([map_file] if map_file is not None else [])
     refuse_inputs(out, inputs)
     try:
-        mf = ThermalModelFile.load(model)
-        mapping = foreign_mapping(
-            map_file, col, time_col, time_unit, sep, temp_col, relative_time=relative_time
+        mf, mapping, meta = _model_for(
+            model, log, (map_file, col, time_col, time_unit, sep, temp_col), relative_time
         )
-        meta = foreign_meta(log, mapping)
         if not ignore_units:
             check_units(mf, meta, str(log))
         kind = "causal" if causal else None
-        try:  # run by run: memory bounded by the longest run
-            rows, shares = _compensate_runs(
-                iter_log_source(log, mapping), mf, policy, kind, out, FLAG_COLUMN
-            )
-        except InterleavedRunsError:  # runs interleaved in the file: read it whole
-            src = read_log_source(log, mapping)
-            rows, shares = _compensate_runs(iter([src]), mf, policy, kind, out, FLAG_COLUMN)
+        rows, shares = by_runs(  # run by run: memory bounded by the longest run
+            log, mapping, lambda s: _compensate_runs(s, mf, policy, kind, out, FLAG_COLUMN)
+        )
         if meta:
             meta = dict(meta)
             meta["compensated"] = {
@@ -752,6 +733,17 @@ def compensate_cmd(
             soft_wrap=True,
             markup=False,
         )
+
+
+def _model_for(
+    model: Path, log: Path, read_args: tuple[Any, ...], relative_time: bool
+) -> tuple[ThermalModelFile, Any, dict[str, Any]]:
+    """A model file, and the mapping and metadata to read ``log`` with (for its units)."""
+    from rinscal.calibration.modelfile import ThermalModelFile
+
+    mf = ThermalModelFile.load(model)
+    mapping = foreign_mapping(*read_args, relative_time=relative_time)
+    return mf, mapping, foreign_meta(log, mapping)
 
 
 def _compensate_runs(
@@ -848,10 +840,10 @@ def evaluate_cmd(
 
     from rinscal.calibration.compensate import check_units
     from rinscal.calibration.evaluate import StepConfig, evaluate_runs
-    from rinscal.calibration.modelfile import POLICIES, ThermalModelFile
+    from rinscal.calibration.modelfile import POLICIES
     from rinscal.cli._app import console, fail
     from rinscal.errors import RangeError, RinscalError
-    from rinscal.io import InterleavedRunsError, iter_log_source, read_log_source
+    from rinscal.io import by_runs
 
     if policy not in POLICIES:
         raise fail(f"--policy must be one of {', '.join(POLICIES)}, got {policy!r}")
@@ -859,21 +851,24 @@ def evaluate_cmd(
     if allan_plot is not None:
         refuse_inputs(allan_plot, inputs)
     try:
-        mf = ThermalModelFile.load(model)
-        mapping = foreign_mapping(
-            map_file, col, time_col, time_unit, sep, temp_col, relative_time=relative_time
+        mf, mapping, meta = _model_for(
+            model, log, (map_file, col, time_col, time_unit, sep, temp_col), relative_time
         )
-        meta = foreign_meta(log, mapping)
         if not ignore_units:
             check_units(mf, meta, str(log))
         deriv = "causal" if causal else None
         step = StepConfig(window_s=step_window)
-        try:  # run by run: memory bounded by the longest run
-            runs = ((s.log, s.first_row) for s in iter_log_source(log, mapping))
-            res, allan, curves = evaluate_runs(runs, mf, policy, deriv, step)  # type: ignore[arg-type]
-        except InterleavedRunsError:  # runs interleaved in the file: read it whole
-            whole = [(read_log_source(log, mapping).log, 0)]
-            res, allan, curves = evaluate_runs(whole, mf, policy, deriv, step)  # type: ignore[arg-type]
+        res, allan, curves = by_runs(  # run by run: memory bounded by the longest run
+            log,
+            mapping,
+            lambda runs: evaluate_runs(
+                ((s.log, s.first_row) for s in runs),
+                mf,
+                policy,  # type: ignore[arg-type]
+                deriv,
+                step,
+            ),
+        )
         if allan_plot is not None:
             _write_allan_plot(allan_plot, curves, mf, log.name)
     except RangeError as exc:  # about a data row of LOG: name the file
