@@ -21,7 +21,7 @@ equals :func:`compensate` with ``derivative_kind="causal"`` (same compiled rate 
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -123,12 +123,26 @@ def predict_log(
     n, m = len(log), len(model.channels)
     f = np.empty((n, m), order="F")
     flags = np.zeros((n, m), dtype=bool, order="F")
+    for j, fj, flagged in _predicted(log, model, policy, derivative_kind, features, first_row):
+        f[:, j], flags[:, j] = fj, flagged
+    return f, flags
+
+
+def _predicted(
+    log: pd.DataFrame,
+    model: ThermalModelFile,
+    policy: Policy,
+    derivative_kind: str | None,
+    features: Features | None,
+    first_row: int,
+) -> Iterator[tuple[int, np.ndarray, np.ndarray]]:
+    """Each channel's index, modelled output and out-of-range flags, one at a time."""
     for j, c in enumerate(model.channels):
         # without given features, a channel's at a time: memory of one channel's features
         feats = features or model_features(log, model, derivative_kind, channels=(c,))
         x = feats.matrix(c)
         try:
-            f[:, j], flags[:, j] = model.predict_channel(c, x, policy)
+            fj, flagged = model.predict_channel(c, x, policy)
         except RangeError as exc:
             i = getattr(exc, "row", None)
             if i is None:
@@ -139,7 +153,7 @@ def predict_log(
                 f"{c}: data row {first_row + i + 1} (run {run!r}, time {feats.time_s[i]:.6g} s) "
                 f"has {what}"
             ) from None
-    return f, flags
+        yield j, fj, flagged
 
 
 def compensate(
@@ -208,12 +222,14 @@ def compensated_channels(
     missing = [c for c in model.channels if c not in log.columns]
     if missing:
         raise LogError(f"log has no column(s) {missing} that the model compensates")
-    f, flags = predict_log(log, model, policy, derivative_kind, first_row=first_row)
     values = {}
-    for j, c in enumerate(model.channels):
+    any_flag = np.zeros(len(log), dtype=bool)
+    for j, fj, flagged in _predicted(log, model, policy, derivative_kind, None, first_row):
+        c = model.channels[j]
         ref = model.models[c].static_reference or 0.0
-        values[c] = log[c].to_numpy(dtype=np.float64) - (f[:, j] - ref)
-    return values, flags.any(axis=1)
+        values[c] = log[c].to_numpy(dtype=np.float64) - (fj - ref)  # a channel at a time
+        any_flag |= flagged
+    return values, any_flag
 
 
 class StreamingCompensator:
