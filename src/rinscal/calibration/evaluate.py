@@ -216,8 +216,9 @@ def evaluate_runs(
 ) -> tuple[pd.DataFrame, pd.DataFrame, dict[str, dict[str, dict[str, AllanCurve]]]]:
     """:func:`evaluate` and :func:`allan_table` of a log given a run at a time.
 
-    Both are per run, so each run is prepared, measured and let go; the rows are those of
-    the whole log, in the same order (channel by channel, runs in file order).
+    Both are per run and channel, so each run is prepared, measured and let go a channel at
+    a time; the rows are those of the whole log, in the same order (evaluation: channel by
+    channel, runs in file order; Allan deviation: run by run).
 
     Parameters
     ----------
@@ -236,13 +237,17 @@ def evaluate_runs(
     curves : dict
         :func:`allan_table`'s curves.
     """
-    parts, allans, curves = [], [], {}
+    parts, allans = [], []
+    curves: dict[str, dict[str, dict[str, AllanCurve]]] = {}
     for log, first_row in runs:
-        prepared = prepare(log, model, policy, derivative_kind, first_row=first_row)
-        parts.append(evaluate(log, model, policy, derivative_kind, step, prepared=prepared))
-        table, c = allan_table(log, model, policy, derivative_kind, prepared=prepared)
-        allans.append(table)
-        curves.update(c)
+        for c in model.channels:  # a channel at a time: memory of one channel's features
+            one = model.subset((c,))
+            prepared = prepare(log, one, policy, derivative_kind, first_row=first_row)
+            parts.append(evaluate(log, one, policy, derivative_kind, step, prepared=prepared))
+            table, curve = allan_table(log, one, policy, derivative_kind, prepared=prepared)
+            allans.append(table)
+            for run, by_channel in curve.items():
+                curves.setdefault(run, {}).update(by_channel)
     res = pd.concat(parts, ignore_index=True)
     order = {c: j for j, c in enumerate(model.channels)}
     res = res.iloc[np.argsort(res["channel"].map(order).to_numpy(), kind="stable")]

@@ -68,7 +68,7 @@ import hashlib
 import json
 import os
 import re
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -716,6 +716,15 @@ class ThermalModelFile:
         ref = np.array([self.models[c].static_reference for c in self.channels])
         k = np.array([self.models[c].unit_to_si for c in self.channels])
         return (f - ref) * k
+
+    def subset(self, channels: Sequence[str]) -> ThermalModelFile:
+        """The same model restricted to some of its channels (e.g. one at a time)."""
+        unknown = [c for c in channels if c not in self.models]
+        if unknown:
+            raise ModelFileError(f"the model has no channel(s) {unknown} (it has {self.channels})")
+        return dataclasses.replace(
+            self, channels=tuple(channels), models={c: self.models[c] for c in channels}
+        )
 
     def with_static_reference(
         self, reference: Mapping[str, float], unit_to_si: Mapping[str, float] | None = None
