@@ -32,6 +32,9 @@ __all__ = [
     "tsqr",
 ]
 
+#: Rows a ``neural`` fit trains on at most by default (every k-th of the training blocks).
+NEURAL_MAX_SAMPLES = 50_000
+
 _BLOCK = 1 << 18
 _SUB_BLOCK = 1 << 14
 

@@ -45,6 +45,7 @@ from sklearn.exceptions import ConvergenceWarning
 from sklearn.utils.validation import check_is_fitted, column_or_1d, validate_data
 
 from rinscal.calibration._fit import (
+    NEURAL_MAX_SAMPLES,
     fit_poly_t,
     fit_regression,
     fit_sectional,
@@ -410,7 +411,7 @@ class Neural(_ThermalEstimator):
         n_init: int = 3,
         validation_fraction: float = 0.3,
         n_blocks: int = 10,
-        max_samples: int | None = 50_000,
+        max_samples: int | None = NEURAL_MAX_SAMPLES,
         refine: bool = True,
         refine_max_nfev: int = 200,
         random_state: int = 0,

@@ -28,7 +28,7 @@ import numpy as np
 import pandas as pd
 
 from rinscal._version import __version__
-from rinscal.calibration._fit import fit_params
+from rinscal.calibration._fit import NEURAL_MAX_SAMPLES, fit_params
 from rinscal.calibration._inference import METHODS, n_inputs, predict_params
 from rinscal.calibration._runs import FACTOR_METHODS, FALLBACK_DEGREE, RunFits
 from rinscal.calibration.auto import (
@@ -327,8 +327,9 @@ class ThermalModel:
             t_powers = max(t_powers, int(hyper["degree"]))
         powers[0] = max(powers[0], t_powers)
         step = None
-        if self.method == "neural" and hyper.get("max_samples") is not None:
-            step = int(hyper["max_samples"])  # the network decimates to this many rows
+        if self.method == "neural":  # the network decimates to max_samples rows anyway
+            most = hyper.get("max_samples", NEURAL_MAX_SAMPLES)
+            step = None if most is None else int(most)
         return RunFits(self.method, powers, self.method not in FACTOR_METHODS, step)
 
     def fit(
