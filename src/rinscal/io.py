@@ -1129,19 +1129,14 @@ class LogStreamWriter:
         if self.fmt == "parquet":
             if RUN in df.columns and not isinstance(df[RUN].dtype, pd.CategoricalDtype):
                 df = df.assign(**{RUN: df[RUN].astype("category")})
-            # converted to Arrow a row group at a time: no second copy of a whole run
-            for a in range(0, len(df), PIECE_ROWS):
-                part = df.iloc[a : a + PIECE_ROWS]
-                if self._writer is None:
-                    table = pa.Table.from_pandas(part, preserve_index=False)
-                    self._writer = pq.ParquetWriter(
-                        self._tmp, table.schema, use_dictionary=_text_columns(df)
-                    )
-                else:  # every piece in the first one's types
-                    schema = self._writer.schema
-                    table = pa.Table.from_pandas(part, schema=schema, preserve_index=False)
-                self._writer.write_table(table)
-                del table
+            if self._writer is None:
+                table = pa.Table.from_pandas(df, preserve_index=False)
+                self._writer = pq.ParquetWriter(
+                    self._tmp, table.schema, use_dictionary=_text_columns(df)
+                )
+            else:  # every run in the first one's types
+                table = pa.Table.from_pandas(df, schema=self._writer.schema, preserve_index=False)
+            self._writer.write_table(table, row_group_size=PIECE_ROWS)
         else:
             df.to_csv(
                 self._tmp,
