@@ -100,10 +100,19 @@ def occupied_boxes(x: np.ndarray, cells: int) -> tuple[np.ndarray, np.ndarray]:
     lo, hi = column_range(x)
     nb = np.full(k, int(cells), dtype=np.int64)
     nb[hi <= lo] = 1
-    occ = np.zeros(int(np.prod(nb)), dtype=bool)
-    for s in range(0, x.shape[0], 1 << 16):
-        occ[_flat_cells(np.ascontiguousarray(x[s : s + (1 << 16)].T), lo, hi, nb)] = True
-    idx = np.column_stack(np.unravel_index(np.flatnonzero(occ), tuple(nb)))
+    size = int(np.prod(nb))
+    blocks = [
+        _flat_cells(np.ascontiguousarray(x[s : s + (1 << 16)].T), lo, hi, nb)
+        for s in range(0, x.shape[0], 1 << 16)
+    ]
+    if x.shape[0] < size // 16:  # few samples: sort their cells, no dense grid
+        flat = np.unique(np.concatenate(blocks))
+    else:
+        occ = np.zeros(size, dtype=bool)
+        for b in blocks:
+            occ[b] = True
+        flat = np.flatnonzero(occ)
+    idx = np.column_stack(np.unravel_index(flat, tuple(nb)))
     width = np.where(hi > lo, (hi - lo) / nb, 0.0)
     return lo + idx * width, lo + (idx + 1) * width
 
@@ -157,7 +166,7 @@ def domain_from_boxes(
     breaks = np.flatnonzero(np.diff(flat) != 1) + 1
     starts = np.concatenate([[0], breaks])
     ends = np.concatenate([breaks, [flat.size]])
-    runs = [[int(flat[s]), int(e - s)] for s, e in zip(starts, ends, strict=True)]
+    runs = np.column_stack([flat[starts], ends - starts]).astype(np.int64).tolist()
     return {"lo": lo.tolist(), "hi": hi.tolist(), "bins": nb.tolist(), "runs": runs}
 
 
