@@ -35,7 +35,9 @@ def _ok(args: list[str]) -> str:
     return res.output
 
 
-@pytest.mark.parametrize("method", ["poly-t", "sectional", "regression", "neural"])
+@pytest.mark.parametrize(
+    "method", ["poly-t", "sectional", "regression", pytest.param("neural", marks=pytest.mark.slow)]
+)
 def test_fit_writes_a_valid_model(method, logs, tmp_path) -> None:
     out = tmp_path / "m.json"
     extra = ["--max-samples", "1500"] if method == "neural" else []

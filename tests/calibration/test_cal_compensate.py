@@ -57,7 +57,9 @@ def test_every_row_and_column_is_kept_in_order(fitted_models, repeat_small) -> N
     assert out[FLAG_COLUMN].dtype == bool
 
 
-@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize(
+    "method", [pytest.param(m, marks=pytest.mark.slow) if m == "neural" else m for m in METHODS]
+)
 def test_streaming_equals_batch_with_the_causal_rate(method, fitted_models, repeat_small) -> None:
     mf = fitted_models[method]
     log = repeat_small[0].iloc[:900].reset_index(drop=True)

@@ -69,7 +69,7 @@ _SLOW = pytest.mark.slow
     "method",
     [
         "regression",
-        "neural",
+        pytest.param("neural", marks=_SLOW),
         pytest.param("poly-t", marks=_SLOW),
         pytest.param("sectional", marks=_SLOW),
     ],
@@ -129,7 +129,7 @@ def _leaves(obj, path=""):
     "method",
     [
         "regression",
-        "px4",
+        pytest.param("px4", marks=_SLOW),
         pytest.param("poly-t", marks=_SLOW),
         pytest.param("sectional", marks=_SLOW),
         pytest.param("neural", marks=_SLOW),
