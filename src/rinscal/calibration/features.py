@@ -387,6 +387,12 @@ def set_points(log: pd.DataFrame, decimals: int = 1) -> np.ndarray | None:
     if CHAMBER not in log.columns:
         return None
     med = log.groupby(RUN, sort=False)[CHAMBER].median().to_numpy(dtype=float)
+    return distinct_points(med, decimals)
+
+
+def distinct_points(medians: np.ndarray, decimals: int = 1) -> np.ndarray:
+    """Sorted distinct values of per-run medians, rounded to ``decimals`` [°C] (NaN dropped)."""
+    med = np.asarray(medians, dtype=np.float64)
     return np.unique(np.round(med[np.isfinite(med)], decimals))
 
 

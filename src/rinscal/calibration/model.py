@@ -44,6 +44,7 @@ from rinscal.calibration.features import (
     MissingGradientWarning,
     OutlierConfig,
     build_features,
+    distinct_points,
     run_slices,
 )
 from rinscal.calibration.guards import (
@@ -618,11 +619,10 @@ class _Fitting:
     def set_points(self, j: int) -> np.ndarray | None:
         """Soak set points: the runs' chamber medians, else their median ``T`` of channel j."""
         if self.chamber:
-            med = np.asarray(self.chamber)
-            sp = np.unique(np.round(med[np.isfinite(med)], 1))
+            sp = distinct_points(np.asarray(self.chamber))
             if sp.size >= 2:
                 return sp
-        pts = np.unique(np.round(np.asarray([m[j] for m in self.median_temp]), 1))
+        pts = distinct_points(np.asarray([m[j] for m in self.median_temp]))
         return pts if pts.size >= 2 else None
 
     def finish(
