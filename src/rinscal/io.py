@@ -864,12 +864,13 @@ def iter_log_source(
     first = 0
     head: Any = None
     for piece in pieces:
-        head = piece.slice(0, 0) if head is None and not isinstance(piece, pd.DataFrame) else head
-        head = piece.iloc[:0] if head is None else head
+        frame = isinstance(piece, pd.DataFrame)
+        if head is None:  # the columns, for a file with a header and no rows
+            head = piece.iloc[:0] if frame else piece.slice(0, 0)
         for a, b, v in zip(*_piece_runs(piece, run_col), strict=True):
             if b <= a:
                 continue
-            seg = piece.iloc[a:b] if isinstance(piece, pd.DataFrame) else piece.slice(a, b - a)
+            seg = piece.iloc[a:b] if frame else piece.slice(a, b - a)
             if held and v == current:
                 held.append(seg)
                 continue

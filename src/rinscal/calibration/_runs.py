@@ -30,7 +30,13 @@ from typing import Any
 
 import numpy as np
 
-from rinscal.calibration._domain import DEFAULT_BINS, FINE, domain_from_boxes, occupied_boxes
+from rinscal.calibration._domain import (
+    DEFAULT_BINS,
+    FINE,
+    column_range,
+    domain_from_boxes,
+    occupied_boxes,
+)
 from rinscal.calibration._fit import (
     _center_scale,
     _power_basis,
@@ -168,8 +174,7 @@ class RunFits:
         n = x.shape[0]
         if n == 0:
             return
-        lo = np.array([x[:, v].min() for v in range(x.shape[1])])
-        hi = np.array([x[:, v].max() for v in range(x.shape[1])])
+        lo, hi = column_range(x)
         self.lo = lo if self.lo is None else np.minimum(self.lo, lo)
         self.hi = hi if self.hi is None else np.maximum(self.hi, hi)
         self.boxes.append(occupied_boxes(x, DEFAULT_BINS * FINE))

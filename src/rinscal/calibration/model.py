@@ -195,8 +195,13 @@ class ThermalModel:
     ----------
     params_ : dict of str to dict
         Fitted parameters per channel (see :mod:`rinscal.calibration._inference`).
-    features_ : Features
-        Training features (kept for diagnostics; not written to the model file).
+    features_ : Features or None
+        Training features of :meth:`fit` (kept for diagnostics; not written to the model
+        file); None after :meth:`fit_runs`, which never holds the whole log.
+    runs_ : tuple of str
+        Training runs, in order.
+    has_gradient_ : bool
+        Whether the models use ``ΔT``.
     """
 
     def __init__(
