@@ -11,6 +11,10 @@ class LogError(RinscalError, ValueError):
     """A calibration log is malformed: the message names the file, column and first row."""
 
 
+class LogNoteWarning(UserWarning):
+    """Something a reader did to a log that the user should know (truncation, samples left out)."""
+
+
 class ConfigError(RinscalError, ValueError):
     """A configuration (TOML file or parameter) is invalid: the message names the key."""
 

@@ -44,12 +44,12 @@ import tomllib
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal, TypeVar
+from typing import TYPE_CHECKING, Any, Literal, TypeVar
 
 import numpy as np
 import pandas as pd
 
-from rinscal.errors import ConfigError, LogError, OutputError, describe_os_error
+from rinscal.errors import ConfigError, LogError, LogNoteWarning, OutputError, describe_os_error
 from rinscal.schema import (
     CANONICAL,
     CHANNELS,
@@ -63,11 +63,15 @@ from rinscal.schema import (
 )
 from rinscal.units import MS_TO_S, US_TO_S
 
+if TYPE_CHECKING:
+    from rinscal.flightlog import FlightLogOptions
+
 __all__ = [
     "FORMATS",
     "ColumnMapping",
     "atomic_path",
     "format_of",
+    "is_flight_log",
     "mapping_from_options",
     "meta_path",
     "read_log",
@@ -102,6 +106,8 @@ SEPARATORS: dict[str, str | None] = {
     ";": ";",
 }
 _CHANNEL_GROUPS = {"gyro": CHANNELS[:3], "accel": CHANNELS[3:]}
+#: Flight-controller log suffixes (read by :mod:`rinscal.flightlog`).
+_FLIGHT_SUFFIXES = (".ulg", ".bin")
 # pandas < 3 needs the round-trip float parser for a lossless CSV round trip; pandas 3
 # parses exactly by default and deprecates the option.
 _CSV_READ_KW: dict[str, Any] = (
@@ -384,10 +390,15 @@ def format_of(path: str | os.PathLike[str], fmt: str | None = None) -> Format:
             return f  # type: ignore[return-value]
         raise LogError(f"{path}: unknown log format {fmt!r}; use csv, tsv or parquet")
     suffix = Path(path).suffix.lower()
+    if suffix in _FLIGHT_SUFFIXES:
+        raise LogError(
+            f"{path}: ULog and DataFlash logs are read, never written; write a .csv, .tsv or "
+            ".parquet log"
+        )
     if suffix not in FORMATS:
         raise LogError(
             f"{path}: unknown log file suffix {suffix or '(none)'!r}; "
-            f"use {', '.join(FORMATS)}"
+            f"use {', '.join(FORMATS)} (or read a PX4 .ulg / ArduPilot .bin log)"
             + (
                 "; compressed logs are not read: decompress it first (e.g. gunzip -k)"
                 if suffix in (".gz", ".bz2", ".xz", ".zip", ".zst")
@@ -579,7 +590,7 @@ def _table_pieces(
 
 def by_runs(
     path: str | os.PathLike[str],
-    mapping: ColumnMapping | None,
+    mapping: ColumnMapping | FlightLogOptions | None,
     consume: Callable[[Iterator[SourceLog]], T],
 ) -> T:
     """``consume`` the log's runs as :func:`iter_log_source` reads them, one at a time.
@@ -740,7 +751,7 @@ class SourceLog:
 
 def read_log(
     path: str | os.PathLike[str],
-    mapping: ColumnMapping | None = None,
+    mapping: ColumnMapping | FlightLogOptions | None = None,
     *,
     fmt: str | None = None,
 ) -> pd.DataFrame:
@@ -769,9 +780,13 @@ def read_log(
     return read_log_source(path, mapping, fmt=fmt).log
 
 
-def _log_path(path: str | os.PathLike[str], fmt: str | None) -> tuple[Path, Format]:
+def _log_path(
+    path: str | os.PathLike[str], fmt: str | None, mapping: object = None
+) -> tuple[Path, Format]:
     p = Path(path)
     f = format_of(p, fmt)
+    if mapping is not None and not isinstance(mapping, ColumnMapping):
+        raise LogError(f"{p}: --instance applies to PX4 .ulg and ArduPilot .bin logs only")
     if not p.exists():
         raise LogError(f"{p}: no such file")
     if p.is_dir():
@@ -793,7 +808,7 @@ def _source(
 
 def read_log_source(
     path: str | os.PathLike[str],
-    mapping: ColumnMapping | None = None,
+    mapping: ColumnMapping | FlightLogOptions | None = None,
     *,
     fmt: str | None = None,
 ) -> SourceLog:
@@ -803,9 +818,53 @@ def read_log_source(
     -------
     SourceLog
     """
-    p, f = _log_path(path, fmt)
+    if is_flight_log(path):
+        sources = list(_flight_sources(path, mapping))
+        if len(sources) == 1:
+            return sources[0]
+        raw = pd.concat([s.raw for s in sources], ignore_index=True)
+        return _source(Path(path), raw, None, None)
+    p, f = _log_path(path, fmt, mapping)
     raw, sep = _read_table(p, f, mapping)
     return _source(p, raw, mapping, sep)
+
+
+def is_flight_log(path: str | os.PathLike[str]) -> bool:
+    """Whether ``path`` names a PX4 ULog (``.ulg``) or ArduPilot DataFlash (``.bin``) log."""
+    return Path(path).suffix.lower() in _FLIGHT_SUFFIXES
+
+
+def _flight_sources(path: str | os.PathLike[str], options: Any) -> Iterator[SourceLog]:
+    """The runs of a flight log (one per IMU instance read), validated, one at a time.
+
+    What the reader did (a truncated end, samples left out) is told as a
+    :class:`rinscal.errors.LogNoteWarning`.
+    """
+    import warnings
+
+    from rinscal.flightlog import FlightLogOptions, iter_flight_runs
+
+    if isinstance(options, ColumnMapping):
+        raise LogError(
+            f"{path}: a ULog or DataFlash log is read without a column mapping "
+            "(--map, --col, --time-col, --sep, --temp-col ...); choose the IMU with --instance"
+        )
+    p = Path(path)
+    _, runs, notes = iter_flight_runs(p, options or FlightLogOptions())
+    first, told = 0, 0
+    for frame in runs:
+        for note in notes[told:]:
+            warnings.warn(_with_path(p, note), LogNoteWarning, stacklevel=2)
+        told = len(notes)
+        src = _source(p, frame, None, None, first)
+        first += len(frame)
+        yield src
+    for note in notes[told:]:
+        warnings.warn(_with_path(p, note), LogNoteWarning, stacklevel=2)
+
+
+def _with_path(p: Path, note: str) -> str:
+    return note if note.startswith(str(p)) else f"{p}: {note}"
 
 
 class InterleavedRunsError(LogError):
@@ -818,7 +877,7 @@ PIECE_ROWS = 1 << 18
 
 def iter_log_source(
     path: str | os.PathLike[str],
-    mapping: ColumnMapping | None = None,
+    mapping: ColumnMapping | FlightLogOptions | None = None,
     *,
     fmt: str | None = None,
     piece_rows: int | None = None,
@@ -853,7 +912,10 @@ def iter_log_source(
     piece_rows = PIECE_ROWS if piece_rows is None else int(piece_rows)
     if piece_rows < 1:
         raise ValueError(f"piece_rows must be at least 1, got {piece_rows}")
-    p, f = _log_path(path, fmt)
+    if is_flight_log(path):
+        yield from _flight_sources(path, mapping)
+        return
+    p, f = _log_path(path, fmt, mapping)
     pieces, sep = _table_pieces(p, f, mapping, int(piece_rows))
     run_col = RUN
     if mapping is not None:

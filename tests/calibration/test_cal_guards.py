@@ -68,7 +68,8 @@ def test_quantised_temperatures_refuse_the_regression_and_warn() -> None:
 
 def test_constant_temperature_is_refused() -> None:
     log = _log(temp_in=25.0, temp_out=24.0)
-    with pytest.raises(ConfigError, match=r"log\.csv: gyro_x .*T is constant \(25\)"):
+    span = r"too little temperature range to fit: the training data span 25\.00 \.\. 25\.00 °C"
+    with pytest.raises(ConfigError, match=rf"log\.csv: gyro_x .*{span}"):
         ThermalModel("poly-t").fit(log, META, source="log.csv")
 
 

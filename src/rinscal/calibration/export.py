@@ -14,9 +14,11 @@ PX4 (``src/modules/temperature_compensation``; parameters ``TC_G*``/``TC_A*``)
     the corrected value is ``raw − offset``, in SI (rad/s, m/s²). Written here per axis
     ``_0.._2`` (x, y, z): ``TC_G0_X3_0 .. TC_G0_X0_2``, ``TC_G0_TREF``, ``TC_G0_TMIN``,
     ``TC_G0_TMAX`` (and ``TC_A0_*``), ``TC_G_ENABLE``/``TC_A_ENABLE`` = 1, ``TC_G0_ID``/
-    ``TC_A0_ID``. PX4 applies the set only to the sensor whose ``device_id`` equals the ``ID``
-    parameter (``set_sensor_id``: ``device_id == (uint32_t)ID``), so an id of 0 means the
-    file is never applied: the ids are required (``gyro_id``/``accel_id``, else the model's
+    ``TC_A0_ID`` (set 0, or the set of the model's ``source["instance"]`` when it was fitted
+    on a ULog instance: instance 1 writes ``TC_G1_*``). PX4 applies the set only to the
+    sensor whose ``device_id`` equals the ``ID`` parameter (``set_sensor_id``:
+    ``device_id == (uint32_t)ID``), so an id of 0 means the file is never applied:
+    the ids are required (``gyro_id``/``accel_id``, else the model's
     ``source["device_ids"]``, e.g. ``{"gyro": 2293768, "accel": 2294024}``) and the export
     is refused without them. An id is the ``device_id`` of ``sensor_gyro``/``sensor_accel``
     in a ULog (uint32) or the ``CAL_GYRO0_ID``/``CAL_ACC0_ID`` parameter (int32); it is
@@ -30,7 +32,8 @@ PX4 (``src/modules/temperature_compensation``; parameters ``TC_G*``/``TC_A*``)
 ArduPilot (``AP_InertialSensor_tempcal.cpp``; parameters ``INS_TCALn_*``)
     ``v −= P(clamp(T) − 35) − P(clamp(CALTEMP) − 35)`` with ``P(d) = (c1 + (c2 + c3 d) d) d ·
     1e−6``: a fixed reference of 35 °C, no constant term, coefficients stored × 1e6, in SI.
-    Written: ``INS_TCALn_ENABLE`` = 1, ``INS_TCALn_TMIN``, ``INS_TCALn_TMAX``,
+    ``n`` is ``--imu``, else the model's ``source["instance"]`` + 1 (a DataFlash ``IMU``
+    instance), else 1. Written: ``INS_TCALn_ENABLE`` = 1, ``INS_TCALn_TMIN``, ``INS_TCALn_TMAX``,
     ``INS_TCALn_ACC1_X .. ACC3_Z``, ``INS_TCALn_GYR1_X .. GYR3_Z`` (the cubic re-expanded about
     35 °C) as ``NAME VALUE`` lines with ``#`` comments (MAVProxy/Mission Planner ``.parm``).
     ArduPilot has no TREF parameter; the constant is the job of its offset calibration and
@@ -62,6 +65,7 @@ import numpy as np
 from rinscal.calibration._inference import poly_shift, segment_params
 from rinscal.calibration.modelfile import INPUT_NAMES, ThermalModelFile
 from rinscal.errors import ConfigError
+from rinscal.firmware import ARDUPILOT_SCALE, ARDUPILOT_TREF_C
 
 __all__ = [
     "ARDUPILOT_SCALE",
@@ -77,10 +81,6 @@ __all__ = [
 ]
 
 _AXES = ("x", "y", "z")
-#: ArduPilot's fixed reference temperature [°C].
-ARDUPILOT_TREF_C = 35.0
-#: ArduPilot stores coefficients multiplied by this.
-ARDUPILOT_SCALE = 1.0e6
 #: Channel methods that PX4 and ArduPilot can represent (a clamped cubic in T).
 FLIGHT_METHODS: tuple[str, ...] = ("poly-t", "px4", "ardupilot")
 #: Decimals of the written TMIN/TMAX [°C] (rounded inwards at this precision).
@@ -218,10 +218,19 @@ def _float_text(name: str, value: float) -> str:
     return f"{value:.9g}"
 
 
+def _instance(model: ThermalModelFile) -> int | None:
+    """The IMU instance the model was fitted on (``source["instance"]``, from a flight log)."""
+    v = model.source.get("instance")
+    return int(v) if isinstance(v, int) and not isinstance(v, bool) and v >= 0 else None
+
+
 def to_px4_params(
-    model: ThermalModelFile, gyro_id: int | None = None, accel_id: int | None = None
+    model: ThermalModelFile,
+    gyro_id: int | None = None,
+    accel_id: int | None = None,
+    slot: int | None = None,
 ) -> str:
-    """PX4 thermal-compensation parameters (instance 0) of a clamped-cubic model.
+    """PX4 thermal-compensation parameters (one ``TC_G<slot>``/``TC_A<slot>`` set).
 
     Parameters
     ----------
@@ -233,6 +242,10 @@ def to_px4_params(
         ``device_id`` of ``sensor_gyro``/``sensor_accel`` in a ULog (uint32) or the
         ``CAL_GYRO0_ID``/``CAL_ACC0_ID`` parameter (int32). ``None``: the model's
         ``source["device_ids"]["gyro"|"accel"]``; an explicit id wins.
+    slot : int, optional
+        The parameter set 0-3 (PX4 applies a set to the sensor whose id it holds, whatever
+        the slot). Default: the model's ``source["instance"]`` (a model fitted on ULog
+        instance 1 goes to ``TC_G1``/``TC_A1`` and leaves instance 0's set alone), else 0.
 
     Returns
     -------
@@ -245,16 +258,21 @@ def to_px4_params(
         A device id missing or 0 (naming ``--gyro-id``/``--accel-id``), a channel whose
         method is not a clamped cubic, unknown units, or axes without a common range.
     """
+    if slot is None:
+        inst = _instance(model)
+        slot = inst if inst is not None and inst <= 3 else 0
+    if slot not in (0, 1, 2, 3):
+        raise ConfigError(f"PX4 thermal parameter set must be 0-3, got {slot}")
     ids = {
-        "gyro": _device_id(gyro_id, model, "gyro", "--gyro-id", "TC_G0_ID"),
-        "accel": _device_id(accel_id, model, "accel", "--accel-id", "TC_A0_ID"),
+        "gyro": _device_id(gyro_id, model, "gyro", "--gyro-id", f"TC_G{slot}_ID"),
+        "accel": _device_id(accel_id, model, "accel", "--accel-id", f"TC_A{slot}_ID"),
     }
     lines = [
         "# PX4 thermal compensation parameters, written by rinscal",
         f"# X0 = bias at TREF {'without Earth rate/gravity' if _has_ref(model) else 'set to 0'}"
         "; SI units (rad/s, m/s^2); TMIN/TMAX rounded inwards (degC)",
-        f"# TC_G0_ID = {ids['gyro']}, TC_A0_ID = {ids['accel']}: applied only to the sensors "
-        "with these device ids",
+        f"# TC_G{slot}_ID = {ids['gyro']}, TC_A{slot}_ID = {ids['accel']}: applied only to the "
+        "sensors with these device ids",
         "#",
         "# Vehicle-Id\tComponent-Id\tName\tValue\tType",
     ]
@@ -264,21 +282,21 @@ def to_px4_params(
 
     for sensor, tag in (("gyro", "G"), ("accel", "A")):
         axes = _sensor_axes(model, sensor)
-        tmin, tmax = _inward_range(axes, f"TC_{tag}0_TMIN/TMAX")
+        tmin, tmax = _inward_range(axes, f"TC_{tag}{slot}_TMIN/TMAX")
         # PX4 has one TREF/TMIN/TMAX per sensor: each axis's cubic is re-expanded about the
         # mean reference (as written), and the range is the one every axis is valid on
-        tref_text = _float_text(f"TC_{tag}0_TREF", float(np.mean([ax.t_ref for ax in axes])))
+        tref_text = _float_text(f"TC_{tag}{slot}_TREF", float(np.mean([ax.t_ref for ax in axes])))
         tref = float(tref_text)
         put(f"TC_{tag}_ENABLE", "1", 6)
-        put(f"TC_{tag}0_ID", str(ids[sensor]), 6)
+        put(f"TC_{tag}{slot}_ID", str(ids[sensor]), 6)
         coefs = [poly_shift(ax.coef, ax.t_ref - tref, 1.0) for ax in axes]
         for k in (3, 2, 1, 0):
             for i, coef in enumerate(coefs):
-                name = f"TC_{tag}0_X{k}_{i}"
+                name = f"TC_{tag}{slot}_X{k}_{i}"
                 put(name, _float_text(name, float(coef[k])))
-        put(f"TC_{tag}0_TREF", tref_text)
-        put(f"TC_{tag}0_TMIN", tmin)
-        put(f"TC_{tag}0_TMAX", tmax)
+        put(f"TC_{tag}{slot}_TREF", tref_text)
+        put(f"TC_{tag}{slot}_TMIN", tmin)
+        put(f"TC_{tag}{slot}_TMAX", tmax)
     return "\n".join(lines) + "\n"
 
 
@@ -324,7 +342,7 @@ def lost_share(coef: np.ndarray, k: int, t_min: float, t_max: float) -> float:
     return lost / span if span > 0 else float("inf")
 
 
-def to_ardupilot_parm(model: ThermalModelFile, imu: int = 1) -> str:
+def to_ardupilot_parm(model: ThermalModelFile, imu: int | None = None) -> str:
     """ArduPilot ``INS_TCALn_*`` parameters of a clamped-cubic model.
 
     Parameters
@@ -332,8 +350,9 @@ def to_ardupilot_parm(model: ThermalModelFile, imu: int = 1) -> str:
     model : ThermalModelFile
         Every gyro and accelerometer channel a ``poly-t`` (degree ≤ 3), ``px4`` or
         ``ardupilot`` model with known units.
-    imu : int
-        IMU instance ``n`` (1-3).
+    imu : int, optional
+        IMU instance ``n`` (1-3). Default: the model's ``source["instance"]`` + 1 (a model
+        fitted on DataFlash ``IMU`` instance 0 goes to ``INS_TCAL1``), else 1.
 
     Returns
     -------
@@ -346,6 +365,8 @@ def to_ardupilot_parm(model: ThermalModelFile, imu: int = 1) -> str:
         Per written coefficient ``v`` with ``0 < |v| ≤ 1e-6``, which MAVProxy's ``param load``
         does not send to a vehicle where it is 0 (see :data:`MAVPROXY_MIN_DELTA`).
     """
+    if imu is None:
+        imu = (_instance(model) or 0) + 1
     if imu not in (1, 2, 3):
         raise ConfigError(f"ArduPilot IMU instance must be 1, 2 or 3, got {imu}")
     p = f"INS_TCAL{imu}_"
@@ -358,8 +379,14 @@ def to_ardupilot_parm(model: ThermalModelFile, imu: int = 1) -> str:
             (ax.channel, poly_shift(ax.coef, ax.t_ref - ARDUPILOT_TREF_C, 1.0)) for ax in axes
         ]
     tmin, tmax = _inward_range(all_axes, f"{p}TMIN/TMAX")
+    ids = model.source.get("device_ids")
     lines = [
         "# ArduPilot IMU temperature calibration, written by rinscal",
+        *(
+            [f"# for IMU {imu} (device ids: gyro {ids.get('gyro')}, accel {ids.get('accel')})"]
+            if isinstance(ids, Mapping)
+            else []
+        ),
         "# cubic about 35 degC, no constant term, coefficients x 1e6 (SI units);",
         "# TMIN/TMAX: the common range of all six channels, rounded inwards (degC)",
         f"{p}ENABLE 1",

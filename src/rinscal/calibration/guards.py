@@ -9,6 +9,11 @@ run before and during every fit:
     Every temperature column within a plausible range (default −60 … +150 °C; an error naming
     the column and the first offending row) and of a resolution of 0.1 °C or finer (a warning:
     quantised readings make ``Ṫ`` and ``ΔT`` staircases, see PX4 issue #13551).
+:func:`check_temperature_span`
+    The temperature span of the training data: an error below :data:`MIN_TEMP_SPAN_C`
+    (a model of temperature fitted over a few tenths of a degree only extrapolates), a
+    warning below :data:`WEAK_TEMP_SPAN_C` (PX4's least allowed ``SYS_CAL_TDEL``; its default
+    asks a 24 °C rise).
 :func:`check_design`
     The least-squares design of a polynomial model, from its triangular factor ``R``: an
     error when it is rank-deficient (condition number of the column-equilibrated ``R`` above
@@ -38,6 +43,7 @@ __all__ = [
     "DesignError",
     "TrainingDataWarning",
     "check_design",
+    "check_temperature_span",
     "check_temperatures",
     "collinear_inputs",
     "design_condition",
@@ -52,6 +58,10 @@ INPUT_LABELS: tuple[str, str, str] = ("T", "Ṫ", "ΔT")
 PLAUSIBLE_TEMP_C: tuple[float, float] = (-60.0, 150.0)
 #: Temperature resolution coarser than this is warned about [°C].
 RESOLUTION_LIMIT_C = 0.1
+#: Temperature span of the training data below which a fit is refused [°C].
+MIN_TEMP_SPAN_C = 5.0
+#: Span below which it is warned about [°C]: PX4's least ``SYS_CAL_TDEL`` (default 24 °C).
+WEAK_TEMP_SPAN_C = 10.0
 #: Condition number of the equilibrated design above which a fit is refused.
 COND_ERROR = 1e10
 #: Condition number above which a fit is warned about.
@@ -316,6 +326,46 @@ def check_temperatures(
     if warn:
         warn_resolution(out)
     return out
+
+
+def check_temperature_span(low: float, high: float, what: str) -> None:
+    """Refuse a fit over too little temperature range; warn about a narrow one.
+
+    Parameters
+    ----------
+    low, high : float [°C]
+        The training data's lowest and highest temperature.
+    what : str
+        The channel and column, for messages.
+
+    Raises
+    ------
+    ValueError
+        Span below :data:`MIN_TEMP_SPAN_C`: the message gives the range found and the range
+        needed.
+
+    Warns
+    -----
+    TrainingDataWarning
+        Span below :data:`WEAK_TEMP_SPAN_C`.
+    """
+    span = high - low
+    found = f"the training data span {low:.2f} .. {high:.2f} °C ({span:.2f} °C)"
+    how = (
+        f"a thermal model needs at least {MIN_TEMP_SPAN_C:g} °C, and PX4's thermal "
+        f"calibration asks for a 24 °C rise (SYS_CAL_TDEL): log a warm-up from cold, or "
+        "a chamber ramp"
+    )
+    if not span >= MIN_TEMP_SPAN_C:
+        raise ValueError(f"{what}: too little temperature range to fit: {found}; {how}")
+    if span < WEAK_TEMP_SPAN_C:
+        warnings.warn(
+            f"{what}: narrow temperature range: {found}, less than {WEAK_TEMP_SPAN_C:g} °C; "
+            "the model holds only inside it (outside, the clamp or out-of-range policy "
+            "applies)",
+            TrainingDataWarning,
+            stacklevel=3,
+        )
 
 
 def warn_resolution(resolutions: dict[str, float]) -> None:

@@ -50,6 +50,7 @@ from rinscal.calibration.features import (
 from rinscal.calibration.guards import (
     PLAUSIBLE_TEMP_C,
     DesignError,
+    check_temperature_span,
     check_temperatures,
     warn_resolution,
 )
@@ -520,6 +521,9 @@ class ThermalModel:
             "imu",
             "seed",
             "device_ids",
+            "autopilot",
+            "instance",
+            "autopilot_correction",
             "static_reference",
         ):
             if key in self.meta_:
@@ -655,6 +659,10 @@ class _Fitting:
             m.set_points_[c] = sp
             what = f"{self.where}{c} (T from column {self.tcol[c]!r}"
             what += f", ΔT = T − {TEMP_OUT})" if self.has_gradient else ")"
+            try:
+                check_temperature_span(*fits.range(1)[0], what)
+            except ValueError as exc:
+                raise ConfigError(str(exc)) from None
             try:
                 params, fb, selection = self._fit_channel(c, fits, sp)
             except (DesignError, ValueError, TypeError) as exc:

@@ -57,14 +57,26 @@ def guard_os_errors(command: Callable[..., Any] | None) -> Callable[..., Any] | 
 
     @functools.wraps(command)
     def run(*args: Any, **kwargs: Any) -> Any:
-        from rinscal.errors import describe_os_error
+        import warnings
 
-        try:
-            return command(*args, **kwargs)
-        except OSError as exc:
-            if exc.filename is None:  # not about a path: a bug or the system, not the input
-                raise
-            raise fail(describe_os_error(exc).replace("cannot write", "cannot use")) from None
+        from rinscal.errors import LogNoteWarning, describe_os_error
+
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", LogNoteWarning)
+            try:
+                return command(*args, **kwargs)
+            except OSError as exc:
+                if exc.filename is None:  # not about a path: a bug or the system, not the input
+                    raise
+                raise fail(describe_os_error(exc).replace("cannot write", "cannot use")) from None
+            finally:  # what a reader did to the log, once each; other warnings as Python shows them
+                seen: set[str] = set()
+                for w in caught:
+                    if not issubclass(w.category, LogNoteWarning):
+                        warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+                    elif str(w.message) not in seen:
+                        seen.add(str(w.message))
+                        err_console.print(styled("note:", "cyan", f" {w.message}"), highlight=False)
 
     return run
 

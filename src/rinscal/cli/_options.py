@@ -9,9 +9,23 @@ from typing import TYPE_CHECKING, Annotated, Any
 import typer
 
 if TYPE_CHECKING:
+    from rinscal.flightlog import FlightLogOptions
     from rinscal.io import ColumnMapping, SourceLog
 
-LogArg = Annotated[Path, typer.Argument(help="Calibration log (.csv, .tsv or .parquet).")]
+LogArg = Annotated[
+    Path,
+    typer.Argument(
+        help="Calibration log (.csv, .tsv or .parquet), or a PX4 .ulg / ArduPilot .bin log."
+    ),
+]
+InstanceOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--instance",
+        help=".ulg/.bin logs: the IMU instance N (0, 1, 2 ...) or 'all' (one run per "
+        "instance); needed when the log has several IMUs.",
+    ),
+]
 MapOpt = Annotated[
     Path | None, typer.Option("--map", help="Column mapping (TOML) for a foreign log.")
 ]
@@ -114,13 +128,27 @@ def foreign_mapping(
     drop: list[str] | None = None,
     run_name: str | None = None,
     relative_time: bool = False,
-) -> ColumnMapping | None:
+    *,
+    instance: str | None = None,
+    log: Path | None = None,
+) -> ColumnMapping | FlightLogOptions | None:
     """The column mapping a mapping file and/or options give (None for a canonical log).
 
     ``relative_time`` turns the mapping's relative time on (a mapping file may also ask for it).
+    For a PX4 ``.ulg`` or ArduPilot ``.bin`` ``log``: the reading options (``--instance``,
+    ``--run-name``) instead; the table options are refused there, as ``--instance`` is for a
+    table.
     """
-    from rinscal.io import mapping_from_options, read_mapping
+    from rinscal.io import is_flight_log, mapping_from_options, read_mapping
 
+    if log is not None and is_flight_log(log):
+        table = {"map": map_file, "col": col, "time-col": time_col, "time-unit": time_unit}
+        table |= {"sep": sep, "temp-col": temp_col, "drop": drop, "relative-time": relative_time}
+        return flight_options(log, instance, run_name, table)
+    if instance is not None:
+        from rinscal.cli._app import fail
+
+        raise fail(f"{log}: --instance applies to PX4 .ulg and ArduPilot .bin logs only")
     base = read_mapping(map_file) if map_file is not None else None
     return mapping_from_options(
         base,
@@ -135,14 +163,45 @@ def foreign_mapping(
     )
 
 
-def foreign_meta(log: Path, mapping: ColumnMapping | None) -> dict[str, Any]:
+def flight_options(
+    log: Path, instance: str | None, run_name: str | None, table: dict[str, Any]
+) -> FlightLogOptions:
+    """Reading options of a flight log from ``--instance``/``--run-name``; table options refused."""
+    from rinscal.cli._app import fail
+    from rinscal.flightlog import FlightLogOptions
+
+    given = [k for k, v in table.items() if v]
+    if given:
+        flags = ", ".join("--" + k for k in given)
+        raise fail(
+            f"{log}: {flags} apply to CSV/TSV/Parquet tables; a ULog or DataFlash log is read "
+            "as it is (choose the IMU with --instance)"
+        )
+    which: int | str | None = None
+    if instance is not None:
+        text = instance.strip().lower()
+        if text == "all":
+            which = "all"
+        elif text.isdigit():
+            which = int(text)
+        else:
+            raise fail(f"--instance must be an IMU instance 0, 1, 2 ... or 'all', got {instance!r}")
+    return FlightLogOptions(instance=which, run=run_name)  # type: ignore[arg-type]
+
+
+def foreign_meta(log: Path, mapping: ColumnMapping | FlightLogOptions | None) -> dict[str, Any]:
     """A log's metadata: its sidecar ``.meta.json``, units from the mapping where it has none.
 
-    ``meta["log"]`` is the log's file name.
+    ``meta["log"]`` is the log's file name. A flight log's own metadata (units, autopilot,
+    instance, device ids, see :meth:`rinscal.flightlog.FlightLogInfo.meta`) comes first; the
+    sidecar's keys win.
     """
+    from rinscal.flightlog import FlightLogOptions, scan_flight_log
     from rinscal.io import read_meta
     from rinscal.schema import CHANNELS
 
+    if isinstance(mapping, FlightLogOptions):
+        return scan_flight_log(log).meta(mapping) | dict(read_meta(log) or {})
     meta = dict(read_meta(log) or {})
     if "units" not in meta and mapping is not None:
         units = {c: u for c in CHANNELS if (u := mapping.unit_of(c))}
@@ -163,6 +222,7 @@ def read_foreign_source(
     drop: list[str] | None = None,
     run_name: str | None = None,
     relative_time: bool = False,
+    instance: str | None = None,
 ) -> tuple[SourceLog, dict[str, Any]]:
     """Read a log through a mapping file and/or options: the log as read, and its metadata.
 
@@ -172,7 +232,17 @@ def read_foreign_source(
     from rinscal.io import read_log_source
 
     mapping = foreign_mapping(
-        map_file, col, time_col, time_unit, sep, temp_col, drop, run_name, relative_time
+        map_file,
+        col,
+        time_col,
+        time_unit,
+        sep,
+        temp_col,
+        drop,
+        run_name,
+        relative_time,
+        instance=instance,
+        log=log,
     )
     src = read_log_source(log, mapping)
     return src, foreign_meta(log, mapping)

@@ -19,6 +19,7 @@ import typer
 from rinscal.cli._app import app, print_table
 from rinscal.cli._options import (
     ColOpt,
+    InstanceOpt,
     LogArg,
     MapOpt,
     RelTimeOpt,
@@ -69,10 +70,19 @@ def _read(
     sep: str | None,
     temp_col: str | None,
     relative_time: bool = False,
+    instance: str | None = None,
 ) -> tuple[pd.DataFrame, dict[str, Any]]:
     """Read a log and its metadata (units from the mapping when there is no sidecar)."""
     src, meta = read_foreign_source(
-        log, map_file, col, time_col, time_unit, sep, temp_col, relative_time=relative_time
+        log,
+        map_file,
+        col,
+        time_col,
+        time_unit,
+        sep,
+        temp_col,
+        relative_time=relative_time,
+        instance=instance,
     )
     return src.log, meta
 
@@ -234,6 +244,7 @@ def fit(
     sep: SepOpt = None,
     temp_col: TempColOpt = None,
     relative_time: RelTimeOpt = False,
+    instance: InstanceOpt = None,
     latitude: Annotated[
         float | None,
         typer.Option(
@@ -304,7 +315,15 @@ def fit(
         ) as progress:
             task = progress.add_task("reading log", total=None)
             mapping = foreign_mapping(
-                map_file, col, time_col, time_unit, sep, temp_col, relative_time=relative_time
+                map_file,
+                col,
+                time_col,
+                time_unit,
+                sep,
+                temp_col,
+                relative_time=relative_time,
+                instance=instance,
+                log=log,
             )
             meta = foreign_meta(log, mapping)
             meta.update(_static_options(latitude, heading, static_ref))
@@ -448,6 +467,7 @@ def select(
     sep: SepOpt = None,
     temp_col: TempColOpt = None,
     relative_time: RelTimeOpt = False,
+    instance: InstanceOpt = None,
 ) -> None:
     """Held-out RMS per channel: of every auto candidate, or of orders 1-4 / 1-8 neurons."""
     import warnings
@@ -460,7 +480,7 @@ def select(
             window,
             seed,
             as_json,
-            (map_file, col, time_col, time_unit, sep, temp_col, relative_time),
+            (map_file, col, time_col, time_unit, sep, temp_col, relative_time, instance),
         )
         return
     tolerance = 0.02 if tolerance is None else tolerance
@@ -493,7 +513,15 @@ def select(
         ) as progress:
             task = progress.add_task("reading log", total=None)
             mapping = foreign_mapping(
-                map_file, col, time_col, time_unit, sep, temp_col, relative_time=relative_time
+                map_file,
+                col,
+                time_col,
+                time_unit,
+                sep,
+                temp_col,
+                relative_time=relative_time,
+                instance=instance,
+                log=log,
             )
             meta = foreign_meta(log, mapping)
 
@@ -676,6 +704,7 @@ def compensate_cmd(
     sep: SepOpt = None,
     temp_col: TempColOpt = None,
     relative_time: RelTimeOpt = False,
+    instance: InstanceOpt = None,
     ignore_units: IgnoreUnitsOpt = False,
 ) -> None:
     """Compensate every sensor channel (Eq. 10); add the out_of_range flag column."""
@@ -691,7 +720,7 @@ def compensate_cmd(
     refuse_inputs(out, inputs)
     try:
         mf, mapping, meta = _model_for(
-            model, log, (map_file, col, time_col, time_unit, sep, temp_col), relative_time
+            model, log, (map_file, col, time_col, time_unit, sep, temp_col), relative_time, instance
         )
         if not ignore_units:
             check_units(mf, meta, str(log))
@@ -736,13 +765,17 @@ def compensate_cmd(
 
 
 def _model_for(
-    model: Path, log: Path, read_args: tuple[Any, ...], relative_time: bool
+    model: Path,
+    log: Path,
+    read_args: tuple[Any, ...],
+    relative_time: bool,
+    instance: str | None = None,
 ) -> tuple[ThermalModelFile, Any, dict[str, Any]]:
     """A model file, and the mapping and metadata to read ``log`` with (for its units)."""
     from rinscal.calibration.modelfile import ThermalModelFile
 
     mf = ThermalModelFile.load(model)
-    mapping = foreign_mapping(*read_args, relative_time=relative_time)
+    mapping = foreign_mapping(*read_args, relative_time=relative_time, instance=instance, log=log)
     return mf, mapping, foreign_meta(log, mapping)
 
 
@@ -829,6 +862,7 @@ def evaluate_cmd(
     sep: SepOpt = None,
     temp_col: TempColOpt = None,
     relative_time: RelTimeOpt = False,
+    instance: InstanceOpt = None,
     ignore_units: IgnoreUnitsOpt = False,
 ) -> None:
     """RMS (Eq. 16, about each run's mean) before/after compensation; steps at segment edges.
@@ -852,7 +886,7 @@ def evaluate_cmd(
         refuse_inputs(allan_plot, inputs)
     try:
         mf, mapping, meta = _model_for(
-            model, log, (map_file, col, time_col, time_unit, sep, temp_col), relative_time
+            model, log, (map_file, col, time_col, time_unit, sep, temp_col), relative_time, instance
         )
         if not ignore_units:
             check_units(mf, meta, str(log))
@@ -980,7 +1014,14 @@ def export_cmd(
             "ULog, or CAL_ACC0_ID). Default: the model's source device_ids; required for px4.",
         ),
     ] = None,
-    imu: Annotated[int, typer.Option("--imu", help="ArduPilot IMU instance (1-3).")] = 1,
+    imu: Annotated[
+        int | None,
+        typer.Option(
+            "--imu",
+            help="ArduPilot IMU instance (1-3). Default: the instance the model was fitted on "
+            "(from a .bin/.ulg log), else 1.",
+        ),
+    ] = None,
     prefix: Annotated[str, typer.Option("--prefix", help="C identifier prefix.")] = "rinscal",
 ) -> None:
     """Export a model: PX4 .params, ArduPilot .parm (poly-t/px4/ardupilot) or a C header."""

@@ -33,6 +33,13 @@ from rinscal.thermal.presets import DEFAULT_PRESET
 _FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
 
 
+def _every_instance(log: Path, instance: str | None) -> str | None:
+    """``--instance`` of a plot: a flight log shows every IMU unless one is chosen."""
+    from rinscal.io import is_flight_log
+
+    return "all" if instance is None and is_flight_log(log) else instance
+
+
 @app.command("plot")
 def plot(
     log: LogArg,
@@ -46,6 +53,13 @@ def plot(
     relative_time: RelTimeOpt = False,
     drop: DropOpt = None,
     run_name: RunNameOpt = None,
+    instance: Annotated[
+        str | None,
+        typer.Option(
+            "--instance",
+            help=".ulg/.bin logs: the IMU instance N to draw (default: every instance).",
+        ),
+    ] = None,
     title: Annotated[str | None, typer.Option("--title", help="Figure title.")] = None,
     max_bins: Annotated[
         int,
@@ -79,6 +93,7 @@ def plot(
                 drop,
                 run_name,
                 relative_time,
+                instance=_every_instance(log, instance),
             )
             df = src.log
             progress.update(task, advance=1, description="drawing")
