@@ -120,6 +120,14 @@ def _merge(streams: list[tuple[np.ndarray, np.ndarray]], out: object, chunk: int
         out.write(buf.tobytes())  # type: ignore[attr-defined]
 
 
+def _cut(path: Path, cut_bytes: int) -> Path:
+    """Drop ``cut_bytes`` from the end of a file (a truncated log)."""
+    if cut_bytes:
+        with path.open("r+b") as fh:
+            fh.truncate(path.stat().st_size - cut_bytes)
+    return path
+
+
 def _msg(kind: bytes, payload: bytes) -> bytes:
     return struct.pack("<HB", len(payload), kind[0]) + payload
 
@@ -193,10 +201,7 @@ def write_ulog(
             rec = body.view(np.dtype((np.void, body.size)))
             streams.append((np.array([when], dtype=np.int64), rec.copy()))
         _merge(streams, out)
-    if cut_bytes:
-        with path.open("r+b") as fh:
-            fh.truncate(path.stat().st_size - cut_bytes)
-    return path
+    return _cut(path, cut_bytes)
 
 
 def px4_topics(
@@ -304,16 +309,22 @@ def write_dataflash(
     params: Mapping[str, float] | None = None,
     changed: Sequence[tuple[int, str, float]] = (),
     cut_bytes: int = 0,
+    legacy: bool = False,
 ) -> Path:
     """Write an ArduPilot DataFlash (``.bin``) log: FMT, PARM at boot and later, IMU data.
 
     ``params`` are logged at time 0 (as ArduPilot logs every parameter at the start),
-    ``changed`` at their time [µs].
+    ``changed`` at their time [µs]. ``legacy``: as ArduPilot 3.x, instances 1 and 2 as their
+    own ``IMU2``/``IMU3`` messages, without the instance field ``I``.
     """
     path = Path(path)
+    imu_formats = [_IMU]
+    if legacy:
+        fmt, cols = _IMU[2].replace("QB", "Q", 1), _IMU[3].replace(",I,", ",", 1)
+        imu_formats = [(65 + k, ("IMU", "IMU2", "IMU3")[k], fmt, cols) for k in range(3)]
     with path.open("wb") as out:
         out.write(_df_fmt(_DF_FMT, "FMT", "BBnNZ", "Type,Length,Name,Format,Columns"))
-        for msg_type, name, fmt, cols in (_PARM, _IMU):
+        for msg_type, name, fmt, cols in (_PARM, *imu_formats):
             out.write(_df_fmt(msg_type, name, fmt, cols))
         parm_dt = _df_dtype(_PARM[2], _PARM[3])
         entries = [(0, k, v) for k, v in (params or {}).items()] + list(changed)
@@ -325,10 +336,12 @@ def write_dataflash(
             p["Name"] = [e[1].encode() for e in entries]
             p["Value"] = [e[2] for e in entries]
             streams.append((p["TimeUS"].astype(np.int64), p))
-        imu_dt = _df_dtype(_IMU[2], _IMU[3])
         for imu in imus:
-            rec = np.zeros(imu.time_s.size, dtype=imu_dt)
-            rec["head"], rec["type"], rec["I"] = _DF_HEAD, _IMU[0], imu.instance
+            msg_type, _, fmt, cols = imu_formats[imu.instance if legacy else 0]
+            rec = np.zeros(imu.time_s.size, dtype=_df_dtype(fmt, cols))
+            rec["head"], rec["type"] = _DF_HEAD, msg_type
+            if not legacy:
+                rec["I"] = imu.instance
             rec["TimeUS"] = np.round(imu.time_s * 1e6).astype(np.uint64)
             for j, ax in enumerate("XYZ"):
                 rec[f"Gyr{ax}"] = imu.gyro[:, j]
@@ -339,7 +352,4 @@ def write_dataflash(
                 rec[k] = v
             streams.append((rec["TimeUS"].astype(np.int64), rec))
         _merge(streams, out)
-    if cut_bytes:
-        with path.open("r+b") as fh:
-            fh.truncate(path.stat().st_size - cut_bytes)
-    return path
+    return _cut(path, cut_bytes)

@@ -409,20 +409,18 @@ def _check_magic(p: Path, magic: bytes, what: str, hint: str) -> None:
 
 
 def _pyulog(p: Path, **kw: Any) -> Any:
-    """pyulog's ULog of ``p``; its prints (warnings on corrupt data) are kept for notes."""
+    """pyulog's ULog of ``p`` (what it prints about a damaged file is kept off the terminal:
+    the reader's notes say what was done)."""
     from pyulog import ULog
     from pyulog.core import ULogException
 
-    text = _io.StringIO()
     try:
-        with contextlib.redirect_stdout(text):
-            ulog = ULog(str(p), **kw)
+        with contextlib.redirect_stdout(_io.StringIO()):
+            return ULog(str(p), **kw)
     except ULogException as exc:
         raise LogError(f"{p}: unreadable ULog: {exc}") from None
     except (struct.error, IndexError, KeyError, ValueError) as exc:
-        raise LogError(f"{p}: truncated or corrupt ULog header: {exc}") from None
-    ulog._rinscal_output = text.getvalue()  # kept for our notes only
-    return ulog
+        raise LogError(f"{p}: unreadable ULog (truncated or corrupt): {exc!r}") from None
 
 
 def _scan_ulog(p: Path) -> _ULogScan:
@@ -446,18 +444,17 @@ def _scan_ulog(p: Path) -> _ULogScan:
             named = _ulog_param(body)
             if named is not None:
                 changed.append((int(stamp), *named))
-    flags = getattr(head, "_appended_offsets", [])
-    if status == 2 or any(flags):
-        why = "appended data" if any(flags) else f"a corrupt message at byte {end}"
+    params = {k: float(v) for k, v in head.initial_parameters.items()}
+    if status == 2 or head.has_data_appended:
+        why = "appended data" if head.has_data_appended else f"a corrupt message at byte {end}"
         notes.append(f"{why}: read by pyulog's own parser (slower), which recovers what it can")
         ulog = _pyulog(p, message_name_filter_list=list(_TOPICS))
-        return _ULogScan(p, buf, dict(head.initial_parameters), head.message_formats, {},
+        return _ULogScan(p, buf, params, head.message_formats, {},
                          counts, [], end, notes, fallback=ulog)  # fmt: skip
     if status == 1:
         notes.append(
             f"truncated: the last {buf.size - end} byte(s) are a cut message and are left out"
         )
-    params = {k: float(v) for k, v in head.initial_parameters.items()}
     return _ULogScan(p, buf, params, head.message_formats, subs, counts, changed, end, notes)
 
 
@@ -585,10 +582,9 @@ def _scan_dataflash(p: Path) -> _DataFlashScan:
     )
     from pymavlink.DFReader import DFReader_binary
 
-    text = _io.StringIO()
     try:
-        with contextlib.redirect_stdout(text):
-            reader = DFReader_binary(str(p), zero_time_base=True)
+        with contextlib.redirect_stdout(_io.StringIO()):
+            reader = DFReader_binary(str(p))
     except Exception as exc:  # pymavlink raises plain Exceptions on damaged files
         raise LogError(f"{p}: unreadable DataFlash log: {exc}") from None
     buf = _open_buffer(p)
@@ -616,6 +612,28 @@ def _df_records(scan: _DataFlashScan, name: str) -> np.ndarray | None:
     rows = np.empty((scan.offsets[name].size, dtype.itemsize), dtype=np.uint8)
     k = _gather(scan.buf, scan.offsets[name], 3, dtype.itemsize, rows, False)
     return rows[:k].view(dtype).reshape(k)
+
+
+def _df_imu(scan: _DataFlashScan) -> np.ndarray | None:
+    """Every IMU sample as records with the instance field ``I``.
+
+    ArduPilot before 4.0 logged instances 1 and 2 as separate ``IMU2``/``IMU3`` messages
+    without ``I``; they are merged here, in time order.
+    """
+    rec = _df_records(scan, "IMU")
+    if rec is None or "I" in rec.dtype.names:
+        return rec
+    parts = []
+    for k, name in enumerate(("IMU", "IMU2", "IMU3")):
+        r = rec if k == 0 else _df_records(scan, name)
+        if r is not None:
+            out = np.zeros(r.size, dtype=np.dtype([*r.dtype.descr, ("I", "u1")]))
+            for f in r.dtype.names:
+                out[f] = r[f]
+            out["I"] = k
+            parts.append(out)
+    merged = np.concatenate(parts)
+    return merged[np.argsort(merged["TimeUS"], kind="stable")]
 
 
 def _df_params(scan: _DataFlashScan) -> tuple[dict[str, float], list[tuple[float, str, float]]]:
@@ -772,10 +790,16 @@ def _px4_frame(
         )
     if not inside.any():
         raise LogError(f"{label}: the gyro and accelerometer samples do not overlap in time")
-    t = tg[inside]
-    cols: dict[str, Any] = {TIME: t / 1e6, RUN: run}
+    sel: slice | np.ndarray = inside
+    first, last = np.flatnonzero(inside)[[0, -1]]
+    if inside[first : last + 1].all():  # the usual case: one stretch, views not copies
+        sel = slice(int(first), int(last) + 1)
+    if keep_a.all():
+        keep_a = slice(None)  # type: ignore[assignment]
+    t = tg[sel]
+    cols: dict[str, np.ndarray] = {TIME: t / 1e6}
     for c, ax in zip(GYRO_CHANNELS, "xyz", strict=True):
-        cols[c] = g[ax][inside].astype(np.float64)
+        cols[c] = g[ax][sel]
     *accel, taccel = _onto(
         t,
         ta,
@@ -785,12 +809,28 @@ def _px4_frame(
     )
     for c, v in zip(ACCEL_CHANNELS, accel, strict=True):
         cols[c] = v
-    tgyro = g["temperature"][inside].astype(np.float64)
+    tgyro = g["temperature"][sel]
     for c in GYRO_CHANNELS:
         cols[f"temp_{c}"] = tgyro
     for c in ACCEL_CHANNELS:
         cols[f"temp_{c}"] = taccel
-    return pd.DataFrame(cols)
+    return _frame(cols, run)
+
+
+def _frame(cols: Mapping[str, np.ndarray], run: str) -> pd.DataFrame:
+    """A canonical frame: ``time_s``, ``run``, then the numeric columns as float64.
+
+    The numbers are written once into one column-major block that pandas takes as it is
+    (building the frame from separate columns would copy them all again).
+    """
+    names = list(cols)
+    n = len(cols[names[0]])
+    block = np.empty((len(names), n))
+    for k, name in enumerate(names):
+        block[k] = cols[name]
+    frame = pd.DataFrame(block.T, columns=names, copy=False)
+    frame.insert(1, RUN, run)
+    return frame
 
 
 def _ardupilot_frame(
@@ -815,19 +855,24 @@ def _ardupilot_frame(
     gyro = np.column_stack([rec[f"Gyr{a}"] for a in "XYZ"]).astype(np.float64)
     accel = np.column_stack([rec[f"Acc{a}"] for a in "XYZ"]).astype(np.float64)
     orientation = int(info.params.get("AHRS_ORIENTATION", 0))
+    if any(name == "AHRS_ORIENTATION" for _, name, _v in info.changed):
+        notes.append(
+            f"AHRS_ORIENTATION changes during the log; the value at the start "
+            f"({orientation}) is taken out of every sample"
+        )
     rot = _rotation(orientation, p)
     if rot is not None:  # logged in the body frame: v_body = R v_board
         gyro, accel = gyro @ rot, accel @ rot
     for mask, params in _in_force(info.params, info.changed, t):
         gyro[mask] += ardupilot_tcal(params, inst.index, "gyro", temp[mask])
         accel[mask] += ardupilot_tcal(params, inst.index, "accel", temp[mask])
-    cols: dict[str, Any] = {TIME: t, RUN: run}
+    cols: dict[str, np.ndarray] = {TIME: t}
     for j, c in enumerate(GYRO_CHANNELS):
         cols[c] = gyro[:, j]
     for j, c in enumerate(ACCEL_CHANNELS):
         cols[c] = accel[:, j]
     cols[TEMP_IN] = temp
-    return pd.DataFrame(cols)
+    return _frame(cols, run)
 
 
 # --------------------------------------------------------------------------- public
@@ -861,7 +906,7 @@ def scan_flight_log(path: str | os.PathLike[str]) -> FlightLogInfo:
         info = _ulog_info(_scan_ulog(p))
     else:
         scan = _scan_dataflash(p)
-        info = _df_info(scan, _df_records(scan, "IMU"))
+        info = _df_info(scan, _df_imu(scan))
     _require_imus(info)
     return info
 
@@ -889,24 +934,31 @@ def iter_flight_runs(
     p, kind = _flight_path(path)
     notes: list[str] = []
     stem = options.run or p.stem
+    scan: Any = None
+    imu: Any = None
     if kind == "ulog":
         scan = _scan_ulog(p)
         info = _ulog_info(scan)
     else:
         scan_df = _scan_dataflash(p)
-        imu = _df_records(scan_df, "IMU")
+        imu = _df_imu(scan_df)
         info = _df_info(scan_df, imu)
+        del scan_df
     _require_imus(info)
     chosen = info.selected(options)
     notes.extend(info.notes)
 
     def runs() -> Iterator[pd.DataFrame]:
-        for inst in chosen:
+        nonlocal scan, imu
+        for k, inst in enumerate(chosen):
             run = stem if len(chosen) == 1 else f"{stem}/imu{inst.index}"
             if kind == "ulog":
-                yield _px4_frame(scan, inst, options.join, run, notes)
+                frame = _px4_frame(scan, inst, options.join, run, notes)
             else:
-                yield _ardupilot_frame(info, imu, inst, run, notes)
+                frame = _ardupilot_frame(info, imu, inst, run, notes)
+            if k == len(chosen) - 1:  # the file's pages and records go before the last run
+                scan = imu = None  # is used (the frames copy what they need)
+            yield frame
 
     return info, runs(), notes
 

@@ -314,18 +314,9 @@ def fit(
             transient=True,
         ) as progress:
             task = progress.add_task("reading log", total=None)
-            mapping = foreign_mapping(
-                map_file,
-                col,
-                time_col,
-                time_unit,
-                sep,
-                temp_col,
-                relative_time=relative_time,
-                instance=instance,
-                log=log,
+            mapping, meta = _mapping_meta(
+                log, (map_file, col, time_col, time_unit, sep, temp_col), relative_time, instance
             )
-            meta = foreign_meta(log, mapping)
             meta.update(_static_options(latitude, heading, static_ref))
             model = ThermalModel(
                 method,
@@ -512,18 +503,9 @@ def select(
             transient=True,
         ) as progress:
             task = progress.add_task("reading log", total=None)
-            mapping = foreign_mapping(
-                map_file,
-                col,
-                time_col,
-                time_unit,
-                sep,
-                temp_col,
-                relative_time=relative_time,
-                instance=instance,
-                log=log,
+            mapping, meta = _mapping_meta(
+                log, (map_file, col, time_col, time_unit, sep, temp_col), relative_time, instance
             )
-            meta = foreign_meta(log, mapping)
 
             def step(channel: str, setting: int) -> None:
                 progress.update(task, advance=1, description=f"{channel}: {setting}")
@@ -775,8 +757,15 @@ def _model_for(
     from rinscal.calibration.modelfile import ThermalModelFile
 
     mf = ThermalModelFile.load(model)
+    return mf, *_mapping_meta(log, read_args, relative_time, instance)
+
+
+def _mapping_meta(
+    log: Path, read_args: tuple[Any, ...], relative_time: bool, instance: str | None
+) -> tuple[Any, dict[str, Any]]:
+    """How to read ``log`` (a column mapping, flight-log options or None) and its metadata."""
     mapping = foreign_mapping(*read_args, relative_time=relative_time, instance=instance, log=log)
-    return mf, mapping, foreign_meta(log, mapping)
+    return mapping, foreign_meta(log, mapping)
 
 
 def _compensate_runs(

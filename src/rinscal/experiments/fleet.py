@@ -176,11 +176,14 @@ def fit_unit(
     from rinscal.calibration._inference import predict_params
     from rinscal.calibration.export import to_ardupilot_parm, to_c_header, to_px4_params
     from rinscal.calibration.model import ThermalModel
-    from rinscal.io import read_log, read_meta
+    from rinscal.flightlog import FlightLogOptions, scan_flight_log
+    from rinscal.io import is_flight_log, read_log, read_meta
 
     t0 = time.perf_counter()
     log = read_log(log_path)
     meta = dict(read_meta(log_path) or {})
+    if is_flight_log(log_path):  # a one-IMU .ulg/.bin: its units, ids and instance
+        meta = scan_flight_log(log_path).meta(FlightLogOptions()) | meta
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         model = ThermalModel(method=method).fit(log, meta, source=Path(log_path).name)
