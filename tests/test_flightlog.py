@@ -253,8 +253,29 @@ def test_ulog_join_interpolates_accel_onto_gyro_times(tmp_path) -> None:
     expected = np.interp(t * 1e6, a_us, lin[:, 0].astype(np.float64))
     np.testing.assert_allclose(log["accel_x"].to_numpy()[inside], expected[inside], atol=1e-6)
     gap = (t > ta[999] + 1e-6) & (t < ta[1000] - 1e-6)
-    assert gap.sum() >= 20 and np.isnan(log["accel_x"].to_numpy()[gap]).all()
+    assert gap.sum() >= 20 and (inside == ~gap).all()  # NaN exactly inside the gap
     assert np.isfinite(log["temp_accel_x"]).all()  # temperature bridges the gap
+    # nearest: the value of the closest accel sample, NaN farther than 1.5 intervals
+    near = read_flight_log(path, FlightLogOptions(join="nearest")).frame["accel_x"].to_numpy()
+    j = np.abs(t[:, None] * 1e6 - a_us[None, :]).argmin(axis=1)
+    far = np.abs(t * 1e6 - a_us[j]) > 1.5 * 5000
+    np.testing.assert_array_equal(near[~far], lin[j[~far], 0].astype(np.float64))
+    assert far.sum() >= 10 and np.isnan(near[far]).all()
+
+
+def test_ulog_nan_temperature_and_a_timestamp_glitch_are_left_out_and_told(tmp_path) -> None:
+    t = 1.0 + np.arange(500) / 100.0
+    temp = (20 + t).astype(np.float32)
+    temp[:3] = np.nan  # a driver before its first temperature reading
+    topics = px4_topics(t, np.zeros((t.size, 3), np.float32), np.zeros((t.size, 3), np.float32),
+                        temp, 0, 7, 8)  # fmt: skip
+    topics[0].data["timestamp_sample"][200] += 10**9  # one gyro sample stamped 1000 s ahead
+    path = write_ulog(tmp_path / "glitch.ulg", topics)
+    fl = read_flight_log(path)
+    assert len(fl.frame) == 500 - 3 - 1 and fl.frame["time_s"].is_monotonic_increasing
+    notes = " ".join(fl.notes)
+    assert "3 sensor_gyro sample(s) without a temperature" in notes
+    assert "1 sensor_gyro sample(s) whose time does not increase" in notes
 
 
 # ----------------------------------------------------------------------------- ArduPilot
@@ -352,6 +373,22 @@ def test_dataflash_of_arducopter_3_imu2_imu3_messages(tmp_path) -> None:
     assert [i.index for i in info.instances] == [0, 1, 2]
     log = read_flight_log(path, FlightLogOptions(instance=2)).frame
     assert (log["gyro_x"] == 2.0).all() and (log["temp_in"] == 22.0).all() and len(log) == 300
+
+
+def test_ardupilot_tcal_follows_the_firmware_for_an_unset_caltemp() -> None:
+    # TCal::correct_sensor clamps CALTEMP (default -300 °C: not set) to TMIN
+    from rinscal.firmware import ardupilot_tcal
+
+    params = {"INS_TCAL1_ENABLE": 1, "INS_TCAL1_TMIN": 10.0, "INS_TCAL1_TMAX": 50.0}
+    params |= {"INS_TCAL1_GYR1_X": 100.0, "INS_TCAL1_GYR2_X": 10.0, "INS_TCAL1_GYR3_X": 1.0}
+    temp = np.array([0.0, 10.0, 35.0, 60.0])
+    d, d_cal = np.clip(temp, 10, 50) - 35.0, 10.0 - 35.0
+
+    def p(x: np.ndarray | float) -> np.ndarray | float:
+        return (100 * x + 10 * x**2 + 1 * x**3) * 1e-6
+
+    np.testing.assert_allclose(ardupilot_tcal(params, 0, "gyro", temp)[:, 0], p(d) - p(d_cal))
+    assert (ardupilot_tcal(params | {"INS_TCAL1_ENABLE": 2}, 0, "gyro", temp) == 0).all()
 
 
 # ----------------------------------------------------------------------------- bad files

@@ -15,10 +15,13 @@ PX4 (``src/modules/temperature_compensation``; ``TC_<G|A><slot>_*``)
     correction to undo.
 ArduPilot (``AP_InertialSensor_tempcal.cpp``; ``INS_TCAL<n>_*``, n = instance + 1)
     when ``INS_TCAL<n>_ENABLE`` = 1: ``v −= P(clamp(T) − 35) − P(clamp(CALTEMP) − 35)`` with
-    ``P(d) = (c1 + (c2 + c3·d)·d)·d·1e−6``, clamp to ``[TMIN, TMAX]``, ``CALTEMP`` =
-    ``INS_<GYR|ACC><n>_CALTEMP`` (below −80 °C: not set, no correction, as ArduPilot's
-    ``tempcal_IMU.py``). The correction is applied in the sensor frame, before the board
-    rotation ``AHRS_ORIENTATION``; the ``IMU`` log message carries it (and the rotation).
+    ``P(d) = (c1 + (c2 + c3·d)·d)·d·1e−6``; both ``T`` and ``CALTEMP`` =
+    ``INS_<GYR|ACC><n>_CALTEMP`` are clamped to ``[TMIN, TMAX]`` (the firmware's
+    ``TCal::correct_sensor``; an unset CALTEMP, −300 °C by default, becomes TMIN there).
+    ArduPilot's ``tempcal_IMU.py`` instead skips the correction for a CALTEMP below −80 °C;
+    we follow the firmware, which made the log. The correction is applied in the sensor
+    frame, before the board rotation ``AHRS_ORIENTATION``; the ``IMU`` log message carries it
+    (and the rotation).
 """
 
 from __future__ import annotations
@@ -33,6 +36,7 @@ __all__ = [
     "ardupilot_id_param",
     "ardupilot_tcal",
     "ardupilot_tcal_enabled",
+    "ardupilot_tcal_params",
     "px4_tc_slot",
 ]
 
@@ -40,8 +44,8 @@ __all__ = [
 ARDUPILOT_TREF_C = 35.0
 #: ArduPilot stores coefficients multiplied by this.
 ARDUPILOT_SCALE = 1.0e6
-#: ArduPilot: a CALTEMP below this [°C] means "not set".
-ARDUPILOT_CALTEMP_UNSET_C = -80.0
+#: ArduPilot's default ``INS_<GYR|ACC><n>_CALTEMP`` [°C] ("not set").
+ARDUPILOT_CALTEMP_DEFAULT_C = -300.0
 _PX4_TAG = {"gyro": "G", "accel": "A"}
 _AP_TAG = {"gyro": "GYR", "accel": "ACC"}
 _AXES = ("X", "Y", "Z")
@@ -92,16 +96,16 @@ def ardupilot_tcal(
     -------
     ndarray, shape (n, 3)
         ``P(clamp(T) − 35) − P(clamp(CALTEMP) − 35)`` per axis [rad/s or m/s²]; zeros when
-        the set is not enabled or CALTEMP is not set.
+        the set is not enabled.
     """
     n = instance + 1
     temp_c = np.asarray(temp_c, dtype=np.float64)
     out = np.zeros((temp_c.size, 3))
-    cal = float(params.get(f"INS_{_AP_TAG[sensor]}{n}_CALTEMP", ARDUPILOT_TREF_C))
-    if not ardupilot_tcal_enabled(params, instance) or cal < ARDUPILOT_CALTEMP_UNSET_C:
+    cal = float(params.get(f"INS_{_AP_TAG[sensor]}{n}_CALTEMP", ARDUPILOT_CALTEMP_DEFAULT_C))
+    if not ardupilot_tcal_enabled(params, instance):
         return out
-    lo = float(params.get(f"INS_TCAL{n}_TMIN", -np.inf))
-    hi = float(params.get(f"INS_TCAL{n}_TMAX", np.inf))
+    lo = float(params.get(f"INS_TCAL{n}_TMIN", 0.0))  # ArduPilot's defaults
+    hi = float(params.get(f"INS_TCAL{n}_TMAX", 0.0))
     d = np.clip(temp_c, lo, hi) - ARDUPILOT_TREF_C
     d_cal = min(max(cal, lo), hi) - ARDUPILOT_TREF_C
     for j, axis in enumerate(_AXES):
@@ -111,6 +115,15 @@ def ardupilot_tcal(
         )
         out[:, j] = ((c1 + (c2 + c3 * d) * d) * d) - ((c1 + (c2 + c3 * d_cal) * d_cal) * d_cal)
     return out
+
+
+def ardupilot_tcal_params(name: str, instance: int) -> bool:
+    """Whether parameter ``name`` changes the correction of IMU ``instance`` (0-based)."""
+    n = instance + 1
+    return name.startswith(f"INS_TCAL{n}_") or name in (
+        f"INS_GYR{n}_CALTEMP",
+        f"INS_ACC{n}_CALTEMP",
+    )
 
 
 def ardupilot_id_param(sensor: str, instance: int) -> str:

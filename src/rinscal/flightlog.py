@@ -57,7 +57,13 @@ import numpy as np
 import pandas as pd
 
 from rinscal.errors import LogError
-from rinscal.firmware import ardupilot_id_param, ardupilot_tcal, px4_tc_slot
+from rinscal.firmware import (
+    ardupilot_id_param,
+    ardupilot_tcal,
+    ardupilot_tcal_enabled,
+    ardupilot_tcal_params,
+    px4_tc_slot,
+)
 from rinscal.schema import ACCEL_CHANNELS, GYRO_CHANNELS, RUN, TEMP_IN, TIME
 from rinscal.units import US_TO_S
 
@@ -582,9 +588,16 @@ def _scan_dataflash(p: Path) -> _DataFlashScan:
     )
     from pymavlink.DFReader import DFReader_binary
 
+    class IndexOnly(DFReader_binary):  # type: ignore[misc]
+        """pymavlink's reader stopped at its message index: its search for a clock parses
+        every message in Python when the log has no GPS (most of a minute for an hour)."""
+
+        def init_clock(self) -> None:
+            self.clock = None
+
     try:
         with contextlib.redirect_stdout(_io.StringIO()):
-            reader = DFReader_binary(str(p))
+            reader = IndexOnly(str(p))
     except Exception as exc:  # pymavlink raises plain Exceptions on damaged files
         raise LogError(f"{p}: unreadable DataFlash log: {exc}") from None
     buf = _open_buffer(p)
@@ -663,8 +676,8 @@ def _df_info(scan: _DataFlashScan, imu: np.ndarray | None) -> FlightLogInfo:
             gid = params.get(ardupilot_id_param("gyro", i))
             aid = params.get(ardupilot_id_param("accel", i))
             note = None
-            if int(params.get(f"INS_TCAL{i + 1}_ENABLE", 0)) == 1 or any(
-                n_ == f"INS_TCAL{i + 1}_ENABLE" for _, n_, _v in changed
+            if ardupilot_tcal_enabled(params, i) or any(
+                n_ == f"INS_TCAL{i + 1}_ENABLE" and int(v) == 1 for _, n_, v in changed
             ):
                 note = f"INS_TCAL{i + 1} enabled in the log: its correction is undone"
             instances.append(
@@ -679,21 +692,20 @@ def _df_info(scan: _DataFlashScan, imu: np.ndarray | None) -> FlightLogInfo:
 
 def _in_force(
     params: Mapping[str, float], changed: Sequence[tuple[float, str, float]], t: np.ndarray
-) -> list[tuple[np.ndarray, dict[str, float]]]:
-    """Samples (boolean masks over ``t`` [s]) and the parameters in force for them."""
-    cuts = sorted({c[0] for c in changed})
+) -> list[tuple[slice, dict[str, float]]]:
+    """Stretches of the samples (slices of ``t`` [s], sorted) and the parameters in force."""
     out = []
     current = dict(params)
-    edges = [-np.inf, *cuts, np.inf]
     pending = sorted(changed, key=lambda c: c[0])
+    cuts = sorted({c[0] for c in pending})
+    edges = [0, *np.searchsorted(t, cuts, side="left").tolist(), t.size]
     k = 0
-    for a, b in itertools.pairwise(edges):
-        while k < len(pending) and pending[k][0] <= a:
+    for j, (a, b) in enumerate(itertools.pairwise(edges)):
+        while j > 0 and k < len(pending) and pending[k][0] <= cuts[j - 1]:
             current[pending[k][1]] = pending[k][2]
             k += 1
-        mask = (t >= a) & (t < b)
-        if mask.any():
-            out.append((mask, dict(current)))
+        if b > a:
+            out.append((slice(a, b), dict(current)))
     return out
 
 
@@ -708,6 +720,11 @@ def _rotation(orientation: int, p: Path) -> np.ndarray | None:
             f"{p}: AHRS_ORIENTATION = {orientation} is not a rotation pymavlink knows "
             f"(0..{len(rotations) - 1}); custom orientations cannot be taken out"
         )
+    if orientation == 38:  # pymavlink has it as yaw 270; ArduPilot's is pitch 68.8, yaw 293.3
+        raise LogError(
+            f"{p}: AHRS_ORIENTATION = 38 (roll 90, pitch 68.8, yaw 293.3) cannot be taken out: "
+            "pymavlink's table holds another rotation under that number"
+        )
     r = rotations[orientation].r
     return np.array([[r.a.x, r.a.y, r.a.z], [r.b.x, r.b.y, r.b.z], [r.c.x, r.c.y, r.c.z]])
 
@@ -715,11 +732,34 @@ def _rotation(orientation: int, p: Path) -> np.ndarray | None:
 # --------------------------------------------------------------------------- frames
 
 
-def _increasing(t: np.ndarray) -> np.ndarray:
-    """Samples whose time is later than every earlier sample's."""
+#: Share of samples whose time does not increase above which a stream is refused, not cut.
+_MAX_OUT_OF_ORDER = 0.01
+
+
+def _increasing(t: np.ndarray, what: str) -> np.ndarray:
+    """Samples whose time is later than every earlier sample's.
+
+    A lone sample stamped far ahead (a glitch) would hide every later one; it is dropped
+    first, when it is later than the next sample while its neighbours are in order. More
+    than 1 % of the samples out of order is refused (LogError naming ``what``).
+    """
     keep = np.ones(t.size, dtype=bool)
+    if t.size > 2:  # isolated spikes: t[i] > t[i+1] although t[i-1] < t[i+1]
+        spike = (t[1:-1] > t[2:]) & (t[:-2] < t[2:])
+        keep[1:-1] = ~spike
     if t.size > 1:
-        keep[1:] = t[1:] > np.maximum.accumulate(t)[:-1]
+        tk = t[keep]
+        ok = np.ones(tk.size, dtype=bool)
+        ok[1:] = tk[1:] > np.maximum.accumulate(tk)[:-1]
+        keep[np.flatnonzero(keep)[~ok]] = False
+    bad = int((~keep).sum())
+    if bad > _MAX_OUT_OF_ORDER * t.size:
+        first = int(np.flatnonzero(~keep)[0])
+        raise LogError(
+            f"{what}: {bad} of {t.size} sample times do not increase (first at sample "
+            f"{first + 1}, {t[first]} µs after {t[first - 1] if first else 0} µs); the "
+            "timestamps are damaged"
+        )
     return keep
 
 
@@ -742,7 +782,8 @@ def _onto(
     else:
         span = (hi - lo).astype(np.float64)
         w = np.divide((t - lo).astype(np.float64), span, out=np.zeros(t.size), where=span > 0)
-        gap = (hi - lo) > _GAP_INTERPOLATE * med if med > 0 else None
+        # a sample exactly at an accel time is kept, whatever the gap before it
+        gap = ((hi - lo) > _GAP_INTERPOLATE * med) & (t != hi) & (t != lo) if med > 0 else None
         picked = []
         for c in columns:
             c = np.asarray(c, dtype=np.float64)
@@ -774,12 +815,21 @@ def _px4_frame(
     tkey = "timestamp_sample" if "timestamp_sample" in g else "timestamp"
     tg = g[tkey].astype(np.int64)
     ta = a[tkey if tkey in a else "timestamp"].astype(np.int64)
-    keep_g, keep_a = _increasing(tg), _increasing(ta)
+    keep_g = _increasing(tg, f"{label}: sensor_gyro")
+    keep_a = _increasing(ta, f"{label}: sensor_accel")
     for topic, keep in (("sensor_gyro", keep_g), ("sensor_accel", keep_a)):
         if not keep.all():
             notes.append(
                 f"{label}: {int((~keep).sum())} {topic} sample(s) whose time does not increase "
                 "left out"
+            )
+    for topic, d, keep in (("sensor_gyro", g, keep_g), ("sensor_accel", a, keep_a)):
+        unknown = keep & ~np.isfinite(d["temperature"])
+        if unknown.any():  # a driver reports NaN before its first temperature reading
+            keep &= ~unknown
+            notes.append(
+                f"{label}: {int(unknown.sum())} {topic} sample(s) without a temperature "
+                "(NaN) left out"
             )
     ta = ta[keep_a]
     inside = keep_g & (tg >= ta[0]) & (tg <= ta[-1])
@@ -843,7 +893,7 @@ def _ardupilot_frame(
             f"{p}: the IMU message has no temperature field T; fields: {rec.dtype.names}"
         )
     us = rec["TimeUS"].astype(np.int64)
-    keep = _increasing(us)
+    keep = _increasing(us, f"{p}: IMU {inst.index}")
     if not keep.all():
         notes.append(
             f"{p}: IMU {inst.index}: {int((~keep).sum())} sample(s) whose time does not "
@@ -863,9 +913,10 @@ def _ardupilot_frame(
     rot = _rotation(orientation, p)
     if rot is not None:  # logged in the body frame: v_body = R v_board
         gyro, accel = gyro @ rot, accel @ rot
-    for mask, params in _in_force(info.params, info.changed, t):
-        gyro[mask] += ardupilot_tcal(params, inst.index, "gyro", temp[mask])
-        accel[mask] += ardupilot_tcal(params, inst.index, "accel", temp[mask])
+    changes = [c for c in info.changed if ardupilot_tcal_params(c[1], inst.index)]
+    for part, params in _in_force(info.params, changes, t):
+        gyro[part] += ardupilot_tcal(params, inst.index, "gyro", temp[part])
+        accel[part] += ardupilot_tcal(params, inst.index, "accel", temp[part])
     cols: dict[str, np.ndarray] = {TIME: t}
     for j, c in enumerate(GYRO_CHANNELS):
         cols[c] = gyro[:, j]

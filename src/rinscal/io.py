@@ -818,7 +818,7 @@ def read_log_source(
     -------
     SourceLog
     """
-    if is_flight_log(path):
+    if fmt is None and is_flight_log(path):
         sources = list(_flight_sources(path, mapping))
         if len(sources) == 1:
             return sources[0]
@@ -912,7 +912,7 @@ def iter_log_source(
     piece_rows = PIECE_ROWS if piece_rows is None else int(piece_rows)
     if piece_rows < 1:
         raise ValueError(f"piece_rows must be at least 1, got {piece_rows}")
-    if is_flight_log(path):
+    if fmt is None and is_flight_log(path):
         yield from _flight_sources(path, mapping)
         return
     p, f = _log_path(path, fmt, mapping)
