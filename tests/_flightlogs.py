@@ -204,6 +204,21 @@ def write_ulog(
     return _cut(path, cut_bytes)
 
 
+def _sensor(
+    us: np.ndarray, delay_us: int, device_id: int, values: np.ndarray, temp: np.ndarray
+) -> dict[str, np.ndarray]:
+    """Fields of one sensor topic: sampled at ``us``, published ``delay_us`` later."""
+    return {
+        "timestamp": us + delay_us,
+        "timestamp_sample": us,
+        "device_id": np.full(us.size, device_id, dtype=np.uint32),
+        "x": values[:, 0],
+        "y": values[:, 1],
+        "z": values[:, 2],
+        "temperature": temp,
+    }
+
+
 def px4_topics(
     time_s: np.ndarray,
     gyro: np.ndarray,
@@ -222,29 +237,12 @@ def px4_topics(
     ``accel_values`` and ``accel_temp``) gives it its own sample times.
     """
     us = np.round(time_s * 1e6).astype(np.int64)
-    g = {
-        "timestamp": us + 150,
-        "timestamp_sample": us,
-        "device_id": np.full(us.size, gyro_id, dtype=np.uint32),
-        "x": gyro[:, 0],
-        "y": gyro[:, 1],
-        "z": gyro[:, 2],
-        "temperature": temp,
-    }
+    g = _sensor(us, 150, gyro_id, gyro, temp)
     if accel_time_s is None:
-        a_us, a_vals, a_temp = us, accel, temp
+        a = _sensor(us, 160, accel_id, accel, temp)
     else:
         a_us = np.round(accel_time_s * 1e6).astype(np.int64)
-        a_vals, a_temp = accel_values, accel_temp
-    a = {
-        "timestamp": a_us + 160,
-        "timestamp_sample": a_us,
-        "device_id": np.full(a_us.size, accel_id, dtype=np.uint32),
-        "x": a_vals[:, 0],
-        "y": a_vals[:, 1],
-        "z": a_vals[:, 2],
-        "temperature": a_temp,
-    }
+        a = _sensor(a_us, 160, accel_id, accel_values, accel_temp)  # type: ignore[arg-type]
     return [
         Topic("sensor_gyro", instance, GYRO_FIELDS, g),
         Topic("sensor_accel", instance, ACCEL_FIELDS, a),
