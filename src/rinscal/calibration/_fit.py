@@ -494,3 +494,26 @@ def fit_params(
         est.set_params(**h)
         return est.fit(X, y, groups=groups).params_
     raise ValueError(f"unknown method {method!r}")
+
+
+def rms_about_run_mean(resid: np.ndarray, codes: np.ndarray, n_runs: int = 0) -> float:
+    """RMS of a residual about each run's own mean (Eq. 16: turn-on offsets removed).
+
+    Parameters
+    ----------
+    resid : ndarray, shape (n,)
+        Residual, in the channel's unit.
+    codes : ndarray of int, shape (n,)
+        Run code of each sample (0 .. n_runs − 1).
+    n_runs : int
+        Number of runs (codes may leave some out).
+
+    Returns
+    -------
+    float
+        ``sqrt(mean((r − mean_run(r))²))``, in the channel's unit.
+    """
+    sums = np.bincount(codes, weights=resid, minlength=n_runs)
+    cnts = np.bincount(codes, minlength=n_runs)
+    about = resid - (sums / np.maximum(cnts, 1))[codes]
+    return float(np.sqrt(np.mean(about**2)))

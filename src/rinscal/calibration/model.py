@@ -28,7 +28,7 @@ import numpy as np
 import pandas as pd
 
 from rinscal._version import __version__
-from rinscal.calibration._fit import NEURAL_MAX_SAMPLES, fit_params
+from rinscal.calibration._fit import NEURAL_MAX_SAMPLES, fit_params, rms_about_run_mean
 from rinscal.calibration._inference import METHODS, n_inputs, predict_params
 from rinscal.calibration._runs import FACTOR_METHODS, FALLBACK_DEGREE, RunFits
 from rinscal.calibration.auto import (
@@ -728,12 +728,9 @@ class _Fitting:
             }
         xo, yo, codes, _ = fits.data()
         resid = predict_params(params, xo) - yo
-        sums = np.bincount(codes, weights=resid)
-        cnts = np.bincount(codes)
-        about = resid - (sums / np.maximum(cnts, 1))[codes]
         return {
             "rms_train": float(np.sqrt(np.mean(resid**2))),
-            "rms_train_about_run_mean": float(np.sqrt(np.mean(about**2))),
+            "rms_train_about_run_mean": rms_about_run_mean(resid, codes),
         }
 
 

@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from rinscal.calibration._fit import rms_about_run_mean
 from rinscal.calibration._runs import RunFits
 from rinscal.calibration.features import (
     DerivativeConfig,
@@ -84,13 +85,6 @@ class SelectionResult:
             "best": self.best,
             "table": self.table.to_dict(orient="records"),
         }
-
-
-def _rms_about_run_mean(resid: np.ndarray, codes: np.ndarray, n_runs: int) -> float:
-    sums = np.bincount(codes, weights=resid, minlength=n_runs)
-    cnts = np.bincount(codes, minlength=n_runs)
-    about = resid - (sums / np.maximum(cnts, 1))[codes]
-    return float(np.sqrt(np.mean(about**2)))
 
 
 def _fit_predict(
@@ -347,7 +341,7 @@ def select_model(
                 estimator_params=estimator_params,
             )
             data = (x, y, codes)
-            rms_tr = _rms_about_run_mean(
+            rms_tr = rms_about_run_mean(
                 _fit_predict(tm.estimator_for(c), method, c, *data, ok, ok), codes[ok], n_runs
             )
             resid = np.empty(int(ok.sum()))
@@ -362,7 +356,7 @@ def select_model(
                 resid[np.searchsorted(pos, np.flatnonzero(test))] = _fit_predict(
                     tm.estimator_for(c), method, c, *data, train, test
                 )
-            scores[c].append((rms_tr, _rms_about_run_mean(resid, codes[ok], n_runs)))
+            scores[c].append((rms_tr, rms_about_run_mean(resid, codes[ok], n_runs)))
             if on_fit is not None:
                 on_fit(c, s)
     return _result(method, settings, tolerance, feats.runs, scores)
