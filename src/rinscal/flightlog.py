@@ -667,24 +667,38 @@ def _df_params(scan: _DataFlashScan) -> tuple[dict[str, float], list[tuple[float
     return first, changed
 
 
-def _df_info(scan: _DataFlashScan, imu: np.ndarray | None) -> FlightLogInfo:
+def _df_counts(scan: _DataFlashScan) -> dict[int, int]:
+    """Samples per IMU instance, from the instance byte alone (no decoding of the rest)."""
+    f = scan.formats.get("IMU")
+    if f is None or scan.offsets["IMU"].size == 0:
+        return {}
+    if "I" not in f.columns:  # ArduPilot 3.x: IMU, IMU2, IMU3
+        names = ("IMU", "IMU2", "IMU3")
+        return {k: int(scan.offsets[n].size) for k, n in enumerate(names) if n in scan.offsets}
+    k = f.columns.index("I")
+    at = 3 + sum(np.dtype(_DF_NUMPY[ch]).itemsize for ch in f.format[:k])
+    idx, counts = np.unique(scan.buf[scan.offsets["IMU"] + at], return_counts=True)
+    return dict(zip(idx.tolist(), counts.tolist(), strict=True))
+
+
+def _df_info(scan: _DataFlashScan) -> FlightLogInfo:
     params, changed = _df_params(scan)
     instances = []
-    if imu is not None:
-        idx, counts = np.unique(imu["I"], return_counts=True)
-        for i, n in zip(idx.tolist(), counts.tolist(), strict=True):
-            gid = params.get(ardupilot_id_param("gyro", i))
-            aid = params.get(ardupilot_id_param("accel", i))
-            note = None
-            if ardupilot_tcal_enabled(params, i) or any(
-                n_ == f"INS_TCAL{i + 1}_ENABLE" and int(v) == 1 for _, n_, v in changed
-            ):
-                note = f"INS_TCAL{i + 1} enabled in the log: its correction is undone"
-            instances.append(
-                ImuInstance(
-                    i, None if gid is None else int(gid), None if aid is None else int(aid), n, note
-                )
+    for i, n in _df_counts(scan).items():
+        if n == 0:
+            continue
+        gid = params.get(ardupilot_id_param("gyro", i))
+        aid = params.get(ardupilot_id_param("accel", i))
+        note = None
+        if ardupilot_tcal_enabled(params, i) or any(
+            n_ == f"INS_TCAL{i + 1}_ENABLE" and int(v) == 1 for _, n_, v in changed
+        ):
+            note = f"INS_TCAL{i + 1} enabled in the log: its correction is undone"
+        instances.append(
+            ImuInstance(
+                i, None if gid is None else int(gid), None if aid is None else int(aid), n, note
             )
+        )
     return FlightLogInfo(
         scan.path, "ardupilot", tuple(instances), params, tuple(changed), tuple(scan.notes)
     )
@@ -957,7 +971,7 @@ def scan_flight_log(path: str | os.PathLike[str]) -> FlightLogInfo:
         info = _ulog_info(_scan_ulog(p))
     else:
         scan = _scan_dataflash(p)
-        info = _df_info(scan, _df_imu(scan))
+        info = _df_info(scan)
     _require_imus(info)
     return info
 
@@ -993,7 +1007,7 @@ def iter_flight_runs(
     else:
         scan_df = _scan_dataflash(p)
         imu = _df_imu(scan_df)
-        info = _df_info(scan_df, imu)
+        info = _df_info(scan_df)
         del scan_df
     _require_imus(info)
     chosen = info.selected(options)
