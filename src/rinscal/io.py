@@ -822,8 +822,10 @@ def read_log_source(
         sources = list(_flight_sources(path, mapping))
         if len(sources) == 1:
             return sources[0]
+        # each run is validated as it is made: joined, they need no second pass
+        log = pd.concat([s.log for s in sources], ignore_index=True)
         raw = pd.concat([s.raw for s in sources], ignore_index=True)
-        return _source(Path(path), raw, None, None)
+        return SourceLog(log, raw, {}, {})
     p, f = _log_path(path, fmt, mapping)
     raw, sep = _read_table(p, f, mapping)
     return _source(p, raw, mapping, sep)
