@@ -137,19 +137,24 @@ def test_px4_gyro_matches_the_scripts_procedure(noisy_log) -> None:
     assert np.max(np.abs(est.predict(_x(grid)) - g(grid))) < 0.01
 
 
-def test_px4_accelerometer_fits_the_output_minus_its_median(noisy_log) -> None:
+def test_px4_accelerometer_fits_the_output_minus_its_median_and_keeps_the_level(
+    noisy_log,
+) -> None:
     d = noisy_log
-    level = 1.0e6  # an accelerometer's 1 g in µg: removed, not modelled
+    level = 1.0e6  # an accelerometer's 1 g in µg
     y = level + d["y"]
     acc = PX4Fit(sensor="accel").fit(_x(d["temp"]), y, groups=d["groups"])
     gyro = PX4Fit(sensor="gyro").fit(_x(d["temp"]), y, groups=d["groups"])
-    _, _, _, coef = hand_px4(d["temp"], y, d["groups"], accel=True)
-    _close(acc.coef_, coef)
-    # binning and least squares are linear: only X0 moves, by the median of the filtered log
+    _, _, _, script = hand_px4(d["temp"], y, d["groups"], accel=True)
     med = np.median(np.concatenate([hand_medfilt31(y[r]) for r in _runs(d["groups"])]))
-    _close(acc.coef_[1:], gyro.coef_[1:])
-    assert acc.coef_[0] == pytest.approx(gyro.coef_[0] - med, abs=1e-6)
-    assert abs(acc.coef_[0]) < 1.0  # the 1e6 level is gone
+    # the script's coefficients: the cubic of the output less its median ...
+    _close(acc.coef_[1:], script[1:])
+    assert acc.coef_[0] - med == pytest.approx(script[0], abs=1e-6)
+    assert abs(script[0]) < 1.0  # the script's X0 holds no 1 g
+    # ... and the model keeps the level (binning and least squares are linear), so that
+    # N − (f − r) with r = 1 g removes gravity once (issue 21, item 1)
+    _close(acc.coef_, gyro.coef_)
+    assert acc.coef_[0] == pytest.approx(level, rel=1e-5)
 
 
 def test_px4_without_resampling_fits_every_filtered_sample(noisy_log) -> None:
@@ -171,10 +176,10 @@ def test_px4_recovers_a_noise_free_cubic_exactly() -> None:
     est = PX4Fit().fit(_x(temp), g(temp), groups=groups)
     assert est.t_ref_ == pytest.approx(T0, abs=1e-12)
     np.testing.assert_allclose(est.coef_, A, rtol=1e-9, atol=1e-13)
-    # accelerometer: the same cubic, less the median of the output
+    # accelerometer: the script fits the cubic less the median of the output; the model
+    # adds the median back, so it is the same cubic
     acc = PX4Fit(sensor="accel").fit(_x(temp), g(temp), groups=groups)
-    np.testing.assert_allclose(acc.coef_[1:], A[1:], rtol=1e-9)
-    assert acc.coef_[0] == pytest.approx(A[0] - np.median(g(temp)), abs=1e-10)
+    np.testing.assert_allclose(acc.coef_, A, rtol=1e-9, atol=1e-13)
 
 
 # ----------------------------------------------------------------------------- ArduPilot

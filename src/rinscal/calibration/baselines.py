@@ -32,8 +32,12 @@ PX4 (``Tools/process_sensor_caldata.py`` of PX4/PX4-Autopilot, read at commit ``
     The firmware (``src/modules/temperature_compensation/TemperatureCompensation.cpp``,
     ``calc_thermal_offsets_3D``) clamps ``T`` to ``[TMIN, TMAX]``, computes
     ``offset = X0 + X1 d + X2 d² + X3 d³`` with ``d = T_clamped − TREF`` and subtracts it from
-    the raw output. Our ``px4`` parameters are exactly ``TREF, TMIN, TMAX`` and
-    ``coef = [X0, X1, X2, X3]``.
+    the raw output. Our ``px4`` parameters are ``TREF, TMIN, TMAX`` and
+    ``coef = [X0, X1, X2, X3]``, except that for accelerometers the median removed in step 3
+    is added back to ``coef[0]`` (the script's ``X0 = coef[0] − median``): the model carries
+    the training level like every other method of ours, so that compensation ``N − (f − r)``
+    and the exports, which subtract the static reference ``r`` (gravity), remove it once,
+    not twice.
 
 ArduPilot (``Tools/scripts/tempcal_IMU.py`` of ArduPilot/ardupilot, read at commit
 ``d4209711``; ``libraries/AP_InertialSensor/AP_InertialSensor_tempcal.cpp``)
@@ -295,7 +299,8 @@ def px4_fit(
     -------
     dict
         ``px4`` parameters: ``t_ref`` = TREF, ``t_min`` = TMIN, ``t_max`` = TMAX [°C],
-        ``coef`` = ``[X0, X1, X2, X3]`` [output units / °C^k].
+        ``coef`` = ``[X0, X1, X2, X3]`` [output units / °C^k]; for ``"accel"`` the median
+        removed before the fit is added back to ``coef[0]`` (the training level).
 
     Raises
     ------
@@ -343,7 +348,8 @@ def px4_fit_filtered(
     yf : ndarray, shape (n,) [output units]
         Median-filtered output.
     sensor : {"gyro", "accel"}
-        ``"accel"`` subtracts the median of ``yf``.
+        ``"accel"`` subtracts the median of ``yf`` before the fit and adds it back to
+        ``coef[0]``.
     resample : bool
         Fit the 2000 bin means, or every sample.
 
@@ -356,8 +362,8 @@ def px4_fit_filtered(
     t_min, t_max = float(np.min(temp)), float(np.max(temp))
     t_ref = 0.5 * (t_min + t_max)
     t_rel = temp - t_ref
-    if sensor == "accel":
-        yf = yf - np.median(yf)
+    level = float(np.median(yf)) if sensor == "accel" else 0.0
+    yf = yf - level
     if resample:
         if not t_max > t_min:
             raise ValueError(f"the temperature range is empty (all samples at {t_min} °C)")
@@ -367,13 +373,9 @@ def px4_fit_filtered(
         xb, yb = t_rel, yf
         what = "temperatures"
     c = _polyfit3(xb, yb, what)
-    return {
-        "method": "px4",
-        "t_ref": t_ref,
-        "t_min": t_min,
-        "t_max": t_max,
-        "coef": [float(v) for v in c[::-1]],
-    }
+    coef = [float(v) for v in c[::-1]]
+    coef[0] += level  # the model carries the training level, as every other method's does
+    return {"method": "px4", "t_ref": t_ref, "t_min": t_min, "t_max": t_max, "coef": coef}
 
 
 # ----------------------------------------------------------------------------- ArduPilot
