@@ -23,7 +23,7 @@ temperature) is read through a :class:`ColumnMapping`, from a small TOML file
     [scale]                      # optional: multiply a channel by a factor after reading
     gyro_x = 1.0
 
-    [units]                      # optional: units of the channels, for plots
+    [units]                      # optional: units of the channels (rinscal.units names)
     gyro = "rad/s"
     accel = "m/s^2"
 
@@ -61,7 +61,7 @@ from rinscal.schema import (
     temperature_column,
     validate_log,
 )
-from rinscal.units import MS_TO_S, US_TO_S
+from rinscal.units import MS_TO_S, US_TO_S, check_sensor_unit
 
 if TYPE_CHECKING:
     from rinscal.flightlog import FlightLogOptions
@@ -207,6 +207,10 @@ class ColumnMapping:
                 )
             if not isinstance(unit, str):
                 raise ConfigError(f"units.{key}: {unit!r} is not a unit name")
+            try:
+                check_sensor_unit(key.partition("_")[0], unit)  # gyro_x and gyro -> gyro
+            except ValueError as exc:
+                raise ConfigError(f"units.{key}: {exc}") from None
         if self.run is not None and (not isinstance(self.run, str) or not self.run):
             raise ConfigError(f"run: {self.run!r} is not a run name")
 

@@ -36,6 +36,12 @@ GYRO_CHANNELS: tuple[str, ...] = CHANNELS[:3]
 #: The accelerometer channels (last three of :data:`CHANNELS`).
 ACCEL_CHANNELS: tuple[str, ...] = CHANNELS[3:]
 
+
+def sensor_type(channel: str) -> str:
+    """``"gyro"`` or ``"accel"``: the sensor type of a channel of :data:`CHANNELS`."""
+    return "gyro" if channel in GYRO_CHANNELS else "accel"
+
+
 #: Time since this run's power-on [s].
 TIME = "time_s"
 #: Run name (text).

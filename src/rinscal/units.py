@@ -46,3 +46,41 @@ SENSOR_UNITS: dict[str, float] = {
     "ug": UG_TO_MPS2,
     "g": G0,
 }
+#: Unit of a channel that counts pulses (its SI value is the IMU's own pulse weight).
+PULSE_UNIT = "pulse"
+#: Unit names of each sensor type (``"gyro"``, ``"accel"``), pulses included.
+SENSOR_TYPE_UNITS: dict[str, tuple[str, ...]] = {
+    "gyro": ("rad/s", "deg/s", "deg/h", PULSE_UNIT),
+    "accel": ("m/s^2", "mg", "ug", "g", PULSE_UNIT),
+}
+
+
+def check_sensor_unit(sensor: str, unit: str, unit_to_si: float | None = None) -> None:
+    """Refuse a unit that is not one of a sensor type's, or whose SI factor contradicts it.
+
+    Parameters
+    ----------
+    sensor : {"gyro", "accel"}
+        Sensor type of the channel.
+    unit : str
+        Unit name of the channel's output.
+    unit_to_si : float, optional [SI per unit]
+        The factor that goes with it (any positive value for ``"pulse"``).
+
+    Raises
+    ------
+    ValueError
+        Naming the unit and the units known for the sensor type.
+    """
+    known = SENSOR_TYPE_UNITS[sensor]
+    if unit not in known:
+        raise ValueError(
+            f"unit {unit!r} is not one rinscal knows for {sensor} channels ({', '.join(known)})"
+        )
+    want = SENSOR_UNITS.get(unit)
+    if (
+        want is not None
+        and unit_to_si is not None
+        and not math.isclose(unit_to_si, want, rel_tol=1e-9)
+    ):
+        raise ValueError(f"unit_to_si {unit_to_si!r} is not the SI value of one {unit} ({want!r})")

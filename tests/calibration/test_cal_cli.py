@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from rinscal.calibration.modelfile import ThermalModelFile
+from rinscal.calibration.modelfile import ThermalModelFile, payload_sha256
 from rinscal.cli import app
 from rinscal.io import read_log, write_log, write_meta
 from rinscal.schema import CHANNELS
@@ -141,6 +141,59 @@ def test_corrupt_model_file_is_a_clear_error(logs, tmp_path) -> None:
     bad.write_text('{"format": "rinscal-thermal-model", "schema_version": 1, "sha')
     res = runner.invoke(app, ["evaluate", str(logs["repeat"]), "--model", str(bad)])
     assert res.exit_code == 2 and "bad.json: not valid JSON" in res.output
+
+
+@pytest.mark.parametrize(
+    ("channel", "unit", "unit_to_si", "message"),
+    [
+        (
+            "gyro_z",
+            "furlong/fortnight",
+            None,
+            "'furlong/fortnight' is not one rinscal knows for gyro",
+        ),
+        ("gyro_x", "ug", None, "'ug' is not one rinscal knows for gyro"),
+        ("accel_y", "deg/h", None, "'deg/h' is not one rinscal knows for accel"),
+        ("accel_z", "ug", 1.0, "1.0 is not the SI value of one ug"),
+    ],
+)
+def test_a_model_file_with_an_unknown_unit_is_refused(
+    channel, unit, unit_to_si, message, logs, tmp_path
+) -> None:
+    # issue 21, item 5: a unit edited in (checksum recomputed) was applied without a word
+    m = tmp_path / "m.json"
+    _ok(["fit", logs["soak"], "--method", "poly-t", "--out", m])
+    doc = json.loads(m.read_text())
+    cm = doc["payload"]["channel_models"][channel]
+    cm["unit"] = unit
+    if unit_to_si is not None:
+        cm["unit_to_si"] = unit_to_si
+    doc["sha256"] = payload_sha256(doc["payload"])
+    m.write_text(json.dumps(doc))
+    for cmd in (
+        ["compensate", logs["soak"], "--model", m, "--out", tmp_path / "c.csv"],
+        ["evaluate", logs["soak"], "--model", m],
+        ["export", m, "--format", "c", "--out", tmp_path / "m.h"],
+    ):
+        res = runner.invoke(app, [str(a) for a in cmd])
+        assert res.exit_code == 2, res.output
+        assert f"channel_models.{channel}" in res.output and message in res.output, res.output
+        assert "Traceback" not in res.output
+    assert not (tmp_path / "c.csv").exists() and not (tmp_path / "m.h").exists()
+
+
+def test_fit_refuses_a_log_whose_metadata_names_an_unknown_unit(logs, tmp_path) -> None:
+    log = tmp_path / "soak.csv"
+    log.write_bytes(logs["soak"].read_bytes())
+    meta = json.loads(Path(f"{logs['soak']}.meta.json").read_text())
+    meta["units"]["gyro_z"] = "furlong/fortnight"
+    Path(f"{log}.meta.json").write_text(json.dumps(meta))
+    res = runner.invoke(
+        app, ["fit", str(log), "--method", "poly-t", "--out", str(tmp_path / "m.json")]
+    )
+    assert res.exit_code == 2, res.output
+    assert "gyro_z" in res.output and "furlong/fortnight" in res.output, res.output
+    assert not (tmp_path / "m.json").exists()
 
 
 def test_select_json(logs) -> None:

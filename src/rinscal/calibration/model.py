@@ -56,8 +56,15 @@ from rinscal.calibration.guards import (
 )
 from rinscal.calibration.modelfile import AUTO, ChannelModel, ThermalModelFile
 from rinscal.errors import ConfigError
-from rinscal.schema import CHAMBER, CHANNELS, GYRO_CHANNELS, RUN, TEMP_OUT, temperature_column
-from rinscal.units import DEG_TO_RAD, SENSOR_UNITS
+from rinscal.schema import (
+    CHAMBER,
+    CHANNELS,
+    RUN,
+    TEMP_OUT,
+    sensor_type,
+    temperature_column,
+)
+from rinscal.units import DEG_TO_RAD, SENSOR_UNITS, check_sensor_unit
 
 __all__ = ["DEFAULTS", "FIT_METHODS", "ThermalModel", "site_reference", "unit_factors"]
 
@@ -84,11 +91,6 @@ DEFAULTS: dict[str, dict[str, dict[str, Any]]] = {
 }
 
 
-def sensor_type(channel: str) -> str:
-    """``"gyro"`` or ``"accel"``."""
-    return "gyro" if channel in GYRO_CHANNELS else "accel"
-
-
 def unit_factors(
     meta: Mapping[str, Any] | None, channels: Sequence[str] = CHANNELS
 ) -> tuple[dict[str, str | None], dict[str, float | None]]:
@@ -101,6 +103,12 @@ def unit_factors(
     -------
     units : dict of str to str or None
     unit_to_si : dict of str to float or None [SI per log unit]
+
+    Raises
+    ------
+    ConfigError
+        A unit that is not one of the channel's sensor type (:mod:`rinscal.units`), or
+        whose ``unit_to_si`` contradicts it.
     """
     meta = meta or {}
     units_m = meta.get("units") or {}
@@ -116,6 +124,11 @@ def unit_factors(
             k = pulse.get(c) if u == "pulse" else SENSOR_UNITS.get(str(u))
         ok = isinstance(k, (int, float)) and not isinstance(k, bool) and np.isfinite(k) and k > 0
         factors[c] = float(k) if ok else None
+        if u is not None:
+            try:
+                check_sensor_unit(sensor_type(c), str(u), factors[c])
+            except ValueError as exc:
+                raise ConfigError(f"the log's units: {c}: {exc}") from None
     return units, factors
 
 

@@ -79,6 +79,7 @@ from rinscal._version import __version__
 from rinscal.calibration._domain import inside_domain, validate_domain
 from rinscal.calibration._inference import METHODS, n_inputs, predict_params, validate_params
 from rinscal.errors import ModelFileError, RangeError
+from rinscal.units import check_sensor_unit
 
 __all__ = [
     "FORMAT",
@@ -803,6 +804,11 @@ def _channel_from_dict(
     if unit is not None and not isinstance(unit, str):
         raise ValueError(f"channel_models.{c}.unit must be text or null")
     k_si = _finite(d["unit_to_si"], f"channel_models.{c}.unit_to_si", positive=True)
+    if unit is not None:
+        try:
+            check_sensor_unit(c.partition("_")[0], unit, k_si)  # gyro_x -> gyro
+        except ValueError as exc:
+            raise ValueError(f"channel_models.{c}: {exc}") from None
     ref = _finite(d["static_reference"], f"channel_models.{c}.static_reference")
     edges = d["segment_edges"]
     e_arr = None
