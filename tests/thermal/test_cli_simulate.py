@@ -79,3 +79,34 @@ def test_bad_options_give_clear_errors(tmp_path) -> None:
     assert res.exit_code != 0 and "navigation_grade" in res.output and "paper" in res.output
     _, res = _sim(tmp_path, "x.parquet", "soak", "--rate", "0")
     assert res.exit_code != 0 and "--rate" in res.output
+
+
+def test_a_refused_simulate_leaves_nothing(tmp_path) -> None:
+    # issue 21, item 7: --out onto a folder was refused after the truth file was written
+    args = ("soak", "--hours", "0.05", "--rate", "1")
+    for blocker in ("out.csv", "out.truth.csv", "out.csv.meta.json"):
+        d = tmp_path / blocker
+        d.mkdir(parents=True)
+        before = sorted(p.name for p in tmp_path.iterdir())
+        _, res = _sim(tmp_path, "out.csv", *args)
+        assert res.exit_code == 2, res.output
+        assert f"{d}: a folder is in the way" in res.output.replace("\n", "")
+        assert sorted(p.name for p in tmp_path.iterdir()) == before  # nothing written
+        assert not any(d.iterdir())
+        d.rmdir()
+
+
+def test_compensate_onto_a_folder_leaves_nothing(tmp_path) -> None:
+    log, res = _sim(tmp_path, "soak.csv", "soak", "--hours", "0.3", "--rate", "0.2")
+    assert res.exit_code == 0, res.output
+    res = runner.invoke(
+        app, ["fit", str(log), "--method", "poly-t", "--out", str(tmp_path / "m.json")]
+    )
+    assert res.exit_code == 0, res.output
+    (tmp_path / "c.csv.meta.json").mkdir()
+    res = runner.invoke(
+        app,
+        ["compensate", str(log), "-m", str(tmp_path / "m.json"), "--out", str(tmp_path / "c.csv")],
+    )
+    assert res.exit_code == 2 and "a folder is in the way" in res.output, res.output
+    assert not (tmp_path / "c.csv").exists()

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
@@ -107,8 +108,13 @@ def is_same_file(a: Path, b: Path) -> bool:
     return a.exists() and b.exists() and os.path.samefile(a, b)
 
 
-def refuse_inputs(out: Path, inputs: list[Path]) -> None:
-    """Exit with a message if ``out`` is one of ``inputs`` or its folder does not exist."""
+def refuse_inputs(out: Path, inputs: list[Path], also: Sequence[Path] = ()) -> None:
+    """Exit with a message, before any work, if an output cannot be written whole.
+
+    ``out`` must not be one of ``inputs``, its folder must exist, and neither ``out`` nor a
+    file written beside it (``also``: a truth file, sidecar metadata) may be a folder: a
+    command that is refused leaves nothing behind.
+    """
     from rinscal.cli._app import fail
 
     for src in inputs:
@@ -116,6 +122,12 @@ def refuse_inputs(out: Path, inputs: list[Path]) -> None:
             raise fail(f"{out}: refusing to overwrite the input {src}; choose another --out")
     if not out.resolve().parent.is_dir():
         raise fail(f"{out}: folder {out.resolve().parent} does not exist")
+    for path in (out, *also):
+        if path.is_dir():
+            raise fail(f"{path}: a folder is in the way; --out takes a file name")
+        for src in inputs:
+            if path != out and is_same_file(path, src):
+                raise fail(f"{path}: refusing to overwrite the input {src}; choose another --out")
 
 
 def foreign_mapping(

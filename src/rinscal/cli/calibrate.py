@@ -699,7 +699,7 @@ def compensate_cmd(
     if policy not in POLICIES:
         raise fail(f"--policy must be one of {', '.join(POLICIES)}, got {policy!r}")
     inputs = [log, meta_path(log), model] + ([map_file] if map_file is not None else [])
-    refuse_inputs(out, inputs)
+    refuse_inputs(out, inputs, also=[meta_path(out)])
     try:
         mf, mapping, meta = _model_for(
             model, log, (map_file, col, time_col, time_unit, sep, temp_col), relative_time, instance

@@ -20,7 +20,6 @@ from rinscal.cli._options import (
     TempColOpt,
     TimeColOpt,
     TimeUnitOpt,
-    is_same_file,
     read_foreign_source,
     refuse_inputs,
 )
@@ -160,7 +159,7 @@ def simulate(
     from rinscal._resources import require_memory
     from rinscal.cli._app import console, fail
     from rinscal.errors import RinscalError
-    from rinscal.io import LogStreamWriter, format_of, write_meta
+    from rinscal.io import LogStreamWriter, format_of, meta_path, write_meta
     from rinscal.thermal.plant import PRESETS, OutputConfig, load_imu
     from rinscal.thermal.protocols import PROTOCOLS, iter_protocol, log_meta, protocol_runs
 
@@ -176,10 +175,9 @@ def simulate(
         specs = protocol_runs(protocol, hours)
     except RinscalError as exc:
         raise fail(str(exc)) from None
-    if imu not in PRESETS and is_same_file(out, Path(imu)):
-        raise fail(f"{out}: refusing to overwrite the input {imu}")
     out.parent.mkdir(parents=True, exist_ok=True)
     truth_path = out.with_name(f"{out.stem}.truth{out.suffix}")
+    refuse_inputs(out, [] if imu in PRESETS else [Path(imu)], also=[truth_path, meta_path(out)])
     n_samples = sum(int(s.duration_s * rate) for s in specs)
     # measured: about 0.27 GB plus 1.25 kB per sample of the longest run (one run in memory)
     longest = max(int(s.duration_s * rate) for s in specs)
