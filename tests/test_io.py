@@ -363,9 +363,9 @@ def test_mapping_validation_names_the_key(tmp_path):
         ColumnMapping(separator="pipe")
     with pytest.raises(ConfigError, match="scale: 'mag_x' is not a channel"):
         ColumnMapping(scale={"mag_x": 2.0})
-    with pytest.raises(ConfigError, match="units.gyro_z: unit 'furlong/fortnight' is not one"):
+    with pytest.raises(ConfigError, match=r"units\.gyro_z: unit 'furlong/fortnight' is not one"):
         ColumnMapping(units={"gyro_z": "furlong/fortnight"})
-    with pytest.raises(ConfigError, match="units.accel: unit 'rad/s' is not one"):
+    with pytest.raises(ConfigError, match=r"units\.accel: unit 'rad/s' is not one"):
         ColumnMapping(units={"accel": "rad/s"})
     with pytest.raises(ConfigError, match="several foreign columns map to temp_in"):
         ColumnMapping(columns={"T1": "temp_in"}, temperature="T2")

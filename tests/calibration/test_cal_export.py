@@ -112,7 +112,7 @@ def test_px4_params_reproduce_the_poly_t_offset(fitted_models) -> None:
 @pytest.mark.filterwarnings("ignore::rinscal.calibration.export.SmallCoefficientWarning")
 def test_ardupilot_parm_reproduces_the_thermal_change(fitted_models) -> None:
     mf = fitted_models["poly-t"]
-    p = _params(to_ardupilot_parm(mf, imu=2), None)
+    p = _params(to_ardupilot_parm(mf, instance=1), None)
     assert p["INS_TCAL2_ENABLE"] == 1
     lo, hi = p["INS_TCAL2_TMIN"], p["INS_TCAL2_TMAX"]
     temp = np.linspace(lo, hi, 50)
@@ -412,7 +412,7 @@ def test_px4_params_of_px4_and_ardupilot_channel_models() -> None:
 
 def test_ardupilot_parm_of_px4_and_ardupilot_channel_models() -> None:
     mf = _clamped_model()
-    text = _quiet(to_ardupilot_parm, mf, imu=3)
+    text = _quiet(to_ardupilot_parm, mf, instance=2)
     raw = _text_values(text, None)
     assert (raw["INS_TCAL3_TMIN"], raw["INS_TCAL3_TMAX"]) == ("2.01", "49.87")
     p = _params(text, None)
@@ -485,3 +485,33 @@ def test_export_command_refuses_px4_without_ids_and_prints_warnings(fitted_model
     res = runner.invoke(app, ["export", str(model), "--format", "ardupilot", "--out", str(out)])
     assert res.exit_code == 0, res.output
     assert "warning:" in res.output and "INS_TCAL1_GYR3_" in res.output and out.exists()
+
+
+@pytest.mark.filterwarnings("ignore::rinscal.calibration.export.SmallCoefficientWarning")
+def test_export_instance_is_numbered_as_the_readers(fitted_models, tmp_path) -> None:
+    """Issue 21, items 9 and 10: --instance (0-based, as fit --instance), not --imu."""
+    from rinscal.cli import app
+
+    runner = CliRunner()
+    model = fitted_models["poly-t"].save(tmp_path / "m.json")
+
+    def export(*args: str) -> tuple[int, str, str]:
+        out = tmp_path / "out.txt"
+        out.unlink(missing_ok=True)
+        res = runner.invoke(app, ["export", str(model), *args, "--out", str(out)])
+        return res.exit_code, res.output, out.read_text() if out.exists() else ""
+
+    code, _, text = export("--format", "ardupilot", "--instance", "1")
+    assert code == 0 and "INS_TCAL2_ENABLE 1" in text and "INS_TCAL1_" not in text
+    for inst in (3, 4):  # ArduPilot IMUs 4 and 5 keep INS4_TCAL_*/INS5_TCAL_*: refused by name
+        code, output, text = export("--format", "ardupilot", "--instance", str(inst))
+        assert code == 2 and f"INS{inst + 1}_TCAL_*" in " ".join(output.split()), output
+        assert text == ""
+    code, output, _ = export("--format", "ardupilot", "--imu", "2")
+    assert code == 2 and "--instance 1" in output
+    code, _, text = export(
+        "--format", "px4", "--gyro-id", "7", "--accel-id", "9", "--instance", "2"
+    )
+    assert code == 0 and "1\t1\tTC_G2_ID\t7\t6" in text and "TC_G0_" not in text
+    header = " ".join(line for line in text.splitlines() if line.startswith("#"))
+    assert "FIRST set" in header and "clears no other set" in header and "reboot" in header

@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 import re
 
-import click
 import pytest
 import typer
 from typer.testing import CliRunner
@@ -34,7 +33,7 @@ def test_help_keeps_every_unit_and_fits_80_columns(name) -> None:
         helptext = getattr(param, "help", None) or ""
         for bracket in re.findall(r"\[[^\]]*\]", helptext):  # units such as [h], [s], [Hz]
             assert _squash(bracket) in flat, (name, param.name, bracket)
-        if isinstance(param, click.Option) and param.is_flag and not param.secondary_opts:
+        if param.param_type_name == "option" and param.is_flag and not param.secondary_opts:
             # a flag takes no value: no metavar after it
             assert not re.search(re.escape(param.opts[0]) + r" <\w+>", res.output), param.opts
 
@@ -70,3 +69,85 @@ def test_config_errors_keep_their_section_names(tmp_path) -> None:
     res = runner.invoke(app, ["study", str(spec), "--out", str(tmp_path / "o")], env=ENV)
     assert res.exit_code == 2, res.output
     assert "missing [calibration]" in _squash(res.output)  # the section name is kept
+
+
+# ------------------------------------------------------------------ issue 21, items 8 and 9
+
+WORKFLOW = [
+    "simulate", "fit", "select", "evaluate", "compensate", "export", "plot", "navigate",
+    "reproduce", "study", "fleet",
+]  # fmt: skip
+
+
+def test_top_level_help_lists_whole_summaries_in_workflow_order() -> None:
+    res = runner.invoke(app, ["--help"], env=ENV)
+    assert res.exit_code == 0, res.output
+    lines = res.output.splitlines()
+    start = lines.index("Commands:") + 1
+    rows = [line.split(None, 1) for line in lines[start:] if line.strip()]
+    assert [r[0] for r in rows] == WORKFLOW
+    for name, summary in rows:
+        # one line each, ending in a full stop, never cut ("...") or stopped at "Eq."
+        assert summary.endswith(".") and not summary.endswith("..."), (name, summary)
+        assert not summary.endswith("(Eq."), (name, summary)
+    assert max(len(line) for line in lines) <= 80
+    res = runner.invoke(app, ["fleet", "--help"], env=ENV)
+    fit_row = next(line for line in res.output.splitlines() if line.strip().startswith("fit "))
+    assert fit_row.rstrip().endswith(".") and not fit_row.rstrip().endswith("...")
+
+
+def _usage_pieces(args: list[str]) -> str:
+    res = runner.invoke(app, [*args, "--help"], env=ENV)
+    assert res.exit_code == 0, res.output
+    return res.output.splitlines()[0]
+
+
+@pytest.mark.parametrize(
+    ("args", "usage"),
+    [
+        (["fit"], "Usage: rinscal fit [OPTIONS] LOG"),
+        (["compensate"], "Usage: rinscal compensate [OPTIONS] LOG"),
+        (["export"], "Usage: rinscal export [OPTIONS] MODEL"),
+        (["simulate"], "Usage: rinscal simulate [OPTIONS] PROTOCOL"),
+        (["study"], "Usage: rinscal study [OPTIONS] SPEC"),
+        (["fleet", "fit"], "Usage: rinscal fleet fit [OPTIONS] LOGS..."),
+    ],
+)
+def test_usage_lines_name_arguments_in_capitals(args, usage) -> None:
+    assert _usage_pieces(args) == usage
+
+
+def test_one_name_per_idea_across_commands() -> None:
+    group = typer.main.get_command(app)
+
+    def opts(*path: str) -> dict:
+        cmd = group
+        for p in path:
+            cmd = cmd.commands[p]  # type: ignore[attr-defined]
+        return {o: p for p in cmd.params if p.param_type_name == "option" for o in p.opts}
+
+    # workers: one option, one meaning, one default (one per core) wherever work fans out
+    for path in (("reproduce",), ("study",), ("fleet", "fit")):
+        o = opts(*path)
+        assert "--workers" in o and "-w" in o and o["--workers"].default is None, path
+        assert not any(not p.hidden for k, p in o.items() if k in ("--jobs", "-j")), path
+    # --imu is a simulated IMU preset everywhere; the export's IMU is --instance, as the readers
+    for path in (("simulate",), ("navigate",), ("reproduce",), ("study",)):
+        assert "preset" in opts(*path)["--imu"].help, path
+    assert opts("export")["--imu"].hidden and "--instance" in opts("export")
+    assert "0-based" in opts("export")["--instance"].help
+    # every compensating command offers the same policies
+    from rinscal.calibration.modelfile import POLICIES
+
+    for path in (("compensate",), ("evaluate",), ("navigate",)):
+        helptext = _squash(opts(*path)["--policy"].help)
+        assert all(p in helptext for p in POLICIES), (path, helptext)
+
+
+def test_navigate_hours_help_names_each_scenario_default() -> None:
+    from rinscal.nav.scenario import DEFAULT_HOURS
+
+    res = runner.invoke(app, ["navigate", "--help"], env=ENV)
+    flat = _squash(res.output)
+    for name, hours in DEFAULT_HOURS.items():
+        assert f"{name} {hours:g} h" in flat, (name, hours)

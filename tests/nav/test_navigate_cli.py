@@ -185,3 +185,29 @@ def test_navigate_refuses_bad_imu_and_alignment_options(tmp_path) -> None:  # ty
     helptext = runner.invoke(app, ["navigate", "--help"]).output
     assert "--imu" in helptext and "--align-start-s" in helptext
     assert "--imu-config" not in helptext
+
+
+def test_navigate_takes_every_policy_and_words_the_change(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """Issue 21, item 9: --policy fallback as in compensate/evaluate; an improvement reads
+    "less than uncompensated", a loss "more than", never a signed "+78 % vs"."""
+    log = tmp_path / "soak.parquet"
+    res = runner.invoke(
+        app, ["simulate", "soak", "--hours", "0.5", "--rate", "0.2", "--out", str(log)]
+    )
+    assert res.exit_code == 0, res.output
+    model = tmp_path / "m.json"
+    res = runner.invoke(app, ["fit", str(log), "--method", "regression", "--out", str(model)])
+    assert res.exit_code == 0, res.output
+    args = ["navigate", "-s", "quasi-static", "--hours", "0.2", "--rate", "10", "--no-oracle"]
+    res = runner.invoke(
+        app, [*args, "-m", str(model), "--policy", "fallback", "--out", str(tmp_path / "n")]
+    )
+    assert res.exit_code == 0, res.output
+    summary = json.loads((tmp_path / "n" / "summary.json").read_text())
+    (v,) = (v for v in summary["variants"].values() if "improvement_vs_none_pct" in v)
+    pct = v["improvement_vs_none_pct"]
+    word = "less" if pct >= 0 else "more"
+    assert f"({abs(pct):.1f} % {word} than uncompensated)" in " ".join(res.output.split())
+    assert "% vs uncompensated" not in res.output
+    bad = runner.invoke(app, [*args, "--policy", "guess", "--out", str(tmp_path / "x")])
+    assert bad.exit_code == 2 and "clamp, fallback, extrapolate, error" in bad.output

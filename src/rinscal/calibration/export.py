@@ -15,7 +15,9 @@ PX4 (``src/modules/temperature_compensation``; parameters ``TC_G*``/``TC_A*``)
     ``_0.._2`` (x, y, z): ``TC_G0_X3_0 .. TC_G0_X0_2``, ``TC_G0_TREF``, ``TC_G0_TMIN``,
     ``TC_G0_TMAX`` (and ``TC_A0_*``), ``TC_G_ENABLE``/``TC_A_ENABLE`` = 1, ``TC_G0_ID``/
     ``TC_A0_ID`` (set 0, or the set of the model's ``source["instance"]`` when it was fitted
-    on a ULog instance: instance 1 writes ``TC_G1_*``). PX4 applies the set only to the
+    on a ULog instance: instance 1 writes ``TC_G1_*``; ``--instance`` chooses it). PX4
+    applies the first set whose ``ID`` matches, and a file loaded into one set clears no other
+    (the header says so, and that ``TC_*_ENABLE`` needs a reboot). PX4 applies the set only to the
     sensor whose ``device_id`` equals the ``ID`` parameter (``set_sensor_id``:
     ``device_id == (uint32_t)ID``), so an id of 0 means the file is never applied:
     the ids are required (``gyro_id``/``accel_id``, else the model's
@@ -32,8 +34,10 @@ PX4 (``src/modules/temperature_compensation``; parameters ``TC_G*``/``TC_A*``)
 ArduPilot (``AP_InertialSensor_tempcal.cpp``; parameters ``INS_TCALn_*``)
     ``v −= P(clamp(T) − 35) − P(clamp(CALTEMP) − 35)`` with ``P(d) = (c1 + (c2 + c3 d) d) d ·
     1e−6``: a fixed reference of 35 °C, no constant term, coefficients stored × 1e6, in SI.
-    ``n`` is ``--imu``, else the model's ``source["instance"]`` + 1 (a DataFlash ``IMU``
-    instance), else 1. Written: ``INS_TCALn_ENABLE`` = 1, ``INS_TCALn_TMIN``, ``INS_TCALn_TMAX``,
+    ``n`` is the IMU instance + 1: ``--instance`` (0-based, as the readers number them), else
+    the model's ``source["instance"]`` (a DataFlash ``IMU`` instance), else 0; instances 3
+    and 4 (``INS4_TCAL_*``, ``INS5_TCAL_*``) are refused. Written: ``INS_TCALn_ENABLE`` = 1,
+    ``INS_TCALn_TMIN``, ``INS_TCALn_TMAX``,
     ``INS_TCALn_ACC1_X .. ACC3_Z``, ``INS_TCALn_GYR1_X .. GYR3_Z`` (the cubic re-expanded about
     35 °C) as ``NAME VALUE`` lines with ``#`` comments (MAVProxy/Mission Planner ``.parm``).
     ArduPilot has no TREF parameter; the constant is the job of its offset calibration and
@@ -228,9 +232,9 @@ def to_px4_params(
     model: ThermalModelFile,
     gyro_id: int | None = None,
     accel_id: int | None = None,
-    slot: int | None = None,
+    instance: int | None = None,
 ) -> str:
-    """PX4 thermal-compensation parameters (one ``TC_G<slot>``/``TC_A<slot>`` set).
+    """PX4 thermal-compensation parameters (one ``TC_G<n>``/``TC_A<n>`` set).
 
     Parameters
     ----------
@@ -242,10 +246,11 @@ def to_px4_params(
         ``device_id`` of ``sensor_gyro``/``sensor_accel`` in a ULog (uint32) or the
         ``CAL_GYRO0_ID``/``CAL_ACC0_ID`` parameter (int32). ``None``: the model's
         ``source["device_ids"]["gyro"|"accel"]``; an explicit id wins.
-    slot : int, optional
-        The parameter set 0-3 (PX4 applies a set to the sensor whose id it holds, whatever
-        the slot). Default: the model's ``source["instance"]`` (a model fitted on ULog
-        instance 1 goes to ``TC_G1``/``TC_A1`` and leaves instance 0's set alone), else 0.
+    instance : int, optional
+        The parameter set ``n`` 0-3, numbered as the readers number IMU instances (PX4
+        applies a set to the sensor whose id it holds, whatever the set). Default: the
+        model's ``source["instance"]`` (a model fitted on ULog instance 1 goes to
+        ``TC_G1``/``TC_A1`` and leaves instance 0's set alone), else 0.
 
     Returns
     -------
@@ -258,11 +263,12 @@ def to_px4_params(
         A device id missing or 0 (naming ``--gyro-id``/``--accel-id``), a channel whose
         method is not a clamped cubic, unknown units, or axes without a common range.
     """
+    slot = instance
     if slot is None:
         inst = _instance(model)
         slot = inst if inst is not None and inst <= 3 else 0
     if slot not in (0, 1, 2, 3):
-        raise ConfigError(f"PX4 thermal parameter set must be 0-3, got {slot}")
+        raise ConfigError(f"PX4 thermal parameter set (instance) must be 0-3, got {slot}")
     ids = {
         "gyro": _device_id(gyro_id, model, "gyro", "--gyro-id", f"TC_G{slot}_ID"),
         "accel": _device_id(accel_id, model, "accel", "--accel-id", f"TC_A{slot}_ID"),
@@ -272,7 +278,11 @@ def to_px4_params(
         f"# X0 = bias at TREF {'without Earth rate/gravity' if _has_ref(model) else 'set to 0'}"
         "; SI units (rad/s, m/s^2); TMIN/TMAX rounded inwards (degC)",
         f"# TC_G{slot}_ID = {ids['gyro']}, TC_A{slot}_ID = {ids['accel']}: applied only to the "
-        "sensors with these device ids",
+        "sensors with these device ids.",
+        "# PX4 uses the FIRST set (TC_G0.., TC_A0..) whose ID equals a sensor's device id, and",
+        "# loading this file clears no other set: if another set already holds one of these",
+        "# ids, set that set's ID to 0 first (or export into it with --instance).",
+        "# TC_G_ENABLE and TC_A_ENABLE take effect after a reboot.",
         "#",
         "# Vehicle-Id\tComponent-Id\tName\tValue\tType",
     ]
@@ -342,7 +352,7 @@ def lost_share(coef: np.ndarray, k: int, t_min: float, t_max: float) -> float:
     return lost / span if span > 0 else float("inf")
 
 
-def to_ardupilot_parm(model: ThermalModelFile, imu: int | None = None) -> str:
+def to_ardupilot_parm(model: ThermalModelFile, instance: int | None = None) -> str:
     """ArduPilot ``INS_TCALn_*`` parameters of a clamped-cubic model.
 
     Parameters
@@ -350,9 +360,12 @@ def to_ardupilot_parm(model: ThermalModelFile, imu: int | None = None) -> str:
     model : ThermalModelFile
         Every gyro and accelerometer channel a ``poly-t`` (degree ≤ 3), ``px4`` or
         ``ardupilot`` model with known units.
-    imu : int, optional
-        IMU instance ``n`` (1-3). Default: the model's ``source["instance"]`` + 1 (a model
-        fitted on DataFlash ``IMU`` instance 0 goes to ``INS_TCAL1``), else 1.
+    instance : int, optional
+        The IMU instance, numbered as the readers number it (DataFlash ``IMU.I``, 0-based):
+        0, 1, 2 write ``INS_TCAL1_*`` .. ``INS_TCAL3_*``. Default: the model's
+        ``source["instance"]`` (the instance it was fitted on), else 0. Instances 3 and 4
+        (IMUs 4 and 5, whose parameters ArduPilot keeps under ``INS4_TCAL_*`` and
+        ``INS5_TCAL_*``) are refused.
 
     Returns
     -------
@@ -365,10 +378,17 @@ def to_ardupilot_parm(model: ThermalModelFile, imu: int | None = None) -> str:
         Per written coefficient ``v`` with ``0 < |v| ≤ 1e-6``, which MAVProxy's ``param load``
         does not send to a vehicle where it is 0 (see :data:`MAVPROXY_MIN_DELTA`).
     """
-    if imu is None:
-        imu = (_instance(model) or 0) + 1
-    if imu not in (1, 2, 3):
-        raise ConfigError(f"ArduPilot IMU instance must be 1, 2 or 3, got {imu}")
+    if instance is None:
+        instance = _instance(model) or 0
+    if instance in (3, 4):
+        raise ConfigError(
+            f"ArduPilot IMU instance {instance} (IMU {instance + 1}) keeps its temperature "
+            f"calibration under INS{instance + 1}_TCAL_*, which this export does not write; "
+            "it writes instances 0, 1 and 2 (INS_TCAL1_* .. INS_TCAL3_*)"
+        )
+    if instance not in (0, 1, 2):
+        raise ConfigError(f"ArduPilot IMU instance must be 0, 1 or 2 (0-based), got {instance}")
+    imu = instance + 1
     p = f"INS_TCAL{imu}_"
     blocks: dict[str, list[tuple[str, np.ndarray]]] = {}
     all_axes: list[_Axis] = []

@@ -7,6 +7,7 @@ from collections.abc import Callable
 from typing import Any
 
 import typer
+import typer.core
 from rich.console import Console
 from rich.text import Text
 
@@ -18,6 +19,26 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
     rich_markup_mode=None,  # help text is plain: units in brackets ([h], [s]) are kept
 )
+
+
+class PlainUsageCommand(typer.core.TyperCommand):
+    """A command whose usage line names its arguments as click does (``LOG``, ``LOGS...``).
+
+    Typer writes a required argument as ``{log}``, which reads as a set of choices.
+    """
+
+    def collect_usage_pieces(self, ctx: Any) -> list[str]:
+        """``[OPTIONS]``, then each argument: its metavar or its name in capitals."""
+        pieces = [self.options_metavar] if self.options_metavar else []
+        for param in self.get_params(ctx):
+            if param.param_type_name != "argument":
+                pieces.extend(param.get_usage_pieces(ctx))
+                continue
+            name = param.metavar or (param.name or "").upper()
+            name += "..." if param.nargs != 1 else ""
+            pieces.append(name if param.required else f"[{name}]")
+        return pieces
+
 
 #: Messages and tables go to stdout; errors and warnings to stderr. No markup: text in
 #: brackets (units such as [s], TOML sections such as [study]) is printed as it is; styles

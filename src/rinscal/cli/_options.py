@@ -16,7 +16,8 @@ if TYPE_CHECKING:
 LogArg = Annotated[
     Path,
     typer.Argument(
-        help="Calibration log (.csv, .tsv or .parquet), or a PX4 .ulg / ArduPilot .bin log."
+        metavar="LOG",
+        help="Calibration log (.csv, .tsv or .parquet), or a PX4 .ulg / ArduPilot .bin log.",
     ),
 ]
 InstanceOpt = Annotated[
@@ -72,6 +73,14 @@ WorkersOpt = Annotated[
         min=1,
         max=1024,
         help="Local worker processes, 1-1024 (default: one per core).",
+    ),
+]
+PolicyOpt = Annotated[
+    str,
+    typer.Option(
+        "--policy",
+        help="Outside the training data: clamp (inputs to their range), fallback (the "
+        "channel's T-only model outside the joint domain), extrapolate or error.",
     ),
 ]
 SchedulerOpt = Annotated[

@@ -22,6 +22,7 @@ from rinscal.cli._options import (
     InstanceOpt,
     LogArg,
     MapOpt,
+    PolicyOpt,
     RelTimeOpt,
     SepOpt,
     TempColOpt,
@@ -43,14 +44,6 @@ if TYPE_CHECKING:
 _METHODS = ("auto", "poly-t", "sectional", "regression", "neural", "px4", "ardupilot")
 
 ModelOpt = Annotated[Path, typer.Option("--model", "-m", help="Thermal model file (JSON).")]
-PolicyOpt = Annotated[
-    str,
-    typer.Option(
-        "--policy",
-        help="Outside the training data: clamp (inputs to their range), fallback (the "
-        "channel's T-only model outside the joint domain), extrapolate or error.",
-    ),
-]
 JsonOpt = Annotated[bool, typer.Option("--json", help="Print JSON instead of a table.")]
 IgnoreUnitsOpt = Annotated[
     bool,
@@ -984,7 +977,7 @@ def _write_allan_plot(path: Path, curves: Any, mf: Any, name: str) -> None:
 
 @app.command("export")
 def export_cmd(
-    model: Annotated[Path, typer.Argument(help="Thermal model file (JSON).")],
+    model: Annotated[Path, typer.Argument(metavar="MODEL", help="Thermal model file (JSON).")],
     fmt: Annotated[str, typer.Option("--format", help="px4, ardupilot or c.")],
     out: Annotated[Path, typer.Option("--out", "-o", help="File to write.")],
     gyro_id: Annotated[
@@ -1003,13 +996,17 @@ def export_cmd(
             "ULog, or CAL_ACC0_ID). Default: the model's source device_ids; required for px4.",
         ),
     ] = None,
-    imu: Annotated[
+    instance: Annotated[
         int | None,
         typer.Option(
-            "--imu",
-            help="ArduPilot IMU instance (1-3). Default: the instance the model was fitted on "
-            "(from a .bin/.ulg log), else 1.",
+            "--instance",
+            help="The IMU instance, numbered as the readers' --instance (0-based): px4 writes "
+            "the set TC_G<N>/TC_A<N> (0-3), ardupilot INS_TCAL<N+1>_* (0-2; IMUs 4 and 5 are "
+            "refused). Default: the instance the model was fitted on (.bin/.ulg), else 0.",
         ),
+    ] = None,
+    imu: Annotated[
+        int | None, typer.Option("--imu", hidden=True, help="Old, 1-based, ArduPilot IMU.")
     ] = None,
     prefix: Annotated[str, typer.Option("--prefix", help="C identifier prefix.")] = "rinscal",
 ) -> None:
@@ -1029,15 +1026,20 @@ def export_cmd(
 
     if fmt not in ("px4", "ardupilot", "c"):
         raise fail(f"--format must be px4, ardupilot or c, got {fmt!r}")
+    if imu is not None:
+        raise fail(
+            f"--imu is now --instance, numbered from 0 as the log readers do: --imu {imu} is "
+            f"--instance {imu - 1}"
+        )
     refuse_inputs(out, [model])
     try:
         mf = ThermalModelFile.load(model)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", SmallCoefficientWarning)
             if fmt == "px4":
-                text = to_px4_params(mf, gyro_id, accel_id)
+                text = to_px4_params(mf, gyro_id, accel_id, instance)
             elif fmt == "ardupilot":
-                text = to_ardupilot_parm(mf, imu)
+                text = to_ardupilot_parm(mf, instance)
             else:
                 text = to_c_header(mf, prefix)
         write_atomic(out, lambda tmp: tmp.write_text(text, encoding="utf-8"))

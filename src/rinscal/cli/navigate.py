@@ -8,7 +8,7 @@ from typing import Annotated
 import typer
 
 from rinscal.cli._app import app
-from rinscal.cli._options import AlignLengthOpt, AlignStartOpt, is_same_file
+from rinscal.cli._options import AlignLengthOpt, AlignStartOpt, PolicyOpt, is_same_file
 from rinscal.thermal.presets import DEFAULT_PRESET, PRESETS
 
 #: The plant ``rinscal navigate`` runs unless ``--imu`` names another (as simulate and
@@ -45,7 +45,10 @@ def navigate(
         typer.Option(
             min=0.01,
             max=72.0,
-            help="Run length [h], 0.01-72 (vehicle: driving time). Default 4, 2, 1.9, 4.5 h.",
+            # rinscal.nav.scenario.DEFAULT_HOURS (a test holds them equal; importing it here
+            # would cost every command 3 s of start-up)
+            help="Run length [h], 0.01-72 (vehicle: driving time). Default per scenario: "
+            "quasi-static 4 h, swing 2 h, vehicle 1.9 h, ramp 4.5 h.",
         ),
     ] = None,
     rate: Annotated[
@@ -74,10 +77,7 @@ def navigate(
     oracle: Annotated[
         bool, typer.Option("--oracle/--no-oracle", help="Also navigate with the true thermal bias.")
     ] = True,
-    policy: Annotated[
-        str,
-        typer.Option(help="Model inputs outside the training range: clamp, extrapolate, error."),
-    ] = "clamp",
+    policy: PolicyOpt = "clamp",
 ) -> None:
     """Navigate a single-axis RINS through a cold start and report its position error.
 
@@ -92,6 +92,7 @@ def navigate(
     from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
     from rinscal import units
+    from rinscal.calibration.modelfile import POLICIES
     from rinscal.cli._app import console, fail
     from rinscal.errors import RinscalError
 
@@ -119,8 +120,8 @@ def navigate(
         raise fail(f"--align-s must be > 0 s, got {align_s}")
     if not (math.isfinite(align_start_s) and align_start_s >= 0):
         raise fail(f"--align-start-s must be >= 0 s, got {align_start_s}")
-    if policy not in ("clamp", "extrapolate", "error"):
-        raise fail(f"--policy must be clamp, extrapolate or error, got {policy!r}")
+    if policy not in POLICIES:
+        raise fail(f"--policy must be one of {', '.join(POLICIES)}, got {policy!r}")
 
     try:
         from rinscal.nav.rotation import schedule_from_name
@@ -215,7 +216,8 @@ def navigate(
     for name, v in summary["variants"].items():
         extra = ""
         if "improvement_vs_none_pct" in v:
-            extra = f"  ({v['improvement_vs_none_pct']:+.1f} % vs uncompensated)"
+            pct = v["improvement_vs_none_pct"]
+            extra = f"  ({abs(pct):.1f} % {'less' if pct >= 0 else 'more'} than uncompensated)"
         att = v["attitude_error_at_nav_start"]
         console.print(
             f"{name:>14}: max position error {v['max_error_m']:10.1f} m = "

@@ -10,11 +10,11 @@ from rich.table import Table
 from rich.text import Text
 
 from rinscal.cli._app import app, print_table
-from rinscal.cli._options import AlignLengthOpt, AlignStartOpt, ImuOpt
+from rinscal.cli._options import AlignLengthOpt, AlignStartOpt, ImuOpt, WorkersOpt
 from rinscal.thermal.presets import DEFAULT_PRESET
 
 #: Measured wall time of the full reproduction on a 2-core machine [min] (4 min 7 s with
-#: --jobs 2; the calibration stage, which runs in one process, is most of it).
+#: 2 workers; the calibration stage, which runs in one process, is most of it).
 FULL_EXPECTED_MIN = 5
 
 
@@ -42,16 +42,15 @@ def reproduce(
         bool,
         typer.Option(
             "--quick",
-            help="Shorter runs, lower rates: about 2 min with --jobs 2 on 2 cores (measured "
+            help="Shorter runs, lower rates: about 2 min with 2 workers on 2 cores (measured "
             "120 s the first time after install, numba compiling into its cache, 110 s later).",
         ),
     ] = False,
+    workers: WorkersOpt = None,
     jobs: Annotated[
-        int,
-        typer.Option(
-            "--jobs", "-j", min=1, max=1024, help="Parallel processes for navigation runs, 1-1024."
-        ),
-    ] = 1,
+        int | None,
+        typer.Option("--jobs", "-j", min=1, max=1024, hidden=True, help="Old name of --workers."),
+    ] = None,
     seed: Annotated[int, typer.Option("--seed", min=0, help="Seed of every random number.")] = 0,
     imu: ImuOpt = DEFAULT_PRESET,
     align_s: AlignLengthOpt = 600.0,
@@ -64,7 +63,7 @@ def reproduce(
             min=0,
             max=100000,
             help="Also run the navigation part as a study over N units (OUT/study, on Dask "
-            "with --jobs workers; resumable): the claims with 95 % intervals.",
+            "with --workers; resumable): the claims with 95 % intervals.",
         ),
     ] = 0,
 ) -> None:
@@ -77,11 +76,12 @@ def reproduce(
     The report and metrics.json name the plant that ran.
     """
     import json
+    import os
     import time
 
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from rinscal.cli._app import console, fail, styled
+    from rinscal.cli._app import console, err_console, fail, styled
     from rinscal.errors import RinscalError
     from rinscal.experiments.paper import (
         ReproConfig,
@@ -99,6 +99,12 @@ def reproduce(
     from rinscal.report.paper_report import write_reproduction
     from rinscal.report.study_report import write_study_report
 
+    if jobs is not None:
+        if workers is not None:
+            raise fail("--jobs is the old name of --workers: give one of them")
+        err_console.print(styled("note:", "cyan", " --jobs is now --workers (-w)"))
+        workers = jobs
+    jobs = workers or len(os.sched_getaffinity(0))  # navigation runs in parallel
     try:
         options = {"imu": imu, "align_s": align_s, "align_start_s": align_start_s}
         make = ReproConfig.quick_preset if quick else ReproConfig.full
@@ -122,7 +128,7 @@ def reproduce(
         console.print(f"quick reproduction, seed {seed}: expect about 2 minutes", highlight=False)
     else:
         console.print(
-            f"full reproduction, seed {seed}, {jobs} process(es): expect about "
+            f"full reproduction, seed {seed}, {jobs} worker(s): expect about "
             f"{FULL_EXPECTED_MIN if jobs > 1 else FULL_EXPECTED_MIN + 1} minutes on a 2-core "
             "machine (use --quick for a 2-minute version)",
             highlight=False,

@@ -125,7 +125,11 @@ def plot(
 @app.command("simulate")
 def simulate(
     protocol: Annotated[
-        str, typer.Argument(help="Protocol: soak (Table 3), ramp (-2 -> 50 °C) or repeat (25 °C).")
+        str,
+        typer.Argument(
+            metavar="PROTOCOL",
+            help="Protocol: soak (Table 3), ramp (-2 -> 50 °C) or repeat (25 °C).",
+        ),
     ],
     out: Annotated[Path, typer.Option("--out", "-o", help="Log to write (.parquet, .csv, .tsv).")],
     hours: Annotated[

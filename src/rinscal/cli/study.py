@@ -15,7 +15,9 @@ from rinscal.cli._options import SchedulerOpt, WorkersOpt
 def study(
     spec: Annotated[
         str,
-        typer.Argument(help="A built-in study (paper, sensitivity) or a study TOML file."),
+        typer.Argument(
+            metavar="SPEC", help="A built-in study (paper, sensitivity) or a study TOML file."
+        ),
     ],
     out: Annotated[
         Path,
