@@ -17,6 +17,7 @@ within the spread of the compensated output itself.
 
 from __future__ import annotations
 
+import json
 import math
 import shutil
 from pathlib import Path
@@ -27,7 +28,7 @@ import pytest
 from typer.testing import CliRunner
 
 from rinscal.calibration.compensate import model_features
-from rinscal.calibration.modelfile import ThermalModelFile
+from rinscal.calibration.modelfile import ThermalModelFile, payload_sha256
 from rinscal.cli import app
 from rinscal.io import write_log, write_meta
 from rinscal.schema import CHANNELS
@@ -227,3 +228,17 @@ def test_c_header_applied_keeps_the_static_reference(method, site_log, fitted, t
         for j, c in enumerate(CHANNELS)
     }
     _assert_static(comp, ref, f"C header ({method})")
+
+
+def test_a_px4_model_written_before_the_fix_is_refused(fitted, tmp_path) -> None:
+    # the old px4 accelerometer model: coef[0] without the training median (no gravity)
+    m, _ = fitted["px4"]
+    doc = json.loads(m.read_text())
+    cm = doc["payload"]["channel_models"]["accel_z"]
+    cm["params"]["coef"][0] -= cm["static_reference"]
+    doc["sha256"] = payload_sha256(doc["payload"])
+    old = tmp_path / "old.json"
+    old.write_text(json.dumps(doc))
+    res = runner.invoke(app, ["export", str(old), "--format", "c", "--out", str(tmp_path / "h")])
+    assert res.exit_code == 2, res.output
+    assert "channel_models.accel_z" in res.output and "refit it" in res.output

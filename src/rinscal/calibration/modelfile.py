@@ -79,7 +79,7 @@ from rinscal._version import __version__
 from rinscal.calibration._domain import inside_domain, validate_domain
 from rinscal.calibration._inference import METHODS, n_inputs, predict_params, validate_params
 from rinscal.errors import ModelFileError, RangeError
-from rinscal.units import check_sensor_unit
+from rinscal.units import G0, check_sensor_unit
 
 __all__ = [
     "FORMAT",
@@ -810,6 +810,15 @@ def _channel_from_dict(
         except ValueError as exc:
             raise ValueError(f"channel_models.{c}: {exc}") from None
     ref = _finite(d["static_reference"], f"channel_models.{c}.static_reference")
+    if params["method"] == "px4" and ref is not None and k_si is not None:
+        # before issue 21 a px4 accelerometer's coef[0] held no gravity (PX4's median removed)
+        # while its static reference did: compensation would add 1 g. No sensor is 0.5 g off.
+        if abs(float(params["coef"][0]) - ref) * k_si > 0.5 * G0:
+            raise ValueError(
+                f"channel_models.{c}: the px4 model's level at TREF, {params['coef'][0]:.6g}, is "
+                f"more than 0.5 g from its static reference {ref:.6g}: a model written before "
+                "rinscal kept the training level in px4 fits would remove gravity twice; refit it"
+            )
     edges = d["segment_edges"]
     e_arr = None
     if edges is not None:
