@@ -94,10 +94,8 @@ def _si_bias(mf, channel: str, temp: np.ndarray) -> np.ndarray:
     return (f - cm.static_reference) * cm.unit_to_si
 
 
-def test_px4_params_reproduce_the_poly_t_offset(fitted_models) -> None:
-    mf = fitted_models["poly-t"]
-    p = _params(to_px4_params(mf, gyro_id=2293768, accel_id=2294024), "\t")
-    assert p["TC_G_ENABLE"] == 1 and p["TC_A0_ID"] == 2294024
+def assert_px4_offsets_are_the_models(p: dict[str, float], mf, rel: float = 1e-7) -> None:
+    """PX4's ``calc_thermal_offsets_3D`` on the written set 0 gives the model's ``f − r``."""
     for sensor, tag in (("gyro", "G"), ("accel", "A")):
         lo, hi = p[f"TC_{tag}0_TMIN"], p[f"TC_{tag}0_TMAX"]
         temp = np.linspace(lo, hi, 50)
@@ -106,7 +104,37 @@ def test_px4_params_reproduce_the_poly_t_offset(fitted_models) -> None:
             # PX4 temperature_compensation: offset = X0 + X1 d + X2 d² + X3 d³, SI
             offset = sum(p[f"TC_{tag}0_X{k}_{i}"] * d**k for k in range(4))
             want = _si_bias(mf, f"{sensor}_{a}", temp)
-            np.testing.assert_allclose(offset, want, rtol=0, atol=1e-7 * np.abs(want).max())
+            np.testing.assert_allclose(offset, want, rtol=0, atol=rel * np.abs(want).max())
+
+
+def assert_ardupilot_correction_is_the_models(
+    p: dict[str, float], mf, n: int = 1, rel: float = 1e-7
+) -> None:
+    """``TCal::correct_sensor`` on ``INS_TCALn_*`` gives the model's change from CALTEMP."""
+    lo, hi = p[f"INS_TCAL{n}_TMIN"], p[f"INS_TCAL{n}_TMAX"]
+    temp = np.linspace(lo, hi, 50)
+    cal_temp = 0.5 * (lo + hi)  # INS_ACC1_CALTEMP: where the offsets were calibrated
+    for sensor, tag in (("accel", "ACC"), ("gyro", "GYR")):
+        for a in AXES:
+
+            def poly(d: np.ndarray, a: str = a, tag: str = tag) -> np.ndarray:
+                c = [p[f"INS_TCAL{n}_{tag}{k}_{a.upper()}"] for k in (1, 2, 3)]
+                return (c[0] + (c[1] + c[2] * d) * d) * d * 1e-6  # AP_InertialSensor_tempcal
+
+            # v -= P(T − 35) − P(CALTEMP − 35): ArduPilot keeps the level
+            correction = poly(temp - 35.0) - poly(np.full(1, cal_temp - 35.0))
+            ch = f"{sensor}_{a}"
+            want = _si_bias(mf, ch, temp) - _si_bias(mf, ch, np.array([cal_temp]))
+            np.testing.assert_allclose(
+                correction, want, rtol=0, atol=rel * np.abs(_si_bias(mf, ch, temp)).max()
+            )
+
+
+def test_px4_params_reproduce_the_poly_t_offset(fitted_models) -> None:
+    mf = fitted_models["poly-t"]
+    p = _params(to_px4_params(mf, gyro_id=2293768, accel_id=2294024), "\t")
+    assert p["TC_G_ENABLE"] == 1 and p["TC_A0_ID"] == 2294024
+    assert_px4_offsets_are_the_models(p, mf)
 
 
 @pytest.mark.filterwarnings("ignore::rinscal.calibration.export.SmallCoefficientWarning")
@@ -114,22 +142,7 @@ def test_ardupilot_parm_reproduces_the_thermal_change(fitted_models) -> None:
     mf = fitted_models["poly-t"]
     p = _params(to_ardupilot_parm(mf, instance=1), None)
     assert p["INS_TCAL2_ENABLE"] == 1
-    lo, hi = p["INS_TCAL2_TMIN"], p["INS_TCAL2_TMAX"]
-    temp = np.linspace(lo, hi, 50)
-    cal_temp = 0.5 * (lo + hi)  # INS_ACC1_CALTEMP: where the offsets were calibrated
-    for sensor, tag in (("accel", "ACC"), ("gyro", "GYR")):
-        for a in AXES:
-
-            def poly(d: np.ndarray, a: str = a, tag: str = tag) -> np.ndarray:
-                c = [p[f"INS_TCAL2_{tag}{k}_{a.upper()}"] for k in (1, 2, 3)]
-                return (c[0] + (c[1] + c[2] * d) * d) * d * 1e-6  # AP_InertialSensor_tempcal
-
-            correction = poly(temp - 35.0) - poly(np.full(1, cal_temp - 35.0))
-            ch = f"{sensor}_{a}"
-            want = _si_bias(mf, ch, temp) - _si_bias(mf, ch, np.array([cal_temp]))
-            np.testing.assert_allclose(
-                correction, want, rtol=0, atol=1e-7 * np.abs(_si_bias(mf, ch, temp)).max()
-            )
+    assert_ardupilot_correction_is_the_models(p, mf, n=2)
 
 
 def test_flight_exports_need_a_poly_t_model_with_units(fitted_models, soak_small) -> None:

@@ -32,7 +32,12 @@ from rinscal.calibration.modelfile import ThermalModelFile, payload_sha256
 from rinscal.cli import app
 from rinscal.io import write_log, write_meta
 from rinscal.schema import CHANNELS
-from tests.calibration.test_cal_export import _c_outputs, _params, _si_bias
+from tests.calibration.test_cal_export import (
+    _c_outputs,
+    _params,
+    assert_ardupilot_correction_is_the_models,
+    assert_px4_offsets_are_the_models,
+)
 
 runner = CliRunner()
 
@@ -168,14 +173,7 @@ def test_px4_export_applied_by_the_firmware_keeps_the_static_reference(
     assert res.exit_code == 0, res.output
     params = _params(out.read_text(), "\t")
     _assert_static(_px4_corrected(params, log, mf), ref, f"PX4 firmware ({method})")
-    # the firmware's offset is the model's f − r over the exported range
-    for sensor, tag in (("gyro", "G"), ("accel", "A")):
-        temp = np.linspace(params[f"TC_{tag}0_TMIN"], params[f"TC_{tag}0_TMAX"], 40)
-        d = temp - params[f"TC_{tag}0_TREF"]
-        for i, a in enumerate(AXES):
-            offset = sum(params[f"TC_{tag}0_X{k}_{i}"] * d**k for k in range(4))
-            want = _si_bias(mf, f"{sensor}_{a}", temp)
-            np.testing.assert_allclose(offset, want, rtol=0, atol=1e-6 * np.abs(want).max())
+    assert_px4_offsets_are_the_models(params, mf, rel=1e-6)  # and f − r over the range
 
 
 @pytest.mark.filterwarnings("ignore::rinscal.calibration.export.SmallCoefficientWarning")
@@ -190,24 +188,7 @@ def test_ardupilot_export_applied_by_the_firmware_is_the_models_change(
         assert res.exit_code != 0 and "C header" in res.output, res.output
         return
     assert res.exit_code == 0, res.output
-    p = _params(out.read_text(), None)
-    lo, hi = p["INS_TCAL1_TMIN"], p["INS_TCAL1_TMAX"]
-    temp = np.linspace(lo, hi, 40)
-    cal = np.array([0.5 * (lo + hi)])  # INS_ACC1_CALTEMP: where the offsets were calibrated
-    for sensor, tag in (("accel", "ACC"), ("gyro", "GYR")):
-        for a in AXES:
-            c3 = [p[f"INS_TCAL1_{tag}{k}_{a.upper()}"] * 1e-6 for k in (1, 2, 3)]
-
-            def poly(d: np.ndarray, c3: list[float] = c3) -> np.ndarray:
-                return (c3[0] + (c3[1] + c3[2] * d) * d) * d  # TCal::polynomial_eval, SI
-
-            # TCal::correct_sensor: v -= P(T − 35) − P(CALTEMP − 35); ArduPilot keeps the level
-            correction = poly(temp - 35.0) - poly(cal - 35.0)
-            ch = f"{sensor}_{a}"
-            want = _si_bias(mf, ch, temp) - _si_bias(mf, ch, cal)
-            np.testing.assert_allclose(
-                correction, want, rtol=0, atol=1e-6 * np.abs(_si_bias(mf, ch, temp)).max()
-            )
+    assert_ardupilot_correction_is_the_models(_params(out.read_text(), None), mf, rel=1e-6)
 
 
 @pytest.mark.skipif(shutil.which("cc") is None, reason="no C compiler")
