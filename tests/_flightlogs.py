@@ -204,6 +204,14 @@ def write_ulog(
     return _cut(path, cut_bytes)
 
 
+def ulog_data_start(raw: bytes) -> int:
+    """Byte offset of a ULog's data section: its first subscription (``A``) message."""
+    pos = 16
+    while raw[pos + 2] != ord("A"):
+        pos += 3 + struct.unpack_from("<H", raw, pos)[0]
+    return pos
+
+
 def _sensor(
     us: np.ndarray, delay_us: int, device_id: int, values: np.ndarray, temp: np.ndarray
 ) -> dict[str, np.ndarray]:

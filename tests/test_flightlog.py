@@ -33,6 +33,7 @@ from tests._flightlogs import (
     DataFlashImu,
     Topic,
     px4_topics,
+    ulog_data_start,
     write_dataflash,
     write_ulog,
 )
@@ -461,3 +462,28 @@ def test_corrupt_ulog_is_read_by_pyulog_and_told(px4_logs, tmp_path) -> None:
     assert 0.9 * len(good) < len(log) <= len(good)
     common = np.isin(log["time_s"], good["time_s"])
     assert common.mean() > 0.99
+
+
+def test_a_ulog_whose_data_section_is_garbage_is_refused_in_one_line(px4_logs, tmp_path):
+    # a valid header and definitions, then random bytes: no message pyulog can recover
+    model = tmp_path / "m.json"
+    _ok(["fit", px4_logs["csv"], "--method", "poly-t", "--out", model])
+    raw = px4_logs["plain"].read_bytes()
+    out = tmp_path / "out"
+    out.mkdir()
+    for seed in range(4):
+        noise = np.random.default_rng(seed).integers(0, 256, 20_000, dtype=np.uint8).tobytes()
+        bad = tmp_path / f"garbage{seed}.ulg"
+        bad.write_bytes(raw[: ulog_data_start(raw)] + noise)
+        for args in (
+            ["plot", bad, "--out", out / "g.png"],
+            ["fit", bad, "--instance", "1", "--out", out / "m.json"],
+            ["compensate", bad, "--instance", "1", "--model", model, "--out", out / "c.csv"],
+        ):
+            res = runner.invoke(app, [str(a) for a in args])
+            assert res.exit_code == 2, (args[0], res.output, res.exception)
+            text = " ".join(res.output.split())
+            assert text.startswith(f"error: {bad}: unreadable ULog: "), text
+            assert "pyulog's parser cannot read past" in text
+            assert "Traceback" not in res.output and len(res.output.strip().splitlines()) <= 3
+    assert list(out.iterdir()) == []

@@ -43,6 +43,7 @@ decoded as numpy records.
 from __future__ import annotations
 
 import contextlib
+import errno
 import io as _io
 import itertools
 import os
@@ -56,7 +57,7 @@ import numba
 import numpy as np
 import pandas as pd
 
-from rinscal.errors import LogError
+from rinscal.errors import LogError, describe_os_error
 from rinscal.firmware import (
     ardupilot_id_param,
     ardupilot_tcal,
@@ -414,24 +415,35 @@ def _check_magic(p: Path, magic: bytes, what: str, hint: str) -> None:
         raise LogError(f"{p}: not a {what} ({found}; a {what} starts with {magic!r}){hint}")
 
 
-def _pyulog(p: Path, **kw: Any) -> Any:
+def _pyulog(p: Path, damage: str | None = None, **kw: Any) -> Any:
     """pyulog's ULog of ``p`` (what it prints about a damaged file is kept off the terminal:
-    the reader's notes say what was done)."""
+    the reader's notes say what was done). ``damage``: what the scanner found wrong, named
+    when pyulog cannot read past it either."""
     from pyulog import ULog
     from pyulog.core import ULogException
 
+    why = f"{damage}, which pyulog's parser cannot read past" if damage else None
     try:
         with contextlib.redirect_stdout(_io.StringIO()):
             return ULog(str(p), **kw)
     except ULogException as exc:
-        raise LogError(f"{p}: unreadable ULog: {exc}") from None
-    except (struct.error, IndexError, KeyError, ValueError) as exc:
-        raise LogError(f"{p}: unreadable ULog (truncated or corrupt): {exc!r}") from None
+        raise LogError(f"{p}: unreadable ULog: {why or exc}") from None
+    except (struct.error, IndexError, KeyError, ValueError, OverflowError) as exc:
+        raise LogError(
+            f"{p}: unreadable ULog: {why or f'truncated or corrupt ({exc!r})'}"
+        ) from None
+    except OSError as exc:
+        if exc.errno not in (None, errno.EINVAL):  # the file itself (permission, I/O error)
+            raise LogError(describe_os_error(exc, p)) from None
+        # pyulog seeks back before the file's start while hunting for a message in garbage
+        raise LogError(f"{p}: unreadable ULog: {why or 'corrupt data'} ({exc})") from None
 
 
 def _scan_ulog(p: Path) -> _ULogScan:
     _check_magic(p, _ULOG_MAGIC, "ULog", "")
-    head = _pyulog(p, parse_header_only=True)
+    head = _pyulog(
+        p, "corrupt bytes in its definitions or where its data begin", parse_header_only=True
+    )
     buf = _open_buffer(p)
     counts, others, stamps, end, status = _ulog_walk(buf, 16)
     notes: list[str] = []
@@ -454,7 +466,7 @@ def _scan_ulog(p: Path) -> _ULogScan:
     if status == 2 or head.has_data_appended:
         why = "appended data" if head.has_data_appended else f"a corrupt message at byte {end}"
         notes.append(f"{why}: read by pyulog's own parser (slower), which recovers what it can")
-        ulog = _pyulog(p, message_name_filter_list=list(_TOPICS))
+        ulog = _pyulog(p, why, message_name_filter_list=list(_TOPICS))
         return _ULogScan(p, buf, params, head.message_formats, {},
                          counts, [], end, notes, fallback=ulog)  # fmt: skip
     if status == 1:
