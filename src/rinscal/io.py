@@ -71,6 +71,7 @@ __all__ = [
     "FORMATS",
     "ColumnMapping",
     "atomic_path",
+    "channel_unit",
     "format_of",
     "is_flight_log",
     "mapping_from_options",
@@ -256,18 +257,32 @@ class ColumnMapping:
 
     def unit_of(self, channel: str) -> str | None:
         """Unit of ``channel`` declared in :attr:`units`, or ``None``."""
-        if channel in self.units:
-            return self.units[channel]
-        for group, chans in _CHANNEL_GROUPS.items():
-            if channel in chans and group in self.units:
-                return self.units[group]
-        return None
+        return channel_unit(self.units, channel)
 
     def foreign_columns(self) -> list[str]:
         """Every foreign column the mapping names (and so the file must have)."""
         cols = list(self.columns)
         cols += [c for c in (self.time, self.temperature) if c is not None]
         return cols
+
+
+def channel_unit(units: Mapping[str, Any], channel: str) -> str | None:
+    """Unit of ``channel`` in a units table keyed by channel or by sensor, or ``None``.
+
+    Parameters
+    ----------
+    units : mapping
+        ``{"gyro_x": "deg/h", ...}`` and/or ``{"gyro": "rad/s", "accel": "m/s^2"}`` (a
+        mapping's ``[units]``, a log's ``meta["units"]``); a channel's own entry wins.
+    channel : str
+        A sensor channel, e.g. ``"accel_z"``.
+    """
+    if channel in units:
+        return str(units[channel])
+    for group, chans in _CHANNEL_GROUPS.items():
+        if channel in chans and group in units:
+            return str(units[group])
+    return None
 
 
 def read_mapping(path: str | os.PathLike[str]) -> ColumnMapping:
