@@ -282,25 +282,29 @@ def test_ulog_nan_temperature_and_a_timestamp_glitch_are_left_out_and_told(tmp_p
 # ----------------------------------------------------------------------------- ArduPilot
 
 
-def _ardupilot_logged(w: dict[str, np.ndarray], params: dict[str, float], until_s: float):
-    """IMU values as ArduPilot logs them: INS_TCAL1 correction (until ``until_s``), then
+def _ardupilot_logged(
+    w: dict[str, np.ndarray],
+    params: dict[str, float],
+    until_s: float,
+    tcal: str = "INS_TCAL1_",
+    caltemp: tuple[str, str] = ("INS_GYR1_CALTEMP", "INS_ACC1_CALTEMP"),
+):
+    """IMU values as ArduPilot logs them: the ``tcal`` correction (until ``until_s``), then
     AHRS_ORIENTATION 2 (yaw 90: (x, y, z) -> (-y, x, z)). Written from ArduPilot's formula,
-    independently of rinscal.firmware."""
+    independently of rinscal.firmware; ``tcal`` and ``caltemp`` name the instance's
+    parameters as ``AP_InertialSensor.cpp`` does (IMU 1: ``INS_TCAL1_``; IMU 4: ``INS4_TCAL_``)."""
     temp = w["temp"].astype(np.float64)
-    lo, hi = params["INS_TCAL1_TMIN"], params["INS_TCAL1_TMAX"]
+    lo, hi = params[f"{tcal}TMIN"], params[f"{tcal}TMAX"]
 
     def poly(tag: str, d: np.ndarray) -> np.ndarray:
         cols = []
         for ax in "XYZ":
-            c1, c2, c3 = (params[f"INS_TCAL1_{tag}{k}_{ax}"] * 1e-6 for k in (1, 2, 3))
+            c1, c2, c3 = (params[f"{tcal}{tag}{k}_{ax}"] * 1e-6 for k in (1, 2, 3))
             cols.append(c1 * d + c2 * d**2 + c3 * d**3)
         return np.column_stack(cols)
 
     out = {}
-    for name, tag, cal in (
-        ("gyro", "GYR", "INS_GYR1_CALTEMP"),
-        ("accel", "ACC", "INS_ACC1_CALTEMP"),
-    ):
+    for name, tag, cal in (("gyro", "GYR", caltemp[0]), ("accel", "ACC", caltemp[1])):
         d = np.clip(temp, lo, hi) - 35.0
         dc = np.full_like(d, min(max(params[cal], lo), hi) - 35.0)
         corr = poly(tag, d) - poly(tag, dc)
@@ -359,6 +363,68 @@ def test_dataflash_correction_undone_and_fit_equals_raw(ardupilot_logs, tmp_path
     _ok(["export", m_bin, "--format", "ardupilot", "--out", parm])
     text = parm.read_text()
     assert "INS_TCAL1_ENABLE 1" in text and "gyro 2752522" in text
+
+
+def test_dataflash_imus_4_and_5_are_undone_with_their_ins4_ins5_parameters(tmp_path) -> None:
+    # AP_InertialSensor.cpp: IMUs 4 and 5 keep their parameters in the groups "INS4_" and
+    # "INS5_" (AP_InertialSensor_Params.cpp: TCAL_*, GYR_ID, ACC_ID, GYR_CALTEMP, ...), not
+    # under INS_TCAL4_*; IMU 1 has an enabled INS_TCAL1 set of its own that must not be used
+    w = _warmup(4)
+    imu1 = {"INS_TCAL1_ENABLE": 1.0, "INS_TCAL1_TMIN": 0.0, "INS_TCAL1_TMAX": 60.0}
+    imu1 |= {f"INS_TCAL1_{s}{k}_{a}": 5e3 for s in ("GYR", "ACC") for k in (1, 2, 3) for a in "XYZ"}
+    params = imu1 | {"AHRS_ORIENTATION": 2.0, "INS_GYR_ID": 11.0, "INS_ACC_ID": 12.0}
+    imus = [DataFlashImu(0, w["t"], w["gyro"], w["accel"], w["temp"])]
+    logged = {}
+    for instance, group in ((3, "INS4_"), (4, "INS5_")):
+        tcal = {f"{group}TCAL_ENABLE": 1.0, f"{group}TCAL_TMIN": 10.0, f"{group}TCAL_TMAX": 45.0}
+        tcal |= {
+            f"{group}TCAL_GYR{k}_{a}": [40.0, -3.0, 0.2][k - 1] for k in (1, 2, 3) for a in "XYZ"
+        }
+        tcal |= {
+            f"{group}TCAL_ACC{k}_{a}": [900.0, 20.0, -1.5][k - 1] for k in (1, 2, 3) for a in "XYZ"
+        }
+        tcal |= {f"{group}GYR_CALTEMP": 25.0 + instance, f"{group}ACC_CALTEMP": 20.0}
+        tcal |= {f"{group}GYR_ID": 2752522.0 + instance, f"{group}ACC_ID": 2753034.0 + instance}
+        params |= tcal
+        logged[instance] = _ardupilot_logged(
+            w, tcal, np.inf, f"{group}TCAL_", (f"{group}GYR_CALTEMP", f"{group}ACC_CALTEMP")
+        )
+        imus.append(DataFlashImu(instance, w["t"], logged[instance]["gyro"],
+                                 logged[instance]["accel"], w["temp"]))  # fmt: skip
+    # and a sixth, which ArduPilot has no parameters for: read as logged, and said so
+    t6 = w["t"][:100]
+    imus.append(DataFlashImu(5, t6, w["gyro"][:100], w["accel"][:100], w["temp"][:100]))
+    path = write_dataflash(tmp_path / "five.bin", imus, params)
+    info = scan_flight_log(path)
+    assert {i.index: (i.gyro_id, i.accel_id) for i in info.instances if i.index > 2} == {
+        3: (2752525, 2753037),
+        4: (2752526, 2753038),
+        5: (None, None),
+    }
+    assert "no parameters for IMU instance 5" in info.instance(5).correction
+    sixth = read_flight_log(path, FlightLogOptions(instance=5)).frame
+    logged_y = w["gyro"][:100, 1].astype(np.float64)  # yaw 90 taken out: x = logged y
+    np.testing.assert_allclose(sixth["gyro_x"], logged_y, rtol=1e-12)
+    for instance, group in ((3, "INS4_"), (4, "INS5_")):
+        assert f"{group}TCAL enabled" in info.instance(instance).correction
+        frame = read_flight_log(path, FlightLogOptions(instance=instance)).frame
+        for j, c in enumerate(CHANNELS):  # the raw data back, float32 rounding aside
+            raw = (w["gyro"] if j < 3 else w["accel"])[:, j % 3].astype(np.float64)
+            np.testing.assert_allclose(frame[c], raw, rtol=0, atol=2e-6 * np.abs(raw).max())
+        assert np.abs(logged[instance]["gyro_corr"]).max() > 1e-3  # which was not small
+    # through the command: the model of IMU 4 is the model of its raw data, ids and all
+    m_bin, m_csv = tmp_path / "bin.json", tmp_path / "csv.json"
+    fit = ["--method", "poly-t", "--orders", "3"]
+    _ok(["fit", path, "--instance", "3", "--out", m_bin, *fit])
+    _ok(["fit", _csv(w, tmp_path / "raw.csv", shared_temp=True), "--out", m_csv, *fit])
+    temp = np.linspace(14.0, 49.0, 36)
+    p_bin, p_csv = _predictions(m_bin, temp), _predictions(m_csv, temp)
+    assert (
+        np.abs(p_bin - p_csv).max(axis=0) < 1e-3 * np.maximum(np.ptp(p_csv, axis=0), 1e-6)
+    ).all()
+    src = ThermalModelFile.load(m_bin).source
+    assert src["device_ids"] == {"gyro": 2752525, "accel": 2753037} and src["instance"] == 3
+    assert "INS4_TCAL enabled" in src["autopilot_correction"]
 
 
 def test_dataflash_of_arducopter_3_imu2_imu3_messages(tmp_path) -> None:

@@ -59,10 +59,12 @@ import pandas as pd
 
 from rinscal.errors import LogError, describe_os_error
 from rinscal.firmware import (
+    ARDUPILOT_IMUS,
     ardupilot_id_param,
     ardupilot_tcal,
     ardupilot_tcal_enabled,
     ardupilot_tcal_params,
+    ardupilot_tcal_prefix,
     px4_tc_slot,
 )
 from rinscal.schema import ACCEL_CHANNELS, GYRO_CHANNELS, RUN, TEMP_IN, TIME
@@ -693,19 +695,29 @@ def _df_counts(scan: _DataFlashScan) -> dict[int, int]:
     return dict(zip(idx.tolist(), counts.tolist(), strict=True))
 
 
+_NO_AP_PARAMS = (
+    f"ArduPilot has no parameters for IMU instance {{i}} (instances 0 to {ARDUPILOT_IMUS - 1} "
+    "only): no correction is known, nothing is undone"
+)
+
+
 def _df_info(scan: _DataFlashScan) -> FlightLogInfo:
     params, changed = _df_params(scan)
     instances = []
     for i, n in _df_counts(scan).items():
         if n == 0:
             continue
+        if i >= ARDUPILOT_IMUS:  # not one ArduPilot writes (a damaged record?): no parameters
+            instances.append(ImuInstance(i, None, None, n, _NO_AP_PARAMS.format(i=i)))
+            continue
         gid = params.get(ardupilot_id_param("gyro", i))
         aid = params.get(ardupilot_id_param("accel", i))
         note = None
+        tcal = ardupilot_tcal_prefix(i)
         if ardupilot_tcal_enabled(params, i) or any(
-            n_ == f"INS_TCAL{i + 1}_ENABLE" and int(v) == 1 for _, n_, v in changed
+            n_ == f"{tcal}ENABLE" and int(v) == 1 for _, n_, v in changed
         ):
-            note = f"INS_TCAL{i + 1} enabled in the log: its correction is undone"
+            note = f"{tcal.rstrip('_')} enabled in the log: its correction is undone"
         instances.append(
             ImuInstance(
                 i, None if gid is None else int(gid), None if aid is None else int(aid), n, note
@@ -939,10 +951,11 @@ def _ardupilot_frame(
     rot = _rotation(orientation, p)
     if rot is not None:  # logged in the body frame: v_body = R v_board
         gyro, accel = gyro @ rot, accel @ rot
-    changes = [c for c in info.changed if ardupilot_tcal_params(c[1], inst.index)]
-    for part, params in _in_force(info.params, changes, t):
-        gyro[part] += ardupilot_tcal(params, inst.index, "gyro", temp[part])
-        accel[part] += ardupilot_tcal(params, inst.index, "accel", temp[part])
+    if inst.index < ARDUPILOT_IMUS:  # else ArduPilot has no parameters for it (_df_info)
+        changes = [c for c in info.changed if ardupilot_tcal_params(c[1], inst.index)]
+        for part, params in _in_force(info.params, changes, t):
+            gyro[part] += ardupilot_tcal(params, inst.index, "gyro", temp[part])
+            accel[part] += ardupilot_tcal(params, inst.index, "accel", temp[part])
     cols: dict[str, np.ndarray] = {TIME: t}
     for j, c in enumerate(GYRO_CHANNELS):
         cols[c] = gyro[:, j]
