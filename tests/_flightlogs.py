@@ -148,7 +148,7 @@ def write_ulog(
     topics: Sequence[Topic],
     params: Mapping[str, int | float] | None = None,
     changed: Sequence[tuple[int, str, int | float]] = (),
-    info: Mapping[str, str] | None = None,
+    info: Mapping[str, str | int] | None = None,
     start_us: int = 0,
     cut_bytes: int = 0,
 ) -> Path:
@@ -163,7 +163,8 @@ def write_ulog(
     changed : sequence of (time [µs], name, value)
         Parameters changed while logging, written among the data at their time.
     info : mapping, optional
-        Info messages (``sys_name`` etc.).
+        Info messages (``sys_name`` etc.; an int is written as ``int32_t``, e.g.
+        ``ver_sw_release``).
     cut_bytes : int
         Drop this many bytes from the end (a truncated log).
     """

@@ -234,6 +234,41 @@ def test_px4_export_takes_the_logs_ids_and_set(px4_logs, tmp_path) -> None:
     assert rows["TC_G_ENABLE"] == "1" and not any(k.startswith("TC_G0") for k in rows)
 
 
+def test_old_px4_calibration_offsets_in_the_drivers_output_are_told(tmp_path) -> None:
+    # PX4 up to v1.10 applied CAL_GYRO*/CAL_ACC* offsets and scales in the driver, before
+    # publishing sensor_gyro/sensor_accel (process_sensor_caldata.py: "Set all CAL_GYR and
+    # CAL_ACC parameters to defaults"); the version is the ver_sw_release info message
+    # (0xAABBCCTT: major AA, minor BB, patch CC, type TT)
+    t = 1.0 + np.arange(400) / 50.0
+    temp = (25.0 + t).astype(np.float32)
+    zero = np.zeros((t.size, 3), np.float32)
+    topics = px4_topics(t, zero, zero, temp, 0, 7, 8)
+    cal = {"CAL_GYRO0_ID": 7, "CAL_GYRO0_XOFF": 0.01, "CAL_GYRO0_YOFF": 0.0,
+           "CAL_GYRO0_XSCALE": 1.0, "CAL_ACC0_ID": 8, "CAL_ACC0_ZSCALE": 1.02,
+           "CAL_GYRO1_ID": 99, "CAL_GYRO1_XOFF": 0.5}  # fmt: skip
+    versions = {"v1.10.0": 0x010A00FF, "v1.11.0": 0x010B00FF, None: None}
+    said = {}
+    for name, release in versions.items():
+        info: dict[str, str | int] = {"sys_name": "PX4"}
+        if release is not None:
+            info["ver_sw_release"] = release
+        path = write_ulog(tmp_path / f"cal_{name}.ulg", topics, cal, info=info)
+        said[name] = " ".join(scan_flight_log(path).notes)
+        if name == "v1.10.0":  # as the user meets it
+            res = runner.invoke(app, ["plot", str(path), "--out", str(tmp_path / "cal.png")])
+            assert res.exit_code == 0, res.output
+            assert f"note: {path}: {said[name]}" in " ".join(res.output.split())
+    for name in ("v1.10.0", None):
+        text = said[name]
+        assert "IMU instance 0: CAL_GYRO0_XOFF, CAL_ACC0_ZSCALE not at" in text, text
+        assert "CAL_GYRO0_YOFF" not in text and "CAL_GYRO0_XSCALE" not in text
+        assert "CAL_GYRO1" not in text  # another device's
+        assert "reset" in text and "nothing is undone" in text
+    assert "PX4 v1.10.0 applied them in the driver" in said["v1.10.0"]
+    assert "does not say its PX4 version" in said[None]
+    assert said["v1.11.0"] == ""  # the drivers publish raw output since v1.11
+
+
 def test_ulog_join_interpolates_accel_onto_gyro_times(tmp_path) -> None:
     # accel at its own times (offset 0.4 ms, 200 Hz vs gyro 400 Hz), linear in time: the
     # interpolated value is exact; a 50 ms accel dropout gives NaN accel, not made-up values

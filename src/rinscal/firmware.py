@@ -5,6 +5,14 @@ correction and undo it where the log carries it) and the exports
 (:mod:`rinscal.calibration.export`, which write these parameters). Temperatures in °C,
 sensor values in SI (rad/s, m/s²).
 
+PX4 drivers before v1.11 (``CAL_GYRO<n>_*``, ``CAL_ACC<n>_*``)
+    applied the ``CAL_<GYRO|ACC><n>_<X|Y|Z>OFF`` offsets and ``..._<X|Y|Z>SCALE`` scales of
+    the slot whose ``CAL_<GYRO|ACC><n>_ID`` is the sensor's ``device_id`` before publishing
+    ``sensor_gyro``/``sensor_accel``; PX4's ``process_sensor_caldata.py`` asks for them to be
+    reset to defaults (0 and 1) before a thermal-calibration log. From v1.11 the drivers
+    publish their raw output and the calibration is applied downstream. A ULog says its
+    version in the ``ver_sw_release`` info message (``0xAABBCCTT``: major, minor, patch,
+    type).
 PX4 (``src/modules/temperature_compensation``; ``TC_<G|A><slot>_*``)
     ``offset = X0 + X1·d + X2·d² + X3·d³``, ``d = clamp(T, TMIN, TMAX) − TREF``, subtracted
     from the sensor whose ``device_id`` equals ``TC_<G|A><slot>_ID`` when
@@ -40,12 +48,14 @@ __all__ = [
     "ARDUPILOT_IMUS",
     "ARDUPILOT_SCALE",
     "ARDUPILOT_TREF_C",
+    "PX4_RAW_DRIVERS_FROM",
     "ardupilot_caltemp_param",
     "ardupilot_id_param",
     "ardupilot_tcal",
     "ardupilot_tcal_enabled",
     "ardupilot_tcal_params",
     "ardupilot_tcal_prefix",
+    "px4_driver_calibration",
     "px4_tc_slot",
 ]
 
@@ -56,6 +66,9 @@ ARDUPILOT_SCALE = 1.0e6
 #: ArduPilot's default ``INS_<GYR|ACC><n>_CALTEMP`` [°C] ("not set").
 ARDUPILOT_CALTEMP_DEFAULT_C = -300.0
 _PX4_TAG = {"gyro": "G", "accel": "A"}
+_PX4_CAL = {"gyro": "GYRO", "accel": "ACC"}
+#: First PX4 release (major, minor) whose drivers publish output without ``CAL_*`` applied.
+PX4_RAW_DRIVERS_FROM = (1, 11)
 _AP_TAG = {"gyro": "GYR", "accel": "ACC"}
 _AXES = ("X", "Y", "Z")
 #: IMUs ArduPilot has parameters for (``INS_MAX_INSTANCES`` is at most 5).
@@ -81,6 +94,43 @@ def px4_tc_slot(params: Mapping[str, float], sensor: str, device_id: int) -> int
         if pid is not None and int(pid) & 0xFFFFFFFF == int(device_id) & 0xFFFFFFFF:
             return slot
     return None
+
+
+def px4_driver_calibration(
+    params: Mapping[str, float], sensor: str, device_id: int | None
+) -> list[str]:
+    """``CAL_*`` offsets and scales not at their defaults for a sensor, by name.
+
+    Parameters
+    ----------
+    params : mapping
+        The log's parameters.
+    sensor : {"gyro", "accel"}
+    device_id : int or None
+        The sensor's ``device_id``; the slot ``n`` whose ``CAL_<GYRO|ACC><n>_ID`` equals it
+        is the one a driver before v1.11 applied (None: no slot).
+
+    Returns
+    -------
+    list of str
+        E.g. ``["CAL_GYRO0_XOFF", "CAL_GYRO0_ZSCALE"]`` (offset ≠ 0, scale ≠ 1); empty when
+        they are at their defaults or no slot matches.
+    """
+    if device_id is None:
+        return []
+    tag = _PX4_CAL[sensor]
+    for n in range(4):
+        pid = params.get(f"CAL_{tag}{n}_ID")
+        if pid is None or int(pid) & 0xFFFFFFFF != int(device_id) & 0xFFFFFFFF:
+            continue
+        names = []
+        for axis in _AXES:
+            for kind, default in (("OFF", 0.0), ("SCALE", 1.0)):
+                name = f"CAL_{tag}{n}_{axis}{kind}"
+                if float(params.get(name, default)) != default:
+                    names.append(name)
+        return names
+    return []
 
 
 def ardupilot_tcal_enabled(params: Mapping[str, float], instance: int) -> bool:

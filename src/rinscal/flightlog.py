@@ -60,11 +60,13 @@ import pandas as pd
 from rinscal.errors import LogError, describe_os_error
 from rinscal.firmware import (
     ARDUPILOT_IMUS,
+    PX4_RAW_DRIVERS_FROM,
     ardupilot_id_param,
     ardupilot_tcal,
     ardupilot_tcal_enabled,
     ardupilot_tcal_params,
     ardupilot_tcal_prefix,
+    px4_driver_calibration,
     px4_tc_slot,
 )
 from rinscal.schema import ACCEL_CHANNELS, GYRO_CHANNELS, RUN, TEMP_IN, TIME
@@ -400,6 +402,8 @@ class _ULogScan:
     end: int
     notes: list[str]
     fallback: Any = None  # a pyulog.ULog when the scanner could not walk the file
+    #: PX4's (major, minor, patch, type) from ``ver_sw_release``; None when not logged.
+    version: tuple[int, int, int, int] | None = None
 
 
 def _open_buffer(p: Path) -> np.ndarray:
@@ -465,17 +469,20 @@ def _scan_ulog(p: Path) -> _ULogScan:
             if named is not None:
                 changed.append((int(stamp), *named))
     params = {k: float(v) for k, v in head.initial_parameters.items()}
+    version = head.get_version_info()
     if status == 2 or head.has_data_appended:
         why = "appended data" if head.has_data_appended else f"a corrupt message at byte {end}"
         notes.append(f"{why}: read by pyulog's own parser (slower), which recovers what it can")
         ulog = _pyulog(p, why, message_name_filter_list=list(_TOPICS))
         return _ULogScan(p, buf, params, head.message_formats, {},
-                         counts, [], end, notes, fallback=ulog)  # fmt: skip
+                         counts, [], end, notes, fallback=ulog, version=version)  # fmt: skip
     if status == 1:
         notes.append(
             f"truncated: the last {buf.size - end} byte(s) are a cut message and are left out"
         )
-    return _ULogScan(p, buf, params, head.message_formats, subs, counts, changed, end, notes)
+    return _ULogScan(
+        p, buf, params, head.message_formats, subs, counts, changed, end, notes, version=version
+    )
 
 
 def _streams(
@@ -517,6 +524,7 @@ def _streams(
 
 def _ulog_info(scan: _ULogScan) -> FlightLogInfo:
     instances = []
+    log_notes = list(scan.notes)
     multi = sorted(
         {m for t, m in scan.subs.values() if t == "sensor_gyro"}
         if scan.fallback is None
@@ -541,11 +549,30 @@ def _ulog_info(scan: _ULogScan) -> FlightLogInfo:
         instances.append(
             ImuInstance(m, gid, aid, _count(scan, "sensor_gyro", m), "; ".join(notes) or None)
         )
+        cal = px4_driver_calibration(scan.params, "gyro", gid)
+        cal += px4_driver_calibration(scan.params, "accel", aid)
+        if cal and (scan.version is None or scan.version[:2] < PX4_RAW_DRIVERS_FROM):
+            log_notes.append(_old_px4_note(m, cal, scan.version))
     changed = tuple((t * US_TO_S, n, v) for t, n, v in scan.changed_at)
     if scan.fallback is not None:
         changed = tuple((t * US_TO_S, n, float(v)) for t, n, v in scan.fallback.changed_parameters)
-    return FlightLogInfo(
-        scan.path, "px4", tuple(instances), scan.params, changed, tuple(scan.notes)
+    return FlightLogInfo(scan.path, "px4", tuple(instances), scan.params, changed, tuple(log_notes))
+
+
+def _old_px4_note(instance: int, names: Sequence[str], version: Sequence[int] | None) -> str:
+    """What a driver before PX4 v1.11 did to the logged output, naming the parameters."""
+    first = ".".join(map(str, PX4_RAW_DRIVERS_FROM))
+    which = (
+        f"PX4 v{version[0]}.{version[1]}.{version[2]} applied"
+        if version is not None
+        else "the log does not say its PX4 version (no ver_sw_release); PX4 before "
+        f"v{first} applied"
+    )
+    return (
+        f"IMU instance {instance}: {', '.join(names)} not at their defaults; {which} them in "
+        "the driver, so sensor_gyro/sensor_accel carry them and so will the model (nothing is "
+        "undone); PX4's process_sensor_caldata.py asks for CAL_GYRO*/CAL_ACC* to be reset to "
+        "their defaults before a thermal-calibration log"
     )
 
 
