@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 from pathlib import Path
@@ -554,10 +555,26 @@ def test_interleaved_runs_are_read_whole_by_every_command(tmp_path, model_file):
 # ------------------------------------------------------------------ the real log
 
 
+def test_the_real_logs_are_the_published_files_with_their_licences():
+    # kept in the repository (tests/data/real) so that a fresh clone tests on real data
+    folder = real_log_path().parent
+    published = {
+        real_log_path(): "9e715f32362f76783678862bbfa60ce2d6b668dafb9fc104d69aaafcb2f301d0",
+        folder / "ulog" / "px4_cubeorange_sample_log_small.ulg": (
+            "68d1020f688109f027dba08d2950247cc0ae34aaefdcf37e4a7d60838f3e1aa3"
+        ),
+    }
+    for path, sha256 in published.items():
+        assert hashlib.sha256(path.read_bytes()).hexdigest() == sha256, path
+        assert path.stat().st_size < 5_000_000  # the repository's limit per tracked file
+    assert "MIT License" in (folder / "LICENSE.tofupilot-examples.txt").read_text()
+    assert "PX4" in (folder / "ulog" / "LICENSE.pyulog.md").read_text()
+    readme = (folder / "README.md").read_text()
+    assert all(sha256 in readme for sha256 in published.values())
+
+
 def test_real_thermal_cycle_log_loads_through_the_example_mapping():
     path = real_log_path()
-    if not path.is_file():
-        pytest.skip(f"real log not found at {path} (set RINSCAL_SHARED)")
     mapping = read_mapping(EXAMPLE_MAPPING)
     df = read_log(path, mapping)
     assert len(df) == 8400

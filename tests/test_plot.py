@@ -254,8 +254,6 @@ def test_plot_of_a_flight_log_labels_its_known_units(tmp_path):
 
 def test_plot_command_on_the_real_log(tmp_path):
     real = real_log_path()
-    if not real.is_file():
-        pytest.skip(f"real log not found at {real} (set RINSCAL_SHARED)")
     out = tmp_path / "real.png"
     res = invoke(
         str(real), "--map", str(REPO / "examples" / "tofupilot_mapping.toml"), "--out", str(out)
