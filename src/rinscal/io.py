@@ -596,7 +596,7 @@ def _table_pieces(
                     yield batch
             except Exception as exc:
                 raise LogError(f"{p}: unreadable Parquet file: {exc}") from None
-            if rows == 0:  # no row groups: one empty piece, so that the columns are known
+            if rows == 0:  # no rows: one empty piece, so that the columns are known
                 schema = pa.schema([pf.schema_arrow.field(n) for n in names])
                 yield pa.RecordBatch.from_pylist([], schema=schema)
 
