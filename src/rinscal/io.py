@@ -933,7 +933,8 @@ def iter_log_source(
     ------
     InterleavedRunsError
         When a run's rows resume after another run's (read such a log whole, with
-        :func:`read_log_source`).
+        :func:`read_log_source`), also when the part of a run before another run began is
+        not a valid run on its own (one sample, say): it is never refused for that.
     LogError
         As :func:`read_log_source`, with the row numbers of the whole file.
     """
