@@ -30,6 +30,10 @@ Active thermal corrections (see :mod:`rinscal.firmware`): ArduPilot's ``IMU`` me
 sample (parameter changes in the log are followed). PX4 logs ``sensor_gyro``/
 ``sensor_accel`` before its ``TC_*`` correction, so an enabled ``TC_*`` set is reported and
 recorded, and nothing is undone (undoing it would add the correction to raw data).
+ArduPilot's IMUs 4 and 5 keep their parameters under ``INS4_``/``INS5_`` (see
+:mod:`rinscal.firmware`). PX4 drivers before v1.11 applied the ``CAL_GYRO*``/``CAL_ACC*``
+offsets and scales before publishing; non-default ones on such a version (``ver_sw_release``,
+or none logged) are named in a note, and nothing is undone.
 
 Speed: ``pyulog`` parses the ULog definitions (formats, parameters, info); the data section
 is walked by a compiled scanner that copies only the wanted topics' messages, because
