@@ -148,7 +148,7 @@ def write_ulog(
     topics: Sequence[Topic],
     params: Mapping[str, int | float] | None = None,
     changed: Sequence[tuple[int, str, int | float]] = (),
-    info: Mapping[str, str] | None = None,
+    info: Mapping[str, str | int] | None = None,
     start_us: int = 0,
     cut_bytes: int = 0,
 ) -> Path:
@@ -163,7 +163,8 @@ def write_ulog(
     changed : sequence of (time [µs], name, value)
         Parameters changed while logging, written among the data at their time.
     info : mapping, optional
-        Info messages (``sys_name`` etc.).
+        Info messages (``sys_name`` etc.; an int is written as ``int32_t``, e.g.
+        ``ver_sw_release``).
     cut_bytes : int
         Drop this many bytes from the end (a truncated log).
     """
@@ -202,6 +203,14 @@ def write_ulog(
             streams.append((np.array([when], dtype=np.int64), rec.copy()))
         _merge(streams, out)
     return _cut(path, cut_bytes)
+
+
+def ulog_data_start(raw: bytes) -> int:
+    """Byte offset of a ULog's data section: its first subscription (``A``) message."""
+    pos = 16
+    while raw[pos + 2] != ord("A"):
+        pos += 3 + struct.unpack_from("<H", raw, pos)[0]
+    return pos
 
 
 def _sensor(

@@ -1,13 +1,11 @@
-"""Where the tests find the project's shared data (not in git): the real thermal-cycle log.
+"""Where the tests find the real logs: ``tests/data/real`` of this repository.
 
-``$RINSCAL_SHARED`` (the shared folder, or directly its ``data/real``) if set, else
-``shared/`` beside the repository. Tests that need the file skip, naming the path, when it is
-absent (a fresh clone).
+Both are kept in git with their licences (see ``tests/data/real/README.md``), so a fresh clone
+runs every test on real data.
 """
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
@@ -15,14 +13,10 @@ REAL_NAME = "tofupilot_imu_thermal_cycle.tsv"
 
 
 def real_log_dir() -> Path:
-    """``data/real`` of the shared folder: under $RINSCAL_SHARED, or beside the repository."""
-    env = os.environ.get("RINSCAL_SHARED")
-    if env:
-        base = Path(env)
-        return base / "data" / "real" if (base / "data").is_dir() else base
-    return REPO.parent / "shared" / "data" / "real"
+    """``tests/data/real`` of the repository: the real logs and their licences."""
+    return REPO / "tests" / "data" / "real"
 
 
 def real_log_path() -> Path:
-    """Path of the real MEMS thermal-cycle log (it may not exist)."""
+    """Path of the real MEMS thermal-cycle log (tab-separated, 8,400 rows)."""
     return real_log_dir() / REAL_NAME

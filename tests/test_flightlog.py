@@ -2,7 +2,7 @@
 
 Two kinds of evidence:
 
-* the real PX4 log in ``shared/data/real/ulog`` (three IMUs, six samples each): read against
+* the real PX4 log in ``tests/data/real/ulog`` (three IMUs, six samples each): read against
   pyulog's own full parse and against the log's ``CAL_*_ID`` parameters, and the refusal of a
   fit over its 0.1 °C of temperature;
 * warm-up logs written here (``tests/_flightlogs.py``, from the formats' published
@@ -33,6 +33,7 @@ from tests._flightlogs import (
     DataFlashImu,
     Topic,
     px4_topics,
+    ulog_data_start,
     write_dataflash,
     write_ulog,
 )
@@ -112,8 +113,6 @@ def _predictions(model: Path, temp: np.ndarray) -> np.ndarray:
 
 @pytest.fixture(scope="module")
 def real_ulog() -> Path:
-    if not REAL_ULOG.is_file():
-        pytest.skip(f"real PX4 log not found: {REAL_ULOG} (shared/ is absent)")
     return REAL_ULOG
 
 
@@ -128,6 +127,10 @@ def test_real_ulog_instances_ids_and_parameters(real_ulog) -> None:
         assert int(info.params[f"CAL_ACC{n}_ID"]) == dev
     assert info.params["TC_G_ENABLE"] == 0 and info.params["TC_A_ENABLE"] == 0
     assert all(i.correction is None and i.samples == 6 for i in info.instances)
+    # PX4 v1.11.2: its drivers publish raw output, so its (non-default) CAL_* offsets and
+    # scales are not in sensor_gyro/sensor_accel and no note names them
+    assert info.params["CAL_GYRO0_XOFF"] != 0 and info.params["CAL_ACC0_XSCALE"] != 1
+    assert not [n for n in info.notes if "CAL_" in n]
 
 
 def test_real_ulog_samples_equal_pyulogs_full_parse(real_ulog) -> None:
@@ -233,6 +236,41 @@ def test_px4_export_takes_the_logs_ids_and_set(px4_logs, tmp_path) -> None:
     assert rows["TC_G_ENABLE"] == "1" and not any(k.startswith("TC_G0") for k in rows)
 
 
+def test_old_px4_calibration_offsets_in_the_drivers_output_are_told(tmp_path) -> None:
+    # PX4 up to v1.10 applied CAL_GYRO*/CAL_ACC* offsets and scales in the driver, before
+    # publishing sensor_gyro/sensor_accel (process_sensor_caldata.py: "Set all CAL_GYR and
+    # CAL_ACC parameters to defaults"); the version is the ver_sw_release info message
+    # (0xAABBCCTT: major AA, minor BB, patch CC, type TT)
+    t = 1.0 + np.arange(400) / 50.0
+    temp = (25.0 + t).astype(np.float32)
+    zero = np.zeros((t.size, 3), np.float32)
+    topics = px4_topics(t, zero, zero, temp, 0, 7, 8)
+    cal = {"CAL_GYRO0_ID": 7, "CAL_GYRO0_XOFF": 0.01, "CAL_GYRO0_YOFF": 0.0,
+           "CAL_GYRO0_XSCALE": 1.0, "CAL_ACC0_ID": 8, "CAL_ACC0_ZSCALE": 1.02,
+           "CAL_GYRO1_ID": 99, "CAL_GYRO1_XOFF": 0.5}  # fmt: skip
+    versions = {"v1.10.0": 0x010A00FF, "v1.11.0": 0x010B00FF, None: None}
+    said = {}
+    for name, release in versions.items():
+        info: dict[str, str | int] = {"sys_name": "PX4"}
+        if release is not None:
+            info["ver_sw_release"] = release
+        path = write_ulog(tmp_path / f"cal_{name}.ulg", topics, cal, info=info)
+        said[name] = " ".join(scan_flight_log(path).notes)
+        if name == "v1.10.0":  # as the user meets it
+            res = runner.invoke(app, ["plot", str(path), "--out", str(tmp_path / "cal.png")])
+            assert res.exit_code == 0, res.output
+            assert f"note: {path}: {said[name]}" in " ".join(res.output.split())
+    for name in ("v1.10.0", None):
+        text = said[name]
+        assert "IMU instance 0: CAL_GYRO0_XOFF, CAL_ACC0_ZSCALE not at" in text, text
+        assert "CAL_GYRO0_YOFF" not in text and "CAL_GYRO0_XSCALE" not in text
+        assert "CAL_GYRO1" not in text  # another device's
+        assert "reset" in text and "nothing is undone" in text
+    assert "PX4 v1.10.0 applied them in the driver" in said["v1.10.0"]
+    assert "does not say its PX4 version" in said[None]
+    assert said["v1.11.0"] == ""  # the drivers publish raw output since v1.11
+
+
 def test_ulog_join_interpolates_accel_onto_gyro_times(tmp_path) -> None:
     # accel at its own times (offset 0.4 ms, 200 Hz vs gyro 400 Hz), linear in time: the
     # interpolated value is exact; a 50 ms accel dropout gives NaN accel, not made-up values
@@ -281,25 +319,29 @@ def test_ulog_nan_temperature_and_a_timestamp_glitch_are_left_out_and_told(tmp_p
 # ----------------------------------------------------------------------------- ArduPilot
 
 
-def _ardupilot_logged(w: dict[str, np.ndarray], params: dict[str, float], until_s: float):
-    """IMU values as ArduPilot logs them: INS_TCAL1 correction (until ``until_s``), then
+def _ardupilot_logged(
+    w: dict[str, np.ndarray],
+    params: dict[str, float],
+    until_s: float,
+    tcal: str = "INS_TCAL1_",
+    caltemp: tuple[str, str] = ("INS_GYR1_CALTEMP", "INS_ACC1_CALTEMP"),
+):
+    """IMU values as ArduPilot logs them: the ``tcal`` correction (until ``until_s``), then
     AHRS_ORIENTATION 2 (yaw 90: (x, y, z) -> (-y, x, z)). Written from ArduPilot's formula,
-    independently of rinscal.firmware."""
+    independently of rinscal.firmware; ``tcal`` and ``caltemp`` name the instance's
+    parameters as ``AP_InertialSensor.cpp`` does (IMU 1: ``INS_TCAL1_``; IMU 4: ``INS4_TCAL_``)."""
     temp = w["temp"].astype(np.float64)
-    lo, hi = params["INS_TCAL1_TMIN"], params["INS_TCAL1_TMAX"]
+    lo, hi = params[f"{tcal}TMIN"], params[f"{tcal}TMAX"]
 
     def poly(tag: str, d: np.ndarray) -> np.ndarray:
         cols = []
         for ax in "XYZ":
-            c1, c2, c3 = (params[f"INS_TCAL1_{tag}{k}_{ax}"] * 1e-6 for k in (1, 2, 3))
+            c1, c2, c3 = (params[f"{tcal}{tag}{k}_{ax}"] * 1e-6 for k in (1, 2, 3))
             cols.append(c1 * d + c2 * d**2 + c3 * d**3)
         return np.column_stack(cols)
 
     out = {}
-    for name, tag, cal in (
-        ("gyro", "GYR", "INS_GYR1_CALTEMP"),
-        ("accel", "ACC", "INS_ACC1_CALTEMP"),
-    ):
+    for name, tag, cal in (("gyro", "GYR", caltemp[0]), ("accel", "ACC", caltemp[1])):
         d = np.clip(temp, lo, hi) - 35.0
         dc = np.full_like(d, min(max(params[cal], lo), hi) - 35.0)
         corr = poly(tag, d) - poly(tag, dc)
@@ -358,6 +400,68 @@ def test_dataflash_correction_undone_and_fit_equals_raw(ardupilot_logs, tmp_path
     _ok(["export", m_bin, "--format", "ardupilot", "--out", parm])
     text = parm.read_text()
     assert "INS_TCAL1_ENABLE 1" in text and "gyro 2752522" in text
+
+
+def test_dataflash_imus_4_and_5_are_undone_with_their_ins4_ins5_parameters(tmp_path) -> None:
+    # AP_InertialSensor.cpp: IMUs 4 and 5 keep their parameters in the groups "INS4_" and
+    # "INS5_" (AP_InertialSensor_Params.cpp: TCAL_*, GYR_ID, ACC_ID, GYR_CALTEMP, ...), not
+    # under INS_TCAL4_*; IMU 1 has an enabled INS_TCAL1 set of its own that must not be used
+    w = _warmup(4)
+    imu1 = {"INS_TCAL1_ENABLE": 1.0, "INS_TCAL1_TMIN": 0.0, "INS_TCAL1_TMAX": 60.0}
+    imu1 |= {f"INS_TCAL1_{s}{k}_{a}": 5e3 for s in ("GYR", "ACC") for k in (1, 2, 3) for a in "XYZ"}
+    params = imu1 | {"AHRS_ORIENTATION": 2.0, "INS_GYR_ID": 11.0, "INS_ACC_ID": 12.0}
+    imus = [DataFlashImu(0, w["t"], w["gyro"], w["accel"], w["temp"])]
+    logged = {}
+    for instance, group in ((3, "INS4_"), (4, "INS5_")):
+        tcal = {f"{group}TCAL_ENABLE": 1.0, f"{group}TCAL_TMIN": 10.0, f"{group}TCAL_TMAX": 45.0}
+        tcal |= {
+            f"{group}TCAL_GYR{k}_{a}": [40.0, -3.0, 0.2][k - 1] for k in (1, 2, 3) for a in "XYZ"
+        }
+        tcal |= {
+            f"{group}TCAL_ACC{k}_{a}": [900.0, 20.0, -1.5][k - 1] for k in (1, 2, 3) for a in "XYZ"
+        }
+        tcal |= {f"{group}GYR_CALTEMP": 25.0 + instance, f"{group}ACC_CALTEMP": 20.0}
+        tcal |= {f"{group}GYR_ID": 2752522.0 + instance, f"{group}ACC_ID": 2753034.0 + instance}
+        params |= tcal
+        logged[instance] = _ardupilot_logged(
+            w, tcal, np.inf, f"{group}TCAL_", (f"{group}GYR_CALTEMP", f"{group}ACC_CALTEMP")
+        )
+        imus.append(DataFlashImu(instance, w["t"], logged[instance]["gyro"],
+                                 logged[instance]["accel"], w["temp"]))  # fmt: skip
+    # and a sixth, which ArduPilot has no parameters for: read as logged, and said so
+    t6 = w["t"][:100]
+    imus.append(DataFlashImu(5, t6, w["gyro"][:100], w["accel"][:100], w["temp"][:100]))
+    path = write_dataflash(tmp_path / "five.bin", imus, params)
+    info = scan_flight_log(path)
+    assert {i.index: (i.gyro_id, i.accel_id) for i in info.instances if i.index > 2} == {
+        3: (2752525, 2753037),
+        4: (2752526, 2753038),
+        5: (None, None),
+    }
+    assert "no parameters for IMU instance 5" in info.instance(5).correction
+    sixth = read_flight_log(path, FlightLogOptions(instance=5)).frame
+    logged_y = w["gyro"][:100, 1].astype(np.float64)  # yaw 90 taken out: x = logged y
+    np.testing.assert_allclose(sixth["gyro_x"], logged_y, rtol=1e-12)
+    for instance, group in ((3, "INS4_"), (4, "INS5_")):
+        assert f"{group}TCAL enabled" in info.instance(instance).correction
+        frame = read_flight_log(path, FlightLogOptions(instance=instance)).frame
+        for j, c in enumerate(CHANNELS):  # the raw data back, float32 rounding aside
+            raw = (w["gyro"] if j < 3 else w["accel"])[:, j % 3].astype(np.float64)
+            np.testing.assert_allclose(frame[c], raw, rtol=0, atol=2e-6 * np.abs(raw).max())
+        assert np.abs(logged[instance]["gyro_corr"]).max() > 1e-3  # which was not small
+    # through the command: the model of IMU 4 is the model of its raw data, ids and all
+    m_bin, m_csv = tmp_path / "bin.json", tmp_path / "csv.json"
+    fit = ["--method", "poly-t", "--orders", "3"]
+    _ok(["fit", path, "--instance", "3", "--out", m_bin, *fit])
+    _ok(["fit", _csv(w, tmp_path / "raw.csv", shared_temp=True), "--out", m_csv, *fit])
+    temp = np.linspace(14.0, 49.0, 36)
+    p_bin, p_csv = _predictions(m_bin, temp), _predictions(m_csv, temp)
+    assert (
+        np.abs(p_bin - p_csv).max(axis=0) < 1e-3 * np.maximum(np.ptp(p_csv, axis=0), 1e-6)
+    ).all()
+    src = ThermalModelFile.load(m_bin).source
+    assert src["device_ids"] == {"gyro": 2752525, "accel": 2753037} and src["instance"] == 3
+    assert "INS4_TCAL enabled" in src["autopilot_correction"]
 
 
 def test_dataflash_of_arducopter_3_imu2_imu3_messages(tmp_path) -> None:
@@ -461,3 +565,28 @@ def test_corrupt_ulog_is_read_by_pyulog_and_told(px4_logs, tmp_path) -> None:
     assert 0.9 * len(good) < len(log) <= len(good)
     common = np.isin(log["time_s"], good["time_s"])
     assert common.mean() > 0.99
+
+
+def test_a_ulog_whose_data_section_is_garbage_is_refused_in_one_line(px4_logs, tmp_path):
+    # a valid header and definitions, then random bytes: no message pyulog can recover
+    model = tmp_path / "m.json"
+    _ok(["fit", px4_logs["csv"], "--method", "poly-t", "--out", model])
+    raw = px4_logs["plain"].read_bytes()
+    out = tmp_path / "out"
+    out.mkdir()
+    for seed in range(4):
+        noise = np.random.default_rng(seed).integers(0, 256, 20_000, dtype=np.uint8).tobytes()
+        bad = tmp_path / f"garbage{seed}.ulg"
+        bad.write_bytes(raw[: ulog_data_start(raw)] + noise)
+        for args in (
+            ["plot", bad, "--out", out / "g.png"],
+            ["fit", bad, "--instance", "1", "--out", out / "m.json"],
+            ["compensate", bad, "--instance", "1", "--model", model, "--out", out / "c.csv"],
+        ):
+            res = runner.invoke(app, [str(a) for a in args])
+            assert res.exit_code == 2, (args[0], res.output, res.exception)
+            text = " ".join(res.output.split())
+            assert text.startswith(f"error: {bad}: unreadable ULog: "), text
+            assert "pyulog's parser cannot read past" in text
+            assert "Traceback" not in res.output and len(res.output.strip().splitlines()) <= 3
+    assert list(out.iterdir()) == []

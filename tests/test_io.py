@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 from pathlib import Path
@@ -9,13 +10,19 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from typer.testing import CliRunner
 
+from rinscal.calibration.modelfile import ThermalModelFile
+from rinscal.cli import app
 from rinscal.errors import ConfigError, LogError
 from rinscal.io import (
     ColumnMapping,
+    InterleavedRunsError,
+    iter_log_source,
     mapping_from_options,
     meta_path,
     read_log,
+    read_log_source,
     read_mapping,
     read_meta,
     write_log,
@@ -393,13 +400,185 @@ def test_mapping_from_cli_options_overrides_a_file(tmp_path):
         mapping_from_options(scale=["gyro_x=two"])
 
 
+# ------------------------------------------------------------------ the commands, as met
+
+runner = CliRunner()
+
+
+def cli(*args: object):
+    return runner.invoke(app, [str(a) for a in args])
+
+
+def warmup_runs(n: int = 300) -> list[pd.DataFrame]:
+    """Three warm-ups from 5, 25 and 45 °C whose outputs follow a known cubic in T [°C]."""
+    rng = np.random.default_rng(5)
+    runs = []
+    for k, start in enumerate((5.0, 25.0, 45.0)):
+        t = np.arange(n) * 2.0
+        temp = start + 15.0 * (1.0 - np.exp(-t / 300.0))
+        d: dict[str, object] = {"time_s": t, "run": f"warm_{k}"}
+        for j, ch in enumerate(CHANNELS):
+            d_t = (temp - 30.0) / 10.0
+            d[ch] = (1.0 + j) * (d_t + 0.1 * d_t**3) + 1e-3 * rng.standard_normal(n)
+        d["temp_in"] = temp + 0.01 * rng.standard_normal(n)
+        runs.append(pd.DataFrame(d))
+    return runs
+
+
+@pytest.fixture(scope="module")
+def model_file(tmp_path_factory) -> Path:
+    folder = tmp_path_factory.mktemp("model")
+    write_log(pd.concat(warmup_runs(), ignore_index=True), folder / "warm.csv")
+    res = cli("fit", folder / "warm.csv", "--out", folder / "m.json", "--method", "poly-t",
+              "--static-ref", "mean")  # fmt: skip
+    assert res.exit_code == 0, res.output
+    return folder / "m.json"
+
+
+def one_line(res) -> str:
+    return " ".join(res.output.split())
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".tsv", ".parquet"])
+def test_a_log_with_a_header_and_no_rows_says_so_run_by_run_too(tmp_path, suffix):
+    path = tmp_path / f"h{suffix}"
+    write_log(make_log().iloc[:0], path, validate=False)
+    for read in (
+        read_log,
+        lambda p: list(iter_log_source(p)),
+        lambda p: list(iter_log_source(p, piece_rows=1)),
+    ):
+        with pytest.raises(LogError, match=rf"h\{suffix}: no data rows \(only a header\)"):
+            read(path)
+
+
+def test_every_command_refuses_a_header_only_csv_in_one_line(tmp_path, model_file):
+    path = tmp_path / "h.csv"
+    write_log(make_log().iloc[:0], path, validate=False)
+    out = tmp_path / "out"
+    out.mkdir()
+    commands = {
+        "fit": ["--out", out / "m.json", "--method", "poly-t", "--static-ref", "mean"],
+        "select": ["--method", "regression"],
+        "evaluate": ["--model", model_file],
+        "compensate": ["--model", model_file, "--out", out / "c.csv"],
+        "plot": ["--out", out / "h.png"],
+    }
+    for command, options in commands.items():
+        res = cli(command, path, *options)
+        assert res.exit_code == 2, (command, res.output, res.exception)
+        assert f"error: {path}: no data rows (only a header)" in one_line(res), command
+        assert "Traceback" not in res.output
+    assert list(out.iterdir()) == []  # nothing written
+
+
+def assert_same_figures(got: object, want: object, where: str = "") -> None:
+    """Two JSON documents alike: the same keys and text, numbers to 1e-9 (sums in another order)."""
+    if isinstance(want, dict):
+        assert isinstance(got, dict) and got.keys() == want.keys(), where
+        for k in want:
+            assert_same_figures(got[k], want[k], f"{where}/{k}")
+    elif isinstance(want, list):
+        assert isinstance(got, list) and len(got) == len(want), where
+        for k, (g, w) in enumerate(zip(got, want, strict=True)):
+            assert_same_figures(g, w, f"{where}/{k}")
+    elif isinstance(want, float):
+        assert got == pytest.approx(want, rel=1e-9, abs=1e-12, nan_ok=True), where
+    else:
+        assert got == want, where
+
+
+def interleaved(runs: list[pd.DataFrame]) -> pd.DataFrame:
+    """The first two runs' rows alternating (each run in its own order), then the third."""
+    a, b, c = runs
+    mixed = pd.concat([a, b], ignore_index=True)
+    order = np.argsort(np.r_[np.arange(len(a)) * 2, np.arange(len(b)) * 2 + 1], kind="stable")
+    return pd.concat([mixed.iloc[order], c], ignore_index=True)
+
+
+@pytest.mark.parametrize("piece_rows", [1, 7, 1 << 18])
+def test_run_by_run_reading_tells_interleaved_runs_from_a_short_run(tmp_path, piece_rows):
+    runs = [r.iloc[:20] for r in warmup_runs()]
+    mixed = tmp_path / "mixed.csv"
+    write_log(interleaved(runs), mixed)
+    with pytest.raises(InterleavedRunsError, match=r"mixed\.csv: data row 3: .*read whole"):
+        list(iter_log_source(mixed, piece_rows=piece_rows))
+    short = tmp_path / "short.csv"  # a one-sample run that no other run interrupts
+    write_log(pd.concat([runs[0], runs[1].iloc[:1], runs[2]]), short, validate=False)
+    with pytest.raises(LogError, match=r"data row 21: run 'warm_1' has 1 sample\(s\)") as info:
+        list(iter_log_source(short, piece_rows=piece_rows))
+    assert not isinstance(info.value, InterleavedRunsError)
+
+
+def test_interleaved_runs_are_read_whole_by_every_command(tmp_path, model_file):
+    runs = warmup_runs()
+    whole, mixed = tmp_path / "whole.csv", tmp_path / "mixed.csv"
+    write_log(pd.concat(runs, ignore_index=True), whole)
+    mixed_log = interleaved(runs)
+    assert mixed_log["run"].tolist()[:4] == ["warm_0", "warm_1", "warm_0", "warm_1"]
+    write_log(mixed_log, mixed)
+    # fit: the model of the interleaved log is the model of the same runs stacked
+    temp = np.linspace(5.0, 60.0, 23)
+    predictions = []
+    for path in (whole, mixed):
+        out = tmp_path / f"{path.stem}.json"
+        res = cli("fit", path, "--out", out, "--method", "poly-t", "--static-ref", "mean")
+        assert res.exit_code == 0, res.output
+        predictions.append(ThermalModelFile.load(out).predict(temp, np.zeros_like(temp)))
+    np.testing.assert_allclose(predictions[1], predictions[0], rtol=1e-9, atol=1e-12)
+    # select (run by run: regression) and evaluate: the same figures
+    for args in (["select", "--method", "regression", "--json"],
+                 ["evaluate", "--model", model_file, "--json"]):  # fmt: skip
+        docs = []
+        for path in (whole, mixed):
+            res = cli(args[0], path, *args[1:])
+            assert res.exit_code == 0, res.output
+            doc = json.loads(res.stdout)
+            doc.pop("log", None)
+            # evaluate's Allan table is ordered by channel when it gets the log whole, by run
+            # when it gets it run by run: the same rows, compared in one order
+            doc.get("allan", []).sort(key=lambda r: (r["run"], r["channel"], r["output"]))
+            docs.append(doc)
+        assert_same_figures(docs[1], docs[0])
+    # compensate: every row where the file had it, values as for the stacked runs
+    outs = {}
+    for path in (whole, mixed):
+        outs[path] = tmp_path / f"{path.stem}_comp.csv"
+        res = cli("compensate", path, "--model", model_file, "--out", outs[path])
+        assert res.exit_code == 0, res.output
+    got, want = read_log_source(outs[mixed]).raw, read_log_source(outs[whole]).raw
+    assert got["run"].tolist() == mixed_log["run"].tolist()
+    np.testing.assert_array_equal(got["time_s"], mixed_log["time_s"])
+    key = ["run", "time_s"]
+    want = got[key].merge(want, on=key, how="left", validate="one_to_one")
+    for c in CHANNELS:
+        np.testing.assert_allclose(got[c], want[c], rtol=1e-12, atol=0)
+        assert not np.allclose(got[c], mixed_log[c])  # compensated, not copied
+
+
 # ------------------------------------------------------------------ the real log
+
+
+def test_the_real_logs_are_the_published_files_with_their_licences():
+    # kept in the repository (tests/data/real) so that a fresh clone tests on real data
+    folder = real_log_path().parent
+    published = {
+        real_log_path(): "9e715f32362f76783678862bbfa60ce2d6b668dafb9fc104d69aaafcb2f301d0",
+        folder / "ulog" / "px4_cubeorange_sample_log_small.ulg": (
+            "68d1020f688109f027dba08d2950247cc0ae34aaefdcf37e4a7d60838f3e1aa3"
+        ),
+    }
+    for path, sha256 in published.items():
+        assert hashlib.sha256(path.read_bytes()).hexdigest() == sha256, path
+        assert path.stat().st_size < 5_000_000  # the repository's limit per tracked file
+    assert "MIT License" in (folder / "LICENSE.tofupilot-examples.txt").read_text()
+    assert "PX4" in (folder / "ulog" / "LICENSE.pyulog.md").read_text()
+    readme = (folder / "README.md").read_text()
+    assert all(sha256 in readme for sha256 in published.values())
 
 
 def test_real_thermal_cycle_log_loads_through_the_example_mapping():
     path = real_log_path()
-    if not path.is_file():
-        pytest.skip(f"real log not found at {path} (set RINSCAL_SHARED)")
     mapping = read_mapping(EXAMPLE_MAPPING)
     df = read_log(path, mapping)
     assert len(df) == 8400

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 from pathlib import Path
 
 import numpy as np
@@ -15,6 +16,7 @@ from rinscal.cli import app
 from rinscal.io import read_log, write_log, write_meta
 from rinscal.report.logplot import decimate, plot_log, pretty_unit, units_from_meta
 from rinscal.schema import CHANNELS, TEMP_CHANNELS
+from tests._flightlogs import px4_topics, write_ulog
 from tests._shared import real_log_path
 
 REPO = Path(__file__).resolve().parents[1]
@@ -221,10 +223,33 @@ def _write_canonical(tmp_path: Path) -> Path:
     return path
 
 
+def svg_texts(path: Path) -> list[str]:
+    """The texts of a figure saved as SVG (matplotlib draws text as paths, each after a
+    comment holding the text)."""
+    return re.findall(r"<!-- (.*?) -->", path.read_text(encoding="utf-8"))
+
+
+def test_plot_of_a_flight_log_labels_its_known_units(tmp_path):
+    t = 1.0 + np.arange(200) / 50.0
+    temp = (30.0 + t).astype(np.float32)
+    gyro = np.full((t.size, 3), 0.01, np.float32)
+    accel = np.tile(np.float32([0.0, 0.0, -9.81]), (t.size, 1))
+    path = write_ulog(tmp_path / "warm.ulg", px4_topics(t, gyro, accel, temp, 0, 7, 8))
+    out = tmp_path / "warm.svg"
+    res = invoke(str(path), "--out", str(out))
+    assert res.exit_code == 0, res.output
+    texts = svg_texts(out)
+    assert "gyro_z output [rad/s]" in texts and "accel_x output [m/s²]" in texts
+    assert not [x for x in texts if "log units" in x]
+    # a sidecar may give the units per sensor ("gyro", "accel") as well as per channel
+    units = units_from_meta({"units": {"gyro": "deg/h", "accel_z": "ug", "accel": "m/s^2"}})
+    assert units == {"gyro_x": "deg/h", "gyro_y": "deg/h", "gyro_z": "deg/h",
+                     "accel_x": "m/s^2", "accel_y": "m/s^2", "accel_z": "ug"}  # fmt: skip
+    assert "accel_x" not in units_from_meta({"units": {"gyro": "deg/h"}})  # not made up
+
+
 def test_plot_command_on_the_real_log(tmp_path):
     real = real_log_path()
-    if not real.is_file():
-        pytest.skip(f"real log not found at {real} (set RINSCAL_SHARED)")
     out = tmp_path / "real.png"
     res = invoke(
         str(real), "--map", str(REPO / "examples" / "tofupilot_mapping.toml"), "--out", str(out)

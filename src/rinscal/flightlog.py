@@ -30,6 +30,10 @@ Active thermal corrections (see :mod:`rinscal.firmware`): ArduPilot's ``IMU`` me
 sample (parameter changes in the log are followed). PX4 logs ``sensor_gyro``/
 ``sensor_accel`` before its ``TC_*`` correction, so an enabled ``TC_*`` set is reported and
 recorded, and nothing is undone (undoing it would add the correction to raw data).
+ArduPilot's IMUs 4 and 5 keep their parameters under ``INS4_``/``INS5_`` (see
+:mod:`rinscal.firmware`). PX4 drivers before v1.11 applied the ``CAL_GYRO*``/``CAL_ACC*``
+offsets and scales before publishing; non-default ones on such a version (``ver_sw_release``,
+or none logged) are named in a note, and nothing is undone.
 
 Speed: ``pyulog`` parses the ULog definitions (formats, parameters, info); the data section
 is walked by a compiled scanner that copies only the wanted topics' messages, because
@@ -43,6 +47,7 @@ decoded as numpy records.
 from __future__ import annotations
 
 import contextlib
+import errno
 import io as _io
 import itertools
 import os
@@ -56,12 +61,16 @@ import numba
 import numpy as np
 import pandas as pd
 
-from rinscal.errors import LogError
+from rinscal.errors import LogError, describe_os_error
 from rinscal.firmware import (
+    ARDUPILOT_IMUS,
+    PX4_RAW_DRIVERS_FROM,
     ardupilot_id_param,
     ardupilot_tcal,
     ardupilot_tcal_enabled,
     ardupilot_tcal_params,
+    ardupilot_tcal_prefix,
+    px4_driver_calibration,
     px4_tc_slot,
 )
 from rinscal.schema import ACCEL_CHANNELS, GYRO_CHANNELS, RUN, TEMP_IN, TIME
@@ -397,6 +406,8 @@ class _ULogScan:
     end: int
     notes: list[str]
     fallback: Any = None  # a pyulog.ULog when the scanner could not walk the file
+    #: PX4's (major, minor, patch, type) from ``ver_sw_release``; None when not logged.
+    version: tuple[int, int, int, int] | None = None
 
 
 def _open_buffer(p: Path) -> np.ndarray:
@@ -414,24 +425,35 @@ def _check_magic(p: Path, magic: bytes, what: str, hint: str) -> None:
         raise LogError(f"{p}: not a {what} ({found}; a {what} starts with {magic!r}){hint}")
 
 
-def _pyulog(p: Path, **kw: Any) -> Any:
+def _pyulog(p: Path, damage: str | None = None, **kw: Any) -> Any:
     """pyulog's ULog of ``p`` (what it prints about a damaged file is kept off the terminal:
-    the reader's notes say what was done)."""
+    the reader's notes say what was done). ``damage``: what the scanner found wrong, named
+    when pyulog cannot read past it either."""
     from pyulog import ULog
     from pyulog.core import ULogException
 
+    why = f"{damage}, which pyulog's parser cannot read past" if damage else None
     try:
         with contextlib.redirect_stdout(_io.StringIO()):
             return ULog(str(p), **kw)
     except ULogException as exc:
-        raise LogError(f"{p}: unreadable ULog: {exc}") from None
-    except (struct.error, IndexError, KeyError, ValueError) as exc:
-        raise LogError(f"{p}: unreadable ULog (truncated or corrupt): {exc!r}") from None
+        raise LogError(f"{p}: unreadable ULog: {why or exc}") from None
+    except (struct.error, IndexError, KeyError, ValueError, OverflowError) as exc:
+        raise LogError(
+            f"{p}: unreadable ULog: {why or f'truncated or corrupt ({exc!r})'}"
+        ) from None
+    except OSError as exc:
+        if exc.errno not in (None, errno.EINVAL):  # the file itself (permission, I/O error)
+            raise LogError(describe_os_error(exc, p)) from None
+        # pyulog seeks back before the file's start while hunting for a message in garbage
+        raise LogError(f"{p}: unreadable ULog: {why or 'corrupt data'} ({exc})") from None
 
 
 def _scan_ulog(p: Path) -> _ULogScan:
     _check_magic(p, _ULOG_MAGIC, "ULog", "")
-    head = _pyulog(p, parse_header_only=True)
+    head = _pyulog(
+        p, "corrupt bytes in its definitions or where its data begin", parse_header_only=True
+    )
     buf = _open_buffer(p)
     counts, others, stamps, end, status = _ulog_walk(buf, 16)
     notes: list[str] = []
@@ -451,17 +473,20 @@ def _scan_ulog(p: Path) -> _ULogScan:
             if named is not None:
                 changed.append((int(stamp), *named))
     params = {k: float(v) for k, v in head.initial_parameters.items()}
+    version = head.get_version_info()
     if status == 2 or head.has_data_appended:
         why = "appended data" if head.has_data_appended else f"a corrupt message at byte {end}"
         notes.append(f"{why}: read by pyulog's own parser (slower), which recovers what it can")
-        ulog = _pyulog(p, message_name_filter_list=list(_TOPICS))
+        ulog = _pyulog(p, why, message_name_filter_list=list(_TOPICS))
         return _ULogScan(p, buf, params, head.message_formats, {},
-                         counts, [], end, notes, fallback=ulog)  # fmt: skip
+                         counts, [], end, notes, fallback=ulog, version=version)  # fmt: skip
     if status == 1:
         notes.append(
             f"truncated: the last {buf.size - end} byte(s) are a cut message and are left out"
         )
-    return _ULogScan(p, buf, params, head.message_formats, subs, counts, changed, end, notes)
+    return _ULogScan(
+        p, buf, params, head.message_formats, subs, counts, changed, end, notes, version=version
+    )
 
 
 def _streams(
@@ -503,6 +528,7 @@ def _streams(
 
 def _ulog_info(scan: _ULogScan) -> FlightLogInfo:
     instances = []
+    log_notes = list(scan.notes)
     multi = sorted(
         {m for t, m in scan.subs.values() if t == "sensor_gyro"}
         if scan.fallback is None
@@ -527,11 +553,30 @@ def _ulog_info(scan: _ULogScan) -> FlightLogInfo:
         instances.append(
             ImuInstance(m, gid, aid, _count(scan, "sensor_gyro", m), "; ".join(notes) or None)
         )
+        cal = px4_driver_calibration(scan.params, "gyro", gid)
+        cal += px4_driver_calibration(scan.params, "accel", aid)
+        if cal and (scan.version is None or scan.version[:2] < PX4_RAW_DRIVERS_FROM):
+            log_notes.append(_old_px4_note(m, cal, scan.version))
     changed = tuple((t * US_TO_S, n, v) for t, n, v in scan.changed_at)
     if scan.fallback is not None:
         changed = tuple((t * US_TO_S, n, float(v)) for t, n, v in scan.fallback.changed_parameters)
-    return FlightLogInfo(
-        scan.path, "px4", tuple(instances), scan.params, changed, tuple(scan.notes)
+    return FlightLogInfo(scan.path, "px4", tuple(instances), scan.params, changed, tuple(log_notes))
+
+
+def _old_px4_note(instance: int, names: Sequence[str], version: Sequence[int] | None) -> str:
+    """What a driver before PX4 v1.11 did to the logged output, naming the parameters."""
+    first = ".".join(map(str, PX4_RAW_DRIVERS_FROM))
+    which = (
+        f"PX4 v{version[0]}.{version[1]}.{version[2]} applied"
+        if version is not None
+        else "the log does not say its PX4 version (no ver_sw_release); PX4 before "
+        f"v{first} applied"
+    )
+    return (
+        f"IMU instance {instance}: {', '.join(names)} not at their defaults; {which} them in "
+        "the driver, so sensor_gyro/sensor_accel carry them and so will the model (nothing is "
+        "undone); PX4's process_sensor_caldata.py asks for CAL_GYRO*/CAL_ACC* to be reset to "
+        "their defaults before a thermal-calibration log"
     )
 
 
@@ -681,19 +726,29 @@ def _df_counts(scan: _DataFlashScan) -> dict[int, int]:
     return dict(zip(idx.tolist(), counts.tolist(), strict=True))
 
 
+_NO_AP_PARAMS = (
+    f"ArduPilot has no parameters for IMU instance {{i}} (instances 0 to {ARDUPILOT_IMUS - 1} "
+    "only): no correction is known, nothing is undone"
+)
+
+
 def _df_info(scan: _DataFlashScan) -> FlightLogInfo:
     params, changed = _df_params(scan)
     instances = []
     for i, n in _df_counts(scan).items():
         if n == 0:
             continue
+        if i >= ARDUPILOT_IMUS:  # not one ArduPilot writes (a damaged record?): no parameters
+            instances.append(ImuInstance(i, None, None, n, _NO_AP_PARAMS.format(i=i)))
+            continue
         gid = params.get(ardupilot_id_param("gyro", i))
         aid = params.get(ardupilot_id_param("accel", i))
         note = None
+        tcal = ardupilot_tcal_prefix(i)
         if ardupilot_tcal_enabled(params, i) or any(
-            n_ == f"INS_TCAL{i + 1}_ENABLE" and int(v) == 1 for _, n_, v in changed
+            n_ == f"{tcal}ENABLE" and int(v) == 1 for _, n_, v in changed
         ):
-            note = f"INS_TCAL{i + 1} enabled in the log: its correction is undone"
+            note = f"{tcal.rstrip('_')} enabled in the log: its correction is undone"
         instances.append(
             ImuInstance(
                 i, None if gid is None else int(gid), None if aid is None else int(aid), n, note
@@ -927,10 +982,11 @@ def _ardupilot_frame(
     rot = _rotation(orientation, p)
     if rot is not None:  # logged in the body frame: v_body = R v_board
         gyro, accel = gyro @ rot, accel @ rot
-    changes = [c for c in info.changed if ardupilot_tcal_params(c[1], inst.index)]
-    for part, params in _in_force(info.params, changes, t):
-        gyro[part] += ardupilot_tcal(params, inst.index, "gyro", temp[part])
-        accel[part] += ardupilot_tcal(params, inst.index, "accel", temp[part])
+    if inst.index < ARDUPILOT_IMUS:  # else ArduPilot has no parameters for it (_df_info)
+        changes = [c for c in info.changed if ardupilot_tcal_params(c[1], inst.index)]
+        for part, params in _in_force(info.params, changes, t):
+            gyro[part] += ardupilot_tcal(params, inst.index, "gyro", temp[part])
+            accel[part] += ardupilot_tcal(params, inst.index, "accel", temp[part])
     cols: dict[str, np.ndarray] = {TIME: t}
     for j, c in enumerate(GYRO_CHANNELS):
         cols[c] = gyro[:, j]

@@ -36,6 +36,7 @@ from __future__ import annotations
 import contextlib
 import csv
 import dataclasses
+import itertools
 import json
 import math
 import os
@@ -70,6 +71,7 @@ __all__ = [
     "FORMATS",
     "ColumnMapping",
     "atomic_path",
+    "channel_unit",
     "format_of",
     "is_flight_log",
     "mapping_from_options",
@@ -259,18 +261,32 @@ class ColumnMapping:
 
     def unit_of(self, channel: str) -> str | None:
         """Unit of ``channel`` declared in :attr:`units`, or ``None``."""
-        if channel in self.units:
-            return self.units[channel]
-        for group, chans in _CHANNEL_GROUPS.items():
-            if channel in chans and group in self.units:
-                return self.units[group]
-        return None
+        return channel_unit(self.units, channel)
 
     def foreign_columns(self) -> list[str]:
         """Every foreign column the mapping names (and so the file must have)."""
         cols = list(self.columns)
         cols += [c for c in (self.time, self.temperature) if c is not None]
         return cols
+
+
+def channel_unit(units: Mapping[str, Any], channel: str) -> str | None:
+    """Unit of ``channel`` in a units table keyed by channel or by sensor, or ``None``.
+
+    Parameters
+    ----------
+    units : mapping
+        ``{"gyro_x": "deg/h", ...}`` and/or ``{"gyro": "rad/s", "accel": "m/s^2"}`` (a
+        mapping's ``[units]``, a log's ``meta["units"]``); a channel's own entry wins.
+    channel : str
+        A sensor channel, e.g. ``"accel_z"``.
+    """
+    if channel in units:
+        return str(units[channel])
+    for group, chans in _CHANNEL_GROUPS.items():
+        if channel in chans and group in units:
+            return str(units[group])
+    return None
 
 
 def read_mapping(path: str | os.PathLike[str]) -> ColumnMapping:
@@ -575,10 +591,18 @@ def _table_pieces(
         names = [n for n in pf.schema_arrow.names if not n.startswith("__index_level_")]
 
         def parquet() -> Iterator[Any]:
+            import pyarrow as pa
+
+            rows = 0
             try:
-                yield from pf.iter_batches(batch_size=piece_rows, columns=names)
+                for batch in pf.iter_batches(batch_size=piece_rows, columns=names):
+                    rows += batch.num_rows
+                    yield batch
             except Exception as exc:
                 raise LogError(f"{p}: unreadable Parquet file: {exc}") from None
+            if rows == 0:  # no rows: one empty piece, so that the columns are known
+                schema = pa.schema([pf.schema_arrow.field(n) for n in names])
+                yield pa.RecordBatch.from_pylist([], schema=schema)
 
         return parquet(), None
     options = _text_options(p, fmt, mapping)
@@ -610,8 +634,10 @@ def by_runs(
 
 
 def _piece_runs(piece: Any, run_col: str) -> tuple[np.ndarray, np.ndarray, list[object]]:
-    """Start, end and run name of each stretch of equal run names in a piece."""
+    """Start, end and run name of each stretch of equal run names in a piece (none if empty)."""
     n = len(piece)
+    if n == 0:  # a header and no rows
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), []
     names = piece.schema.names if not isinstance(piece, pd.DataFrame) else list(piece.columns)
     if run_col not in names:  # one run (named by the mapping or the file)
         return np.array([0]), np.array([n]), [run_col]
@@ -911,7 +937,8 @@ def iter_log_source(
     ------
     InterleavedRunsError
         When a run's rows resume after another run's (read such a log whole, with
-        :func:`read_log_source`).
+        :func:`read_log_source`), also when the part of a run before another run began is
+        not a valid run on its own (one sample, say): it is never refused for that.
     LogError
         As :func:`read_log_source`, with the row numbers of the whole file.
     """
@@ -926,38 +953,85 @@ def iter_log_source(
     run_col = RUN
     if mapping is not None:
         run_col = next((k for k, c in mapping.columns.items() if c == RUN), RUN)
+    heads: list[Any] = []
+    stretches = _stretches(pieces, run_col, heads)
     held: list[Any] = []
     current: object = None
     finished: set[object] = set()
     first = 0
-    head: Any = None
-    for piece in pieces:
-        frame = isinstance(piece, pd.DataFrame)
-        if head is None:  # the columns, for a file with a header and no rows
-            head = piece.iloc[:0] if frame else piece.slice(0, 0)
-        for a, b, v in zip(*_piece_runs(piece, run_col), strict=True):
-            if b <= a:
-                continue
-            seg = piece.iloc[a:b] if frame else piece.slice(a, b - a)
-            if held and v == current:
-                held.append(seg)
-                continue
-            if held:
-                rows = sum(len(h) for h in held)
-                yield _source(p, _piece_table(held), mapping, sep, first)
-                first += rows
+    for seg, v in stretches:
+        if held and v == current:
+            held.append(seg)
+            continue
+        if held:
+            rows = sum(len(h) for h in held)
+            try:
+                src = _source(p, _piece_table(held), mapping, sep, first)
+            except LogError:
+                # a run cut short by another run may be a run that resumes later: then the
+                # log is read whole and validated as such, never refused for a piece of a run
                 finished.add(current)
-            if v in finished:
-                raise InterleavedRunsError(
-                    f"{p}: data row {first + 1}: run {v!r} resumes after other runs began; "
-                    "the log is read whole instead"
-                )
-            held, current = [seg], v
+                row = _resumed_at(itertools.chain([(seg, v)], stretches), first + rows, finished)
+                if row is not None:
+                    raise InterleavedRunsError(
+                        f"{p}: data row {row + 1}: a run resumes after other runs began; "
+                        "the log is read whole instead"
+                    ) from None
+                raise
+            yield src
+            first += rows
+            finished.add(current)
+        if v in finished:
+            raise InterleavedRunsError(
+                f"{p}: data row {first + 1}: run {v!r} resumes after other runs began; "
+                "the log is read whole instead"
+            )
+        held, current = [seg], v
     if held:
         yield _source(p, _piece_table(held), mapping, sep, first)
     else:  # a header and no rows: validation says so
-        empty = pd.DataFrame() if head is None else _piece_table([head])
+        empty = pd.DataFrame() if not heads else _piece_table(heads)
         yield _source(p, empty, mapping, sep)
+
+
+def _stretches(
+    pieces: Iterator[Any], run_col: str, heads: list[Any]
+) -> Iterator[tuple[Any, object]]:
+    """Each stretch of equal run names, piece by piece, with its run name.
+
+    The first piece's columns (no rows) go to ``heads``: a file with a header and no rows
+    has no stretch.
+    """
+    for piece in pieces:
+        frame = isinstance(piece, pd.DataFrame)
+        if not heads:
+            heads.append(piece.iloc[:0] if frame else piece.slice(0, 0))
+        for a, b, v in zip(*_piece_runs(piece, run_col), strict=True):
+            if b > a:
+                yield (piece.iloc[a:b] if frame else piece.slice(a, b - a)), v
+
+
+def _resumed_at(
+    stretches: Iterator[tuple[Any, object]], row: int, finished: set[object]
+) -> int | None:
+    """First data row (0-based) where one of the ``finished`` runs resumes, or None.
+
+    ``row`` is the data row where ``stretches`` begin; only their run names and lengths are
+    used. ``finished`` gains the runs that end on the way.
+    """
+    current: object = _NO_RUN
+    for seg, v in stretches:
+        if v != current:
+            if v in finished:
+                return row
+            if current is not _NO_RUN:
+                finished.add(current)
+            current = v
+        row += len(seg)
+    return None
+
+
+_NO_RUN = object()
 
 
 # --------------------------------------------------------------------------- writing

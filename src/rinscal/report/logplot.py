@@ -17,9 +17,11 @@ import pandas as pd
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
+from rinscal.io import channel_unit
 from rinscal.schema import (
     ACCEL_CHANNELS,
     CHAMBER,
+    CHANNELS,
     GYRO_CHANNELS,
     RUN,
     TEMP_IN,
@@ -60,11 +62,14 @@ def units_from_meta(meta: Mapping[str, Any] | None) -> dict[str, str]:
     Returns
     -------
     dict of str to str
-        Channel -> unit name, e.g. ``{"gyro_x": "deg/h", ...}``; empty when unknown.
+        Channel -> unit name, e.g. ``{"gyro_x": "deg/h", ...}``, for every channel whose
+        unit the metadata gives, per channel or per sensor (``{"gyro": "rad/s"}``, as a
+        flight log's); empty when unknown.
     """
     if not meta or not isinstance(meta.get("units"), Mapping):
         return {}
-    return {str(k): str(v) for k, v in meta["units"].items()}
+    units = {ch: channel_unit(meta["units"], ch) for ch in CHANNELS}
+    return {ch: u for ch, u in units.items() if u is not None}
 
 
 class Decimated(NamedTuple):
