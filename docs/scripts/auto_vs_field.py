@@ -4,7 +4,7 @@ Run from the repository root (about 2 minutes on one core)::
 
     python docs/scripts/auto_vs_field.py
 
-Real log: the MEMS thermal cycle of ``shared/data/real`` cut into legs; every method is
+Real log: the MEMS thermal cycle of ``tests/data/real`` cut into legs; every method is
 fitted on the first cooling and the heating leg and evaluated on the last cooling leg (RMS of
 the compensated output about the leg's mean, noise included; no truth). Simulated: each
 preset's soak protocol (7 × 3 h at 10 Hz, seed 1) trains, the ``repeat`` (seed 2) and
@@ -148,7 +148,7 @@ def noise_only(seeds: tuple[int, ...] = (11, 12, 13)) -> str:
 def main() -> None:
     warnings.simplefilter("ignore")
     root = Path(__file__).resolve().parents[2]
-    real = root.parent / "shared" / "data" / "real" / "tofupilot_imu_thermal_cycle.tsv"
+    real = root / "tests" / "data" / "real" / "tofupilot_imu_thermal_cycle.tsv"
     if len(sys.argv) > 1:
         real = Path(sys.argv[1])
     print("### Real MEMS log: legs 1-2 train, leg 3 tests\n")

@@ -35,7 +35,6 @@ def test_heldout_table_on_the_quiet_plant(soak_quiet, repeat_quiet) -> None:
     assert (steps["sectional"][acc] > 20 * steps["regression"][acc]).all()
 
 
-@pytest.mark.skipif(not REAL.is_file(), reason=f"real log not found at {REAL} (set RINSCAL_SHARED)")
 def test_real_log_is_cut_at_its_turning_points() -> None:
     log = real_log_legs(read_log(REAL, tofupilot_mapping()))
     legs = log.groupby("run", sort=False)["temp_in"].agg(["first", "last", "min", "max", "size"])
@@ -47,7 +46,6 @@ def test_real_log_is_cut_at_its_turning_points() -> None:
     assert legs.loc["leg3_cool", "max"] == pytest.approx(73.9, abs=0.2)
 
 
-@pytest.mark.skipif(not REAL.is_file(), reason=f"real log not found at {REAL} (set RINSCAL_SHARED)")
 def test_real_log_table_fits_on_two_legs_and_judges_the_third() -> None:
     tab, models = real_log_table(REAL, methods=("poly-t", "regression"))
     assert set(tab["run"]) == {"leg3_cool"} and set(tab["method"]) == {"poly-t", "regression"}

@@ -7,7 +7,7 @@
     offset of a power-on is not thermal), and the largest step of that residual where the
     temperature crosses a segment edge (Figure 7). "uncompensated" is the true bias itself.
 :func:`real_log_table`
-    The real MEMS thermal-cycle log (``shared/data/real``): the single recording is cut at
+    The real MEMS thermal-cycle log (``tests/data/real``): the single recording is cut at
     its temperature turning points into legs (cooling, heating, cooling); models are fitted
     on some legs and judged on another by the RMS (Eq. 16) of the compensated output about
     the leg's mean. There is no truth: what remains includes noise.
