@@ -21,7 +21,14 @@ app.add_typer(fleet_app, name="fleet")
 @fleet_app.command("fit")
 def fleet_fit(
     logs: Annotated[
-        list[Path], typer.Argument(help="One calibration log per unit (named by its file).")
+        list[Path],
+        typer.Argument(
+            help="One calibration log per unit. A unit is named by its file name without the "
+            "suffix when those differ (SN0042.csv: SN0042); else by the fewest trailing folder "
+            "names that tell the units apart, joined by '+', the file name dropped when all "
+            "share it (SN001/imu.csv: SN001; lineA/SN001/imu.csv and lineB/SN001/imu.csv: "
+            "lineA+SN001 and lineB+SN001). A log already in OUT keeps its unit's name."
+        ),
     ],
     out: Annotated[Path, typer.Option("--out", "-o", help="Results folder; run again to resume.")],
     method: Annotated[
