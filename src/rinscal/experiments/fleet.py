@@ -45,6 +45,7 @@ import numpy as np
 import pandas as pd
 
 from rinscal.errors import ConfigError, RinscalError
+from rinscal.experiments.cluster import TLSFiles, dask_client
 from rinscal.io import write_atomic
 
 __all__ = [
@@ -423,6 +424,7 @@ def run_fleet(
     export: str = "c",
     workers: int | None = None,
     scheduler: str | None = None,
+    tls: TLSFiles | None = None,
     retry_failed: bool = False,
     on_unit: Callable[[str, str], None] | None = None,
     client: Any = None,
@@ -440,6 +442,8 @@ def run_fleet(
         Fit method and export format (:data:`EXPORTS`).
     workers, scheduler : optional
         A local cluster of ``workers`` processes, or the cluster at ``scheduler``.
+    tls : TLSFiles, optional
+        Certificate files for a ``tls://`` scheduler (else Dask's configuration).
     retry_failed : bool
         Fit again the units that failed before (default: leave them failed).
     on_unit : callable, optional
@@ -451,8 +455,6 @@ def run_fleet(
     -------
     FleetRun
     """
-    from rinscal.experiments.cluster import dask_client
-
     if export not in EXPORTS:
         raise ConfigError(f"export must be one of {', '.join(EXPORTS)}, got {export!r}")
     paths = [str(Path(p)) for p in logs]
@@ -472,7 +474,7 @@ def run_fleet(
         if client is not None:
             _submit(client, todo, store, method, export, run, on_unit)
         else:
-            with dask_client(workers, scheduler) as c:
+            with dask_client(workers, scheduler, tls) as c:
                 _submit(c, todo, store, method, export, run, on_unit)
     run.elapsed_s = time.perf_counter() - t0
     return run
