@@ -166,33 +166,22 @@ def test_a_client_with_other_certificates_is_refused(
 
 
 def test_certificates_need_a_tls_scheduler(pems: dict[str, Path], unit_log: Path, tmp_path):
+    nope = tmp_path / "nope.pem"
+    cases = {  # options: what the refusal says
+        ("--tls-cert", str(pems["cert"])): "secure a tls:// scheduler, not a local cluster",
+        ("--scheduler", "tcp://127.0.0.1:8786", "--tls-ca-file", str(pems["ca"])): (
+            "not --scheduler tcp://127.0.0.1:8786: give the secured scheduler's address"
+        ),
+        ("--scheduler", "tls://127.0.0.1:8786", "--tls-ca-file", str(nope)): (
+            f"--tls-ca-file {nope}: no such file"
+        ),
+        ("--scheduler", "tcp://127.0.0.1:8786", "--workers", "2"): "exclude each other",
+    }
     out = str(tmp_path / "out")
     for cmd in (["fleet", "fit", str(unit_log)], ["study", "paper", "--quick"]):
-        res = _run(*cmd, "--out", out, "--tls-cert", str(pems["cert"]))
-        assert res.exit_code == 2, res.output
-        assert "secure a tls:// scheduler, not a local cluster" in _one_line(res)
-        res = _run(
-            *cmd,
-            "--out",
-            out,
-            "--scheduler",
-            "tcp://127.0.0.1:8786",
-            "--tls-ca-file",
-            str(pems["ca"]),
-        )
-        assert res.exit_code == 2, res.output
-        assert "not --scheduler tcp://127.0.0.1:8786: give the secured" in _one_line(res)
-        res = _run(
-            *cmd,
-            "--out",
-            out,
-            "--scheduler",
-            "tls://127.0.0.1:8786",
-            "--tls-ca-file",
-            str(tmp_path / "nope.pem"),
-        )
-        assert res.exit_code == 2, res.output
-        assert f"--tls-ca-file {tmp_path / 'nope.pem'}: no such file" in _one_line(res)
-        res = _run(*cmd, "--out", out, "--scheduler", "tcp://127.0.0.1:8786", "--workers", "2")
-        assert res.exit_code == 2 and "exclude each other" in res.output
+        for options, says in cases.items():
+            res = _run(*cmd, "--out", out, *options)
+            assert res.exit_code == 2, res.output
+            assert says in _one_line(res), (cmd, options)
+            assert "Traceback" not in res.output
     assert not (tmp_path / "out").exists()
