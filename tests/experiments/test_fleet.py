@@ -8,11 +8,12 @@ after two units resumes without refitting them.
 from __future__ import annotations
 
 import json
+import shutil
 from pathlib import Path
 
 import numpy as np
 import pytest
-from typer.testing import CliRunner
+from typer.testing import CliRunner, Result
 
 from rinscal.calibration.modelfile import ThermalModelFile
 from rinscal.cli import app
@@ -23,6 +24,7 @@ from rinscal.experiments.fleet import (
     _noise_density,
     fleet_report,
     run_fleet,
+    unit_names,
 )
 from rinscal.io import write_log, write_meta
 from rinscal.thermal.protocols import simulate_protocol
@@ -175,3 +177,137 @@ def test_fleet_cli_end_to_end(units, tmp_path) -> None:
     page = (out / "report.html").read_text()
     assert 'data-table="verdicts"' in page and 'data-figure="fleet"' in page
     assert "2 unit(s): 1 pass, 0 fail, 1 failed to fit" in page
+
+
+# --------------------------------------------------------------------------- unit names
+def _place(src: Path, dst: Path) -> Path:
+    """Copy a log and its sidecar metadata to ``dst`` (a production line's folder layout)."""
+    from rinscal.io import meta_path
+
+    dst.parent.mkdir(parents=True, exist_ok=True)
+    shutil.copy2(src, dst)
+    if meta_path(src).exists():
+        shutil.copy2(meta_path(src), meta_path(dst))
+    return dst
+
+
+def _fleet(*args: str) -> Result:
+    return CliRunner().invoke(app, ["fleet", "fit", *args])
+
+
+def test_unit_names_from_the_shortest_distinct_end_of_the_path(tmp_path) -> None:
+    # unique file names: the file name without its suffix, as always
+    assert unit_names([tmp_path / "a" / "u1.csv", tmp_path / "b" / "u2.parquet"]) == ["u1", "u2"]
+    # a production line: one folder per serial number, the same file name in each
+    logs = [tmp_path / "SN001" / "imu.csv", tmp_path / "SN002" / "imu.csv"]
+    assert unit_names(logs) == ["SN001", "SN002"]
+    # two lines with the same serial numbers: line and serial, joined by a '+'
+    logs = [tmp_path / line / sn / "imu.csv" for line in ("lineA", "lineB") for sn in ("1", "2")]
+    assert unit_names(logs) == ["lineA+1", "lineA+2", "lineB+1", "lineB+2"]
+    # file names that differ but repeat: the folder and the file name
+    logs = [tmp_path / "SN1" / "imu.csv", tmp_path / "SN1" / "imu_retest.csv"]
+    logs.append(tmp_path / "SN2" / "imu.csv")
+    assert unit_names(logs) == ["SN1+imu", "SN1+imu_retest", "SN2+imu"]
+    # the same path, relative or absolute, is the same unit name
+    assert unit_names([Path("SN3/imu.csv"), Path.cwd().parent / "SN4/imu.csv"]) == ["SN3", "SN4"]
+
+
+def test_unit_names_refuse_logs_nothing_tells_apart(tmp_path) -> None:
+    with pytest.raises(ConfigError, match=r"SN1/imu.csv is given twice"):
+        unit_names([tmp_path / "SN1" / "imu.csv", tmp_path / "SN1" / ".." / "SN1" / "imu.csv"])
+    with pytest.raises(ConfigError, match=r"SN1/imu.csv and .*SN1/imu.parquet both give"):
+        unit_names([tmp_path / "SN1" / "imu.csv", tmp_path / "SN1" / "imu.parquet"])
+    # folder names holding the separator: never two units under one name
+    logs = [tmp_path / "r" / "a+b" / "c" / "imu.csv", tmp_path / "r" / "a" / "b+c" / "imu.csv"]
+    assert unit_names(logs) == ["c", "b+c"]
+    logs.append(tmp_path / "s" / "a+b" / "c" / "imu.csv")
+    with pytest.raises(ConfigError, match=r"r/a\+b/c/imu.csv and .*r/a/b\+c/imu.csv both give"):
+        unit_names(logs)
+
+
+@pytest.fixture(scope="module")
+def address():
+    """An in-process cluster the CLI reaches by its address (no worker processes to start)."""
+    from distributed import LocalCluster
+
+    with LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=False, dashboard_address=":0"
+    ) as cl:
+        yield cl.scheduler_address
+
+
+def test_fleet_cli_names_a_production_line_by_its_folders(
+    units, address, tmp_path, monkeypatch
+) -> None:
+    line = tmp_path / "line"
+    logs = [_place(units[f"u{k}"], line / f"SN00{k}" / "imu.csv") for k in (1, 2)]
+    out = tmp_path / "out"
+    res = _fleet(*map(str, logs), "--out", str(out), "--scheduler", address)
+    assert res.exit_code == 0, res.output
+    assert "2 fitted, 0 failed" in res.output
+    # every output named after the unit: model, summary, export, report rows
+    for sn in ("SN001", "SN002"):
+        mf = ThermalModelFile.load(out / "units" / f"{sn}.json")
+        assert (mf.source["log"], mf.source["unit"]) == ("imu.csv", sn)
+        assert (out / "units" / f"{sn}.summary.json").is_file()
+        assert (out / "exports" / f"{sn}.h").is_file()
+    rows = (out / "verdicts.csv").read_text().splitlines()
+    assert [r.split(",")[:2] for r in rows[1:]] == [["SN001", "pass"], ["SN002", "pass"]]
+    # resumed from another folder, the logs given by other relative paths: the same units
+    monkeypatch.chdir(line)
+    res = _fleet("SN001/imu.csv", "SN002/imu.csv", "--out", str(out), "--scheduler", address)
+    assert res.exit_code == 0, res.output
+    assert "0 fitted, 0 failed, 2 already done" in res.output
+    # one unit alone (its file name would do): the folder still knows it as SN002
+    res = _fleet("SN002/imu.csv", "--out", str(out), "--scheduler", address)
+    assert res.exit_code == 0 and "0 fitted, 0 failed, 1 already done" in res.output
+    assert sorted(p.name for p in (out / "units").iterdir()) == [
+        "SN001.json",
+        "SN001.summary.json",
+        "SN002.json",
+        "SN002.summary.json",
+    ]
+
+
+def test_fleet_cli_two_lines_with_the_same_serials(address, tmp_path) -> None:
+    """Units that fail to read are named, and remembered, as fitted ones (and fail fast)."""
+    logs = [tmp_path / line / "SN001" / "imu.csv" for line in ("lineA", "lineB")]
+    for p in logs:
+        p.parent.mkdir(parents=True)
+        p.write_text("time_s,run,gyro_x\n0,a,1\n0,a,2\n", encoding="utf-8")
+    out = tmp_path / "out"
+    res = _fleet(*map(str, logs), "--out", str(out), "--scheduler", address)
+    assert res.exit_code == 0, res.output
+    assert sorted(p.name for p in (out / "failed").iterdir()) == [
+        "lineA+SN001.json",
+        "lineB+SN001.json",
+    ]
+    verdicts = (out / "verdicts.csv").read_text()
+    assert "lineA+SN001,failed" in verdicts and "lineB+SN001,failed" in verdicts
+    # a third log named SN001-as-file beside them: the folder's lineA+SN001 is not taken
+    other = tmp_path / "lineC" / "lineA+SN001.csv"
+    other.parent.mkdir()
+    other.write_text("time_s\n", encoding="utf-8")
+    res = _fleet(str(logs[0]), str(other), "--out", str(out), "--scheduler", address)
+    assert res.exit_code == 2, res.output
+    text = " ".join(res.output.split())
+    assert f"{other} would be unit 'lineA+SN001', but {out} holds unit 'lineA+SN001'" in text
+    assert f"fitted from {logs[0]}" in text and "Traceback" not in res.output
+
+
+def test_fleet_cli_refuses_logs_that_name_one_unit(tmp_path) -> None:
+    logs = [tmp_path / "SN1" / "imu.csv", tmp_path / "SN1" / "imu.parquet"]
+    for p in logs:
+        p.parent.mkdir(exist_ok=True)
+        p.write_text("time_s\n", encoding="utf-8")
+    res = _fleet(*map(str, logs), "--out", str(tmp_path / "out"))
+    assert res.exit_code == 2, res.output
+    assert f"{logs[0]} and {logs[1]} both give the unit name 'SN1'" in " ".join(res.output.split())
+    assert "Traceback" not in res.output and not (tmp_path / "out").exists()
+
+
+def test_fleet_help_says_how_units_are_named() -> None:
+    res = CliRunner().invoke(app, ["fleet", "fit", "--help"], terminal_width=200)
+    assert res.exit_code == 0
+    text = " ".join(res.output.split())
+    assert "SN001/imu.csv" in text and "lineA/SN001/imu.csv" in text and "lineA+SN001" in text

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 import typer
 
 if TYPE_CHECKING:
+    from rinscal.experiments.cluster import TLSFiles
     from rinscal.flightlog import FlightLogOptions
     from rinscal.io import ColumnMapping, SourceLog
 
@@ -86,7 +87,29 @@ PolicyOpt = Annotated[
 SchedulerOpt = Annotated[
     str | None,
     typer.Option(
-        "--scheduler", help="Run on an existing Dask cluster: its address, tcp://host:8786."
+        "--scheduler",
+        help="Run on an existing Dask cluster: its address, tcp://host:8786, or tls://host:8786 "
+        "for one secured with TLS. The cluster runs the code this command sends it: use only "
+        "a cluster you trust.",
+    ),
+]
+TLSCAOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--tls-ca-file",
+        help="tls:// scheduler: the cluster's CA certificate (PEM). Without --tls-* options, "
+        "Dask's configuration (distributed.comm.tls.*) gives the files.",
+    ),
+]
+TLSCertOpt = Annotated[
+    Path | None,
+    typer.Option("--tls-cert", help="tls:// scheduler: this client's certificate (PEM)."),
+]
+TLSKeyOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--tls-key",
+        help="tls:// scheduler: this client's private key (PEM; or appended to --tls-cert).",
     ),
 ]
 AlignLengthOpt = Annotated[
@@ -108,6 +131,38 @@ AlignStartOpt = Annotated[
         "it; navigation starts at align-start-s + align-s).",
     ),
 ]
+
+
+def cluster_options(
+    workers: int | None,
+    scheduler: str | None,
+    tls_ca_file: Path | None,
+    tls_cert: Path | None,
+    tls_key: Path | None,
+) -> TLSFiles | None:
+    """Check ``--workers``, ``--scheduler`` and the ``--tls-*`` files together, before any work.
+
+    Returns the certificate files given (None if none); exits with a message naming the option
+    for a missing file, a certificate without a ``tls://`` scheduler, or a ``tls://``
+    scheduler with no certificate in the options or Dask's configuration.
+    """
+    from rinscal.cli._app import fail
+    from rinscal.errors import ConfigError
+    from rinscal.experiments.cluster import TLSFiles, cluster_security
+
+    if workers is not None and scheduler:
+        raise fail("--workers and --scheduler exclude each other (the cluster has its own)")
+    files = {"--tls-ca-file": tls_ca_file, "--tls-cert": tls_cert, "--tls-key": tls_key}
+    for flag, path in files.items():
+        if path is not None and not path.is_file():
+            raise fail(f"{flag} {path}: no such file")
+    given = [None if p is None else str(p) for p in files.values()]
+    tls = TLSFiles(*given) if any(given) else None
+    try:
+        cluster_security(scheduler, tls)
+    except ConfigError as exc:
+        raise fail(str(exc)) from None
+    return tls
 
 
 def is_same_file(a: Path, b: Path) -> bool:

@@ -8,7 +8,14 @@ from typing import Annotated
 import typer
 
 from rinscal.cli._app import app, print_table
-from rinscal.cli._options import SchedulerOpt, WorkersOpt
+from rinscal.cli._options import (
+    SchedulerOpt,
+    TLSCAOpt,
+    TLSCertOpt,
+    TLSKeyOpt,
+    WorkersOpt,
+    cluster_options,
+)
 
 fleet_app = typer.Typer(
     help="Calibrate a fleet of IMUs: one log per unit, fitted in parallel on Dask.",
@@ -21,7 +28,14 @@ app.add_typer(fleet_app, name="fleet")
 @fleet_app.command("fit")
 def fleet_fit(
     logs: Annotated[
-        list[Path], typer.Argument(help="One calibration log per unit (named by its file).")
+        list[Path],
+        typer.Argument(
+            help="One calibration log per unit. A unit is named by its file name without the "
+            "suffix when those differ (SN0042.csv: SN0042); else by the fewest trailing folder "
+            "names that tell the units apart, joined by '+', the file name dropped when all "
+            "share it (SN001/imu.csv: SN001; lineA/SN001/imu.csv and lineB/SN001/imu.csv: "
+            "lineA+SN001 and lineB+SN001). A log already in OUT keeps its unit's name."
+        ),
     ],
     out: Annotated[Path, typer.Option("--out", "-o", help="Results folder; run again to resume.")],
     method: Annotated[
@@ -40,6 +54,9 @@ def fleet_fit(
     ] = None,
     workers: WorkersOpt = None,
     scheduler: SchedulerOpt = None,
+    tls_ca_file: TLSCAOpt = None,
+    tls_cert: TLSCertOpt = None,
+    tls_key: TLSKeyOpt = None,
     retry_failed: Annotated[
         bool, typer.Option("--retry-failed", help="Fit again the units that failed before.")
     ] = False,
@@ -71,6 +88,7 @@ def fleet_fit(
         raise fail(f"--method must be one of {', '.join(FIT_METHODS)}, got {method!r}")
     if export not in EXPORTS:
         raise fail(f"--export must be one of {', '.join(EXPORTS)}, got {export!r}")
+    tls = cluster_options(workers, scheduler, tls_ca_file, tls_cert, tls_key)
     missing = [str(p) for p in logs if not p.is_file()]
     if missing:
         raise fail(f"log(s) not found: {', '.join(missing)}")
@@ -93,6 +111,7 @@ def fleet_fit(
                 export=export,
                 workers=workers,
                 scheduler=scheduler,
+                tls=tls,
                 retry_failed=retry_failed,
                 on_unit=lambda unit, status: progress.advance(task),
             )

@@ -8,7 +8,14 @@ from typing import Annotated
 import typer
 
 from rinscal.cli._app import app
-from rinscal.cli._options import SchedulerOpt, WorkersOpt
+from rinscal.cli._options import (
+    SchedulerOpt,
+    TLSCAOpt,
+    TLSCertOpt,
+    TLSKeyOpt,
+    WorkersOpt,
+    cluster_options,
+)
 
 
 @app.command("study")
@@ -38,6 +45,9 @@ def study(
     ] = False,
     workers: WorkersOpt = None,
     scheduler: SchedulerOpt = None,
+    tls_ca_file: TLSCAOpt = None,
+    tls_cert: TLSCertOpt = None,
+    tls_key: TLSKeyOpt = None,
     imu: Annotated[
         str | None,
         typer.Option(
@@ -74,8 +84,7 @@ def study(
 
     if workers is not None and workers < 1:
         raise fail(f"--workers must be >= 1, got {workers}")
-    if workers is not None and scheduler:
-        raise fail("--workers and --scheduler exclude each other (the cluster has its own)")
+    tls = cluster_options(workers, scheduler, tls_ca_file, tls_cert, tls_key)
     try:
         s = load_spec(spec, quick=quick, units_override=units, imu_override=imu)
     except RinscalError as exc:
@@ -115,6 +124,7 @@ def study(
                 store,
                 workers=workers,
                 scheduler=scheduler,
+                tls=tls,
                 retry_failed=retry_failed,
                 on_progress=show,
             )

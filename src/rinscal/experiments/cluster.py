@@ -1,5 +1,11 @@
-"""The Dask cluster every fan-out of rinscal runs on (studies, the reproduction's navigation
-runs): a local cluster of single-threaded worker processes, or an existing cluster."""
+"""The Dask cluster every fan-out of rinscal runs on (studies, fleets, the reproduction's
+navigation runs): a local cluster of single-threaded worker processes, or an existing cluster
+by its scheduler address, ``tls://`` for a secured one (:class:`TLSFiles`).
+
+A Dask cluster runs whatever its clients send it (pickled functions and data), and a client
+unpickles what comes back: connect only to a cluster you trust, and secure one that others can
+reach with TLS (every endpoint then proves itself with a certificate of the cluster's own
+authority)."""
 
 from __future__ import annotations
 
@@ -7,23 +13,99 @@ import logging
 import os
 from collections.abc import Iterator
 from contextlib import contextmanager
+from dataclasses import dataclass
 from typing import Any
 
 from rinscal.errors import ConfigError
 
+#: The command-line options of the certificate files, and the Dask configuration keys that
+#: stand in for any not given (for messages).
+TLS_OPTIONS = "--tls-ca-file, --tls-cert and --tls-key"
+TLS_CONFIG = (
+    "distributed.comm.tls.ca-file, distributed.comm.tls.client.cert and "
+    "distributed.comm.tls.client.key"
+)
+
+
+@dataclass(frozen=True)
+class TLSFiles:
+    """A client's certificate files (PEM) for a ``tls://`` scheduler.
+
+    Attributes
+    ----------
+    ca_file : str, optional
+        The certificate of the authority that signed the cluster's certificates.
+    cert : str, optional
+        This client's certificate (its key may be appended to it).
+    key : str, optional
+        This client's private key.
+
+    Any left out is taken from Dask's configuration (:data:`TLS_CONFIG`).
+    """
+
+    ca_file: str | None = None
+    cert: str | None = None
+    key: str | None = None
+
+    def given(self) -> dict[str, str]:
+        """The files given, as :class:`distributed.Security` arguments."""
+        pairs = {"tls_ca_file": self.ca_file, "tls_client_cert": self.cert}
+        pairs["tls_client_key"] = self.key
+        return {k: v for k, v in pairs.items() if v is not None}
+
+
+def cluster_security(scheduler: str | None, tls: TLSFiles | None = None) -> Any:
+    """The :class:`distributed.Security` to reach ``scheduler`` with (None for ``tcp://``).
+
+    A ``tls://`` address requires encryption, with the files of ``tls`` and Dask's own
+    configuration for any not given (``Security`` reads it).
+
+    Raises
+    ------
+    ConfigError
+        Certificate files without a ``tls://`` scheduler; a ``tls://`` scheduler without a
+        CA certificate or a client certificate (naming the options and configuration keys).
+    """
+    given = tls.given() if tls is not None else {}
+    if not (scheduler or "").startswith("tls://"):
+        if given:
+            where = f"--scheduler {scheduler}" if scheduler else "a local cluster"
+            raise ConfigError(
+                f"{TLS_OPTIONS} secure a tls:// scheduler, not {where}: give the secured "
+                "scheduler's address, tls://host:port"
+            )
+        return None
+    from distributed import Security
+
+    security = Security(require_encryption=True, **given)
+    if not (security.tls_ca_file and security.tls_client_cert):
+        raise ConfigError(
+            f"--scheduler {scheduler}: a tls:// scheduler needs the cluster's CA certificate and "
+            f"this client's certificate and key: give {TLS_OPTIONS}, or set {TLS_CONFIG} in "
+            "Dask's configuration"
+        )
+    return security
+
 
 @contextmanager
-def dask_client(workers: int | None = None, scheduler: str | None = None) -> Iterator[Any]:
-    """A Dask client: on the cluster at ``scheduler`` (``tcp://host:8786``), or on a new
-    :class:`distributed.LocalCluster` of ``workers`` single-threaded worker processes
-    (default: one per core available to this process), closed on exit."""
+def dask_client(
+    workers: int | None = None, scheduler: str | None = None, tls: TLSFiles | None = None
+) -> Iterator[Any]:
+    """A Dask client: on the cluster at ``scheduler`` (``tcp://host:8786``, or ``tls://`` with
+    :func:`cluster_security` of ``tls``), or on a new :class:`distributed.LocalCluster` of
+    ``workers`` single-threaded worker processes (default: one per core available to this
+    process), closed on exit."""
     from distributed import Client, LocalCluster
 
+    security = cluster_security(scheduler, tls)
     if scheduler:
         try:
-            client = Client(scheduler, timeout="30s")
+            client = Client(scheduler, timeout="30s", security=security)
         except (OSError, ValueError, TimeoutError) as e:
-            raise ConfigError(f"--scheduler {scheduler}: cannot connect ({e})") from None
+            hint = ""
+            if security is not None:
+                hint = f"; check {TLS_OPTIONS} (or {TLS_CONFIG} in Dask's configuration)"
+            raise ConfigError(f"--scheduler {scheduler}: cannot connect ({e}){hint}") from None
         try:
             yield client
         finally:
@@ -43,4 +125,4 @@ def dask_client(workers: int | None = None, scheduler: str | None = None) -> Ite
         yield client
 
 
-__all__ = ["dask_client"]
+__all__ = ["TLS_CONFIG", "TLS_OPTIONS", "TLSFiles", "cluster_security", "dask_client"]

@@ -4,7 +4,9 @@ A production line calibrates many units, each with its own soak runs. ``run_flee
 every log as an independent task on the same Dask layer as ``rinscal study``
 (:func:`rinscal.experiments.cluster.dask_client`: a local cluster by default, any cluster by
 its scheduler address) and writes each result as it arrives into a folder that is also its
-memory, so that an interrupted fleet resumes without refitting finished units:
+memory, so that an interrupted fleet resumes without refitting finished units. A unit is
+named by the shortest end of its log's path that tells the units apart (:func:`unit_names`:
+``SN001/imu.csv`` is ``SN001``), and keeps the name the folder knows it by:
 
 ``fleet.json``
     The fit options (method, export format); a folder never mixes two settings.
@@ -27,6 +29,7 @@ channel, as a production test's pass/fail).
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 import os
@@ -42,11 +45,13 @@ import numpy as np
 import pandas as pd
 
 from rinscal.errors import ConfigError, RinscalError
+from rinscal.experiments.cluster import TLSFiles, dask_client
 from rinscal.io import write_atomic
 
 __all__ = [
     "EXPORTS",
     "LIMIT_KEYS",
+    "UNIT_SEP",
     "FleetLimits",
     "FleetReport",
     "FleetRun",
@@ -152,6 +157,7 @@ def fit_unit(
     log_path: str,
     method: str = "auto",
     export: str = "c",
+    unit: str | None = None,
 ) -> dict[str, Any]:
     """Fit one unit's log: its model file, its export and its summary (a Dask task).
 
@@ -163,6 +169,9 @@ def fit_unit(
         Fit method (``auto`` by default, as ``rinscal fit``).
     export : {"c", "px4", "ardupilot", "none"}
         Export format.
+    unit : str, optional
+        The unit's name in its fleet, recorded in the model file's ``source`` beside the
+        log's file name (several units' logs may share one).
 
     Returns
     -------
@@ -187,7 +196,8 @@ def fit_unit(
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         model = ThermalModel(method=method).fit(log, meta, source=Path(log_path).name)
-        mf = model.to_file({"log": Path(log_path).name})
+        source = {"log": Path(log_path).name} | ({"unit": unit} if unit else {})
+        mf = model.to_file(source)
     feats = model.features_
     channels: dict[str, Any] = {}
     for j, c in enumerate(mf.channels):
@@ -241,16 +251,57 @@ def _flat_params(params: Mapping[str, Any]) -> dict[str, float]:
 
 
 # --------------------------------------------------------------------------- the folder
+#: Joins the folder names (and file name) of a unit name: ``lineA/SN001/imu.csv`` is unit
+#: ``lineA+SN001`` when ``SN001`` alone does not tell it apart.
+UNIT_SEP = "+"
+
+
 def unit_names(logs: Sequence[str | os.PathLike[str]]) -> list[str]:
-    """Unit name of each log: its file name without the suffix (must be unique)."""
-    names = [Path(p).stem for p in logs]
-    dup = sorted({n for n in names if names.count(n) > 1})
-    if dup:
-        raise ConfigError(
-            f"several logs give the unit name(s) {', '.join(map(repr, dup))} (a unit is named "
-            "by its log's file name): rename them"
-        )
-    return names
+    """Unit name of each log: the shortest end of its path that tells the units apart.
+
+    The file name without its suffix when those are unique (``units/SN0042.parquet`` is
+    ``SN0042``). Else the fewest trailing folder names that tell every unit apart, the same
+    number for every unit, joined by :data:`UNIT_SEP`, and followed by the file name unless
+    every log has the same one: ``SN001/imu.csv``, ``SN002/imu.csv`` are ``SN001``, ``SN002``;
+    ``lineA/SN001/imu.csv``, ``lineB/SN001/imu.csv`` are ``lineA+SN001``, ``lineB+SN001``.
+    Paths are made absolute first (not resolving links), so the names do not depend on the
+    folder the command runs in.
+
+    Raises
+    ------
+    ConfigError
+        A log given twice, or two logs that no part of their paths tells apart (naming both).
+    """
+    paths = [os.path.abspath(p) for p in logs]
+    first: dict[str, int] = {}
+    for i, p in enumerate(paths):
+        if p in first:
+            raise ConfigError(f"{logs[i]} is given twice (one log per unit)")
+        first[p] = i
+    stems = [Path(p).stem for p in paths]
+    if len(set(stems)) == len(stems):
+        return stems
+    # the file name is dropped when every log has it (and a folder above it to name it by)
+    keep_stem = len(set(stems)) > 1 or any(Path(p).parent == Path(p).parent.parent for p in paths)
+    parts = [
+        [*Path(p).parent.parts[1:], *([s] if keep_stem else [])]
+        for p, s in zip(paths, stems, strict=True)
+    ]
+    names: list[str] = []
+    for k in range(1, max(len(q) for q in parts) + 1):
+        names = [UNIT_SEP.join(q[-k:]) for q in parts]
+        if len(set(names)) == len(names) and all(names):
+            return names
+    i, j = next(
+        (i, j) for i, j in itertools.combinations(range(len(names)), 2) if names[i] == names[j]
+    )
+    k = max(len(parts[i]), len(parts[j]))  # the shortest end from which the two names agree
+    while k > 1 and UNIT_SEP.join(parts[i][1 - k :]) == UNIT_SEP.join(parts[j][1 - k :]):
+        k -= 1
+    raise ConfigError(
+        f"{logs[i]} and {logs[j]} both give the unit name {UNIT_SEP.join(parts[i][-k:])!r}: "
+        "nothing in their paths tells the two units apart (one log per unit)"
+    )
 
 
 class FleetStore:
@@ -307,12 +358,12 @@ class FleetStore:
         self.failure_path(unit).unlink(missing_ok=True)
         st = Path(log).stat()
         doc = {k: v for k, v in result.items() if k not in ("model", "export")}
-        doc["log"] = {"path": str(log), "size": st.st_size, "mtime_ns": st.st_mtime_ns}
+        doc["log"] = {"path": os.path.abspath(log), "size": st.st_size, "mtime_ns": st.st_mtime_ns}
         text = json.dumps(doc, indent=1, allow_nan=True)
         write_atomic(self.summary_path(unit), lambda t: t.write_text(text, "utf-8"))
 
     def write_failure(self, unit: str, log: str, error: str, tb: str) -> None:
-        doc = json.dumps({"log": str(log), "error": error, "traceback": tb}, indent=1)
+        doc = json.dumps({"log": os.path.abspath(log), "error": error, "traceback": tb}, indent=1)
         write_atomic(self.failure_path(unit), lambda t: t.write_text(doc, "utf-8"))
 
     def summaries(self) -> dict[str, dict[str, Any]]:
@@ -320,6 +371,16 @@ class FleetStore:
         out = {}
         for p in sorted((self.root / "units").glob("*.summary.json")):
             out[p.name.removesuffix(".summary.json")] = json.loads(p.read_text("utf-8"))
+        return out
+
+    def units_by_log(self) -> dict[str, str]:
+        """The unit each log was fitted (or failed) as, by the log's absolute path.
+
+        A path recorded relative (by an older rinscal) is taken from the current folder.
+        """
+        out = {os.path.abspath(s["log"]["path"]): u for u, s in self.summaries().items()}
+        for p in sorted((self.root / "failed").glob("*.json")):
+            out.setdefault(os.path.abspath(json.loads(p.read_text("utf-8"))["log"]), p.stem)
         return out
 
     def failures(self) -> dict[str, str]:
@@ -343,14 +404,14 @@ class FleetRun:
     elapsed_s: float = 0.0
 
 
-def _task(log: str, method: str, export: str) -> dict[str, Any]:
+def _task(log: str, method: str, export: str, unit: str) -> dict[str, Any]:
     """A unit's fit on a worker; its error returned, not raised (a unit's bad log is a
     result of the fleet, not a failure of the cluster)."""
     from threadpoolctl import threadpool_limits
 
     try:
         with threadpool_limits(limits=1):  # one core per task: the cluster is the parallelism
-            return fit_unit(log, method, export)
+            return fit_unit(log, method, export, unit)
     except Exception as exc:  # any error of one unit is reported, not raised
         return {"error": failure_of(exc), "traceback": traceback.format_exc()}
 
@@ -363,6 +424,7 @@ def run_fleet(
     export: str = "c",
     workers: int | None = None,
     scheduler: str | None = None,
+    tls: TLSFiles | None = None,
     retry_failed: bool = False,
     on_unit: Callable[[str, str], None] | None = None,
     client: Any = None,
@@ -372,13 +434,16 @@ def run_fleet(
     Parameters
     ----------
     logs : sequence of path-like
-        One calibration log per unit (the unit is named by the file name).
+        One calibration log per unit, named by :func:`unit_names`; a log that ``store``
+        holds a unit of keeps that unit's name.
     store : FleetStore
         The results folder.
     method, export : str
         Fit method and export format (:data:`EXPORTS`).
     workers, scheduler : optional
         A local cluster of ``workers`` processes, or the cluster at ``scheduler``.
+    tls : TLSFiles, optional
+        Certificate files for a ``tls://`` scheduler (else Dask's configuration).
     retry_failed : bool
         Fit again the units that failed before (default: leave them failed).
     on_unit : callable, optional
@@ -390,13 +455,12 @@ def run_fleet(
     -------
     FleetRun
     """
-    from rinscal.experiments.cluster import dask_client
-
     if export not in EXPORTS:
         raise ConfigError(f"export must be one of {', '.join(EXPORTS)}, got {export!r}")
     paths = [str(Path(p)) for p in logs]
     names = unit_names(paths)
     store.open({"method": method, "export": export})
+    names = _keep_known_names(store, paths, names)
     run = FleetRun(units=len(names))
     failed_before = set(store.failures())
     todo = []
@@ -410,10 +474,26 @@ def run_fleet(
         if client is not None:
             _submit(client, todo, store, method, export, run, on_unit)
         else:
-            with dask_client(workers, scheduler) as c:
+            with dask_client(workers, scheduler, tls) as c:
                 _submit(c, todo, store, method, export, run, on_unit)
     run.elapsed_s = time.perf_counter() - t0
     return run
+
+
+def _keep_known_names(store: FleetStore, paths: list[str], names: list[str]) -> list[str]:
+    """``names``, but a log that ``store`` holds a unit of keeps that unit's name (a unit's
+    name depends on the other logs given with it; its files stay where they are)."""
+    known = store.units_by_log()
+    out = [known.get(os.path.abspath(p), n) for p, n in zip(paths, names, strict=True)]
+    for i, j in itertools.combinations(range(len(out)), 2):
+        if out[i] == out[j]:
+            a, b = (i, j) if known.get(os.path.abspath(paths[i])) == out[i] else (j, i)
+            raise ConfigError(
+                f"{paths[b]} would be unit {out[b]!r}, but {store.root} holds unit {out[b]!r} "
+                f"fitted from {paths[a]} (a unit keeps its name in its folder): fit these logs "
+                "into another --out"
+            )
+    return out
 
 
 def _submit(
@@ -427,7 +507,7 @@ def _submit(
 ) -> None:
     run.workers = len(client.scheduler_info().get("workers", {}))
     futures = {
-        client.submit(_task, path, method, export, key=f"fleet-{name}-{time.time_ns()}"): (
+        client.submit(_task, path, method, export, name, key=f"fleet-{name}-{time.time_ns()}"): (
             name,
             path,
         )

@@ -39,7 +39,7 @@ from threadpoolctl import threadpool_limits
 
 from rinscal import __version__
 from rinscal.errors import ConfigError, RinscalError
-from rinscal.experiments.cluster import dask_client
+from rinscal.experiments.cluster import TLSFiles, dask_client
 from rinscal.experiments.study import (
     RESULT_COLUMNS,
     CalTask,
@@ -317,6 +317,7 @@ def run_study(
     *,
     workers: int | None = None,
     scheduler: str | None = None,
+    tls: TLSFiles | None = None,
     retry_failed: bool = False,
     on_progress: Callable[[Progress], None] | None = None,
     client: Any = None,
@@ -334,6 +335,8 @@ def run_study(
         ``scheduler``.
     scheduler : str, optional
         Address of an existing Dask scheduler to run on instead.
+    tls : TLSFiles, optional
+        Certificate files for a ``tls://`` scheduler (else Dask's configuration).
     retry_failed : bool
         Run again the tasks that failed in an earlier run (default: keep their record).
     on_progress : callable, optional
@@ -374,7 +377,7 @@ def run_study(
         summary.wall_s = time.perf_counter() - t0
         return summary
     if client is None:
-        with dask_client(workers, scheduler) as own:
+        with dask_client(workers, scheduler, tls) as own:
             peak = _submit_all(own, spec, variants, todo, store, summary, prog, on_progress)
     else:
         peak = _submit_all(client, spec, variants, todo, store, summary, prog, on_progress)
