@@ -151,3 +151,25 @@ def test_navigate_hours_help_names_each_scenario_default() -> None:
     flat = _squash(res.output)
     for name, hours in DEFAULT_HOURS.items():
         assert f"{name} {hours:g} h" in flat, (name, hours)
+
+
+def test_warnings_a_command_raises_are_shown_once_and_it_returns(capfd) -> None:
+    """The error boundary shows a command's warnings after it ends (it once replayed them
+    into the list it was reading, for ever)."""
+    import warnings
+
+    from rinscal.cli._app import guard_os_errors
+    from rinscal.errors import LogNoteWarning
+
+    def command() -> int:
+        warnings.warn("something odd", RuntimeWarning, stacklevel=1)
+        warnings.warn("rows dropped", LogNoteWarning, stacklevel=1)
+        warnings.warn("rows dropped", LogNoteWarning, stacklevel=1)
+        return 7
+
+    wrapped = guard_os_errors(command)
+    assert wrapped is not None
+    with pytest.warns(RuntimeWarning, match="something odd") as shown:
+        assert wrapped() == 7
+    assert len(shown) == 1  # shown once, where Python (here pytest) shows warnings
+    assert capfd.readouterr().err.count("note: rows dropped") == 1

@@ -11,6 +11,8 @@ import typer.core
 from rich.console import Console
 from rich.text import Text
 
+from rinscal.errors import LogNoteWarning
+
 app = typer.Typer(
     name="rinscal",
     help="Thermal calibration of IMUs and its proof in a single-axis rotational INS.",
@@ -80,26 +82,39 @@ def guard_os_errors(command: Callable[..., Any] | None) -> Callable[..., Any] | 
     def run(*args: Any, **kwargs: Any) -> Any:
         import warnings
 
-        from rinscal.errors import LogNoteWarning, describe_os_error
+        from rinscal.errors import describe_os_error
 
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", LogNoteWarning)
-            try:
-                return command(*args, **kwargs)
-            except OSError as exc:
-                if exc.filename is None:  # not about a path: a bug or the system, not the input
-                    raise
-                raise fail(describe_os_error(exc).replace("cannot write", "cannot use")) from None
-            finally:  # what a reader did to the log, once each; other warnings as Python shows them
-                seen: set[str] = set()
-                for w in caught:
-                    if not issubclass(w.category, LogNoteWarning):
-                        warnings.showwarning(w.message, w.category, w.filename, w.lineno)
-                    elif str(w.message) not in seen:
-                        seen.add(str(w.message))
-                        err_console.print(styled("note:", "cyan", f" {w.message}"), highlight=False)
+        recorded: list[warnings.WarningMessage] = []
+        try:
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always", LogNoteWarning)
+                try:
+                    return command(*args, **kwargs)
+                finally:
+                    recorded = list(caught)
+        except OSError as exc:
+            if exc.filename is None:  # not about a path: a bug or the system, not the input
+                raise
+            raise fail(describe_os_error(exc).replace("cannot write", "cannot use")) from None
+        finally:  # once the command's filters are gone, so that Python shows the others
+            report_warnings(recorded)
 
     return run
+
+
+def report_warnings(recorded: list[Any]) -> None:
+    """What a reader did to the log (:class:`LogNoteWarning`), once each, as a ``note:``
+    line; any other warning as Python shows it (call outside ``catch_warnings(record=True)``,
+    where showing a warning would record it again)."""
+    import warnings
+
+    seen: set[str] = set()
+    for w in recorded:
+        if not issubclass(w.category, LogNoteWarning):
+            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+        elif str(w.message) not in seen:
+            seen.add(str(w.message))
+            err_console.print(styled("note:", "cyan", f" {w.message}"), highlight=False)
 
 
 def _widths(cols: list[Any], total: int) -> tuple[list[int], list[int]]:

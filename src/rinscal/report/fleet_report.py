@@ -54,7 +54,9 @@ def fleet_figure(figures: pd.DataFrame) -> Any:
             ax.set_xticks(range(len(chans)), chans)
             unit = part["unit_of"].iloc[0] if len(part) else ""
             ax.set_title(f"{sensor}: {label}" + (f" ({unit})" if unit else ""), fontsize=9)
-            if len(part) and np.nanmin(part["value"]) > 0:
+            finite = part["value"].to_numpy(dtype=np.float64)
+            finite = finite[np.isfinite(finite)]  # no held-out RMS without auto: all NaN
+            if finite.size and finite.min() > 0:
                 ax.set_yscale("log")
             ax.grid(alpha=0.3)
     return fig
