@@ -279,8 +279,12 @@ def _oavar(s: NDArray[np.float64], rate: float, m: NDArray[np.int64]) -> NDArray
     x *= tau0
     out = np.empty(m.size)
     for j, mj in enumerate(m.tolist()):
-        d = x[2 * mj :] - 2.0 * x[mj : x.size - mj] + x[: x.size - 2 * mj]
-        out[j] = float(np.sum(d * d)) / (2.0 * (mj * tau0) ** 2 * d.size)
+        mid = x[mj : x.size - mj]
+        d = x[2 * mj :] - mid  # x_{i+2m} − 2 x_{i+m} + x_i, in place: one temporary
+        d -= mid
+        d += x[: x.size - 2 * mj]
+        d *= d
+        out[j] = float(np.sum(d)) / (2.0 * (mj * tau0) ** 2 * d.size)
     return out
 
 
