@@ -13,6 +13,7 @@ import copy
 import importlib.util
 import json
 import math
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -38,7 +39,7 @@ rr = _script()
 
 
 def committed_runs() -> dict[str, Any]:
-    return {p: rr.load_run(rr.RESULTS / f"quick-{p}") for p in rr.PRESETS}
+    return {p: rr.load_run(rr.RESULTS / f"quick-{p}") for p in (*rr.PRESETS, rr.THREADS2)}
 
 
 def block_of(readme: str) -> str:
@@ -56,7 +57,8 @@ def test_readme_block_is_rendered_from_the_committed_runs() -> None:
 
 
 def test_committed_runs_are_quick_seed_0_of_each_preset() -> None:
-    for preset, run in committed_runs().items():
+    for name, run in committed_runs().items():
+        preset = name.removesuffix("-threads2")
         cfg = run.metrics["config"]
         assert (run.preset, cfg["seed"], cfg["quick"], cfg["imu"]) == (preset, 0, True, preset)
         assert run.metrics["command"].startswith("rinscal reproduce --quick --seed 0")
@@ -66,7 +68,7 @@ def test_table_figures_are_the_metrics() -> None:
     """Spot values read straight from the JSON, not through the renderer's helpers."""
     runs = committed_runs()
     block = rr.render_block(runs)
-    for preset, run in runs.items():
+    for preset, run in [(p, runs[p]) for p in rr.PRESETS]:
         rows = {
             r["variant"]: r for r in run.metrics["nav_by_method"] if r["runs"] == "lab + vehicle"
         }
@@ -127,7 +129,17 @@ def test_check_mode_and_rewrite(tmp_path: Path, capsys: pytest.CaptureFixture[st
 
 #: Keys that depend on the machine or the options, not on the results.
 NOT_RESULTS = {"timings_s", "jobs"}
-REL = 1e-9
+#: One BLAS and one numba thread, as the committed run (docs/scripts/readme_results.py):
+#: method 3's training amplifies the last-bit differences of other thread counts.
+ONE_THREAD = {
+    k: "1"
+    for k in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")
+}
+#: Bit-identical on the machine that wrote the committed run (measured: 0 differences);
+#: 1e-6 leaves room for another CPU's or library build's last bits in every method but 3,
+#: which agreed to 1e-8 between one and two threads. Method 3 itself may move beyond it on
+#: another CPU (its training is chaotic): then refresh the committed run there and say so.
+REL = 1e-6
 
 
 def differences(a: Any, b: Any, rel: float, path: str = "") -> list[str]:
@@ -156,10 +168,9 @@ def differences(a: Any, b: Any, rel: float, path: str = "") -> list[str]:
 
 @pytest.mark.slow
 def test_quick_run_reproduces_the_committed_metrics(tmp_path: Path) -> None:
-    """``rinscal reproduce --quick --seed 0`` gives the committed paper metrics (2-10 min).
+    """``rinscal reproduce --quick --seed 0`` gives the committed paper metrics (3-10 min).
 
-    Default options (no ``--jobs``): the run is deterministic given its seed. REL covers
-    a different BLAS or numba build on another machine, see the module README.
+    Default options (no ``--jobs``), one thread (``ONE_THREAD``), tolerance ``REL``.
     """
     out = tmp_path / "quick-paper"
     cmd = [
@@ -175,7 +186,8 @@ def test_quick_run_reproduces_the_committed_metrics(tmp_path: Path) -> None:
         "--out",
         str(out),
     ]
-    done = subprocess.run(cmd, capture_output=True, text=True, timeout=1800, check=False)
+    env = {**os.environ, **ONE_THREAD}
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=1800, check=False, env=env)
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
     fresh = json.loads((out / "metrics.json").read_text(encoding="utf-8"))
     committed = json.loads(
