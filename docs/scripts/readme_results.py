@@ -20,7 +20,7 @@ of its prose (better, worse, larger, ...), comes from the ``metrics.json`` of on
 
 One thread, because method 3 (the BP network) is not reproducible across thread counts:
 its training amplifies the last-bit differences of another summation order (the other
-methods agree to 1e-8), so the same command with the default two threads of a 2-core
+methods agree within 4e-9), so the same command with the default two threads of a 2-core
 machine gives other method 3 figures. That run, ``docs/results/quick-paper-threads2``
 (the same command without the ``export``), is rendered beside it in the block when present.
 
