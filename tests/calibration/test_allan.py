@@ -12,14 +12,17 @@ Expected values come from the textbook processes, not from the code under test:
   ``B²/(2π f)``): a flat floor ``σ = 0.664 B``.
 
 The overlapping Allan variance itself is checked against its definition (differences of
-adjacent cluster means) written out here in numpy.
+adjacent cluster means) written out here in numpy, and against ``allantools.oadev`` (the
+test extra's oracle; the package computes it in numpy and does not need allantools).
 """
 
 from __future__ import annotations
 
 import io
 import math
+import sys
 
+import allantools
 import numpy as np
 import pandas as pd
 import pytest
@@ -89,6 +92,34 @@ def test_overlapping_allan_variance_matches_its_definition() -> None:
     assert len(allan_deviation(y[:50], FS, taus="all")) == 24
 
 
+@pytest.mark.parametrize("n", [1000, 4097, 30011])
+@pytest.mark.parametrize("taus", ["octave", "decade", "all-short", "given"])
+def test_agrees_with_allantools_oadev(n: int, taus: str) -> None:
+    rng = np.random.default_rng(n)
+    y = 1.0e3 + rng.normal(0.0, 2.0, n) + np.cumsum(rng.normal(0.0, 0.1, n))  # µg
+    rate = 400.0
+    if taus == "all-short":
+        y, spec = y[:300], "all"
+    elif taus == "given":
+        spec = np.array([0.0025, 0.0125, 0.1, 0.9, (n // 2 - 1) / rate])
+    else:
+        spec = taus
+    c = allan_deviation(y, rate, taus=spec)
+    tau, dev, _, ns = allantools.oadev(y, rate=rate, data_type="freq", taus=c.tau_s)
+    np.testing.assert_allclose(tau, c.tau_s, rtol=1e-15)
+    np.testing.assert_allclose(c.adev, dev, rtol=1e-12, atol=0.0)
+    np.testing.assert_array_equal(c.n_pairs, ns)
+
+
+def test_needs_no_allantools_at_run_time(monkeypatch: pytest.MonkeyPatch) -> None:
+    """allantools is the test oracle only: ``pip install rinscal`` does not bring it."""
+    y = np.random.default_rng(12).normal(0.0, 1.0, 2000)
+    expected = allan_deviation(y, FS).adev
+    monkeypatch.setitem(sys.modules, "allantools", None)  # `import allantools` now fails
+    np.testing.assert_array_equal(allan_deviation(y, FS).adev, expected)
+    assert allan_deviations({"gyro_x": y}, FS)["gyro_x"].adev[0] == expected[0]
+
+
 def test_curve_is_frozen_and_read_only() -> None:
     c = allan_deviation(np.random.default_rng(1).normal(size=100), FS)
     with pytest.raises(AttributeError):
@@ -138,6 +169,29 @@ def test_random_walk_slope_plus_half_and_rate_random_walk() -> None:
     assert p.k == pytest.approx(k_true, rel=0.10)
     assert p.k_tau_s is not None and p.k_tau_s[0] <= 3.0 <= p.k_tau_s[1]
     assert p.n is None and p.b is None
+
+
+def test_textbook_curves_point_by_point() -> None:
+    """White rate noise of density N: σ(τ) = N/√τ; a rate random walk K: σ(τ) = K √(τ/3).
+
+    Each readable point (≥ 51 clusters) within 4 of its own 1σ (``adev_err``); the random
+    walk from m = 8, where the exact σ² = K²τ/3 (1 + 1/(2m²)) is within 0.8 % of K²τ/3.
+    """
+    n = 2**18
+    rng = np.random.default_rng(13)
+    n_true = 0.02  # deg/h·√s
+    white = allan_deviation(rng.normal(0.0, n_true / math.sqrt(TAU0), n), FS)
+    keep = readable(white, n)
+    expected = n_true / np.sqrt(white.tau_s[keep])
+    assert np.all(np.abs(white.adev[keep] - expected) <= 4.0 * white.adev_err[keep])
+    assert keep.sum() >= 12
+
+    k_true = 0.05  # deg/h/√s
+    walk = allan_deviation(np.cumsum(rng.normal(0.0, k_true * math.sqrt(TAU0), n)), FS)
+    keep = readable(walk, n) & (walk.tau_s >= 8 * TAU0)
+    expected = k_true * np.sqrt(walk.tau_s[keep] / 3.0)
+    assert np.all(np.abs(walk.adev[keep] - expected) <= 4.0 * walk.adev_err[keep])
+    assert keep.sum() >= 9
 
 
 def test_white_plus_random_walk_reads_the_bottom_of_the_bowl() -> None:
