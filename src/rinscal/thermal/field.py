@@ -524,8 +524,9 @@ def simulate_field(
     x[0] = x0
     Phi, G0, G1 = _discretise(A, B, dt_s)
     _integrate(x, u, t, A, B, dt_s, Phi, G0, G1)
-    # exact derivative: the chamber's own rate enters only through the states
-    xdot = x @ A.T + u @ B.T
+    # exact derivative: the chamber's own rate enters only through the states (einsum, not a
+    # threaded BLAS matmul: the same last bits whatever the thread count)
+    xdot = np.einsum("ij,kj->ik", x, A) + np.einsum("ij,kj->ik", u, B)
     sl = slice(SENSOR0, SENSOR0 + N_SENSORS)
     coil = np.zeros((t.size, N_SENSORS))
     coil_rate = np.zeros((t.size, N_SENSORS))
@@ -563,7 +564,7 @@ def _integrate(
     h = np.diff(t)
     regular = np.abs(h - dt_s) <= 1e-9
     # input terms of every step at once, then the recursion over the states alone
-    drive = u[:-1] @ G0.T + u[1:] @ G1.T
+    drive = np.einsum("ij,kj->ik", u[:-1], G0) + np.einsum("ij,kj->ik", u[1:], G1)
     n_reg = int(np.argmin(regular)) if not np.all(regular) else regular.size
     _march(x, np.ascontiguousarray(Phi), drive, n_reg)
     for k in range(n_reg, t.size - 1):  # the last, shorter interval

@@ -736,8 +736,10 @@ def signal_errors_r(
     ndarray, shape (n, 6) [rad/s, m/s²]
     """
     out = np.empty(temp_offset.shape)
-    out[:, :3] = temp_offset[:, :3] * (np.atleast_2d(omega_r) @ coefs[:3].T)
-    out[:, 3:] = temp_offset[:, 3:] * (np.atleast_2d(f_r) @ coefs[3:].T)
+    # einsum's own loop, not a threaded BLAS matmul, whose last bits depend on the thread
+    # count (the BP network amplifies them: reproduce gave another method 3 on another machine)
+    out[:, :3] = temp_offset[:, :3] * np.einsum("ij,kj->ik", np.atleast_2d(omega_r), coefs[:3])
+    out[:, 3:] = temp_offset[:, 3:] * np.einsum("ij,kj->ik", np.atleast_2d(f_r), coefs[3:])
     return out
 
 
