@@ -35,7 +35,6 @@ from rinscal.calibration.auto import (
     DEFAULT_FAMILIES,
     DEFAULT_TOLERANCE,
     MAX_ORDERS,
-    SCREEN_SAMPLES,
     Candidate,
     Selection,
     _used_inputs,
@@ -330,13 +329,15 @@ class ThermalModel:
         if self.method == AUTO:
             # polynomial candidates are refitted from run factors; the held-out choice
             # scores every k-th row; a network (on request) keeps what `neural` keeps
+            from rinscal.calibration import auto
+
             tools = [f for f in ("px4", "ardupilot") if f in self.candidates]
             return RunFits(
                 AUTO,
                 list(MAX_ORDERS[:n_inputs]),
                 "neural" in self.candidates,
                 NEURAL_MAX_SAMPLES,
-                RowSample(SCREEN_SAMPLES, tools),
+                RowSample(auto.SCREEN_SAMPLES, tools),
             )
         hyper = self.hyper_for(channel)
         t_powers = FALLBACK_DEGREE
