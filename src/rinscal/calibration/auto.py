@@ -21,16 +21,29 @@ Folds (:func:`holdout_folds`)
 Candidates (:func:`candidates`)
     ``none`` (a constant: no thermal compensation), ``ardupilot`` and ``px4`` (the field's
     own fits, :mod:`rinscal.calibration.baselines`; on held-out folds each tool's filter runs
-    once per run and its fit on at most :data:`SCREEN_ROWS` filtered samples, the chosen one
-    is refitted exactly on all the data), ``poly-t`` of degree 1-4, ``regression``
-    with ``p`` = 1..4, ``q`` = 0..3, ``s`` = 0..3 (``s`` only with ``ΔT``; ``q = s = 0`` is
-    ``poly-t``), and on request ``neural`` with 2, 4 and 6 hidden neurons (screened with
+    once per run and its fit on at most :data:`SCREEN_ROWS` filtered samples; the chosen one
+    is refitted on every filtered sample kept: all of them up to :data:`SCREEN_SAMPLES`
+    rows), ``poly-t`` of degree 1-4, ``regression`` with ``p`` = 1..4, ``q`` = 0..3,
+    ``s`` = 0..3 (``s`` only with ``ΔT``; ``q = s = 0`` is ``poly-t``), and on request
+    ``neural`` with 2, 4 and 6 hidden neurons (screened with
     ``max_samples`` 5000 and one start, refitted with the defaults if chosen; not in the
     default set: its held-out fits cost minutes on a 7-run log).
 
-Above :data:`SCREEN_SAMPLES` inlier samples the held-out scores use every k-th sample (the
-chosen model is fitted on all of them). The polynomial candidates share one pass over the
-data: per fold the triangular factor of
+Above :data:`SCREEN_SAMPLES` inlier samples the held-out scores use every k-th sample (a
+chosen polynomial model is fitted on all of them).
+
+``fit`` reads a log a run at a time and never holds it whole
+(:class:`rinscal.calibration._runs.RowSample`, :func:`select_thinned`): of each channel it
+keeps every k-th usable row of the log, ``k`` the smallest power of two that keeps at most
+:data:`SCREEN_SAMPLES` (the rows of :func:`select_channel` when its ``k`` is a power of two,
+as on the 7.56 M-sample soak log: ``k`` = 8), each with the value of PX4's median and
+ArduPilot's moving average at that row (computed on the whole run), and of each run its
+legs' temperature ranges (:class:`RunSpan`). The polynomial candidates are then refitted on
+every row from per-run QR factors, the field's fits on the kept filtered rows. Memory is
+bounded by one run and the kept rows, not by the log.
+
+The polynomial candidates share one pass over the held-out data: per fold the triangular
+factor of
 the largest design (:func:`rinscal.calibration.estimators.tsqr`); any candidate on any
 training folds is then a QR of the stacked column subsets, and its held-out residual sum of
 squares and mean follow from the held-out fold's factor (``‖R_k [β; −1]‖²``; the first row
