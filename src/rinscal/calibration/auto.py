@@ -384,6 +384,15 @@ class FoldPlan:
         u = units[np.searchsorted(starts, rows, side="right") - 1]
         return self.unit_fold[u], u
 
+    def folds(self, parts: Sequence[tuple[Any, np.ndarray]], n: int) -> Folds:
+        """The :class:`Folds` of ``n`` rows: ``parts[i]`` says where run ``i``'s rows are
+        (an index or a slice) and their positions within the run."""
+        codes = np.empty(n, dtype=np.int64)
+        units = np.empty(n, dtype=np.int64)
+        for i, (where, rows) in enumerate(parts):
+            codes[where], units[where] = self.label(i, rows)
+        return Folds(codes, self.names, self.scheme, units, self.unit_names, self.unit_fold)
+
     def scored(self, folds: np.ndarray, temp: np.ndarray) -> np.ndarray:
         """Rows within the temperatures of the folds trained on when theirs is held out.
 
@@ -505,12 +514,7 @@ def _holdout(
     cut = present.size < min_runs
     spans = [run_span(int(k), temp[r], cut) for k, r in zip(present, rows, strict=True)]
     plan = fold_plan(spans, runs, min_runs)
-    codes = np.empty(run_codes.size, dtype=np.int64)
-    units = np.empty(run_codes.size, dtype=np.int64)
-    for i, r in enumerate(rows):
-        codes[r], units[r] = plan.label(i, np.arange(r.size))
-    folds = Folds(codes, plan.names, plan.scheme, units, plan.unit_names, plan.unit_fold)
-    return folds, plan
+    return plan.folds([(r, np.arange(r.size)) for r in rows], run_codes.size), plan
 
 
 def _used_inputs(cand: Candidate, d: int) -> int:
@@ -900,12 +904,7 @@ def select_channel(
     """
     if not 0 <= tolerance < 1:
         raise ValueError(f"tolerance must be in [0, 1), got {tolerance!r}")
-    from threadpoolctl import threadpool_limits
-
-    # thousands of tiny factorisations: BLAS threads only add overhead (and spin when the
-    # process is pinned to one core)
-    with threadpool_limits(limits=1, user_api="blas"):
-        return _select(x, y, run_codes, runs, t, cands, tolerance, random_state)
+    return _select(x, y, run_codes, runs, t, cands, tolerance, random_state)
 
 
 def _select(
@@ -979,13 +978,10 @@ def select_thinned(
     if not 0 <= tolerance < 1:
         raise ValueError(f"tolerance must be in [0, 1), got {tolerance!r}")
     plan = fold_plan(spans, runs)
-    codes = np.empty(run_codes.size, dtype=np.int64)
-    units = np.empty(run_codes.size, dtype=np.int64)
     at = np.searchsorted(run_codes, [sp.code for sp in spans] + [np.iinfo(np.int64).max])
-    for i in range(len(spans)):
-        sl = slice(int(at[i]), int(at[i + 1]))
-        codes[sl], units[sl] = plan.label(i, rows[sl])
-    folds = Folds(codes, plan.names, plan.scheme, units, plan.unit_names, plan.unit_fold)
+    where = [slice(int(a), int(b)) for a, b in itertools.pairwise(at)]
+    folds = plan.folds([(sl, rows[sl]) for sl in where], run_codes.size)
+    codes = folds.codes
     scored = plan.scored(codes, x[:, 0])
     pre: dict[str, tuple[np.ndarray, ...]] = {}
     if "px4" in tools:
@@ -994,13 +990,8 @@ def select_thinned(
         t_s, y_s = tools["ardupilot"]
         has = np.isfinite(t_s)
         pre["ardupilot"] = (t_s[has], y_s[has], codes[has], x[:, 0], y)
-    baseline_fold = _tool_fits(pre, _tool_methods(cands))
-    from threadpoolctl import threadpool_limits
-
-    with threadpool_limits(limits=1, user_api="blas"):
-        return _choose_scored(
-            x, y, run_codes, t, folds, scored, baseline_fold, cands, tolerance, random_state
-        )
+    fit = _tool_fits(pre, _tool_methods(cands))
+    return _choose_scored(x, y, run_codes, t, folds, scored, fit, cands, tolerance, random_state)
 
 
 def _choose_scored(
@@ -1016,67 +1007,77 @@ def _choose_scored(
     random_state: int,
 ) -> Selection:
     """Score every candidate on the rows given (already thinned) and choose one."""
-    codes, units = folds.codes, folds.units
-    nf = len(folds.names)
-    nu = len(folds.unit_names)
-    blocks = _averaging_blocks(units, run_codes, t, scored)
-    counts = np.array(
-        [len(np.unique(blocks[(units == u) & (blocks >= 0)])) for u in range(nu)], dtype=int
-    )
-    poly = [c for c in cands if c.orders is not None]
-    fast = _polynomial_scores(x, y, codes, nf, poly, blocks, units, folds.unit_fold) if poly else {}
-    n_total = int(counts.sum())
-    table, mse_rows = [], []
-    for cand in cands:
-        train_rms = None
-        if cand.name in fast:
-            ss, rss = fast[cand.name]
-            train_rms = math.sqrt(rss / x.shape[0]) if np.isfinite(rss) else None
-        else:
-            ss = np.empty(nu)
-            for k in range(nf):
-                tr = codes != k
-                mine = np.flatnonzero(folds.unit_fold == k)
-                try:
-                    with warnings.catch_warnings():
-                        warnings.simplefilter("ignore")
-                        if cand.method in ("px4", "ardupilot"):
-                            params = baseline_fold(cand.method, k)
-                        else:
-                            params = fit_candidate(
-                                cand, x[tr], y[tr], run_codes[tr], t[tr], random_state, True
-                            )
-                except (ValueError, DesignError):
-                    ss[mine] = np.nan
-                    continue
-                for u in mine:
-                    te = (units == u) & scored
-                    pred = predict_params(params, x[te])
-                    ss[u] = _ss_about_mean(_block_means(y[te] - pred, blocks[te]))
-        ss[counts == 0] = 0.0
-        fold_rms = np.sqrt(ss / np.maximum(counts, 1))
-        score = float(math.sqrt(np.sum(ss) / n_total)) if np.all(np.isfinite(ss)) else None
-        mse_rows.append((ss / np.maximum(counts, 1))[counts > 0])
-        table.append(
-            {
-                "name": cand.name,
-                "method": "none" if cand.family == "none" else cand.method,
-                "n_params": int(cand.n_params),
-                "heldout_rms": score,
-                "fold_rms": [  # None: not fitted, or nothing of the part scored (outside T range)
-                    None if not (np.isfinite(v) and n) else float(v)
-                    for v, n in zip(fold_rms, counts, strict=True)
-                ],
-                "train_rms": train_rms,
-            }
+    from threadpoolctl import threadpool_limits
+
+    # thousands of tiny factorisations: BLAS threads only add overhead (and spin when the
+    # process is pinned to one core)
+    with threadpool_limits(limits=1, user_api="blas"):
+        codes, units = folds.codes, folds.units
+        nf = len(folds.names)
+        nu = len(folds.unit_names)
+        blocks = _averaging_blocks(units, run_codes, t, scored)
+        counts = np.array(
+            [len(np.unique(blocks[(units == u) & (blocks >= 0)])) for u in range(nu)], dtype=int
         )
-    mse = np.vstack(mse_rows)
-    chosen = choose(cands, mse, tolerance)
-    t_only = [i for i, c in enumerate(cands) if c.t_only]
-    fallback = choose([cands[i] for i in t_only], mse[t_only], tolerance)
-    fitted = {
-        c.name: baseline_fold(c.method, None)
-        for c in (chosen, fallback)
-        if c.method in ("px4", "ardupilot")
-    }
-    return Selection(chosen, fallback, folds, float(tolerance), table, fitted)
+        poly = [c for c in cands if c.orders is not None]
+        fast = (
+            _polynomial_scores(x, y, codes, nf, poly, blocks, units, folds.unit_fold)
+            if poly
+            else {}
+        )
+        n_total = int(counts.sum())
+        table, mse_rows = [], []
+        for cand in cands:
+            train_rms = None
+            if cand.name in fast:
+                ss, rss = fast[cand.name]
+                train_rms = math.sqrt(rss / x.shape[0]) if np.isfinite(rss) else None
+            else:
+                ss = np.empty(nu)
+                for k in range(nf):
+                    tr = codes != k
+                    mine = np.flatnonzero(folds.unit_fold == k)
+                    try:
+                        with warnings.catch_warnings():
+                            warnings.simplefilter("ignore")
+                            if cand.method in ("px4", "ardupilot"):
+                                params = baseline_fold(cand.method, k)
+                            else:
+                                params = fit_candidate(
+                                    cand, x[tr], y[tr], run_codes[tr], t[tr], random_state, True
+                                )
+                    except (ValueError, DesignError):
+                        ss[mine] = np.nan
+                        continue
+                    for u in mine:
+                        te = (units == u) & scored
+                        pred = predict_params(params, x[te])
+                        ss[u] = _ss_about_mean(_block_means(y[te] - pred, blocks[te]))
+            ss[counts == 0] = 0.0
+            fold_rms = np.sqrt(ss / np.maximum(counts, 1))
+            score = float(math.sqrt(np.sum(ss) / n_total)) if np.all(np.isfinite(ss)) else None
+            mse_rows.append((ss / np.maximum(counts, 1))[counts > 0])
+            table.append(
+                {
+                    "name": cand.name,
+                    "method": "none" if cand.family == "none" else cand.method,
+                    "n_params": int(cand.n_params),
+                    "heldout_rms": score,
+                    # None: not fitted, or nothing of the part scored (outside the T range)
+                    "fold_rms": [
+                        None if not (np.isfinite(v) and n) else float(v)
+                        for v, n in zip(fold_rms, counts, strict=True)
+                    ],
+                    "train_rms": train_rms,
+                }
+            )
+        mse = np.vstack(mse_rows)
+        chosen = choose(cands, mse, tolerance)
+        t_only = [i for i, c in enumerate(cands) if c.t_only]
+        fallback = choose([cands[i] for i in t_only], mse[t_only], tolerance)
+        fitted = {
+            c.name: baseline_fold(c.method, None)
+            for c in (chosen, fallback)
+            if c.method in ("px4", "ardupilot")
+        }
+        return Selection(chosen, fallback, folds, float(tolerance), table, fitted)
