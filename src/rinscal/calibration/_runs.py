@@ -147,19 +147,27 @@ class RowSample:
         self.step = 1
         self.seen = 0
         self.parts: list[dict[str, np.ndarray]] = []
-        self.offsets: list[int] = []
+        self.offsets: list[int] = []  # index of each run's first row among all rows
         self.codes: list[int] = []
         self.spans: list[RunSpan] = []
 
     def add(self, code: int, x: np.ndarray, y: np.ndarray, t: np.ndarray) -> None:
         """Take in one whole run's usable rows (as :meth:`RunFits.add`)."""
         n = x.shape[0]
-        keep = np.arange((-self.seen) % self.step, n, self.step)
-        part = {"x": x[keep], "y": y[keep], "t": t[keep], "rows": keep}
+        step = self.step
+        while -(-(self.seen + n) // step) > self.most:  # rows kept: the multiples of step
+            step *= 2
+        if step != self.step:  # drop the kept rows that are not multiples of the new step
+            for off, p in zip(self.offsets, self.parts, strict=True):
+                first = (-off) % self.step
+                i0 = ((-off - first) % step) // self.step
+                for key in p:
+                    p[key] = p[key][i0 :: step // self.step]
+            self.step = step
+        keep = np.arange((-self.seen) % step, n, step)
+        part = {"x": x[keep], "y": y[keep], "t": t[keep]}
         if "px4" in self.tools:
-            from rinscal.calibration.baselines import px4_median_filter
-
-            part["px4"] = px4_median_filter(y)[keep]
+            part["px4"] = _median_at(y, keep)
         if "ardupilot" in self.tools:
             part["ap_t"], part["ap_y"] = _moving_average_at(x[:, 0], y, t, keep)
         # legs only matter when the log has fewer than MIN_RUNS runs: its first runs
@@ -168,12 +176,6 @@ class RowSample:
         self.offsets.append(self.seen)
         self.codes.append(int(code))
         self.seen += n
-        while sum(p["y"].size for p in self.parts) > self.most:
-            self.step *= 2
-            for off, p in zip(self.offsets, self.parts, strict=True):
-                sel = (off + p["rows"]) % self.step == 0
-                for key in p:
-                    p[key] = p[key][sel]
 
     def arrays(
         self,
@@ -181,13 +183,35 @@ class RowSample:
         """The kept rows: inputs, outputs, run codes, positions in their runs, times, and the
         filters' values (``{"px4": yf, "ardupilot": (T_s, y_s)}``)."""
         cat = {k: np.concatenate([p[k] for p in self.parts]) for k in self.parts[0]}
-        codes = np.repeat(self.codes, [p["y"].size for p in self.parts])
+        sizes = [p["y"].size for p in self.parts]
+        codes = np.repeat(self.codes, sizes)
+        firsts = [(-off) % self.step for off in self.offsets]
+        rows = np.concatenate(
+            [f + self.step * np.arange(m) for f, m in zip(firsts, sizes, strict=True)]
+        )
         tools: dict[str, Any] = {}
         if "px4" in cat:
             tools["px4"] = cat["px4"]
         if "ap_t" in cat:
             tools["ardupilot"] = (cat["ap_t"], cat["ap_y"])
-        return cat["x"], cat["y"], codes, cat["rows"], cat["t"], tools
+        return cat["x"], cat["y"], codes, rows, cat["t"], tools
+
+
+def _median_at(y: np.ndarray, keep: np.ndarray) -> np.ndarray:
+    """PX4's running median of one run's output (:func:`rinscal.calibration.baselines.
+    px4_median_filter`: 31 samples, zeros beyond the ends) at rows ``keep``, the same numbers:
+    the median of an odd window is one of its samples. Few rows: their windows alone."""
+    from rinscal.calibration.baselines import PX4_MEDIAN_KERNEL, px4_median_filter
+
+    if 4 * keep.size > y.size:
+        return px4_median_filter(y)[keep]
+    h = PX4_MEDIAN_KERNEL // 2
+    padded = np.concatenate([np.zeros(h), y, np.zeros(h)])
+    view = np.lib.stride_tricks.sliding_window_view(padded, PX4_MEDIAN_KERNEL)
+    out = np.empty(keep.size)
+    for s in range(0, keep.size, 1 << 16):  # a few MB of windows at a time
+        out[s : s + (1 << 16)] = np.partition(view[keep[s : s + (1 << 16)]], h, axis=1)[:, h]
+    return out
 
 
 def _moving_average_at(
