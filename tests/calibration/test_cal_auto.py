@@ -449,6 +449,19 @@ def test_the_choice_keeps_every_kth_row_however_long_the_log() -> None:
         from rinscal.calibration.baselines import px4_filtered
 
         np.testing.assert_array_equal(tools["px4"], px4_filtered(x[:, 0], y, codes)[1][::k])
+    # ArduPilot's 2 s moving average at each kept row: the tool's, centred on the row
+    from rinscal.calibration.baselines import ardupilot_smoothed
+
+    t10 = np.tile(np.arange(1200) * 0.1, 5)  # 10 Hz: a 20-sample window
+    t_s, y_s, _, _, mid = ardupilot_smoothed(x[:, 0], y, t10, codes)
+    sample = _feed(x, y, codes, t10, 700)  # k = 16
+    got_t, got_y = sample.arrays()[5]["ardupilot"]
+    at = np.full(x.shape[0], -1)
+    at[mid] = np.arange(mid.size)
+    want = at[::16]
+    assert np.isnan(got_t[want < 0]).all() and (want >= 0).sum() > 300
+    np.testing.assert_array_equal(got_t[want >= 0], t_s[want[want >= 0]])
+    np.testing.assert_array_equal(got_y[want >= 0], y_s[want[want >= 0]])
     # what ThermalModel("auto") keeps per channel
     fits = ThermalModel("auto")._run_fits("accel_x", 3)
     for k in range(40):

@@ -218,17 +218,26 @@ def _moving_average_at(
     temp: np.ndarray, y: np.ndarray, t: np.ndarray, keep: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """ArduPilot's smoothed ``T`` and output at rows ``keep`` of one run (window centred on
-    the row); NaN where no complete window is centred there."""
-    from rinscal.calibration.baselines import ardupilot_smoothed
+    the row, as :func:`rinscal.calibration.baselines.ardupilot_smoothed` places it); NaN where
+    no complete window is centred there."""
+    from rinscal.calibration.baselines import (
+        ARDUPILOT_WINDOW_S,
+        ardupilot_window,
+        moving_average,
+    )
 
     ts, ys = np.full(keep.size, np.nan), np.full(keep.size, np.nan)
-    try:
-        t_s, y_s, _, _, mid = ardupilot_smoothed(temp, y, t)
-    except ValueError:  # the run is shorter than its window: no smoothed sample
+    if temp.size < 2:
         return ts, ys
-    i = keep - mid[0]
-    ok = (i >= 0) & (i < t_s.size)
-    ts[ok], ys[ok] = t_s[i[ok]], y_s[i[ok]]
+    try:
+        w = ardupilot_window(t, ARDUPILOT_WINDOW_S)
+    except ValueError:  # no time span: no smoothed sample
+        return ts, ys
+    if w <= 1:  # the tool does not smooth
+        return temp[keep], y[keep]
+    i = keep - w // 2
+    ok = (i >= 0) & (i <= temp.size - w)
+    ts[ok], ys[ok] = moving_average(temp, w)[i[ok]], moving_average(y, w)[i[ok]]
     return ts, ys
 
 

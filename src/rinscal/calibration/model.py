@@ -465,6 +465,7 @@ class ThermalModel:
                     codes = fitting.add_runs(log, names, rows, res)
                 fitting.add_features(codes, feats, rows)
                 del feats
+            del log, rows  # not held while the next run is read, nor while fitting
         if fitting is None:
             raise ConfigError(f"{where}no runs to fit")
         self.features_ = None
