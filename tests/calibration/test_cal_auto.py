@@ -469,3 +469,38 @@ def test_the_choice_keeps_every_kth_row_however_long_the_log() -> None:
     assert fits.n == 40 * x.shape[0] and not fits.rows
     assert fits.screen is not None
     assert sum(p["y"].size for p in fits.screen.parts) <= SCREEN_SAMPLES
+
+
+def test_rinscal_fit_writes_the_whole_rows_choice_while_keeping_every_4th_row(
+    tmp_path, soak_small, monkeypatch
+) -> None:
+    """``rinscal fit LOG`` (auto, read a run at a time) keeping every 4th row of each channel
+    writes the choice that the whole rows, thinned alike, give."""
+    from typer.testing import CliRunner
+
+    from rinscal.calibration import auto
+    from rinscal.calibration.features import build_features
+    from rinscal.cli import app
+    from rinscal.io import write_log
+
+    log, _, _ = soak_small
+    path, model = tmp_path / "soak.parquet", tmp_path / "auto.json"
+    write_log(log, path)
+    f = build_features(log)
+    monkeypatch.setattr(auto, "SCREEN_SAMPLES", math.ceil(len(log) / 4))  # k = 4 for all
+    monkeypatch.setattr(auto, "SCREEN_ROWS", 1000)
+    res = CliRunner().invoke(app, ["fit", str(path), "--out", str(model)])
+    assert res.exit_code == 0, res.output
+    written = ThermalModelFile.load(model)
+    for j, c in enumerate(f.channels):
+        x = f.matrix(j)
+        ok = f.usable(j, x)
+        assert math.ceil(ok.sum() / auto.SCREEN_SAMPLES) == 4
+        cands = candidates("gyro" if c.startswith("gyro") else "accel", x.shape[1])
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            ref = select_channel(
+                x[ok], f.output[ok, j], f.run_codes[ok], f.runs, f.time_s[ok], cands
+            )
+        sel = written.models[c].selection
+        assert (sel["chosen"], sel["fallback"]) == (ref.chosen.name, ref.fallback.name), c
