@@ -9,6 +9,7 @@ leg, and the fallback keeps the network from making it worse than no compensatio
 from __future__ import annotations
 
 import json
+import math
 import warnings
 
 import numpy as np
@@ -321,3 +322,185 @@ def test_the_field_s_final_fit_reuses_its_filter_and_equals_the_tool_s_fit() -> 
                 assert got[key] == value
             else:
                 np.testing.assert_allclose(got[key], value, rtol=1e-12, atol=0, err_msg=key)
+
+
+# ----------------------------------------------------------------------------- streamed choice
+
+
+def _feed(x, y, codes, t, most: int, tools=("px4", "ardupilot")):
+    """What a log read a run at a time leaves of one channel for the choice."""
+    from rinscal.calibration._runs import RowSample
+
+    sample = RowSample(most, tools)
+    for k in np.unique(codes):
+        r = codes == k
+        sample.add(int(k), x[r], y[r], t[r])
+    return sample
+
+
+def _streamed(x, y, codes, runs, t, cands, most: int):
+    """The choice made from the streamed sample (as ``fit`` makes it)."""
+    from rinscal.calibration.auto import select_thinned
+
+    sample = _feed(x, y, codes, t, most)
+    xs, ys, cs, rows, ts, tools = sample.arrays()
+    return select_thinned(xs, ys, cs, rows, ts, sample.spans, runs, tools, cands)
+
+
+def _same_choice(x, y, codes, runs, t, monkeypatch, most: int | None = None) -> None:
+    """The streamed choice is :func:`select_channel`'s on the whole rows, to every held-out
+    score and the field's fits. ``most``: both keep at most that many rows (the reference
+    every ceil(n / most)-th, the stream every 2^j-th: the same rows when that is a power
+    of two); the field's held-out fits then see other filtered samples of the same runs
+    (their scores within 1 %), the polynomial candidates the same rows."""
+    from rinscal.calibration import auto
+
+    cands = candidates("accel", x.shape[1])
+    if most is not None:
+        monkeypatch.setattr(auto, "SCREEN_SAMPLES", most)
+        monkeypatch.setattr(auto, "SCREEN_ROWS", most // 3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ref = select_channel(x, y, codes, runs, t, cands)
+        got = _streamed(x, y, codes, runs, t, cands, most or x.shape[0])
+    assert (got.chosen, got.fallback) == (ref.chosen, ref.fallback)
+    assert got.to_dict()["folds"] == ref.to_dict()["folds"]
+    for a, b in zip(ref.table, got.table, strict=True):
+        rel = 1e-2 if most is not None and a["method"] in ("px4", "ardupilot") else 1e-9
+        if a["heldout_rms"] is None:
+            assert b["heldout_rms"] is None, a["name"]
+        else:
+            assert b["heldout_rms"] == pytest.approx(a["heldout_rms"], rel=rel), a["name"]
+    if most is None:
+        for name, params in ref.fitted.items():
+            np.testing.assert_allclose(got.fitted[name]["coef"], params["coef"], rtol=1e-9)
+
+
+@pytest.mark.parametrize(
+    "drift",
+    [
+        lambda x: 40 * (x[:, 0] - 25) + 0.5 * (x[:, 0] - 25) ** 2,
+        lambda x: 5 * (x[:, 0] - 25) + 300 * x[:, 1],
+        lambda x: 0.02 * (x[:, 0] - 20) ** 2 - 3 * x[:, 2],
+        lambda x: np.zeros(x.shape[0]),
+    ],
+    ids=["cubic-T", "rate", "T2-gradient", "noise"],
+)
+def test_the_streamed_choice_is_the_whole_rows_choice(drift, monkeypatch) -> None:
+    x, codes, t = _runs(seed=4)
+    y = drift(x) + np.random.default_rng(4).normal(0, 1.0, x.shape[0])
+    _same_choice(x, y, codes, [f"r{k}" for k in range(5)], t, monkeypatch)
+
+
+@pytest.mark.parametrize("n_runs", [1, 2])
+def test_the_streamed_choice_cuts_legs_and_blocks_as_the_whole_rows(n_runs, monkeypatch):
+    """One or two runs: legs (a cooling and a heating run) or blocks (one warm-up)."""
+    rng = np.random.default_rng(n_runs)
+    xs, codes, ts = [], [], []
+    for k in range(n_runs):
+        t = np.arange(2400) * 3.0
+        temp = 40 - 30 * (1 - np.exp(-t / 1500)) if k == 0 else 5 + 40 * (1 - np.exp(-t / 900))
+        temp = temp + rng.normal(0, 0.01, t.size)
+        rate = np.gradient(temp, t) * 60.0
+        xs.append(np.column_stack([temp, rate]))
+        codes.append(np.full(t.size, k))
+        ts.append(t)
+    x, codes, t = np.vstack(xs), np.concatenate(codes), np.concatenate(ts)
+    y = 0.3 * (x[:, 0] - 25) ** 2 + 20 * x[:, 1] + rng.normal(0, 0.5, x.shape[0])
+    _same_choice(x, y, codes, ["cool", "heat"][:n_runs], t, monkeypatch)
+
+
+@pytest.mark.parametrize("step", [1, 4])
+def test_the_streamed_choice_on_the_simulated_soak_is_today_s(soak_small, step, monkeypatch):
+    """Every channel of the simulated soak protocol: the choice ``fit`` makes from the
+    stream is the one made on the whole rows, when nothing is thinned and when both keep
+    every 4th row."""
+    from rinscal.calibration.features import build_features
+
+    log, _, _ = soak_small
+    f = build_features(log)
+    for j in range(len(f.channels)):
+        x = f.matrix(j)
+        ok = f.usable(j, x)
+        most = math.ceil(ok.sum() / step) if step > 1 else None
+        xo, yo, to = x[ok], f.output[ok, j], f.time_s[ok]
+        _same_choice(xo, yo, f.run_codes[ok], f.runs, to, monkeypatch, most)
+
+
+def test_the_choice_keeps_every_kth_row_however_long_the_log() -> None:
+    """``auto`` keeps of a channel every k-th usable row of the log, k the smallest power
+    of two that keeps at most SCREEN_SAMPLES, not every row: memory does not grow with the
+    log. The kept rows are those of rows[::k] of the whole log."""
+    from rinscal.calibration.auto import SCREEN_SAMPLES
+
+    x, codes, t = _runs(n_runs=5, n=1200)
+    y = x[:, 0] ** 2
+    for most in (6000, 1000, 700, 64):
+        sample = _feed(x, y, codes, t, most)
+        xs, ys, cs, rows, ts, tools = sample.arrays()
+        k = 1 << max(0, math.ceil(math.log2(x.shape[0] / most)))
+        assert ys.size <= most and sample.step == k
+        np.testing.assert_array_equal(xs, x[::k])
+        np.testing.assert_array_equal(ys, y[::k])
+        np.testing.assert_array_equal(rows, np.tile(np.arange(1200), 5)[::k])
+        np.testing.assert_array_equal(cs, codes[::k])
+        np.testing.assert_array_equal(ts, t[::k])
+        # the PX4 median at each kept row is the one of its whole run
+        from rinscal.calibration.baselines import px4_filtered
+
+        np.testing.assert_array_equal(tools["px4"], px4_filtered(x[:, 0], y, codes)[1][::k])
+    # ArduPilot's 2 s moving average at each kept row: the tool's, centred on the row
+    from rinscal.calibration.baselines import ardupilot_smoothed
+
+    t10 = np.tile(np.arange(1200) * 0.1, 5)  # 10 Hz: a 20-sample window
+    t_s, y_s, _, _, mid = ardupilot_smoothed(x[:, 0], y, t10, codes)
+    sample = _feed(x, y, codes, t10, 700)  # k = 16
+    got_t, got_y = sample.arrays()[5]["ardupilot"]
+    at = np.full(x.shape[0], -1)
+    at[mid] = np.arange(mid.size)
+    want = at[::16]
+    assert np.isnan(got_t[want < 0]).all() and (want >= 0).sum() > 300
+    np.testing.assert_array_equal(got_t[want >= 0], t_s[want[want >= 0]])
+    np.testing.assert_array_equal(got_y[want >= 0], y_s[want[want >= 0]])
+    # what ThermalModel("auto") keeps per channel
+    fits = ThermalModel("auto")._run_fits("accel_x", 3)
+    for k in range(40):
+        fits.add(k, x, y, t)  # a log 40 times as long as the sample holds: 240 000 rows
+    assert fits.n == 40 * x.shape[0] and not fits.rows
+    assert fits.screen is not None
+    assert sum(p["y"].size for p in fits.screen.parts) <= SCREEN_SAMPLES
+
+
+def test_rinscal_fit_writes_the_whole_rows_choice_while_keeping_every_4th_row(
+    tmp_path, soak_small, monkeypatch
+) -> None:
+    """``rinscal fit LOG`` (auto, read a run at a time) keeping every 4th row of each channel
+    writes the choice that the whole rows, thinned alike, give."""
+    from typer.testing import CliRunner
+
+    from rinscal.calibration import auto
+    from rinscal.calibration.features import build_features
+    from rinscal.cli import app
+    from rinscal.io import write_log
+
+    log, _, _ = soak_small
+    path, model = tmp_path / "soak.parquet", tmp_path / "auto.json"
+    write_log(log, path)
+    f = build_features(log)
+    monkeypatch.setattr(auto, "SCREEN_SAMPLES", math.ceil(len(log) / 4))  # k = 4 for all
+    monkeypatch.setattr(auto, "SCREEN_ROWS", 1000)
+    res = CliRunner().invoke(app, ["fit", str(path), "--out", str(model)])
+    assert res.exit_code == 0, res.output
+    written = ThermalModelFile.load(model)
+    for j, c in enumerate(f.channels):
+        x = f.matrix(j)
+        ok = f.usable(j, x)
+        assert math.ceil(ok.sum() / auto.SCREEN_SAMPLES) == 4
+        cands = candidates("gyro" if c.startswith("gyro") else "accel", x.shape[1])
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            ref = select_channel(
+                x[ok], f.output[ok, j], f.run_codes[ok], f.runs, f.time_s[ok], cands
+            )
+        sel = written.models[c].selection
+        assert (sel["chosen"], sel["fallback"]) == (ref.chosen.name, ref.fallback.name), c

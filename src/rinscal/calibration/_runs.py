@@ -11,7 +11,13 @@ channel's fit keeps only
 * a thinned sample of its rows (at most :data:`SAMPLE_ROWS`), for the collinearity check and
   the diagnosis of a singular design;
 * for the other methods, its rows (``neural``: every ``k``-th, enough for the network's own
-  decimation).
+  decimation);
+* for ``auto``'s held-out choice (:class:`RowSample`): every ``k``-th usable row of the log
+  (``k`` a power of two, doubled whenever more than
+  :data:`rinscal.calibration.auto.SCREEN_SAMPLES` rows would be kept), with the value of the
+  field's filters (PX4's running median, ArduPilot's moving average, both computed on the
+  whole run) at each kept row, and the run's legs and temperature ranges
+  (:class:`rinscal.calibration.auto.RunSpan`).
 
 At the end, each run's factor is re-expressed in the basis scaled to the range of all runs:
 with ``z_g = a z_l + b`` (``a = s_l / s_g``, ``b = (c_l − c_g) / s_g``), every power
@@ -45,9 +51,10 @@ from rinscal.calibration._fit import (
     solve_r,
     tsqr,
 )
+from rinscal.calibration.auto import MIN_RUNS, RunSpan, run_span
 from rinscal.calibration.guards import check_design
 
-__all__ = ["FACTOR_METHODS", "SAMPLE_ROWS", "RunFits"]
+__all__ = ["FACTOR_METHODS", "SAMPLE_ROWS", "RowSample", "RunFits"]
 
 #: Methods fitted from per-run factors alone.
 FACTOR_METHODS: tuple[str, ...] = ("poly-t", "regression")
@@ -114,6 +121,126 @@ def change_basis(
     return r @ m
 
 
+class RowSample:
+    """Every ``k``-th usable row of a channel's log, read a run at a time (``auto``'s choice).
+
+    The rows kept are those whose index among all usable rows so far is a multiple of ``k``;
+    ``k`` starts at 1 and doubles (every other kept row dropped) whenever more than ``most``
+    rows would be kept. At the end ``k`` is the smallest power of two that keeps at most
+    ``most`` rows, and the rows are those of ``rows[::k]`` of the whole log.
+
+    Parameters
+    ----------
+    most : int
+        Rows kept at most.
+    tools : sequence of str
+        Field's filters to evaluate at the kept rows, on each whole run: ``"px4"`` (the
+        31-sample running median of the output,
+        :func:`rinscal.calibration.baselines.px4_median_filter`) and ``"ardupilot"`` (the
+        2 s moving average of ``T`` and the output whose window is centred on the row,
+        :func:`rinscal.calibration.baselines.ardupilot_smoothed`; NaN where none is).
+    """
+
+    def __init__(self, most: int, tools: Sequence[str] = ()) -> None:
+        self.most = int(most)
+        self.tools = tuple(tools)
+        self.step = 1
+        self.seen = 0
+        self.parts: list[dict[str, np.ndarray]] = []
+        self.offsets: list[int] = []  # index of each run's first row among all rows
+        self.codes: list[int] = []
+        self.spans: list[RunSpan] = []
+
+    def add(self, code: int, x: np.ndarray, y: np.ndarray, t: np.ndarray) -> None:
+        """Take in one whole run's usable rows (as :meth:`RunFits.add`)."""
+        n = x.shape[0]
+        step = self.step
+        while -(-(self.seen + n) // step) > self.most:  # rows kept: the multiples of step
+            step *= 2
+        if step != self.step:  # drop the kept rows that are not multiples of the new step
+            for off, p in zip(self.offsets, self.parts, strict=True):
+                first = (-off) % self.step
+                i0 = ((-off - first) % step) // self.step
+                for key in p:
+                    p[key] = p[key][i0 :: step // self.step]
+            self.step = step
+        keep = np.arange((-self.seen) % step, n, step)
+        part = {"x": x[keep], "y": y[keep], "t": t[keep]}
+        if "px4" in self.tools:
+            part["px4"] = _median_at(y, keep)
+        if "ardupilot" in self.tools:
+            part["ap_t"], part["ap_y"] = _moving_average_at(x[:, 0], y, t, keep)
+        # legs only matter when the log has fewer than MIN_RUNS runs: its first runs
+        self.spans.append(run_span(code, x[:, 0], cut=len(self.spans) < MIN_RUNS - 1))
+        self.parts.append(part)
+        self.offsets.append(self.seen)
+        self.codes.append(int(code))
+        self.seen += n
+
+    def arrays(
+        self,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        """The kept rows: inputs, outputs, run codes, positions in their runs, times, and the
+        filters' values (``{"px4": yf, "ardupilot": (T_s, y_s)}``)."""
+        cat = {k: np.concatenate([p[k] for p in self.parts]) for k in self.parts[0]}
+        sizes = [p["y"].size for p in self.parts]
+        codes = np.repeat(self.codes, sizes)
+        firsts = [(-off) % self.step for off in self.offsets]
+        rows = np.concatenate(
+            [f + self.step * np.arange(m) for f, m in zip(firsts, sizes, strict=True)]
+        )
+        tools: dict[str, Any] = {}
+        if "px4" in cat:
+            tools["px4"] = cat["px4"]
+        if "ap_t" in cat:
+            tools["ardupilot"] = (cat["ap_t"], cat["ap_y"])
+        return cat["x"], cat["y"], codes, rows, cat["t"], tools
+
+
+def _median_at(y: np.ndarray, keep: np.ndarray) -> np.ndarray:
+    """PX4's running median of one run's output (:func:`rinscal.calibration.baselines.
+    px4_median_filter`: 31 samples, zeros beyond the ends) at rows ``keep``, the same numbers:
+    the median of an odd window is one of its samples. Few rows: their windows alone."""
+    from rinscal.calibration.baselines import PX4_MEDIAN_KERNEL, px4_median_filter
+
+    if 4 * keep.size > y.size:
+        return px4_median_filter(y)[keep]
+    h = PX4_MEDIAN_KERNEL // 2
+    padded = np.concatenate([np.zeros(h), y, np.zeros(h)])
+    view = np.lib.stride_tricks.sliding_window_view(padded, PX4_MEDIAN_KERNEL)
+    out = np.empty(keep.size)
+    for s in range(0, keep.size, 1 << 16):  # a few MB of windows at a time
+        out[s : s + (1 << 16)] = np.partition(view[keep[s : s + (1 << 16)]], h, axis=1)[:, h]
+    return out
+
+
+def _moving_average_at(
+    temp: np.ndarray, y: np.ndarray, t: np.ndarray, keep: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """ArduPilot's smoothed ``T`` and output at rows ``keep`` of one run (window centred on
+    the row, as :func:`rinscal.calibration.baselines.ardupilot_smoothed` places it); NaN where
+    no complete window is centred there."""
+    from rinscal.calibration.baselines import (
+        ARDUPILOT_WINDOW_S,
+        ardupilot_window,
+        moving_average,
+    )
+
+    ts, ys = np.full(keep.size, np.nan), np.full(keep.size, np.nan)
+    if temp.size < 2:
+        return ts, ys
+    try:
+        w = ardupilot_window(t, ARDUPILOT_WINDOW_S)
+    except ValueError:  # no time span: no smoothed sample
+        return ts, ys
+    if w <= 1:  # the tool does not smooth
+        return temp[keep], y[keep]
+    i = keep - w // 2
+    ok = (i >= 0) & (i <= temp.size - w)
+    ts[ok], ys[ok] = moving_average(temp, w)[i[ok]], moving_average(y, w)[i[ok]]
+    return ts, ys
+
+
 class RunFits:
     """What one channel's fit keeps of each run (see the module docstring).
 
@@ -129,6 +256,8 @@ class RunFits:
     row_step_target : int or None
         With ``keep_rows``: keep every ``k``-th row of a run, ``k = ⌊n / row_step_target⌋``
         (None: every row).
+    screen : RowSample, optional
+        ``auto``: the rows its held-out choice scores, fed with every run.
     """
 
     def __init__(
@@ -137,6 +266,7 @@ class RunFits:
         powers: Sequence[int] | None,
         keep_rows: bool,
         row_step_target: int | None = None,
+        screen: RowSample | None = None,
     ) -> None:
         self.method = method
         self.powers = [] if powers is None else [int(p) for p in powers]
@@ -152,6 +282,7 @@ class RunFits:
         self.boxes: list[tuple[np.ndarray, np.ndarray]] = []
         self.sample: list[np.ndarray] = []
         self.rows: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
+        self.screen = screen
 
     @property
     def n(self) -> int:
@@ -199,9 +330,15 @@ class RunFits:
             sel = slice(None, None, step)
             keep = [np.array(a[sel]) if step > 1 else a for a in (x, y, t)]  # no view of the run
             self.rows.append((keep[0], keep[1], np.full(len(keep[1]), code), keep[2]))
+        if self.screen is not None:
+            self.screen.add(code, x, y, t)
 
     def data(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """The kept rows of every run: inputs, outputs, run codes, times."""
+        """The kept rows of every run (without: the screen's): inputs, outputs, run codes,
+        times."""
+        if not self.rows and self.screen is not None:
+            x, y, codes, _, t, _ = self.screen.arrays()
+            return x, y, codes, t
         parts = list(zip(*self.rows, strict=True))
         return tuple(np.concatenate(p) for p in parts)  # type: ignore[return-value]
 

@@ -21,16 +21,29 @@ Folds (:func:`holdout_folds`)
 Candidates (:func:`candidates`)
     ``none`` (a constant: no thermal compensation), ``ardupilot`` and ``px4`` (the field's
     own fits, :mod:`rinscal.calibration.baselines`; on held-out folds each tool's filter runs
-    once per run and its fit on at most :data:`SCREEN_ROWS` filtered samples, the chosen one
-    is refitted exactly on all the data), ``poly-t`` of degree 1-4, ``regression``
-    with ``p`` = 1..4, ``q`` = 0..3, ``s`` = 0..3 (``s`` only with ``ΔT``; ``q = s = 0`` is
-    ``poly-t``), and on request ``neural`` with 2, 4 and 6 hidden neurons (screened with
+    once per run and its fit on at most :data:`SCREEN_ROWS` filtered samples; the chosen one
+    is refitted on every filtered sample kept: all of them up to :data:`SCREEN_SAMPLES`
+    rows), ``poly-t`` of degree 1-4, ``regression`` with ``p`` = 1..4, ``q`` = 0..3,
+    ``s`` = 0..3 (``s`` only with ``ΔT``; ``q = s = 0`` is ``poly-t``), and on request
+    ``neural`` with 2, 4 and 6 hidden neurons (screened with
     ``max_samples`` 5000 and one start, refitted with the defaults if chosen; not in the
     default set: its held-out fits cost minutes on a 7-run log).
 
-Above :data:`SCREEN_SAMPLES` inlier samples the held-out scores use every k-th sample (the
-chosen model is fitted on all of them). The polynomial candidates share one pass over the
-data: per fold the triangular factor of
+Above :data:`SCREEN_SAMPLES` inlier samples the held-out scores use every k-th sample (a
+chosen polynomial model is fitted on all of them).
+
+``fit`` reads a log a run at a time and never holds it whole
+(:class:`rinscal.calibration._runs.RowSample`, :func:`select_thinned`): of each channel it
+keeps every k-th usable row of the log, ``k`` the smallest power of two that keeps at most
+:data:`SCREEN_SAMPLES` (the rows of :func:`select_channel` when its ``k`` is a power of two,
+as on the 7.56 M-sample soak log: ``k`` = 8), each with the value of PX4's median and
+ArduPilot's moving average at that row (computed on the whole run), and of each run its
+legs' temperature ranges (:class:`RunSpan`). The polynomial candidates are then refitted on
+every row from per-run QR factors, the field's fits on the kept filtered rows. Memory is
+bounded by one run and the kept rows, not by the log.
+
+The polynomial candidates share one pass over the held-out data: per fold the triangular
+factor of
 the largest design (:func:`rinscal.calibration.estimators.tsqr`); any candidate on any
 training folds is then a QR of the stacked column subsets, and its held-out residual sum of
 squares and mean follow from the held-out fold's factor (``‖R_k [β; −1]‖²``; the first row
@@ -46,7 +59,7 @@ import itertools
 import math
 import warnings
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -70,13 +83,18 @@ __all__ = [
     "DEFAULT_FAMILIES",
     "FAMILIES",
     "Candidate",
+    "FoldPlan",
     "Folds",
+    "RunSpan",
     "Selection",
     "candidates",
     "choose",
     "fit_candidate",
+    "fold_plan",
     "holdout_folds",
+    "run_span",
     "select_channel",
+    "select_thinned",
 ]
 
 #: Candidate families, in order of preference at equal complexity.
@@ -94,6 +112,8 @@ MAX_ORDERS: tuple[int, int, int] = (4, 3, 3)
 #: Without three runs, legs are cut into contiguous blocks until there are this many folds
 #: (a standard error of held-out error needs several).
 MIN_FOLDS = 8
+#: Leave-one-run-out from this many runs with rows on (fewer: legs, or blocks).
+MIN_RUNS = 3
 #: Hidden-layer sizes screened when ``neural`` is a candidate.
 HIDDEN: tuple[int, ...] = (2, 4, 6)
 #: Screening budget of a neural candidate's held-out fits.
@@ -276,8 +296,194 @@ def _legs(temp: np.ndarray, min_frac: float = 0.05) -> list[tuple[int, int, str]
     return legs
 
 
+@dataclass(frozen=True)
+class RunSpan:
+    """What the folds need of one run's usable rows: their number, legs and temperatures.
+
+    Attributes
+    ----------
+    code : int
+        Run code.
+    n : int
+        Rows.
+    legs : tuple of (int, int, str)
+        Heating and cooling legs ``(start, stop, "heat" | "cool")`` (:func:`_legs`), or the
+        whole run as one ``(0, n, "")`` when it is not cut (leave-one-run-out needs no legs).
+    cuts : ndarray of int
+        Every boundary a scoring unit can have (a leg's, and those of the leg cut into
+        1 .. :data:`MIN_FOLDS` equal blocks), 0 and ``n`` included, increasing.
+    lo, hi : ndarray [°C]
+        Lowest and highest temperature of the rows between consecutive cuts.
+    """
+
+    code: int
+    n: int
+    legs: tuple[tuple[int, int, str], ...]
+    cuts: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+
+
+def run_span(code: int, temp: np.ndarray, cut: bool) -> RunSpan:
+    """The :class:`RunSpan` of one run's usable rows.
+
+    Parameters
+    ----------
+    code : int
+        Run code.
+    temp : ndarray, shape (n,) [°C]
+        The run's temperature, rows in time order.
+    cut : bool
+        Cut the run into its legs (needed when the log has fewer than :data:`MIN_RUNS` runs).
+    """
+    n = int(temp.size)
+    legs = tuple(_legs(temp)) if cut and n else ((0, n, ""),)
+    cuts = {0, n}
+    for a, b, _ in legs:
+        for per in range(1, MIN_FOLDS + 1) if cut else (1,):
+            cuts.update((a + np.cumsum([0, *_split_sizes(b - a, per)])).tolist())
+    c = np.array(sorted(cuts), dtype=np.int64)
+    if n:
+        lo, hi = np.minimum.reduceat(temp, c[:-1]), np.maximum.reduceat(temp, c[:-1])
+    else:
+        lo = hi = np.zeros(0)
+    return RunSpan(int(code), n, legs, c, lo, hi)
+
+
+def _split_sizes(n: int, parts: int) -> list[int]:
+    """Sizes of ``numpy.array_split`` of ``n`` rows into ``parts``: the larger ones first."""
+    q, r = divmod(int(n), int(parts))
+    return [q + 1] * r + [q] * (parts - r)
+
+
+@dataclass(frozen=True)
+class FoldPlan:
+    """Folds and scoring units of a log, as segments of each run's rows.
+
+    Attributes
+    ----------
+    names, scheme, unit_names, unit_fold
+        As in :class:`Folds`.
+    segments : tuple of (ndarray, ndarray)
+        Per run (in the order of its span): the start row of each unit segment, and its unit.
+    lo, hi : ndarray [°C]
+        Temperature range of each fold's rows.
+    """
+
+    names: tuple[str, ...]
+    scheme: str
+    unit_names: tuple[str, ...]
+    unit_fold: np.ndarray
+    segments: tuple[tuple[np.ndarray, np.ndarray], ...]
+    lo: np.ndarray
+    hi: np.ndarray
+
+    def label(self, i: int, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Fold and unit of rows ``rows`` (positions within run ``i``)."""
+        starts, units = self.segments[i]
+        u = units[np.searchsorted(starts, rows, side="right") - 1]
+        return self.unit_fold[u], u
+
+    def folds(self, parts: Sequence[tuple[Any, np.ndarray]], n: int) -> Folds:
+        """The :class:`Folds` of ``n`` rows: ``parts[i]`` says where run ``i``'s rows are
+        (an index or a slice) and their positions within the run."""
+        codes = np.empty(n, dtype=np.int64)
+        units = np.empty(n, dtype=np.int64)
+        for i, (where, rows) in enumerate(parts):
+            codes[where], units[where] = self.label(i, rows)
+        return Folds(codes, self.names, self.scheme, units, self.unit_names, self.unit_fold)
+
+    def scored(self, folds: np.ndarray, temp: np.ndarray) -> np.ndarray:
+        """Rows within the temperatures of the folds trained on when theirs is held out.
+
+        Outside that range compensation clamps, and extrapolating in T is not what the
+        choice is about.
+        """
+        nf = len(self.names)
+        lo_o, hi_o = np.empty(nf), np.empty(nf)
+        for k in range(nf):
+            others = np.arange(nf) != k
+            lo_o[k] = self.lo[others].min() if others.any() else np.inf
+            hi_o[k] = self.hi[others].max() if others.any() else -np.inf
+        return (temp >= lo_o[folds]) & (temp <= hi_o[folds])
+
+
+def fold_plan(spans: Sequence[RunSpan], runs: Sequence[str], min_runs: int = MIN_RUNS) -> FoldPlan:
+    """Folds for the held-out choice (see the module docstring) from the runs' spans.
+
+    Parameters
+    ----------
+    spans : sequence of RunSpan
+        The runs with rows, in increasing code (each cut into legs when fewer than
+        ``min_runs``).
+    runs : sequence of str
+        Run names, by code.
+    min_runs : int
+        Leave-one-run-out from this many runs on.
+
+    Returns
+    -------
+    FoldPlan
+    """
+
+    def segment_range(sp: RunSpan, a: int, b: int) -> tuple[float, float]:
+        sel = (sp.cuts[:-1] >= a) & (sp.cuts[:-1] < b)
+        if not sel.any():
+            return np.inf, -np.inf
+        return float(sp.lo[sel].min()), float(sp.hi[sel].max())
+
+    if len(spans) >= min_runs:
+        names = tuple(runs[sp.code] for sp in spans)
+        idx = np.arange(len(spans))
+        ranges = [segment_range(sp, 0, sp.n) for sp in spans]
+        segs = tuple((np.zeros(1, dtype=np.int64), idx[i : i + 1]) for i in range(len(spans)))
+        lo, hi = (np.array(v) for v in zip(*ranges, strict=True))
+        return FoldPlan(names, "leave-one-run-out", names, idx, segs, lo, hi)
+    pieces = [
+        (i, a, b, f"{runs[sp.code]}/{kind}") for i, sp in enumerate(spans) for a, b, kind in sp.legs
+    ]
+    # unique names: a run's second cooling leg is cool2
+    seen: dict[str, int] = {}
+    for *_, name in pieces:
+        seen[name] = seen.get(name, 0) + 1
+    count = dict.fromkeys(seen, 0)
+    named = []
+    for i, a, b, name in pieces:
+        count[name] += 1
+        named.append((i, a, b, name if seen[name] == 1 else f"{name}{count[name]}"))
+    per = math.ceil(MIN_FOLDS / len(named))
+    starts: list[list[int]] = [[] for _ in spans]
+    unit_of: list[list[int]] = [[] for _ in spans]
+    unit_names: list[str] = []
+    leg_of: list[int] = []
+    ranges = []
+    for j, (i, a, b, name) in enumerate(named):
+        bounds = a + np.cumsum([0, *_split_sizes(b - a, per)])
+        for u, (ua, ub) in enumerate(itertools.pairwise(bounds.tolist())):
+            starts[i].append(ua)
+            unit_of[i].append(len(unit_names))
+            unit_names.append(f"{name}/{u + 1}" if per > 1 else name)
+            leg_of.append(j)
+            ranges.append(segment_range(spans[i], ua, ub))
+    segs = tuple(
+        (np.asarray(s, dtype=np.int64), np.asarray(u, dtype=np.int64))
+        for s, u in zip(starts, unit_of, strict=True)
+    )
+    u_lo, u_hi = (np.array(v) for v in zip(*ranges, strict=True))
+    if len(named) >= 2:  # leave one leg out, score its blocks apart
+        fold = np.asarray(leg_of)
+        lo = np.array([u_lo[fold == k].min() for k in range(len(named))])
+        hi = np.array([u_hi[fold == k].max() for k in range(len(named))])
+        return FoldPlan(
+            tuple(name for *_, name in named), "legs", tuple(unit_names), fold, segs, lo, hi
+        )
+    # one leg: its blocks are the folds
+    idx = np.arange(len(unit_names))
+    return FoldPlan(tuple(unit_names), "blocks", tuple(unit_names), idx, segs, u_lo, u_hi)
+
+
 def holdout_folds(
-    run_codes: np.ndarray, runs: Sequence[str], temp: np.ndarray, min_runs: int = 3
+    run_codes: np.ndarray, runs: Sequence[str], temp: np.ndarray, min_runs: int = MIN_RUNS
 ) -> Folds:
     """Folds for the held-out choice (see the module docstring).
 
@@ -296,57 +502,19 @@ def holdout_folds(
     -------
     Folds
     """
+    return _holdout(run_codes, runs, temp, min_runs)[0]
+
+
+def _holdout(
+    run_codes: np.ndarray, runs: Sequence[str], temp: np.ndarray, min_runs: int = MIN_RUNS
+) -> tuple[Folds, FoldPlan]:
+    """:func:`holdout_folds` and its plan (fold temperature ranges)."""
     present = np.unique(run_codes)
-    if present.size >= min_runs:
-        remap = np.full(len(runs), -1)
-        remap[present] = np.arange(present.size)
-        codes = remap[run_codes]
-        names = tuple(runs[k] for k in present)
-        return Folds(codes, names, "leave-one-run-out", codes, names, np.arange(present.size))
-    pieces: list[tuple[np.ndarray, str]] = []
-    for k in present:
-        rows = np.flatnonzero(run_codes == k)
-        for a, b, kind in _legs(temp[rows]):
-            pieces.append((rows[a:b], f"{runs[k]}/{kind}"))
-    # unique names: a run's second cooling leg is cool2
-    seen: dict[str, int] = {}
-    named = []
-    for rows, name in pieces:
-        seen[name] = seen.get(name, 0) + 1
-        named.append((rows, name))
-    count = dict.fromkeys(seen, 0)
-    pieces = []
-    for rows, name in named:
-        count[name] += 1
-        pieces.append((rows, name if seen[name] == 1 else f"{name}{count[name]}"))
-    per = math.ceil(MIN_FOLDS / len(pieces))
-    units = np.empty(run_codes.size, dtype=np.int64)
-    unit_names: list[str] = []
-    leg_of: list[int] = []
-    for j, (rows, name) in enumerate(pieces):
-        for i, part in enumerate(np.array_split(rows, per)):
-            units[part] = len(unit_names)
-            unit_names.append(f"{name}/{i + 1}" if per > 1 else name)
-            leg_of.append(j)
-    if len(pieces) >= 2:  # leave one leg out, score its blocks apart
-        codes = np.asarray(leg_of)[units]
-        return Folds(
-            codes,
-            tuple(name for _, name in pieces),
-            "legs",
-            units,
-            tuple(unit_names),
-            np.asarray(leg_of),
-        )
-    # one leg: its blocks are the folds
-    return Folds(
-        units,
-        tuple(unit_names),
-        "blocks",
-        units,
-        tuple(unit_names),
-        np.arange(len(unit_names)),
-    )
+    rows = [np.flatnonzero(run_codes == k) for k in present]
+    cut = present.size < min_runs
+    spans = [run_span(int(k), temp[r], cut) for k, r in zip(present, rows, strict=True)]
+    plan = fold_plan(spans, runs, min_runs)
+    return plan.folds([(r, np.arange(r.size)) for r in rows], run_codes.size), plan
 
 
 def _used_inputs(cand: Candidate, d: int) -> int:
@@ -418,20 +586,33 @@ def _baseline_screens(
     the tool's own fit on every row (equal to :func:`rinscal.calibration.baselines.px4_fit`
     and ``ardupilot_fit`` on the same data, the filter not run again).
     """
-    from rinscal.calibration.baselines import (
-        ardupilot_fit_smoothed,
-        ardupilot_smoothed,
-        px4_filtered,
-        px4_fit_filtered,
-    )
+    from rinscal.calibration.baselines import ardupilot_smoothed, px4_filtered
 
-    methods = {c.method: c for c in cands if c.method in ("px4", "ardupilot")}
+    methods = _tool_methods(cands)
     pre: dict[str, tuple[np.ndarray, ...]] = {}
     if "px4" in methods:
         pre["px4"] = (*px4_filtered(temp, y, run_codes), folds)
     if "ardupilot" in methods:
         t_s, y_s, t_kept, y_kept, rows = ardupilot_smoothed(temp, y, t, run_codes)
         pre["ardupilot"] = (t_s, y_s, folds[rows], t_kept, y_kept)
+    return _tool_fits(pre, methods)
+
+
+def _tool_methods(cands: Sequence[Candidate]) -> dict[str, Candidate]:
+    """The candidates that are the field's fits, by method."""
+    return {c.method: c for c in cands if c.method in ("px4", "ardupilot")}
+
+
+def _tool_fits(
+    pre: dict[str, tuple[np.ndarray, ...]], methods: dict[str, Candidate]
+) -> Callable[[str, int | None], dict[str, Any]]:
+    """``fit(method, k)`` of :func:`_baseline_screens` from the tools' filtered samples.
+
+    ``pre["px4"]``: temperatures, median-filtered outputs and their folds;
+    ``pre["ardupilot"]``: smoothed temperatures and outputs, their folds, and the raw
+    temperatures and outputs for the constant term.
+    """
+    from rinscal.calibration.baselines import ardupilot_fit_smoothed, px4_fit_filtered
 
     def thin(codes: np.ndarray, k: int) -> np.ndarray:
         """Every step-th row, those of fold ``k`` left out: at most about SCREEN_ROWS."""
@@ -723,12 +904,7 @@ def select_channel(
     """
     if not 0 <= tolerance < 1:
         raise ValueError(f"tolerance must be in [0, 1), got {tolerance!r}")
-    from threadpoolctl import threadpool_limits
-
-    # thousands of tiny factorisations: BLAS threads only add overhead (and spin when the
-    # process is pinned to one core)
-    with threadpool_limits(limits=1, user_api="blas"):
-        return _select(x, y, run_codes, runs, t, cands, tolerance, random_state)
+    return _select(x, y, run_codes, runs, t, cands, tolerance, random_state)
 
 
 def _select(
@@ -741,85 +917,167 @@ def _select(
     tolerance: float,
     random_state: int,
 ) -> Selection:
-    folds = holdout_folds(run_codes, runs, x[:, 0])
-    nf = len(folds.names)
-    # score a held-out sample only within the training folds' temperature range: outside it
-    # compensation clamps, and extrapolating in T is not what the choice is about
-    scored = np.zeros(x.shape[0], dtype=bool)
-    rows = [np.flatnonzero(folds.codes == k) for k in range(nf)]
-    temps = [x[r, 0] for r in rows]
-    lo = np.array([v.min() for v in temps])
-    hi = np.array([v.max() for v in temps])
-    for k in range(nf):
-        others = np.arange(nf) != k
-        scored[rows[k]] = (temps[k] >= lo[others].min()) & (temps[k] <= hi[others].max())
+    folds, plan = _holdout(run_codes, runs, x[:, 0])
+    scored = plan.scored(folds.codes, x[:, 0])
     # the PX4/ArduPilot filters run on every sample; the held-out scores use every k-th
     baseline_fold = _baseline_screens(x[:, 0], y, run_codes, t, folds.codes, cands)
     step = max(1, math.ceil(x.shape[0] / SCREEN_SAMPLES))
     if step > 1:
         x, y, run_codes, t = x[::step], y[::step], run_codes[::step], t[::step]
-        codes, scored, units = folds.codes[::step], scored[::step], folds.units[::step]
-    else:
-        codes, units = folds.codes, folds.units
-    nu = len(folds.unit_names)
-    blocks = _averaging_blocks(units, run_codes, t, scored)
-    counts = np.array(
-        [len(np.unique(blocks[(units == u) & (blocks >= 0)])) for u in range(nu)], dtype=int
+        scored = scored[::step]
+        folds = replace(folds, codes=folds.codes[::step], units=folds.units[::step])
+    return _choose_scored(
+        x, y, run_codes, t, folds, scored, baseline_fold, cands, tolerance, random_state
     )
-    poly = [c for c in cands if c.orders is not None]
-    fast = _polynomial_scores(x, y, codes, nf, poly, blocks, units, folds.unit_fold) if poly else {}
-    n_total = int(counts.sum())
-    table, mse_rows = [], []
-    for cand in cands:
-        train_rms = None
-        if cand.name in fast:
-            ss, rss = fast[cand.name]
-            train_rms = math.sqrt(rss / x.shape[0]) if np.isfinite(rss) else None
-        else:
-            ss = np.empty(nu)
-            for k in range(nf):
-                tr = codes != k
-                mine = np.flatnonzero(folds.unit_fold == k)
-                try:
-                    with warnings.catch_warnings():
-                        warnings.simplefilter("ignore")
-                        if cand.method in ("px4", "ardupilot"):
-                            params = baseline_fold(cand.method, k)
-                        else:
-                            params = fit_candidate(
-                                cand, x[tr], y[tr], run_codes[tr], t[tr], random_state, True
-                            )
-                except (ValueError, DesignError):
-                    ss[mine] = np.nan
-                    continue
-                for u in mine:
-                    te = (units == u) & scored
-                    pred = predict_params(params, x[te])
-                    ss[u] = _ss_about_mean(_block_means(y[te] - pred, blocks[te]))
-        ss[counts == 0] = 0.0
-        fold_rms = np.sqrt(ss / np.maximum(counts, 1))
-        score = float(math.sqrt(np.sum(ss) / n_total)) if np.all(np.isfinite(ss)) else None
-        mse_rows.append((ss / np.maximum(counts, 1))[counts > 0])
-        table.append(
-            {
-                "name": cand.name,
-                "method": "none" if cand.family == "none" else cand.method,
-                "n_params": int(cand.n_params),
-                "heldout_rms": score,
-                "fold_rms": [  # None: not fitted, or nothing of the part scored (outside T range)
-                    None if not (np.isfinite(v) and n) else float(v)
-                    for v, n in zip(fold_rms, counts, strict=True)
-                ],
-                "train_rms": train_rms,
-            }
+
+
+def select_thinned(
+    x: np.ndarray,
+    y: np.ndarray,
+    run_codes: np.ndarray,
+    rows: np.ndarray,
+    t: np.ndarray,
+    spans: Sequence[RunSpan],
+    runs: Sequence[str],
+    tools: dict[str, tuple[np.ndarray, ...]],
+    cands: Sequence[Candidate],
+    tolerance: float = DEFAULT_TOLERANCE,
+    random_state: int = 0,
+) -> Selection:
+    """:func:`select_channel` from every k-th row of a log and what each whole run left.
+
+    What a log read a run at a time keeps of each channel (:class:`rinscal.calibration.
+    _runs.RowSample`): the rows a held-out score uses (every ``k``-th usable row of the log,
+    as :func:`select_channel` thins above :data:`SCREEN_SAMPLES` rows), each with the value
+    of the field's filters at that row, computed on the whole run; and each run's
+    :class:`RunSpan`. The choice is :func:`select_channel`'s on the whole log wherever both
+    keep the same rows (up to :data:`SCREEN_SAMPLES` rows, and where ``k`` is a power of
+    two); otherwise the field's held-out fits see other filtered samples of the same runs.
+
+    Parameters
+    ----------
+    x, y, run_codes, t : ndarray
+        The kept rows (as for :func:`select_channel`), runs in increasing code.
+    rows : ndarray of int
+        Position of each kept row among its run's usable rows.
+    spans : sequence of RunSpan
+        Each run with rows, in increasing code (cut into legs when fewer than 3).
+    runs : sequence of str
+        Run names, by code.
+    tools : dict
+        ``"px4"``: the 31-sample running median of the output at each kept row;
+        ``"ardupilot"``: ``(T, y)`` of the 2 s moving average centred on each kept row
+        (NaN where no complete window is).
+    cands, tolerance, random_state
+        As for :func:`select_channel`.
+
+    Returns
+    -------
+    Selection
+    """
+    if not 0 <= tolerance < 1:
+        raise ValueError(f"tolerance must be in [0, 1), got {tolerance!r}")
+    plan = fold_plan(spans, runs)
+    at = np.searchsorted(run_codes, [sp.code for sp in spans] + [np.iinfo(np.int64).max])
+    where = [slice(int(a), int(b)) for a, b in itertools.pairwise(at)]
+    folds = plan.folds([(sl, rows[sl]) for sl in where], run_codes.size)
+    codes = folds.codes
+    scored = plan.scored(codes, x[:, 0])
+    pre: dict[str, tuple[np.ndarray, ...]] = {}
+    if "px4" in tools:
+        pre["px4"] = (x[:, 0], tools["px4"], codes)
+    if "ardupilot" in tools:
+        t_s, y_s = tools["ardupilot"]
+        has = np.isfinite(t_s)
+        pre["ardupilot"] = (t_s[has], y_s[has], codes[has], x[:, 0], y)
+    fit = _tool_fits(pre, _tool_methods(cands))
+    return _choose_scored(x, y, run_codes, t, folds, scored, fit, cands, tolerance, random_state)
+
+
+def _choose_scored(
+    x: np.ndarray,
+    y: np.ndarray,
+    run_codes: np.ndarray,
+    t: np.ndarray,
+    folds: Folds,
+    scored: np.ndarray,
+    baseline_fold: Callable[[str, int | None], dict[str, Any]],
+    cands: Sequence[Candidate],
+    tolerance: float,
+    random_state: int,
+) -> Selection:
+    """Score every candidate on the rows given (already thinned) and choose one."""
+    from threadpoolctl import threadpool_limits
+
+    # thousands of tiny factorisations: BLAS threads only add overhead (and spin when the
+    # process is pinned to one core)
+    with threadpool_limits(limits=1, user_api="blas"):
+        codes, units = folds.codes, folds.units
+        nf = len(folds.names)
+        nu = len(folds.unit_names)
+        blocks = _averaging_blocks(units, run_codes, t, scored)
+        counts = np.array(
+            [len(np.unique(blocks[(units == u) & (blocks >= 0)])) for u in range(nu)], dtype=int
         )
-    mse = np.vstack(mse_rows)
-    chosen = choose(cands, mse, tolerance)
-    t_only = [i for i, c in enumerate(cands) if c.t_only]
-    fallback = choose([cands[i] for i in t_only], mse[t_only], tolerance)
-    fitted = {
-        c.name: baseline_fold(c.method, None)
-        for c in (chosen, fallback)
-        if c.method in ("px4", "ardupilot")
-    }
-    return Selection(chosen, fallback, folds, float(tolerance), table, fitted)
+        poly = [c for c in cands if c.orders is not None]
+        fast = (
+            _polynomial_scores(x, y, codes, nf, poly, blocks, units, folds.unit_fold)
+            if poly
+            else {}
+        )
+        n_total = int(counts.sum())
+        table, mse_rows = [], []
+        for cand in cands:
+            train_rms = None
+            if cand.name in fast:
+                ss, rss = fast[cand.name]
+                train_rms = math.sqrt(rss / x.shape[0]) if np.isfinite(rss) else None
+            else:
+                ss = np.empty(nu)
+                for k in range(nf):
+                    tr = codes != k
+                    mine = np.flatnonzero(folds.unit_fold == k)
+                    try:
+                        with warnings.catch_warnings():
+                            warnings.simplefilter("ignore")
+                            if cand.method in ("px4", "ardupilot"):
+                                params = baseline_fold(cand.method, k)
+                            else:
+                                params = fit_candidate(
+                                    cand, x[tr], y[tr], run_codes[tr], t[tr], random_state, True
+                                )
+                    except (ValueError, DesignError):
+                        ss[mine] = np.nan
+                        continue
+                    for u in mine:
+                        te = (units == u) & scored
+                        pred = predict_params(params, x[te])
+                        ss[u] = _ss_about_mean(_block_means(y[te] - pred, blocks[te]))
+            ss[counts == 0] = 0.0
+            fold_rms = np.sqrt(ss / np.maximum(counts, 1))
+            score = float(math.sqrt(np.sum(ss) / n_total)) if np.all(np.isfinite(ss)) else None
+            mse_rows.append((ss / np.maximum(counts, 1))[counts > 0])
+            table.append(
+                {
+                    "name": cand.name,
+                    "method": "none" if cand.family == "none" else cand.method,
+                    "n_params": int(cand.n_params),
+                    "heldout_rms": score,
+                    # None: not fitted, or nothing of the part scored (outside the T range)
+                    "fold_rms": [
+                        None if not (np.isfinite(v) and n) else float(v)
+                        for v, n in zip(fold_rms, counts, strict=True)
+                    ],
+                    "train_rms": train_rms,
+                }
+            )
+        mse = np.vstack(mse_rows)
+        chosen = choose(cands, mse, tolerance)
+        t_only = [i for i, c in enumerate(cands) if c.t_only]
+        fallback = choose([cands[i] for i in t_only], mse[t_only], tolerance)
+        fitted = {
+            c.name: baseline_fold(c.method, None)
+            for c in (chosen, fallback)
+            if c.method in ("px4", "ardupilot")
+        }
+        return Selection(chosen, fallback, folds, float(tolerance), table, fitted)

@@ -30,13 +30,17 @@ import pandas as pd
 from rinscal._version import __version__
 from rinscal.calibration._fit import NEURAL_MAX_SAMPLES, fit_params, rms_about_run_mean
 from rinscal.calibration._inference import METHODS, n_inputs, predict_params
-from rinscal.calibration._runs import FACTOR_METHODS, FALLBACK_DEGREE, RunFits
+from rinscal.calibration._runs import FACTOR_METHODS, FALLBACK_DEGREE, RowSample, RunFits
 from rinscal.calibration.auto import (
     DEFAULT_FAMILIES,
     DEFAULT_TOLERANCE,
+    MAX_ORDERS,
+    Candidate,
+    Selection,
+    _used_inputs,
     candidates,
     fit_candidate,
-    select_channel,
+    select_thinned,
 )
 from rinscal.calibration.features import (
     DerivativeConfig,
@@ -336,7 +340,18 @@ class ThermalModel:
     def _run_fits(self, channel: str, n_inputs: int) -> RunFits:
         """What this model keeps of each run for one channel (see :mod:`._runs`)."""
         if self.method == AUTO:
-            return RunFits(AUTO, None, keep_rows=True)
+            # polynomial candidates are refitted from run factors; the held-out choice
+            # scores every k-th row; a network (on request) keeps what `neural` keeps
+            from rinscal.calibration import auto
+
+            tools = [f for f in ("px4", "ardupilot") if f in self.candidates]
+            return RunFits(
+                AUTO,
+                list(MAX_ORDERS[:n_inputs]),
+                "neural" in self.candidates,
+                NEURAL_MAX_SAMPLES,
+                RowSample(auto.SCREEN_SAMPLES, tools),
+            )
         hyper = self.hyper_for(channel)
         t_powers = FALLBACK_DEGREE
         powers = [0] * n_inputs
@@ -463,6 +478,7 @@ class ThermalModel:
                     codes = fitting.add_runs(log, names, rows, res)
                 fitting.add_features(codes, feats, rows)
                 del feats
+            del log, rows  # not held while the next run is read, nor while fitting
         if fitting is None:
             raise ConfigError(f"{where}no runs to fit")
         self.features_ = None
@@ -703,19 +719,16 @@ class _Fitting:
         """A channel's parameters, its T-only fallback and ``auto``'s selection record."""
         m = self.model
         if m.method == AUTO:
-            xo, yo, codes, to = fits.data()
-            cands = candidates(sensor_type(c), xo.shape[1], m.candidates)
-            sel = select_channel(
-                xo, yo, codes, tuple(self.runs), to, cands, m.tolerance, m.random_state
-            )
-            data = (xo, yo, codes, to, m.random_state)
-            params = sel.fitted.get(sel.chosen.name) or fit_candidate(sel.chosen, *data)
+            assert fits.screen is not None
+            x, y, codes, rows, t, tools = fits.screen.arrays()
+            cands = candidates(sensor_type(c), x.shape[1], m.candidates)
+            sel = select_thinned(
+                x, y, codes, rows, t, fits.screen.spans, tuple(self.runs), tools, cands,
+                m.tolerance, m.random_state,
+            )  # fmt: skip
+            params = self._fit_chosen(fits, sel, sel.chosen)
             # a chosen model of T alone is its own fallback: fit it once
-            fb = (
-                params
-                if sel.fallback == sel.chosen
-                else sel.fitted.get(sel.fallback.name) or fit_candidate(sel.fallback, *data)
-            )
+            fb = params if sel.fallback == sel.chosen else self._fit_chosen(fits, sel, sel.fallback)
             return params, fb, sel.to_dict()
         hyper = m.hyper_for(c, sp)
         if m.method == "regression":
@@ -728,6 +741,23 @@ class _Fitting:
             xo, yo, codes, to = fits.data()
             params = fit_params(m.method, hyper, xo, yo, codes, to)
         return params, _cubic_fallback(fits), None
+
+    def _fit_chosen(self, fits: RunFits, sel: Selection, cand: Candidate) -> dict[str, Any]:
+        """``auto``: the parameters of a chosen candidate on all the data.
+
+        Polynomial candidates from the run factors (the fit of every row); the field's fits
+        as the selection made them (on the rows it kept); a network on the rows kept for it.
+        """
+        if cand.name in sel.fitted:
+            return sel.fitted[cand.name]
+        if cand.method == "poly-t":
+            return fits.poly_t(int(cand.params["degree"]))
+        if cand.method == "regression":
+            assert cand.orders is not None
+            used = _used_inputs(cand, len(fits.powers))
+            return fits.regression(list(cand.orders[:used]))
+        xo, yo, codes, to = fits.data()
+        return fit_candidate(cand, xo, yo, codes, to, self.model.random_state)
 
     @staticmethod
     def _metrics(params: dict[str, Any], fits: RunFits) -> dict[str, float]:
