@@ -60,3 +60,18 @@ def test_turn_on_offsets_differ_between_power_ons() -> None:
     _, _, meta = simulate_protocol("soak", hours=0.05, rate_hz=1.0, seed=4)
     offs = np.array([[v[c] for c in CHANNELS] for v in meta["turn_on_offset"].values()])
     assert np.all(offs.std(axis=0) > 0)
+
+
+def test_a_simulated_log_has_the_same_bits_whatever_the_thread_count() -> None:
+    """Threaded BLAS matmuls once moved the last bits of a few rows per run with the thread
+    count, and the BP network turned that into another reproduction on another machine."""
+    from threadpoolctl import threadpool_limits
+
+    from rinscal.thermal.protocols import simulate_protocol
+
+    runs = []
+    for threads in (1, 2):
+        with threadpool_limits(limits=threads, user_api="blas"):
+            runs.append(simulate_protocol("soak", hours=0.5, rate_hz=1.0, seed=3))
+    for a, b in zip(runs[0][:2], runs[1][:2], strict=True):
+        pd.testing.assert_frame_equal(a, b, check_exact=True)
