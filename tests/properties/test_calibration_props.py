@@ -27,6 +27,7 @@ from rinscal.calibration.modelfile import (
 )
 from rinscal.errors import ModelFileError
 from rinscal.schema import CHANNELS
+from rinscal.units import SENSOR_TYPE_UNITS, SENSOR_UNITS
 
 METRICS = {
     "rms_train": 1.0,
@@ -181,11 +182,14 @@ def model_files(draw) -> ThermalModelFile:
         params = draw(channel_params(method))
         k = {"poly-t": 1, "sectional": 2}.get(method, 3)
         lo = np.array(draw(st.lists(finite, min_size=k, max_size=k)))
+        # a unit of the channel's sensor type with its own SI value, or pulses (any weight)
+        unit = draw(st.sampled_from([None, *SENSOR_TYPE_UNITS[c.partition("_")[0]]]))
+        named = SENSOR_UNITS.get(unit or "")
         models[c] = ChannelModel(
             params=params,
             train_range=np.column_stack([lo, lo + 10.0]),
-            unit=draw(st.sampled_from([None, "deg/h", "ug", "pulse"])),
-            unit_to_si=draw(st.one_of(st.none(), positive)),
+            unit=unit,
+            unit_to_si=draw(st.one_of(st.none(), positive if named is None else st.just(named))),
             static_reference=draw(st.one_of(st.none(), finite)),
             segment_edges=draw(st.one_of(st.none(), st.just(np.array([3.5, 10.5])))),
             metrics=METRICS,
