@@ -979,6 +979,7 @@ def iter_log_source(
                     ) from None
                 raise
             yield src
+            del src  # the run is the caller's now: hold no reference while reading the next
             first += rows
             finished.add(current)
         if v in finished:
