@@ -69,7 +69,7 @@ import numpy as np
 from rinscal.calibration._inference import poly_shift, segment_params
 from rinscal.calibration.modelfile import INPUT_NAMES, ThermalModelFile
 from rinscal.errors import ConfigError
-from rinscal.firmware import ARDUPILOT_SCALE, ARDUPILOT_TREF_C
+from rinscal.firmware import ARDUPILOT_SCALE, ARDUPILOT_TREF_C, ardupilot_tcal_prefix
 
 __all__ = [
     "ARDUPILOT_SCALE",
@@ -380,16 +380,21 @@ def to_ardupilot_parm(model: ThermalModelFile, instance: int | None = None) -> s
     """
     if instance is None:
         instance = _instance(model) or 0
-    if instance in (3, 4):
-        raise ConfigError(
-            f"ArduPilot IMU instance {instance} (IMU {instance + 1}) keeps its temperature "
-            f"calibration under INS{instance + 1}_TCAL_*, which this export does not write; "
-            "it writes instances 0, 1 and 2 (INS_TCAL1_* .. INS_TCAL3_*)"
+    try:
+        p = ardupilot_tcal_prefix(instance)
+    except ValueError:
+        p = ""
+    if not p.startswith("INS_TCAL"):
+        where = (
+            f"keeps its temperature calibration under {p}*, which this export does not write"
+            if p
+            else "has no parameters in ArduPilot"
         )
-    if instance not in (0, 1, 2):
-        raise ConfigError(f"ArduPilot IMU instance must be 0, 1 or 2 (0-based), got {instance}")
+        raise ConfigError(
+            f"ArduPilot IMU instance {instance} (IMU {instance + 1}) {where}; the export "
+            "writes instances 0, 1 and 2 (INS_TCAL1_* .. INS_TCAL3_*)"
+        )
     imu = instance + 1
-    p = f"INS_TCAL{imu}_"
     blocks: dict[str, list[tuple[str, np.ndarray]]] = {}
     all_axes: list[_Axis] = []
     for sensor, tag in (("accel", "ACC"), ("gyro", "GYR")):

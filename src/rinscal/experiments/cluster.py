@@ -49,8 +49,11 @@ class TLSFiles:
 
     def given(self) -> dict[str, str]:
         """The files given, as :class:`distributed.Security` arguments."""
-        pairs = {"tls_ca_file": self.ca_file, "tls_client_cert": self.cert}
-        pairs["tls_client_key"] = self.key
+        pairs = {
+            "tls_ca_file": self.ca_file,
+            "tls_client_cert": self.cert,
+            "tls_client_key": self.key,
+        }
         return {k: v for k, v in pairs.items() if v is not None}
 
 
