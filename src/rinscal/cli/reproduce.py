@@ -76,13 +76,13 @@ def reproduce(
     The report and metrics.json name the plant that ran.
     """
     import json
-    import os
     import time
 
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     from rinscal.cli._app import console, err_console, fail, styled
     from rinscal.errors import RinscalError
+    from rinscal.experiments.cluster import local_workers
     from rinscal.experiments.paper import (
         ReproConfig,
         alignment_config,
@@ -104,7 +104,7 @@ def reproduce(
             raise fail("--jobs is the old name of --workers: give one of them")
         err_console.print(styled("note:", "cyan", " --jobs is now --workers (-w)"))
         workers = jobs
-    jobs = workers or len(os.sched_getaffinity(0))  # navigation runs in parallel
+    jobs = local_workers(workers)  # navigation runs in parallel
     try:
         options = {"imu": imu, "align_s": align_s, "align_start_s": align_start_s}
         make = ReproConfig.quick_preset if quick else ReproConfig.full

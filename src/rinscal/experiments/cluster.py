@@ -90,6 +90,12 @@ def cluster_security(scheduler: str | None, tls: TLSFiles | None = None) -> Any:
     return security
 
 
+def local_workers(workers: int | None = None) -> int:
+    """Worker processes of a local cluster: ``workers``, else one per core available to
+    this process."""
+    return workers or len(os.sched_getaffinity(0))
+
+
 @contextmanager
 def dask_client(
     workers: int | None = None, scheduler: str | None = None, tls: TLSFiles | None = None
@@ -114,7 +120,7 @@ def dask_client(
         finally:
             client.close()
         return
-    n = workers or len(os.sched_getaffinity(0))
+    n = local_workers(workers)
     with (
         LocalCluster(
             n_workers=n,
@@ -128,4 +134,11 @@ def dask_client(
         yield client
 
 
-__all__ = ["TLS_CONFIG", "TLS_OPTIONS", "TLSFiles", "cluster_security", "dask_client"]
+__all__ = [
+    "TLS_CONFIG",
+    "TLS_OPTIONS",
+    "TLSFiles",
+    "cluster_security",
+    "dask_client",
+    "local_workers",
+]
