@@ -23,6 +23,7 @@ data row 1 is the first sample (line 2 of a CSV/TSV file with a header line).
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
@@ -387,3 +388,99 @@ def _check_runs(
             f"increasing within run {run.iloc[r]!r} ({float(t[r]):.10g} s after "
             f"{float(t[p]):.10g} s at data row {first_row + p + 1}) ({_ROWS})"
         )
+
+
+# --------------------------------------------------------------------------- navigation log
+#: The recorded-navigation log (``rinscal navigate --log``): one row per IMU sample of one
+#: recording, read through the same mapping mechanism as a calibration log.
+#:
+#: ======================  ===================================================================
+#: column                  meaning
+#: ======================  ===================================================================
+#: ``time_s``              time of the *end* of each sample's interval [s], strictly increasing
+#: ``run``                 optional; a file with several runs needs ``--run``
+#: ``gyro_*``/``accel_*``  rates in the IMU's own (rotating) frame r, right-forward-up, in the
+#:                         declared units (default deg/h and µg; rad/s, deg/s, m/s², mg, g)
+#: ``dtheta_*``            *or* angle increments over the interval ending at ``time_s`` [rad]
+#: ``dvel_*``              with velocity increments [m/s] (PSINS, KF-GINS, navigation IMUs)
+#: ``table_deg``           optional encoder angle of the IMU frame about the body's z [deg];
+#:                         absent: the IMU is fixed to the body
+#: ``temp_*``              temperatures as in the calibration log (needed with a model)
+#: ``ref_lat_deg`` ...     optional reference track ``ref_lat_deg, ref_lon_deg, ref_h_m``
+#: ======================  ===================================================================
+NAV_RATES: tuple[str, ...] = CHANNELS
+#: Angle increments over each sample's interval, r frame [rad].
+DTHETA: tuple[str, ...] = ("dtheta_x", "dtheta_y", "dtheta_z")
+#: Velocity increments over each sample's interval, r frame [m/s].
+DVEL: tuple[str, ...] = ("dvel_x", "dvel_y", "dvel_z")
+#: Encoder angle of the IMU frame relative to the body, about z [deg].
+TABLE = "table_deg"
+#: Reference track columns: geodetic latitude, longitude [deg], ellipsoidal height [m].
+REF_TRACK: tuple[str, ...] = ("ref_lat_deg", "ref_lon_deg", "ref_h_m")
+#: Optional reference heading of the body, clockwise from true north [deg].
+REF_HEADING = "ref_heading_deg"
+#: Every column with a meaning in the recorded-navigation log.
+NAV_CANONICAL: tuple[str, ...] = (
+    TIME,
+    RUN,
+    *NAV_RATES,
+    *DTHETA,
+    *DVEL,
+    TABLE,
+    *TEMP_CHANNELS,
+    TEMP_IN,
+    TEMP_OUT,
+    CHAMBER,
+    *REF_TRACK,
+    REF_HEADING,
+)
+
+
+@dataclass(frozen=True)
+class NavSamples:
+    """A piece of a recorded-navigation log, in SI and in the IMU frame r (right-forward-up).
+
+    Pieces come in time order; together they are the recording, each sample once.
+
+    Attributes
+    ----------
+    t : ndarray, shape (n,) [s]
+        End of each sample's interval, strictly increasing (``time_s``).
+    dt : ndarray, shape (n,) [s]
+        Length of each sample's interval (``t[k] − t[k−1]``; the recording's first sample:
+        the nominal interval).
+    dtheta : ndarray, shape (n, 3) [rad]
+        Angle increments over each interval, r frame.
+    dv : ndarray, shape (n, 3) [m/s]
+        Velocity increments over each interval, r frame.
+    first_row : int
+        Data row of the file holding ``t[0]`` (1-based, header not counted).
+    table : ndarray, shape (n,) [rad], optional
+        Encoder angle of r about the body's z (sign and zero of the mapping applied, not
+        unwrapped); None: the IMU is fixed to the body.
+    temps : ndarray, shape (n, 6) [°C], optional
+        Inner temperature per sensor channel in :data:`CHANNELS` order (a shared
+        ``temp_in`` repeated).
+    temp_out : ndarray, shape (n,) [°C], optional
+        Outer (package) temperature.
+    ref : ndarray, shape (n, 3), optional
+        Reference ``lat [rad], lon [rad], h [m]`` from the log's own columns.
+    ref_heading : ndarray, shape (n,) [rad], optional
+        Reference heading of the body, clockwise from north.
+    """
+
+    t: np.ndarray
+    dt: np.ndarray
+    dtheta: np.ndarray
+    dv: np.ndarray
+    first_row: int = 1
+    table: np.ndarray | None = None
+    temps: np.ndarray | None = None
+    temp_out: np.ndarray | None = None
+    ref: np.ndarray | None = None
+    ref_heading: np.ndarray | None = None
+
+    @property
+    def n(self) -> int:
+        """Samples in the piece."""
+        return int(self.t.shape[0])
