@@ -8,7 +8,7 @@ from typing import Annotated
 import typer
 
 from rinscal.cli._app import app
-from rinscal.cli._options import AlignLengthOpt, AlignStartOpt, PolicyOpt, is_same_file
+from rinscal.cli._options import AlignLengthOpt, PolicyOpt, is_same_file
 from rinscal.thermal.presets import DEFAULT_PRESET, PRESETS
 
 #: The plant ``rinscal navigate`` runs unless ``--imu`` names another (as simulate and
@@ -27,13 +27,21 @@ _OUTPUTS = (
 
 @app.command("navigate")
 def navigate(
+    out: Annotated[Path, typer.Option("--out", "-o", help="Output folder (created if needed).")],
     scenario: Annotated[
-        str,
+        str | None,
         typer.Option(
             "--scenario", "-s", help="quasi-static, swing, vehicle or ramp (paper Section 5.2)."
         ),
-    ],
-    out: Annotated[Path, typer.Option("--out", "-o", help="Output folder (created if needed).")],
+    ] = None,
+    log: Annotated[
+        Path | None,
+        typer.Option(
+            "--log",
+            help="Navigate this recording instead of a scenario (CSV, TSV or Parquet; "
+            "rates, increments or counts; see docs/navigation.md).",
+        ),
+    ] = None,
     model: Annotated[
         list[Path] | None,
         typer.Option(
@@ -73,28 +81,116 @@ def navigate(
         str, typer.Option(help="Turntable: four-position, continuous or none.")
     ] = "four-position",
     align_s: AlignLengthOpt = 600.0,
-    align_start_s: AlignStartOpt = 0.0,
+    align_start_s: Annotated[
+        float | None,
+        typer.Option(
+            "--align-start-s",
+            min=0.0,
+            max=86400.0,
+            help="Seconds after power-on at which the alignment starts (the unit warms before "
+            "it; navigation starts at align-start-s + align-s). Scenario: default 0; --log: "
+            "default the earliest quiet stretch of at least 300 s.",
+        ),
+    ] = None,
     oracle: Annotated[
         bool, typer.Option("--oracle/--no-oracle", help="Also navigate with the true thermal bias.")
     ] = True,
     policy: PolicyOpt = "clamp",
+    record: Annotated[
+        Path | None,
+        typer.Option(
+            "--record",
+            help="Scenario: also write the raw recording it navigated (.parquet, .csv or "
+            ".tsv, with a .meta.json), readable by --log.",
+        ),
+    ] = None,
+    increments: Annotated[
+        bool,
+        typer.Option(
+            "--increments", help="--record writes increments (dtheta_*, dvel_*), not rates."
+        ),
+    ] = False,
+    mapping: Annotated[
+        Path | None,
+        typer.Option("--mapping", help="--log: TOML mapping of a foreign recording."),
+    ] = None,
+    run: Annotated[
+        str | None, typer.Option("--run", help="--log: the run to navigate in a log with several.")
+    ] = None,
+    site: Annotated[
+        str | None,
+        typer.Option(
+            "--site",
+            help="--log: the static site LAT,LON,HEIGHT [deg, deg, m] (default: the log's "
+            "metadata, else the reference track's first point).",
+        ),
+    ] = None,
+    heading: Annotated[
+        float | None,
+        typer.Option(
+            "--heading",
+            min=-360.0,
+            max=360.0,
+            help="--log: true heading of the body at the alignment [deg, clockwise from "
+            "north], for the heading error.",
+        ),
+    ] = None,
+    track: Annotated[
+        Path | None,
+        typer.Option(
+            "--track",
+            help="--log: reference track, CSV (time_s, ref_lat_deg, ref_lon_deg, ref_h_m) or "
+            "NMEA GGA.",
+        ),
+    ] = None,
+    track_utc_start: Annotated[
+        str | None,
+        typer.Option(
+            "--track-utc-start",
+            help="--log: UTC of the log's time 0 (ISO 8601), to place NMEA times.",
+        ),
+    ] = None,
+    allow_gaps: Annotated[
+        bool,
+        typer.Option("--allow-gaps", help="--log: integrate across gaps longer than 5 samples."),
+    ] = False,
 ) -> None:
-    """Navigate a single-axis RINS through a cold start and report its position error.
+    """Navigate a single-axis RINS, simulated (--scenario) or recorded (--log), and report
+    its position error.
 
     Writes errors.csv (position error per variant over time), truth.csv, summary.json and
     the figures position_error.png, trajectory.png and temperatures.png into --out, and
     prints per variant the maximum position error and the heading, pitch and roll error
     the alignment handed over.
     """
-    import json
     import math
 
-    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
-
-    from rinscal import units
     from rinscal.calibration.modelfile import POLICIES
     from rinscal.cli._app import console, fail
     from rinscal.errors import RinscalError
+
+    if (scenario is None) == (log is None):
+        raise fail("give either --scenario (simulate) or --log (a recording), not both")
+    if log is not None:
+        extra = {"--record": record, "--hours": hours, "--imu-config": imu_config}
+        given = [k for k, v in extra.items() if v is not None] + (["--increments"] * increments)
+        if given:
+            raise fail(f"{', '.join(given)}: only with --scenario, not with --log")
+        _navigate_log(
+            log, out, list(model or []), policy, mapping=mapping, run=run, site=site,
+            heading=heading, track=track, track_utc_start=track_utc_start, align_s=align_s,
+            align_start_s=align_start_s, imu=imu, allow_gaps=allow_gaps,
+        )  # fmt: skip
+        return
+    assert scenario is not None
+    given = [k for k, v in {"--mapping": mapping, "--run": run, "--site": site,
+             "--heading": heading, "--track": track, "--track-utc-start": track_utc_start}.items()
+             if v is not None] + (["--allow-gaps"] * allow_gaps)  # fmt: skip
+    if given:
+        raise fail(f"{', '.join(given)}: only with --log, not with --scenario")
+    if increments and record is None:
+        raise fail("--increments says how --record writes; give --record too")
+    align_start_s = 0.0 if align_start_s is None else align_start_s
 
     if imu is not None and imu_config is not None:
         raise fail("give the IMU once: --imu (--imu-config is its old name)")
@@ -108,6 +204,14 @@ def navigate(
         if not src.is_file():
             raise fail(f"{src}: file not found")
     out_paths = [out / name for name in _OUTPUTS]
+    if record is not None:
+        from rinscal.io import FORMATS, meta_path
+
+        if record.suffix.lower() not in FORMATS:
+            raise fail(f"--record {record}: give a .parquet, .csv or .tsv file name")
+        if not record.resolve().parent.is_dir():
+            raise fail(f"--record {record}: folder {record.resolve().parent} does not exist")
+        out_paths += [record, meta_path(record)]
     for dst in out_paths:
         for src in inputs:
             if is_same_file(dst, src):
@@ -153,35 +257,19 @@ def navigate(
             comps[name] = model_compensator(str(path), plant, policy=policy)
 
         out.mkdir(parents=True, exist_ok=True)  # before the run: an unusable --out fails at once
-        with Progress(
-            TextColumn("[progress.description]{task.description}"),
-            BarColumn(),
-            TextColumn("{task.completed:,.0f}/{task.total:,.0f} s"),
-            TimeRemainingColumn(),
-            console=console,
-            transient=True,
-        ) as progress:
+        with _progress() as progress:  # type: ignore[attr-defined]
             task = progress.add_task(f"navigating {scenario}", total=cfg.duration_s)
 
             def tick(done: float, total: float) -> None:
                 progress.update(task, completed=done)
 
-            result = run_scenario(cfg, plant, comps, progress=tick)  # type: ignore[arg-type]
+            if record is None:
+                result = run_scenario(cfg, plant, comps, progress=tick)  # type: ignore[arg-type]
+            else:
+                result = _record_scenario(cfg, plant, comps, tick, record, increments, seed)
     except RinscalError as exc:
         raise fail(str(exc)) from None
 
-    import pandas as pd
-
-    from rinscal.io import atomic_path
-    from rinscal.nav.plots import plot_position_error, plot_temperatures, plot_trajectory
-
-    out.mkdir(parents=True, exist_ok=True)
-    frames = []
-    for name, df in result.errors.items():
-        d = df.copy()
-        d.insert(0, "variant", name)
-        frames.append(d)
-    errors = pd.concat(frames, ignore_index=True)
     summary = result.summary()
     summary["seed"] = seed
     summary["imu"] = plant_cfg.name
@@ -192,42 +280,208 @@ def navigate(
         "temps_c": list(cfg.chamber.temps_c),
     }
 
-    with atomic_path(out / "errors.csv") as tmp:
-        errors.to_csv(tmp, index=False, float_format="%.10g")
-    with atomic_path(out / "truth.csv") as tmp:
-        result.truth.to_csv(tmp, index=False, float_format="%.10g")
-    with atomic_path(out / "summary.json") as tmp:
-        tmp.write_text(json.dumps(summary, indent=2, allow_nan=False, default=float) + "\n")
-    figures = {
-        "position_error.png": plot_position_error(result),
-        "trajectory.png": plot_trajectory(result),
-        "temperatures.png": plot_temperatures(temperature_frame(plant)),
-    }
-    for fname, fig in figures.items():
-        with atomic_path(out / fname) as tmp:
-            fig.savefig(tmp, format="png", dpi=110)
-
+    _write_outputs(out, result, summary, temperature_frame(plant))
     console.print(
         f"navigation from {cfg.nav_start_s:g} s after power-on "
         f"(alignment from {cfg.align_start_s:g} s, {align_s:g} s long)",
         highlight=False,
         soft_wrap=True,
     )
+    if record is not None:
+        console.print(f"recorded the raw IMU output to {record}", highlight=False, soft_wrap=True)
+    _print_variants(summary)
+
+
+def _write_outputs(out: Path, result: object, summary: dict, temps: object) -> None:
+    """errors.csv, truth.csv, summary.json and the figures, each written atomically."""
+    import json
+
+    import pandas as pd
+
+    from rinscal.io import atomic_path
+    from rinscal.nav.plots import plot_position_error, plot_temperatures, plot_trajectory
+
+    out.mkdir(parents=True, exist_ok=True)
+    frames = []
+    for name, df in result.errors.items():  # type: ignore[attr-defined]
+        d = df.copy()
+        d.insert(0, "variant", name)
+        frames.append(d)
+    errors = pd.concat(frames, ignore_index=True)
+    with atomic_path(out / "errors.csv") as tmp:
+        errors.to_csv(tmp, index=False, float_format="%.10g")
+    with atomic_path(out / "truth.csv") as tmp:
+        result.truth.to_csv(tmp, index=False, float_format="%.10g")  # type: ignore[attr-defined]
+    with atomic_path(out / "summary.json") as tmp:
+        tmp.write_text(json.dumps(summary, indent=2, allow_nan=False, default=float) + "\n")
+    figures = {
+        "position_error.png": plot_position_error(result),  # type: ignore[arg-type]
+        "trajectory.png": plot_trajectory(result),  # type: ignore[arg-type]
+        "temperatures.png": plot_temperatures(temps),  # type: ignore[arg-type]
+    }
+    for fname, fig in figures.items():
+        with atomic_path(out / fname) as tmp:
+            fig.savefig(tmp, format="png", dpi=110)
+
+
+def _print_variants(summary: dict) -> None:
+    from rinscal import units
+    from rinscal.cli._app import console
+
     for name, v in summary["variants"].items():
         extra = ""
         if "improvement_vs_none_pct" in v:
             pct = v["improvement_vs_none_pct"]
             extra = f"  ({abs(pct):.1f} % {'less' if pct >= 0 else 'more'} than uncompensated)"
         att = v["attitude_error_at_nav_start"]
+        angles = ", ".join(f'{k} {att[f"{k}_arcsec"]:+.1f}"' for k in ("heading", "pitch", "roll")
+                           if f"{k}_arcsec" in att)  # fmt: skip
         console.print(
             f"{name:>14}: max position error {v['max_error_m']:10.1f} m = "
-            f"{v['max_error_m'] / units.NMI_TO_M:7.3f} nmi{extra}; at navigation start "
-            f'heading {att["heading_arcsec"]:+.1f}", pitch {att["pitch_arcsec"]:+.1f}", '
-            f'roll {att["roll_arcsec"]:+.1f}" (arcsec)',
+            f"{v['max_error_m'] / units.NMI_TO_M:7.3f} nmi{extra}"
+            + (f"; at navigation start {angles} (arcsec)" if angles else ""),
             highlight=False,
             soft_wrap=True,
         )
-    console.print(f"wrote {', '.join(_OUTPUTS)} to {out}", highlight=False, soft_wrap=True)
+
+
+def _progress() -> object:
+    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+
+    from rinscal.cli._app import console
+
+    return Progress(
+        TextColumn("[progress.description]{task.description}"),
+        BarColumn(),
+        TextColumn("{task.completed:,.0f}/{task.total:,.0f} s"),
+        TimeRemainingColumn(),
+        console=console,
+        transient=True,
+    )
+
+
+def _record_scenario(
+    cfg: object, plant: object, comps: dict, tick: object, record: Path, increments: bool,
+    seed: int,
+) -> object:  # fmt: skip
+    """Run the scenario and stream the raw IMU output it navigated into ``record``."""
+    import numpy as np
+
+    from rinscal.io import LogStreamWriter, meta_path, write_meta
+    from rinscal.nav.recorded import recording_frame
+    from rinscal.nav.scenario import run_scenario
+
+    grid = np.arange(0.0, float(plant.field.t[-1]) + 1e-9, 1.0)  # type: ignore[attr-defined]
+    inner, outer = plant.measured_temperatures(grid)  # type: ignore[attr-defined]
+    tr = cfg.trajectory  # type: ignore[attr-defined]
+    moving = cfg.name == "vehicle"  # type: ignore[attr-defined]
+    with LogStreamWriter(record, validate=False) as w:
+
+        def rec(ch: object, dth: object, dv: object) -> None:
+            w.write(recording_frame(ch, dth, dv, increments=increments,
+                                    readings=(grid, inner, outer), track=moving))  # fmt: skip
+
+        result = run_scenario(cfg, plant, comps, progress=tick, recorder=rec)  # type: ignore[arg-type]
+        noise = plant.config.noise  # type: ignore[attr-defined]
+        wd, rw = noise.white_density_si(), noise.bias_rw_si()
+        meta = {
+            "kind": "navigation recording",
+            "source": f"rinscal navigate --scenario {cfg.name} --seed {seed}",  # type: ignore[attr-defined]
+            "rate_hz": cfg.rate_hz,  # type: ignore[attr-defined]
+            "units": {"gyro": "deg/h", "accel": "ug"} if not increments else {},
+            "site": {
+                "lat_deg": float(np.rad2deg(tr.lat0)),
+                "lon_deg": float(np.rad2deg(tr.lon0)),
+                "h_m": float(tr.alt0),
+            },
+            "heading_deg": float(result.truth["heading_deg"].iloc[0])
+            if len(result.truth) and not moving
+            else None,
+            "noise": {
+                "gyro_noise_density": float(wd[0]),
+                "accel_noise_density": float(wd[3]),
+                "gyro_bias_rw": float(rw[0]),
+                "accel_bias_rw": float(rw[3]),
+            },
+            "imu": plant.config.name,  # type: ignore[attr-defined]
+        }
+    write_meta(meta, record)
+    assert meta_path(record).exists()
+    return result
+
+
+def _navigate_log(log: Path, out: Path, models: list[Path], policy: str, **kw: object) -> None:
+    """``navigate --log``: read, align, navigate, write the same outputs as a scenario."""
+    from rinscal.cli._app import console, fail
+    from rinscal.errors import RinscalError
+    from rinscal.io import is_flight_log
+
+    inputs = [log, *models, *([kw["mapping"]] if kw["mapping"] else []),
+              *([kw["track"]] if kw["track"] else [])]  # fmt: skip
+    for src in inputs:
+        if not Path(src).is_file():  # type: ignore[arg-type]
+            raise fail(f"{src}: file not found")
+    for name in _OUTPUTS:
+        for src in inputs:
+            if is_same_file(out / name, Path(src)):  # type: ignore[arg-type]
+                raise fail(
+                    f"{out / name}: refusing to overwrite the input {src}; choose another --out"
+                )
+    if out.exists() and not out.is_dir():
+        raise fail(f"{out}: exists and is not a folder")
+    if is_flight_log(log):
+        raise fail(f"{log}: a flight log; navigate --log reads CSV, TSV or Parquet recordings")
+    try:
+        from rinscal.navlog import read_nav_mapping
+        from rinscal.recording import heading_text, navigate_log, parse_site
+
+        mapping = read_nav_mapping(kw["mapping"]) if kw["mapping"] else None
+        site = parse_site(kw["site"]) if kw["site"] is not None else None  # type: ignore[arg-type]
+        out.mkdir(parents=True, exist_ok=True)
+        with _progress() as progress:  # type: ignore[attr-defined]
+            task = progress.add_task("reading", total=None)
+
+            def tick(stage: str, done: float, total: float) -> None:
+                if stage == "navigating" and progress.tasks[task].description != "navigating":
+                    progress.update(task, description="navigating", total=total)
+                progress.update(task, completed=done)
+
+            nav = navigate_log(
+                log, mapping=mapping, run=kw["run"], models=[str(m) for m in models],
+                policy=policy, site=site, heading_deg=kw["heading"], track=kw["track"],
+                track_utc_start=kw["track_utc_start"], align_s=kw["align_s"],
+                align_start_s=kw["align_start_s"], imu=kw["imu"], allow_gaps=kw["allow_gaps"],
+                progress=tick,
+            )  # type: ignore[arg-type]  # fmt: skip
+    except RinscalError as exc:
+        raise fail(str(exc)) from None
+    summary = nav.result.summary()
+    summary.pop("scenario", None)
+    summary = {"log": str(log), **summary, "recording": nav.report}
+    _write_outputs(out, nav.result, summary, nav.temperatures)
+    console.print(heading_text(nav.report), highlight=False, soft_wrap=True)
+    rot = nav.report["rotation"]
+    if rot.get("source") == "encoder":
+        console.print(
+            f"turntable (encoder): positions {rot['positions_deg']} deg, {rot['dwells']} dwells "
+            f"of {rot['dwell_s_median']:.0f} s (median), turning at "
+            f"{rot['turning_rate_dps_median']:.1f} °/s",
+            highlight=False,
+            soft_wrap=True,
+        )
+    gaps = nav.report["gaps"]
+    if gaps["count"]:
+        console.print(f"{gaps['count']} gap(s) in time, the longest {gaps['longest_s']:.3f} s",
+                      highlight=False, soft_wrap=True)  # fmt: skip
+    for w in nav.warnings:
+        console.print(f"[yellow]warning:[/] {w}", highlight=False, soft_wrap=True)
+    c = nav.result.config
+    console.print(
+        f"navigation from {c.nav_start_s:g} s to {c.duration_s:g} s of the recording",
+        highlight=False,
+        soft_wrap=True,
+    )
+    _print_variants(summary)
 
 
 __all__ = ["navigate"]

@@ -265,11 +265,55 @@ def align_for(
         than the sensor's data sheet. Given values are used as they are (0: random
         constants).
     """
+    wd = imu.noise.white_density_si()
+    rw = imu.noise.bias_rw_si()
+    return align_from_noise(
+        float(wd[0]),
+        float(wd[3]),
+        float(rw[0]),
+        float(rw[3]),
+        total_s=total_s,
+        coarse_s=coarse_s,
+        start_s=start_s,
+        gyro_bias_tau_s=gyro_bias_tau_s,
+        gyro_bias_markov_sd=gyro_bias_markov_sd,
+        accel_bias_tau_s=accel_bias_tau_s,
+        accel_bias_markov_sd=accel_bias_markov_sd,
+    )
+
+
+def align_from_noise(
+    gyro_density: float,
+    accel_density: float,
+    gyro_bias_rw: float,
+    accel_bias_rw: float,
+    total_s: float = 600.0,
+    coarse_s: float = 60.0,
+    start_s: float = 0.0,
+    *,
+    gyro_bias_tau_s: float | None = None,
+    gyro_bias_markov_sd: float | None = None,
+    accel_bias_tau_s: float | None = None,
+    accel_bias_markov_sd: float | None = None,
+) -> AlignConfig:
+    """Alignment settings from the sensor noise itself (:func:`align_for` of a plant's).
+
+    Parameters
+    ----------
+    gyro_density : float [rad/√s]
+        Gyro angle random walk (white-noise density).
+    accel_density : float [m/s²/√Hz]
+        Accelerometer velocity random walk.
+    gyro_bias_rw : float [rad/s/√s]
+        Gyro bias random walk (0: none known); floors the bias states' process noise.
+    accel_bias_rw : float [m/s²/√s]
+        Accelerometer bias random walk (0: none known).
+    total_s, coarse_s, start_s, gyro_bias_tau_s, ... :
+        As for :func:`align_for`.
+    """
     if not (math.isfinite(total_s) and total_s > 0):
         raise ConfigError(f"alignment time must be > 0 s, got {total_s}")
     coarse = min(coarse_s, total_s / 3)
-    wd = imu.noise.white_density_si()
-    rw = imu.noise.bias_rw_si()
     d = AlignConfig()
     tau_g = d.gyro_bias_tau_s if gyro_bias_tau_s is None else gyro_bias_tau_s
     tau_a = d.accel_bias_tau_s if accel_bias_tau_s is None else accel_bias_tau_s
@@ -278,20 +322,20 @@ def align_for(
         return sd if not (math.isfinite(tau) and tau > 0) else max(sd, q * math.sqrt(tau / 2))
 
     sd_g = (
-        floor(d.gyro_bias_markov_sd, float(rw[0]), tau_g)
+        floor(d.gyro_bias_markov_sd, gyro_bias_rw, tau_g)
         if gyro_bias_markov_sd is None
         else gyro_bias_markov_sd
     )
     sd_a = (
-        floor(d.accel_bias_markov_sd, float(rw[3]), tau_a)
+        floor(d.accel_bias_markov_sd, accel_bias_rw, tau_a)
         if accel_bias_markov_sd is None
         else accel_bias_markov_sd
     )
     return AlignConfig(
         coarse_s=coarse,
         fine_s=total_s - coarse,
-        gyro_noise_density=float(wd[0]),
-        accel_noise_density=float(wd[3]),
+        gyro_noise_density=gyro_density,
+        accel_noise_density=accel_density,
         start_s=start_s,
         gyro_bias_tau_s=tau_g,
         gyro_bias_markov_sd=sd_g,
@@ -436,10 +480,11 @@ class NavResult:
             }
             eul = df[["heading_err", "pitch_err", "roll_err"]].to_numpy()
             e0 = eul[0] / units.ARCSEC_TO_RAD if h.size else np.full(3, np.nan)
+            # a recording knows at most its heading: an unknown truth is left out, not NaN
             v["attitude_error_at_nav_start"] = {
-                "heading_arcsec": float(e0[0]),
-                "pitch_arcsec": float(e0[1]),
-                "roll_arcsec": float(e0[2]),
+                f"{k}_arcsec": float(x)
+                for k, x in zip(("heading", "pitch", "roll"), e0, strict=True)
+                if math.isfinite(x)
             }
             a = self.alignment.get(name)
             if a is not None:
@@ -449,7 +494,7 @@ class NavResult:
                     "attitude_sd_arcsec": (a.attitude_sd / units.ARCSEC_TO_RAD).tolist(),
                 }
                 att = df[["att_e", "att_n", "att_u"]].to_numpy()
-                if att.shape[0]:
+                if att.shape[0] and np.isfinite(att[0]).all():
                     v["alignment"]["attitude_error_arcsec"] = (
                         att[0] / units.ARCSEC_TO_RAD
                     ).tolist()
@@ -492,6 +537,7 @@ def run_scenario(
     errors: ErrorSource | None = None,
     compensators: Mapping[str, Compensator | None] | None = None,
     progress: Callable[[float, float], None] | None = None,
+    recorder: Callable[[ImuChunk, NDArray, NDArray], None] | None = None,
 ) -> NavResult:
     """Run a navigation scenario.
 
@@ -512,6 +558,10 @@ def run_scenario(
         ``{"none": None}``.
     progress : callable, optional
         ``progress(done_s, total_s)`` after each chunk.
+    recorder : callable, optional
+        ``recorder(chunk, dtheta, dv)`` with every chunk from power-on on: the truth and
+        the raw increments the IMU put out [rad, m/s] (see
+        :func:`rinscal.nav.recorded.recording_frame`).
 
     Returns
     -------
@@ -551,6 +601,8 @@ def run_scenario(
                 raise ConfigError(f"errors_r returned shape {e.shape}, expected ({ch.n}, 6)")
             raw_th = raw_th + e[:, :3] * dt
             raw_v = raw_v + e[:, 3:] * dt
+        if recorder is not None:
+            recorder(ch, raw_th, raw_v)
         if ch.k0 + ch.n <= n_start:  # warming up before the alignment: nobody navigates
             if progress is not None:
                 progress(float(ch.t[-1]), config.duration_s)
@@ -680,6 +732,7 @@ __all__ = [
     "ScenarioConfig",
     "ThermalPlant",
     "align_for",
+    "align_from_noise",
     "constant_errors",
     "model_compensator",
     "oracle_compensator",
