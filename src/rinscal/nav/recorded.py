@@ -136,6 +136,8 @@ class Blocks:
         the white-noise variance of one sample (smooth motion hardly enters at 100 Hz).
     table_turn : ndarray [rad]
         Encoder turn within the block (unwrapped; 0 without encoder).
+    table_start : float [rad]
+        The encoder's first reading.
     dt : float [s]
         Nominal sample interval (median).
     has_table : bool
@@ -153,6 +155,7 @@ class Blocks:
     table_turn: NDArray[np.float64]
     dt: float
     has_table: bool
+    table_start: float = 0.0
 
     @property
     def size(self) -> int:
@@ -196,6 +199,7 @@ class BlockStats:
         self._unwrap = TableUnwrap()
         self._prev_table: float | None = None
         self._has_table: bool | None = None
+        self._table_start = 0.0
         self._dts: list[NDArray] = []
 
     def add(self, s: NavSamples) -> None:
@@ -226,6 +230,8 @@ class BlockStats:
         self._prev_w, self._prev_f = w[-1:].copy(), f[-1:].copy()
         if s.table is not None:
             u = self._unwrap(s.table)
+            if self._prev_table is None:
+                self._table_start = float(u[0])
             prev = u[0] if self._prev_table is None else self._prev_table
             turn = np.diff(u, prepend=prev)
             self._prev_table = float(u[-1])
@@ -292,6 +298,7 @@ class BlockStats:
             table_turn=merge("turn")[keep],
             dt=float(np.median(np.concatenate(self._dts))),
             has_table=bool(self._has_table),
+            table_start=self._table_start,
         )
 
 
@@ -548,7 +555,7 @@ def seen_schedule(blocks: Blocks) -> dict[str, Any]:
         return {"source": "none (no encoder angle: the IMU is fixed to the body)"}
     span = np.maximum(blocks.t1 - blocks.t0, 1e-9)
     rate = blocks.table_turn / span
-    angle = np.cumsum(blocks.table_turn)
+    angle = blocks.table_start + np.cumsum(blocks.table_turn)  # at each block's end
     still = np.abs(rate) < 0.1 * units.DEG_TO_RAD
     dwell = [(a, b) for a, b in _stretches(still) if b - a >= 2]
     pos = sorted({round(float(np.rad2deg(angle[a:b].mean())) % 360.0) % 360 for a, b in dwell})
@@ -831,7 +838,7 @@ def navigate_recording(
     consumed = 0
     t_origin: float | None = None
     unwrap = TableUnwrap()
-    prev_h: float | None = None
+    prev_h: NDArray | None = None
     t_last = float("nan")
     for s in pieces:
         if s.n == 0:
@@ -854,11 +861,11 @@ def navigate_recording(
         consumed += s.n
         t_last = float(s.t[-1])
         ref = _piece_reference(s, reference)
-        if s.ref is not None:
+        if s.ref is not None:  # vertical rate of the track: second-order backward difference
             h = ref[:, 2]
-            prev = h[0] if prev_h is None else prev_h
-            ref[:, 5] = np.diff(h, prepend=prev) / s.dt
-            prev_h = float(h[-1])
+            hx = np.concatenate([[h[0], h[0]] if prev_h is None else prev_h, h])
+            ref[:, 5] = (3 * hx[2:] - 4 * hx[1:-1] + hx[:-2]) / (2 * s.dt)
+            prev_h = hx[-2:].copy()
         table = unwrap(s.table) if s.table is not None else np.zeros(s.n)
         if n_start is None or gidx[-1] <= n_start:
             comps_run = [c for c in comps.values() if c is not None]
