@@ -44,8 +44,14 @@ def _record(scenario: str, hours: float, rate: float, increments: bool, seed: in
 
     def rec(ch, dth, dv) -> None:  # type: ignore[no-untyped-def]
         frames.append(
-            recording_frame(ch, dth, dv, increments=increments, readings=(grid, inner, outer),
-                            track=scenario == "vehicle")  # fmt: skip
+            recording_frame(
+                ch,
+                dth,
+                dv,
+                increments=increments,
+                readings=(grid, inner, outer),
+                track=scenario == "vehicle",
+            )
         )
 
     result = run_scenario(cfg, plant, {"none": None}, recorder=rec)
@@ -63,14 +69,25 @@ def _pieces(d: pd.DataFrame, rate: float, size: int = 7001):
     temps = d[[f"temp_{c}" for c in CHANNELS]].to_numpy()
     ref = None
     if "ref_lat_deg" in d:
-        ref = np.column_stack([np.deg2rad(d["ref_lat_deg"]), np.deg2rad(d["ref_lon_deg"]),
-                               d["ref_h_m"]])  # fmt: skip
+        ref = np.column_stack(
+            [np.deg2rad(d["ref_lat_deg"]), np.deg2rad(d["ref_lon_deg"]), d["ref_h_m"]]
+        )
     table = np.deg2rad(d["table_deg"].to_numpy())
     head = np.deg2rad(d["ref_heading_deg"].to_numpy())
     for a in range(0, len(t), size):
         b = slice(a, a + size)
-        yield NavSamples(t[b], dt[b], th[b], dv[b], a + 1, table[b], temps[b],
-                         d["temp_out"].to_numpy()[b], None if ref is None else ref[b], head[b])  # fmt: skip
+        yield NavSamples(
+            t[b],
+            dt[b],
+            th[b],
+            dv[b],
+            a + 1,
+            table[b],
+            temps[b],
+            d["temp_out"].to_numpy()[b],
+            None if ref is None else ref[b],
+            head[b],
+        )
 
 
 def _navigate(cfg, imu, d, comps=None, start_s=0.0):  # type: ignore[no-untyped-def]
@@ -83,14 +100,13 @@ def _navigate(cfg, imu, d, comps=None, start_s=0.0):  # type: ignore[no-untyped-
     noise = Noise(float(wd[0]), float(wd[3]), float(rw[0]), float(rw[3]))
     tr = cfg.trajectory
     ref = Reference(tr.lat0, tr.lon0, tr.alt0)
-    res = navigate_recording(_pieces(d, cfg.rate_hz), ref, win, align_config(noise, win),
-                             cfg.dt, comps)  # fmt: skip
+    res = navigate_recording(
+        _pieces(d, cfg.rate_hz), ref, win, align_config(noise, win), cfg.dt, comps
+    )
     return res, blocks, win
 
 
-@pytest.mark.parametrize(
-    ("scenario", "increments"), [("quasi-static", False), ("vehicle", True)]
-)
+@pytest.mark.parametrize(("scenario", "increments"), [("quasi-static", False), ("vehicle", True)])
 def test_a_recorded_run_navigates_as_the_run_it_recorded(scenario, increments) -> None:  # type: ignore[no-untyped-def]
     """Same window, same filter noise: the uncompensated errors to 1e-6 of their size, for
     rates (deg/h, µg) and for increments, on a static base and on a driving vehicle."""
@@ -118,10 +134,15 @@ def test_the_piece_wise_model_compensator_is_the_scenario_s(tmp_path) -> None:  
 
     runner = CliRunner()
     soak = tmp_path / "soak.parquet"
-    assert runner.invoke(app, ["simulate", "soak", "--rate", "1", "--hours", "1",
-                               "--out", str(soak)]).exit_code == 0  # fmt: skip
-    res = runner.invoke(app, ["fit", str(soak), "--method", "regression", "--out",
-                              str(tmp_path / "m.json")])  # fmt: skip
+    assert (
+        runner.invoke(
+            app, ["simulate", "soak", "--rate", "1", "--hours", "1", "--out", str(soak)]
+        ).exit_code
+        == 0
+    )
+    res = runner.invoke(
+        app, ["fit", str(soak), "--method", "regression", "--out", str(tmp_path / "m.json")]
+    )
     assert res.exit_code == 0, res.output
     model = ThermalModelFile.load(tmp_path / "m.json")
     imu = load_imu("paper")
@@ -131,10 +152,13 @@ def test_the_piece_wise_model_compensator_is_the_scenario_s(tmp_path) -> None:  
     inner, outer = plant.measured_temperatures(grid)
     frames: list[pd.DataFrame] = []
     sim = run_scenario(
-        cfg, plant, {"none": None, "m": ModelCompensator(model, plant)},
+        cfg,
+        plant,
+        {"none": None, "m": ModelCompensator(model, plant)},
         recorder=lambda ch, a, b: frames.append(
-            recording_frame(ch, a, b, readings=(grid, inner, outer))),
-    )  # fmt: skip
+            recording_frame(ch, a, b, readings=(grid, inner, outer))
+        ),
+    )
     rec = pd.concat(frames, ignore_index=True)
     got, _, _ = _navigate(cfg, imu, rec, {"none": None, "m": CausalModelCompensator(model)})
     a, b = sim.errors["m"]["horizontal_m"], got.errors["m"]["horizontal_m"]
@@ -164,8 +188,13 @@ def test_the_compensator_does_not_care_how_the_recording_is_cut() -> None:
         out = []
         for a in range(0, n, size):
             b = slice(a, a + size)
-            s = NavSamples(t[b], np.full(t[b].size, 0.1), np.zeros((t[b].size, 3)),
-                           np.zeros((t[b].size, 3)), temps=temps[b])  # fmt: skip
+            s = NavSamples(
+                t[b],
+                np.full(t[b].size, 0.1),
+                np.zeros((t[b].size, 3)),
+                np.zeros((t[b].size, 3)),
+                temps=temps[b],
+            )
             out.append(comp(s))
         return np.concatenate(out)
 
@@ -217,7 +246,8 @@ def test_the_window_is_the_first_quiet_stretch_after_people_moved_around() -> No
     # only 200 s of quiet: refused, naming the quietest stretch
     sd2 = np.full(1200, 5e-3)
     sd2[500:700] = 1e-4
-    with pytest.raises(LogError, match=r"at least 300 s.*the longest quiet stretch is 19\d s from 50\d s"):
+    quietest = r"at least 300 s.*the longest quiet stretch is 19\d s from 50\d s"
+    with pytest.raises(LogError, match=quietest):
         find_window(_blocks_from(sd2), 600.0)
 
 
@@ -246,7 +276,7 @@ def test_wrong_units_are_caught_at_rest_and_named() -> None:
 
 
 def test_the_schedule_seen_in_the_encoder_is_the_four_position_one() -> None:
-    cfg, imu, _, rec = _record("quasi-static", 0.2, 5.0, False)
+    _, _, _, rec = _record("quasi-static", 0.2, 5.0, False)
     st = BlockStats()
     for s in _pieces(rec, 5.0):
         st.add(s)
