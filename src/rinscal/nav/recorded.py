@@ -237,10 +237,12 @@ class BlockStats:
             self._prev_table = float(u[-1])
         else:
             turn = np.zeros(s.n)
-        first = np.full(m, np.inf)
-        last = np.full(m, -np.inf)
-        np.minimum.at(first, k, s.t - dt)
-        np.maximum.at(last, k, s.t)
+        # k is sorted (time increases): each block's first and last sample by bisection
+        lo_i = np.searchsorted(k, np.arange(m), side="left")
+        hi_i = np.searchsorted(k, np.arange(m), side="right") - 1
+        empty = hi_i < lo_i
+        first = np.where(empty, np.inf, (s.t - dt)[np.minimum(lo_i, s.n - 1)])
+        last = np.where(empty, -np.inf, s.t[np.maximum(hi_i, 0)])
         self._parts.append(
             {
                 "id": np.arange(lo, lo + m),
@@ -659,8 +661,11 @@ class CausalModelCompensator:
             rate = self._slope.update(times.astype(float), temp) * MIN_TO_S
             bias = np.zeros((new.size, 6))
             bias[:, self._idx] = self.model.predict_bias_si(temp, rate, t_out, policy=self.policy)
-            seg = np.searchsorted(new, np.arange(s.n), side="right") - 1
-            out[:] = np.where((seg >= 0)[:, None], bias[np.maximum(seg, 0)], self._bias)
+            # each sample takes the last reading at or before it (row 0: the one held before)
+            seg = np.zeros(s.n, dtype=np.int64)
+            seg[new] = 1
+            np.cumsum(seg, out=seg)
+            np.take(np.vstack([self._bias, bias]), seg, axis=0, out=out)
             self._bias = bias[-1]
             self._tick = int(tick[-1])
             self.readings += new.size
