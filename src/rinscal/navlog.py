@@ -154,6 +154,7 @@ GAP_FACTOR = 1.5
 _ROWS = "data row numbers are 1-based, header not counted"
 _GROUPS = {"gyro": CHANNELS[:3], "accel": CHANNELS[3:]}
 _AXES = ("x", "y", "z")
+_IDENTITY = ((0, 1.0), (1, 1.0), (2, 1.0))
 _NUMBER = r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?"
 _WEIGHT_RE = re.compile(rf"^\s*({_NUMBER})?\s*\*?\s*([^\s\d].*?)\s*$")
 
@@ -769,10 +770,14 @@ class NavLog:
         _check_finite(t, self._src(), TIME, self.names, False, "time must be finite", row)
         return (t / per_second if per_second != 1.0 else t), None
 
-    def _sensor_block(self, piece: dict[str, Any], row: int, dt: np.ndarray) -> np.ndarray:
-        """(n, 6) increments [rad, m/s] in the file's axes."""
+    def _sensor_block(
+        self, piece: dict[str, Any], row: int, dt: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Increments [rad], [m/s], each (n, 3), C order, in r (``axes`` applied)."""
         n = dt.shape[0]
-        out = np.empty((n, 6), dtype=np.float64)
+        out = (np.empty((n, 3), dtype=np.float64), np.empty((n, 3), dtype=np.float64))
+        axes = _parse_axes(self.mapping.axes) if self.mapping is not None else _IDENTITY
+        dest = {fa: (i, sign) for i, (fa, sign) in enumerate(axes)}  # file axis -> ours
         for j, canon in enumerate(self._sensors):
             x = self._float(piece[canon], canon, row)
             _check_finite(
@@ -789,14 +794,15 @@ class NavLog:
                         "gives [weights] (integer counts per interval): is this column a rate? "
                         f"({_ROWS})"
                     )
-            k = self.to_si[CHANNELS[j]]
+            i, sign = dest[j % 3]
+            col = out[j // 3][:, i]
+            k = self.to_si[CHANNELS[j]] * sign  # exact: the sign only flips
             if self.kind == "rates":
-                np.multiply(x, dt, out=out[:, j])
-                out[:, j] *= k
+                np.multiply(x * dt, k, out=col)  # the mean rate over the interval, times it
             elif k == 1.0:
-                out[:, j] = x
+                col[:] = x
             else:
-                np.multiply(x, k, out=out[:, j])
+                np.multiply(x, k, out=col)
         return out
 
     def _pieces(
@@ -887,15 +893,9 @@ class NavLog:
     def _samples(
         self, piece: dict[str, Any], row: int, t: np.ndarray, dt: np.ndarray
     ) -> NavSamples:
-        raw = self._sensor_block(piece, row, dt)
-        perm = [i for i, _ in _parse_axes(self.mapping.axes)] if self.mapping else [0, 1, 2]
-        signs = [s for _, s in _parse_axes(self.mapping.axes)] if self.mapping else [1.0] * 3
-        identity = perm == [0, 1, 2] and signs == [1.0, 1.0, 1.0]
-        if identity:
-            dtheta, dv = raw[:, :3], raw[:, 3:]
-        else:
-            dtheta = raw[:, perm] * signs
-            dv = raw[:, [p + 3 for p in perm]] * signs
+        dtheta, dv = self._sensor_block(piece, row, dt)
+        axes = _parse_axes(self.mapping.axes) if self.mapping is not None else _IDENTITY
+        perm = [fa for fa, _ in axes]
         table = None
         if self.has_table:
             x = self._float(piece[TABLE], TABLE, row)
@@ -922,7 +922,7 @@ class NavLog:
             temps = np.empty((t.shape[0], 6), dtype=np.float64)
             for j, canon in enumerate(self._temp_cols):
                 temps[:, j] = cols[canon]
-            if not identity:
+            if perm != [0, 1, 2]:  # a temperature follows its sensor (no sign)
                 temps = temps[:, [*perm, *(p + 3 for p in perm)]]
         temp_out = None
         if self.has_temp_out:
@@ -954,8 +954,8 @@ class NavLog:
         return NavSamples(
             t=t,
             dt=dt,
-            dtheta=np.ascontiguousarray(dtheta),
-            dv=np.ascontiguousarray(dv),
+            dtheta=dtheta,
+            dv=dv,
             first_row=row + 1,
             table=table,
             temps=temps,
