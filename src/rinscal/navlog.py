@@ -644,26 +644,29 @@ class NavLog:
             n = len(run)
             if n == 0:
                 continue
-            if isinstance(run.dtype, pd.CategoricalDtype):
-                run = run.astype(object)
-            empty = run.isna().to_numpy()
+            if isinstance(run.dtype, pd.CategoricalDtype):  # Parquet dictionary: by codes
+                codes = run.cat.codes.to_numpy()
+                uniques = [str(u) for u in run.cat.categories]
+            else:
+                codes, found = pd.factorize(run, sort=False, use_na_sentinel=True)
+                uniques = [str(u) for u in found]
+            empty = codes < 0
             if empty.any():
                 pos = int(np.argmax(empty))
                 raise LogError(
                     f"{self.path}: {_label(RUN, self.names)}, data row {row + pos + 1}: empty "
                     f"run name ({_ROWS})"
                 )
-            values = run.to_numpy(dtype=object)
             if target is None:
+                present = np.unique(codes) if len(uniques) > 1 else [0]
                 if current is None:
-                    current = values[0]
-                other = values != current
-                if other.any():
+                    current = uniques[present[0]]
+                if len(present) > 1 or uniques[present[0]] != current:
                     raise self._several_runs()
                 total += n
                 yield row, piece
                 continue
-            mask = values == target
+            mask = codes == (uniques.index(target) if target in uniques else -2)
             if not mask.any():
                 ended = ended or seen
                 continue

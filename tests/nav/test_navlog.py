@@ -283,6 +283,9 @@ def test_runs_refused_listed_chosen_and_contiguous(tmp_path: Path) -> None:
     for rows in (100, 8):
         with pytest.raises(LogError, match=r"data row 46: run 'a' resumes"):
             whole(open_nav_log(tmp_path / "split.csv", run="a"), piece_rows=rows)
+    numbered = runs_frame(m, [7] * 20 + [8] * 40)  # run numbers, not names: chosen as text
+    numbered.to_parquet(tmp_path / "num.parquet", index=False)
+    assert whole(open_nav_log(tmp_path / "num.parquet", run="8")).first_row == 21
     one = runs_frame(m, ["only"] * 60)
     one.to_csv(tmp_path / "one.csv", index=False)
     assert whole(open_nav_log(tmp_path / "one.csv")).n == 60
