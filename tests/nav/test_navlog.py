@@ -248,6 +248,11 @@ def test_nan_in_gyro_names_file_column_and_row(tmp_path: Path) -> None:
     assert str(path) in str(err.value)
     assert "'gyro_y' (from 'Gy'), data row 17: missing value" in str(err.value)
     df.loc[16, "Gy"] = 1.0
+    df.loc[9, "time_s"] = np.inf
+    df.to_csv(path, index=False)
+    with pytest.raises(LogError, match=r"'time_s', data row 10: value inf; time must be finite"):
+        whole(open_nav_log(path, NavMapping(columns={"Gy": "gyro_y"})))
+    df.loc[9, "time_s"] = m["t"][9]
     df["temp_in"] = 20.0
     df.loc[3, "temp_in"] = np.nan  # a missing temperature passes (held by the navigator)
     df.to_csv(path, index=False)
