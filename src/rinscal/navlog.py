@@ -126,6 +126,7 @@ __all__ = [
     "NavMapping",
     "Track",
     "open_nav_log",
+    "parse_utc",
     "parse_weight",
     "read_nav_mapping",
     "read_track",
