@@ -1,0 +1,86 @@
+"""Benchmark the recorded-navigation log reader (rinscal.navlog) on an 8 h, 200 Hz recording.
+
+``--make FILE`` writes a 5.76 M-row Parquet log of rates (``time_s``, the six ``gyro_*`` /
+``accel_*`` in deg/h and µg, ``table_deg``, ``temp_in``, ``temp_out``, a ``comment`` column
+the reader must not read) in row groups of :data:`rinscal.io.PIECE_ROWS`, piece by piece;
+``--read FILE`` reads it with :meth:`rinscal.navlog.NavLog.pieces` and prints the wall time,
+the samples read and the peak resident memory. Run the two as separate processes so that
+the reading peak is the reader's own::
+
+    taskset -c 0 python benchmarks/bench_navlog.py --make /tmp/nav8h.parquet
+    taskset -c 0 /usr/bin/time -v python benchmarks/bench_navlog.py --read /tmp/nav8h.parquet
+"""
+
+from __future__ import annotations
+
+import argparse
+import resource
+import time
+
+import numpy as np
+
+RATE_HZ = 200.0
+HOURS = 8.0
+
+
+def make(path: str, rows: int) -> None:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from rinscal.io import PIECE_ROWS
+
+    rng = np.random.default_rng(1)
+    writer = None
+    for a in range(0, rows, PIECE_ROWS):
+        k = np.arange(a, min(a + PIECE_ROWS, rows))
+        n = k.size
+        t = (k + 1) / RATE_HZ
+        cols = {"time_s": t}
+        for j, ax in enumerate("xyz"):
+            cols[f"gyro_{ax}"] = 10.0 * np.sin(t / (100 + j)) + rng.normal(0, 0.01, n)
+        for j, ax in enumerate("xyz"):
+            cols[f"accel_{ax}"] = (1e6 if ax == "z" else 0.0) + rng.normal(0, 20, n) + j
+        cols["table_deg"] = ((t * 10.0 + 180.0) % 360.0) - 180.0
+        cols["temp_in"] = 20.0 + 10.0 * (1 - np.exp(-t / 3600))
+        cols["temp_out"] = cols["temp_in"] - 1.0
+        cols["comment"] = np.full(n, "x", dtype=object)
+        table = pa.table(cols)
+        if writer is None:
+            writer = pq.ParquetWriter(path, table.schema)
+        writer.write_table(table, row_group_size=PIECE_ROWS)
+    assert writer is not None
+    writer.close()
+
+
+def read(path: str) -> None:
+    from rinscal.navlog import open_nav_log
+
+    t0 = time.perf_counter()
+    log = open_nav_log(path)
+    n = 0
+    acc = np.zeros(3)
+    for piece in log.pieces():
+        n += piece.n
+        acc += piece.dtheta.sum(axis=0)
+    wall = time.perf_counter() - t0
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024**2
+    print(
+        f"read {n} samples ({log.kind}, table {log.has_table}, temps {log.has_temps}) in "
+        f"{wall:.2f} s; peak RSS {peak:.2f} GB; gaps {len(log.gaps)}; sum dtheta {acc}"
+    )
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--make", metavar="FILE")
+    ap.add_argument("--read", metavar="FILE")
+    ap.add_argument("--rows", type=int, default=int(HOURS * 3600 * RATE_HZ))
+    args = ap.parse_args()
+    if args.make:
+        make(args.make, args.rows)
+    if args.read:
+        read(args.read)
+
+
+if __name__ == "__main__":
+    main()
