@@ -439,12 +439,12 @@ def _navigate_log(log: Path, out: Path, models: list[Path], policy: str, **kw: o
         site = parse_site(kw["site"]) if kw["site"] is not None else None  # type: ignore[arg-type]
         out.mkdir(parents=True, exist_ok=True)
         with _progress() as progress:  # type: ignore[attr-defined]
-            task = progress.add_task("reading", total=None)
+            task = progress.add_task("reading", total=1.0)
 
             def tick(stage: str, done: float, total: float) -> None:
-                if stage == "navigating" and progress.tasks[task].description != "navigating":
-                    progress.update(task, description="navigating", total=total)
-                progress.update(task, completed=done)
+                # first pass: the length is not known yet (the bar shows seconds read)
+                known = total if stage == "navigating" else max(done, 1.0)
+                progress.update(task, description=stage, completed=done, total=known)
 
             nav = navigate_log(
                 log, mapping=mapping, run=kw["run"], models=[str(m) for m in models],
