@@ -437,7 +437,6 @@ def _navigate_log(log: Path, out: Path, models: list[Path], policy: str, **kw: o
 
         mapping = read_nav_mapping(kw["mapping"]) if kw["mapping"] else None
         site = parse_site(kw["site"]) if kw["site"] is not None else None  # type: ignore[arg-type]
-        out.mkdir(parents=True, exist_ok=True)
         with _progress() as progress:  # type: ignore[attr-defined]
             task = progress.add_task("reading", total=1.0)
 
