@@ -9,6 +9,16 @@ the reading peak is the reader's own::
 
     taskset -c 0 python benchmarks/bench_navlog.py --make /tmp/nav8h.parquet
     taskset -c 0 /usr/bin/time -v python benchmarks/bench_navlog.py --read /tmp/nav8h.parquet
+
+``--navigate FILE [--model M.json ...]`` times the stages of ``navigate --log`` in one
+process on a recording written by ``rinscal navigate --scenario ... --record FILE`` (it has
+the metadata): the first pass (reading and the per-second sums), the window, and the second
+pass (reading, compensation, alignment and navigation of every variant)::
+
+    rinscal navigate --scenario quasi-static --hours 8 --rate 200 --no-oracle --out sim \
+                     --record /tmp/run8h.parquet
+    taskset -c 0 python benchmarks/bench_navlog.py --navigate /tmp/run8h.parquet \
+                     --model reg.json --model polyt.json
 """
 
 from __future__ import annotations
@@ -70,16 +80,66 @@ def read(path: str) -> None:
     )
 
 
+def navigate(path: str, models: list[str]) -> None:
+    from rinscal.calibration.modelfile import ThermalModelFile
+    from rinscal.nav.recorded import (
+        BlockStats,
+        CausalModelCompensator,
+        Noise,
+        Reference,
+        align_config,
+        find_window,
+        navigate_recording,
+    )
+    from rinscal.navlog import open_nav_log
+
+    t0 = time.perf_counter()
+    log = open_nav_log(path)
+    st = BlockStats()
+    for piece in log.pieces():
+        st.add(piece)
+    blocks = st.finish()
+    t1 = time.perf_counter()
+    win = find_window(blocks, 600.0)
+    nz = log.noise or {}
+    noise = Noise(nz["gyro_noise_density"], nz["accel_noise_density"])
+    lat, lon, h = log.site  # type: ignore[misc]
+    comps = {"none": None}
+    for m in models:
+        comps[m] = CausalModelCompensator(ThermalModelFile.load(m))  # type: ignore[assignment]
+    t2 = time.perf_counter()
+    res = navigate_recording(
+        log.pieces(),
+        Reference(lat, lon, h),
+        win,
+        align_config(noise, win),
+        1.0 / (log.rate_hz or 1.0),
+        comps,
+    )
+    t3 = time.perf_counter()
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024**2
+    worst = {k: round(float(v["horizontal_m"].max()) / 1852.0, 3) for k, v in res.errors.items()}
+    print(
+        f"first pass {t1 - t0:.2f} s, window + models {t2 - t1:.2f} s, second pass "
+        f"{t3 - t2:.2f} s ({len(comps)} variants, {blocks.n.sum():.0f} samples); peak RSS "
+        f"{peak:.2f} GB; max error [nmi] {worst}; window {win.start_s:g} s"
+    )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--make", metavar="FILE")
     ap.add_argument("--read", metavar="FILE")
     ap.add_argument("--rows", type=int, default=int(HOURS * 3600 * RATE_HZ))
+    ap.add_argument("--navigate", metavar="FILE")
+    ap.add_argument("--model", action="append", default=[])
     args = ap.parse_args()
     if args.make:
         make(args.make, args.rows)
     if args.read:
         read(args.read)
+    if args.navigate:
+        navigate(args.navigate, args.model)
 
 
 if __name__ == "__main__":

