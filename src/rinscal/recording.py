@@ -201,6 +201,13 @@ def navigate_log(
         track=None if tr is None else (tr.t, tr.lat, tr.lon, tr.h),
     )
 
+    if stats.n_jumps:
+        t, row, size = stats.jumps[0]
+        warnings.append(
+            f"the encoder angle jumps {stats.n_jumps} time(s), the first at {t:.3f} s (data row "
+            f"{row}) by {size:.1f}° more than the gyro turned: heading errors near them are "
+            "not to be trusted (navigation runs in the IMU frame and does not use the encoder)"
+        )
     window = find_window(blocks, align_s, min_s=min_align_s, start_s=align_start_s)
     at_rest, warn = check_at_rest(blocks, window, reference.lat, reference.h)
     warnings += warn
@@ -260,6 +267,10 @@ def navigate_log(
             ],
         },
         "rotation": sched,
+        "encoder_jumps": {
+            "count": stats.n_jumps,
+            "first": [{"time_s": t, "row": r, "deg": d} for t, r, d in stats.jumps],
+        },
         "reference": (
             "track file" if tr is not None else "log columns" if log.has_ref else "static site"
         ),

@@ -13,7 +13,7 @@ import pandas as pd
 import pytest
 
 from rinscal import units
-from rinscal.errors import LogError
+from rinscal.errors import ConfigError, LogError
 from rinscal.nav import earth
 from rinscal.nav.recorded import (
     BlockStats,
@@ -103,6 +103,7 @@ def _navigate(cfg, imu, d, comps=None, start_s=0.0):  # type: ignore[no-untyped-
     res = navigate_recording(
         _pieces(d, cfg.rate_hz), ref, win, align_config(noise, win), cfg.dt, comps
     )
+    assert st.n_jumps == 0  # the table turns as the gyros say, a vehicle's yaw included
     return res, blocks, win
 
 
@@ -284,3 +285,25 @@ def test_the_schedule_seen_in_the_encoder_is_the_four_position_one() -> None:
     assert sorted(sched["positions_deg"]) == [-135, -45, 45, 135]
     assert sched["dwell_s_median"] == pytest.approx(60.0, abs=1.5)
     assert sched["turning_rate_dps_median"] == pytest.approx(10.0, rel=0.2)
+
+
+def test_encoder_jumps_are_counted_and_placed() -> None:
+    _, _, _, rec = _record("quasi-static", 0.2, 5.0, False)
+    rec.loc[1000, "table_deg"] += 90.0  # one reading 90° off: a jump there and one back
+    st = BlockStats()
+    for s in _pieces(rec, 5.0):
+        st.add(s)
+    assert st.n_jumps == 2
+    (t1, row1, d1), (_, row2, _) = st.jumps
+    assert row1 == 1001 and row2 == 1002 and t1 == pytest.approx(rec["time_s"][1000])
+    assert d1 == pytest.approx(90.0, abs=0.5)
+
+
+def test_a_track_that_misses_the_navigated_part_is_refused() -> None:
+    t = np.linspace(0.0, 100.0, 11)
+    ref = Reference(0.5, 2.0, 10.0, track=(t, np.full(11, 0.5), np.full(11, 2.0), np.zeros(11)))
+    ref.overlap(50.0, 500.0)  # overlaps: fine
+    with pytest.raises(LogError, match=r"track \(0.0-100.0 s\) does not overlap.*200.0-500.0"):
+        ref.overlap(200.0, 500.0)
+    with pytest.raises(ConfigError, match="latitude must lie within ±90°"):
+        Reference(math.radians(91.0), 0.0, 0.0)

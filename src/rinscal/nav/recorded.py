@@ -51,6 +51,10 @@ QUIET_FACTOR = 3.0
 MIN_WINDOW_S = 300.0
 #: Percentile of the per-second spread of ``|f|`` taken as the noise floor.
 FLOOR_PERCENTILE = 10.0
+#: An encoder step in one sample that differs from the gyro's turn about z by more than
+#: this [deg] (or than this rate [deg/s] times the interval, if larger) is a jump.
+ENCODER_JUMP_DEG = 5.0
+ENCODER_JUMP_DPS = 200.0
 
 
 # --------------------------------------------------------------------------- recording
@@ -200,6 +204,9 @@ class BlockStats:
         self._prev_table: float | None = None
         self._has_table: bool | None = None
         self._table_start = 0.0
+        #: encoder jumps seen: (time [s], data row, size [deg]), the first 20, and their count
+        self.jumps: list[tuple[float, int, float]] = []
+        self.n_jumps = 0
         self._dts: list[NDArray] = []
 
     def add(self, s: NavSamples) -> None:
@@ -235,6 +242,16 @@ class BlockStats:
             prev = u[0] if self._prev_table is None else self._prev_table
             turn = np.diff(u, prepend=prev)
             self._prev_table = float(u[-1])
+            # an encoder jump: the table turned in one sample by more than the gyro about
+            # the same axis saw (plus a vehicle's own yaw, at most ENCODER_JUMP_DPS)
+            lim = np.maximum(ENCODER_JUMP_DEG, ENCODER_JUMP_DPS * dt) * units.DEG_TO_RAD
+            bad = np.flatnonzero(np.abs(turn - s.dtheta[:, 2]) > lim)
+            if bad.size:
+                step = np.abs(turn[bad] - s.dtheta[:, 2][bad])
+                for i, d in zip(bad[:20].tolist(), step[:20].tolist(), strict=True):
+                    if len(self.jumps) < 20:
+                        self.jumps.append((float(s.t[i]), s.first_row + i, d / units.DEG_TO_RAD))
+                self.n_jumps += int(bad.size)
         else:
             turn = np.zeros(s.n)
         # k is sorted (time increases): each block's first and last sample by bisection
