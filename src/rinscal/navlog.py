@@ -57,7 +57,8 @@ mapping; columns that are neither canonical nor mapped are never read.
 
 Sidecar metadata ``<log>.meta.json`` (:func:`rinscal.io.read_meta`) may give ``rate_hz``,
 ``units`` (of rate columns), ``site`` = ``{"lat_deg", "lon_deg", "h_m"}``, ``heading_deg``,
-``noise`` = ``{"gyro_noise_density" [rad/√s], "accel_noise_density" [m/s²/√Hz]}`` and
+``noise`` = ``{"gyro_noise_density" [rad/√s], "accel_noise_density" [m/s²/√Hz]}`` (and
+optionally ``"gyro_bias_rw"`` [rad/s/√s], ``"accel_bias_rw"`` [m/s²/√s]) and
 ``utc_start`` (ISO 8601, the UTC of ``time_s`` = 0, for NMEA reference tracks).
 
 A reference track may also be a separate file, read by :func:`read_track`: a table with
@@ -101,6 +102,7 @@ from rinscal.schema import (
     CHANNELS,
     DTHETA,
     DVEL,
+    GAP_FACTOR,
     NAV_CANONICAL,
     NAV_RATES,
     REF_HEADING,
@@ -150,7 +152,6 @@ DEFAULT_RATE_UNITS: dict[str, str] = {"gyro": "deg/h", "accel": "ug"}
 #: Samples whose median interval is the nominal one when the metadata has no ``rate_hz``.
 NOMINAL_SAMPLES = 1001
 #: An interval longer than this many nominal intervals is a gap.
-GAP_FACTOR = 1.5
 
 _ROWS = "data row numbers are 1-based, header not counted"
 _GROUPS = {"gyro": CHANNELS[:3], "accel": CHANNELS[3:]}
@@ -225,6 +226,15 @@ def _parse_axes(axes: Any) -> tuple[tuple[int, float], ...]:
         out.append((_AXES.index(s), sign))
     if sorted(i for i, _ in out) != [0, 1, 2]:
         raise bad
+    m = np.zeros((3, 3))
+    for row, (i, sign) in enumerate(out):
+        m[row, i] = sign
+    if np.linalg.det(m) < 0:  # a mirror: no rotation of a real IMU gives it
+        raise ConfigError(
+            f"axes: {axes!r} turns a right-handed frame into a left-handed one (a mirror); "
+            "flip one axis more or one fewer (front-right-down to right-forward-up is "
+            '["y", "x", "-z"])'
+        )
     return tuple(out)
 
 
@@ -1152,7 +1162,7 @@ def _read_meta_fields(meta: dict[str, Any] | None, mp: str) -> dict[str, Any]:
             raise LogError(f"{mp}: noise must be an object of noise densities")
         out["noise"] = {
             k: _meta_number(noise, k, f"{mp}: noise")
-            for k in ("gyro_noise_density", "accel_noise_density")
+            for k in ("gyro_noise_density", "accel_noise_density", "gyro_bias_rw", "accel_bias_rw")
             if k in noise
         }
         for k, v in out["noise"].items():

@@ -21,7 +21,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from rinscal.errors import ConfigError
+from rinscal import units
+from rinscal.errors import ConfigError, LogError
 from rinscal.nav.recorded import (
     MIN_WINDOW_S,
     BlockStats,
@@ -30,6 +31,7 @@ from rinscal.nav.recorded import (
     Reference,
     align_config,
     check_at_rest,
+    check_encoder,
     estimate_noise,
     find_window,
     navigate_recording,
@@ -154,6 +156,51 @@ def navigate_log(
         raise ConfigError(f"--policy must be one of {', '.join(POLICIES)}, got {policy!r}")
     log = open_nav_log(path, mapping, run=run)
     warnings: list[str] = []
+    # everything that can be refused without reading the data, before reading it
+    loaded = []
+    for m in models:
+        model = ThermalModelFile.load(m)
+        loaded.append((m, model))
+        if not log.has_temps:
+            raise ConfigError(
+                f"{path}: a thermal model needs the sensor temperatures, and the log has none "
+                "(temp_<channel> or temp_in columns, or a mapping's temperature)"
+            )
+        comp = CausalModelCompensator(model, policy=policy, update_s=model_update_s)
+        if comp.needs_outer and not log.has_temp_out:
+            raise ConfigError(
+                f"{path}: the model {m} uses the gradient ΔT = T − temp_out, and the log has no "
+                "outer temperature (a temp_out column, or a mapping's [columns] entry onto it)"
+            )
+    imu_noise = _imu_noise(imu) if imu is not None else None
+    tr = None
+    if track is not None:
+        tr = read_track(track, track_utc_start or log.utc_start)
+    if site is None:
+        site = log.site
+    if site is None and tr is not None:
+        site = (float(tr.lat[0]), float(tr.lon[0]), float(tr.h[0]))
+    if site is None:
+        raise ConfigError(
+            f"{path}: where was it recorded? Give --site LAT,LON,HEIGHT (the log's metadata has "
+            "no site, and there is no reference track)"
+        )
+    # the body's true heading: --heading, else the log's ref_heading_deg column, else metadata
+    if heading_deg is not None:
+        heading_source = "--heading"
+    elif log.has_ref_heading:
+        heading_source = "the log's ref_heading_deg column"
+    elif log.heading_deg is not None:
+        heading_deg, heading_source = log.heading_deg, "metadata of the log"
+    else:
+        heading_source = "none (no heading error)"
+    reference = Reference(
+        lat=site[0],
+        lon=site[1],
+        h=site[2],
+        heading=None if heading_deg is None else math.radians(heading_deg),
+        track=None if tr is None else (tr.t, tr.lat, tr.lon, tr.h),
+    )
 
     def pieces() -> Any:
         return log.pieces(max_gap_samples=max_gap_samples, allow_gaps=allow_gaps)
@@ -175,32 +222,14 @@ def navigate_log(
     blocks = stats.finish()
     dt = blocks.dt
     rate_meta = (log.meta or {}).get("rate_hz")
-    if isinstance(rate_meta, int | float) and rate_meta > 0 and abs(1 / rate_meta - dt) < 1e-6 * dt:
+    if isinstance(rate_meta, int | float) and rate_meta > 0 and abs(1 / rate_meta - dt) < 1e-3 * dt:
         dt = 1.0 / float(rate_meta)  # the nominal interval exactly (times carry round-off)
-
-    # the reference
-    tr = None
-    if track is not None:
-        tr = read_track(track, track_utc_start or log.utc_start)
-    if site is None:
-        site = log.site
-    if site is None and tr is not None:
-        site = (float(tr.lat[0]), float(tr.lon[0]), float(tr.h[0]))
-    if site is None:
-        raise ConfigError(
-            f"{path}: where was it recorded? Give --site LAT,LON,HEIGHT (the log's metadata has "
-            "no site, and there is no reference track)"
+    if blocks.dt_jitter > 0.005:
+        warnings.append(
+            f"the sample intervals scatter by {100 * blocks.dt_jitter:.1f} % about their mean "
+            f"({1e3 * dt:.4g} ms): navigation steps by the mean; timestamps of a coarse clock "
+            "are fine, a sampling that really jitters is not"
         )
-    if heading_deg is None:
-        heading_deg = log.heading_deg
-    reference = Reference(
-        lat=site[0],
-        lon=site[1],
-        h=site[2],
-        heading=None if heading_deg is None else math.radians(heading_deg),
-        track=None if tr is None else (tr.t, tr.lat, tr.lon, tr.h),
-    )
-
     if stats.n_jumps:
         t, row, size = stats.jumps[0]
         warnings.append(
@@ -208,24 +237,37 @@ def navigate_log(
             f"{row}) by {size:.1f}° more than the gyro turned: heading errors near them are "
             "not to be trusted (navigation runs in the IMU frame and does not use the encoder)"
         )
+    warnings += check_encoder(blocks)
     window = find_window(blocks, align_s, min_s=min_align_s, start_s=align_start_s)
-    at_rest, warn = check_at_rest(blocks, window, reference.lat, reference.h)
+    if window.how == "given" and window.quality.get("quiet_fraction", 1.0) < 0.9:
+        warnings.append(
+            f"only {100 * window.quality['quiet_fraction']:.0f} % of the seconds of the "
+            "alignment window set by hand are quiet: the base moved while it aligned"
+        )
+    if blocks.gaps is not None and blocks.gaps[blocks.select(window.start_s, window.end_s)].any():
+        warnings.append("the alignment window holds a gap in time: the alignment steps over it")
+    try:
+        at_rest, warn = check_at_rest(blocks, window, reference.lat, reference.h)
+    except LogError as exc:
+        raise LogError(f"{path}: {exc} [{_unit_source(log)}]") from None
     warnings += warn
-    noise = _noise(log, imu, blocks, window)
+    noise = imu_noise or _noise(log, blocks, window)
+    floor = window.quality.get("floor_ug", math.nan) * units.UG_TO_MPS2
+    expected = noise.accel_density / math.sqrt(dt)
+    if noise.source != "estimated on the window" and floor > 3 * expected:
+        warnings.append(
+            f"the quietest seconds of the recording scatter by {floor / units.UG_TO_MPS2:.0f} µg, "
+            f"{floor / expected:.1f} × the accelerometer noise of {noise.source} "
+            f"({expected / units.UG_TO_MPS2:.0f} µg a sample): the IMU may never have been at rest"
+        )
     align = align_config(noise, window)
 
     comps: dict[str, Any] = {"none": None}
-    for m in models:
+    for m, model in loaded:
         name = Path(m).stem
         while name in comps:
             name += "_"
-        model = ThermalModelFile.load(m)
         comps[name] = CausalModelCompensator(model, policy=policy, update_s=model_update_s)
-    if len(comps) > 1 and not log.has_temps:
-        raise ConfigError(
-            f"{path}: a thermal model needs the sensor temperatures, and the log has none "
-            "(temp_<channel> or temp_in columns, or a mapping's temperature)"
-        )
 
     total = float(blocks.t1[-1])
 
@@ -244,8 +286,16 @@ def navigate_log(
         name=Path(path).name,
         out_dt_s=out_dt_s,
         schedule="encoder" if blocks.has_table else "fixed (no encoder)",
+        use_heading_column=heading_source != "--heading",
         progress=tick,
     )
+    warnings += list(result.config.notes)
+    for name, c in comps.items():
+        if c is not None and c.skipped:
+            warnings.append(
+                f"{name}: {c.skipped} thermometer reading(s) before the first complete one "
+                "were skipped (the model compensated nothing until then)"
+            )
     gaps = list(log.gaps)
     report: dict[str, Any] = {
         "log": str(path),
@@ -274,6 +324,10 @@ def navigate_log(
         "reference": (
             "track file" if tr is not None else "log columns" if log.has_ref else "static site"
         ),
+        "track": None
+        if tr is None
+        else {"file": str(track), "used": tr.used, "skipped": dict(tr.skipped)},
+        "heading_source": heading_source,
         "site": {
             "lat_deg": math.degrees(reference.lat),
             "lon_deg": math.degrees(reference.lon),
@@ -285,7 +339,9 @@ def navigate_log(
         "warnings": warnings,
     }
     temp = np.concatenate(temps) if temps else np.empty((0, 8))
-    frame = pd.DataFrame({"time_s": temp[:, 0], "chamber": np.nan, "outer": temp[:, 1]})
+    # the figure's clock starts with the recording (a log may keep UNIX time)
+    t0 = float(blocks.t0[0])
+    frame = pd.DataFrame({"time_s": temp[:, 0] - t0, "chamber": np.nan, "outer": temp[:, 1]})
     for j, c in enumerate(CHANNELS):
         frame[f"sensor_{c}"] = temp[:, 2 + j]
     return RecordedNavigation(result, report, frame, warnings)
@@ -298,15 +354,32 @@ def _every(t: np.ndarray, step: float, next_t: float) -> np.ndarray:
     return first[t[first] >= next_t - 1e-9]
 
 
-def _noise(log: Any, imu: str | None, blocks: Any, window: Any) -> Noise:
-    """The filter's sensor noise: --imu, else the log's metadata, else estimated."""
-    if imu is not None:
-        from rinscal.thermal.plant import load_imu
+def _imu_noise(imu: str) -> Noise:
+    """The noise of a plant (preset or TOML file) the filter is told to assume."""
+    from rinscal.thermal.plant import load_imu
 
-        cfg = load_imu(imu)
-        wd = cfg.noise.white_density_si()
-        rw = cfg.noise.bias_rw_si()
-        return Noise(float(wd[0]), float(wd[3]), float(rw[0]), float(rw[3]), f"--imu {imu}")
+    cfg = load_imu(imu)
+    wd = cfg.noise.white_density_si()
+    rw = cfg.noise.bias_rw_si()
+    return Noise(float(wd[0]), float(wd[3]), float(rw[0]), float(rw[3]), f"--imu {imu}")
+
+
+def _unit_source(log: Any) -> str:
+    """Where the log's units came from, for a message about them."""
+    if log.kind == "counts":
+        return "counts × the mapping's [weights]"
+    if log.kind == "increments":
+        return "increments in rad and m/s"
+    src = (
+        "the mapping's [units]"
+        if log.mapping is not None and log.mapping.units
+        else ("the metadata's units" if (log.meta or {}).get("units") else "the default units")
+    )
+    return f"rates in {log.units} from {src}"
+
+
+def _noise(log: Any, blocks: Any, window: Any) -> Noise:
+    """The filter's sensor noise: the log's metadata, else estimated on the window."""
     meta = log.noise
     if meta:
         try:

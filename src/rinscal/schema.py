@@ -419,6 +419,8 @@ TABLE = "table_deg"
 REF_TRACK: tuple[str, ...] = ("ref_lat_deg", "ref_lon_deg", "ref_h_m")
 #: Optional reference heading of the body, clockwise from true north [deg].
 REF_HEADING = "ref_heading_deg"
+#: An interval longer than this many nominal intervals is a gap in a recording.
+GAP_FACTOR = 1.5
 #: Every column with a meaning in the recorded-navigation log.
 NAV_CANONICAL: tuple[str, ...] = (
     TIME,

@@ -298,3 +298,69 @@ def test_wrong_units_gaps_and_no_site_are_refused_with_what_was_measured(
     assert res.exit_code != 0 and "either --scenario" in res.output
     res = runner.invoke(app, ["navigate", "--log", ns, "--hours", "1", "--out", "x"])
     assert res.exit_code != 0 and "--hours: only with --scenario" in res.output
+
+
+def test_a_clock_in_whole_ms_steps_by_the_mean_interval(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """16 Hz stamped in whole ms: intervals of 62 and 63 ms. The median (62 or 63 ms) as
+    the step would tilt the gravity integration by 0.8 %; the mean is the true 62.5 ms."""
+    run = tmp_path / "run.parquet"
+    res = runner.invoke(
+        app,
+        [
+            "navigate",
+            "--scenario",
+            "quasi-static",
+            "--hours",
+            "0.25",
+            "--rate",
+            "16",
+            "--no-oracle",
+            "--out",
+            str(tmp_path / "sim"),
+            "--increments",
+            "--record",
+            str(run),
+        ],
+    )
+    assert res.exit_code == 0, res.output
+    rec = pd.read_parquet(run)
+    rec["time_s"] = np.floor(rec["time_s"] * 1000.0 + 1e-6) / 1000.0
+    rec.to_parquet(tmp_path / "ms.parquet")
+    meta = json.loads((tmp_path / "run.parquet.meta.json").read_text())
+    meta.pop("rate_hz")  # the step from the data alone
+    (tmp_path / "ms.parquet.meta.json").write_text(json.dumps(meta))
+    res = runner.invoke(
+        app,
+        [
+            "navigate",
+            "--log",
+            str(tmp_path / "ms.parquet"),
+            "--align-start-s",
+            "0",
+            "--out",
+            str(tmp_path / "o"),
+        ],
+    )
+    assert res.exit_code == 0, res.output
+    a, b = _errors(tmp_path / "sim"), _errors(tmp_path / "o")
+    h = np.interp(b["time_s"], a["time_s"], a["horizontal_m"])
+    assert np.max(np.abs(h - b["horizontal_m"])) < 0.02 * a["horizontal_m"].max()
+    s = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert s["rate_hz"] == pytest.approx(16.0, rel=1e-3)
+    assert "scatter by 0.8 %" in res.output  # the coarse clock is said
+
+
+def test_record_never_lands_on_an_output_and_scenario_options_are_refused_with_log(
+    recorded, tmp_path
+) -> None:  # type: ignore[no-untyped-def]
+    res = runner.invoke(
+        app, [*ARGS, "--out", str(tmp_path / "o"), "--record", str(tmp_path / "o" / "errors.csv")]
+    )
+    assert res.exit_code != 0 and "one of the outputs" in res.output
+    assert not (tmp_path / "o").exists()
+    run = str(recorded["dir"] / "run_rates.parquet")
+    for opt in (["--rate", "50"], ["--seed", "2"], ["--rotation", "none"], ["--no-oracle"]):
+        res = runner.invoke(app, ["navigate", "--log", run, *opt, "--out", str(tmp_path / "x")])
+        assert res.exit_code != 0 and "only with --scenario" in res.output, opt
+    res = runner.invoke(app, ["navigate", "--out", str(tmp_path / "x")])
+    assert res.exit_code != 0 and "give --scenario (a simulated run) or --log" in res.output

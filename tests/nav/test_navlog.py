@@ -171,6 +171,10 @@ def test_front_right_down_file_equals_right_forward_up(tmp_path: Path) -> None:
         NavMapping(axes=("y", "y", "-z"))
     with pytest.raises(ConfigError, match="axes"):
         NavMapping(axes=("y", "x", "w"))
+    # one flip too few: a mirror, which no mounting of a real IMU gives
+    with pytest.raises(ConfigError, match="left-handed one"):
+        NavMapping(axes=("y", "x", "z"))
+    NavMapping(axes=("-x", "-y", "z"))  # a half turn about z is a rotation: fine
 
 
 def test_table_sign_zero_and_unit(tmp_path: Path) -> None:

@@ -307,3 +307,107 @@ def test_a_track_that_misses_the_navigated_part_is_refused() -> None:
         ref.overlap(200.0, 500.0)
     with pytest.raises(ConfigError, match="latitude must lie within ±90°"):
         Reference(math.radians(91.0), 0.0, 0.0)
+
+
+def test_the_track_in_the_log_gives_the_vehicle_s_velocity_and_gaps_in_it_are_dropped() -> None:
+    cfg, imu, sim, rec = _record("vehicle", 0.25, 10.0, True)
+    res, _, _ = _navigate(cfg, imu, rec)
+    a, b = sim.errors["none"], res.errors["none"]
+    # the reference velocity comes from the track (not zero while the vehicle drives)
+    assert np.abs(res.truth["v_e"]).max() > 5.0
+    # to the accuracy of differentiating a 10 Hz track (mm/s where the acceleration changes)
+    np.testing.assert_allclose(b["v_e_err"], a["v_e_err"], atol=5e-3)
+    np.testing.assert_allclose(b["v_n_err"], a["v_n_err"], atol=5e-3)
+    # empty reference cells: no error reported there, none turned NaN after them
+    holed = rec.copy()
+    holed.loc[(holed["time_s"] > 700) & (holed["time_s"] < 720), "ref_lat_deg"] = np.nan
+    res2, _, _ = _navigate(cfg, imu, holed)
+    e = res2.errors["none"]
+    assert np.isfinite(e["horizontal_m"]).all() and len(e) == len(a) - 19
+    assert res2.config.notes and "covers 881 of the 900" in res2.config.notes[0]
+    kept = a[~a["time_s"].between(700, 720, inclusive="neither")].reset_index(drop=True)
+    np.testing.assert_allclose(e["horizontal_m"], kept["horizontal_m"], rtol=1e-6, atol=1e-6)
+
+
+def test_a_track_file_covering_part_of_the_run_reports_errors_there_only() -> None:
+    cfg, imu, _, rec = _record("quasi-static", 0.25, 10.0, False)
+    st = BlockStats()
+    for s in _pieces(rec, 10.0):
+        st.add(s)
+    blocks = st.finish()
+    win = find_window(blocks, 600.0, start_s=0.0)
+    wd = imu.noise.white_density_si()
+    noise = Noise(float(wd[0]), float(wd[3]))
+    tr = cfg.trajectory
+    t = np.arange(0.0, 800.0, 1.0)
+    ref = Reference(
+        tr.lat0,
+        tr.lon0,
+        tr.alt0,
+        track=(t, np.full(t.size, tr.lat0), np.full(t.size, tr.lon0), np.full(t.size, tr.alt0)),
+    )
+    res = navigate_recording(_pieces(rec, 10.0), ref, win, align_config(noise, win), 0.1)
+    e = res.errors["none"]
+    assert e["time_s"].min() == 601.0 and e["time_s"].max() == 799.0
+    assert "errors are reported there only" in res.config.notes[0]
+
+
+def test_nothing_left_after_the_alignment_is_said_plainly() -> None:
+    cfg, _, _, rec = _record("quasi-static", 0.2, 5.0, False)
+    st = BlockStats()
+    for s in _pieces(rec, 5.0):
+        st.add(s)
+    blocks = st.finish()
+    win = find_window(blocks, 720.0, start_s=0.0)  # the whole 720 s recording
+    noise = Noise(1e-7, 1e-4)
+    tr = cfg.trajectory
+    with pytest.raises(LogError, match="nothing is left to navigate"):
+        navigate_recording(
+            _pieces(rec, 5.0),
+            Reference(tr.lat0, tr.lon0, tr.alt0),
+            win,
+            align_config(noise, win),
+            0.2,
+        )
+
+
+def test_thermometers_empty_at_the_start_make_the_model_wait() -> None:
+    class Linear:
+        channels = CHANNELS
+        derivative_window_s = 60.0
+
+        def predict_bias_si(self, temp, rate, t_out, policy="clamp"):  # type: ignore[no-untyped-def]
+            return 1e-6 * temp + 1e-5 * rate
+
+    n = 300
+    t = np.arange(1, n + 1) * 0.1
+    temps = np.full((n, 6), 25.0)
+    temps[:55, 1] = np.nan  # one thermometer reads only from 5.5 s on
+    comp = CausalModelCompensator(Linear())
+    out = comp(NavSamples(t, np.full(n, 0.1), np.zeros((n, 3)), np.zeros((n, 3)), temps=temps))
+    assert np.isfinite(out).all()
+    assert comp.skipped == 6  # the readings of seconds 0-5 (the first sample of each)
+    assert (out[:60] == 0).all() and out[60, 0] == pytest.approx(25e-6)
+
+
+def test_a_wrong_encoder_sign_or_unit_and_a_wrong_site_are_named() -> None:
+    from dataclasses import replace
+
+    from rinscal.nav.recorded import check_encoder
+
+    _, _, _, rec = _record("quasi-static", 0.2, 5.0, False)
+    st = BlockStats()
+    for s in _pieces(rec, 5.0):
+        st.add(s)
+    blocks = st.finish()
+    assert check_encoder(blocks) == []
+    flipped = replace(blocks, table_turn=-blocks.table_turn)
+    assert "against the z gyro" in check_encoder(flipped)[0]
+    rad_as_deg = replace(blocks, table_turn=blocks.table_turn * math.pi / 180)
+    assert "turns 0.0175 × what the z gyro turns" in check_encoder(rad_as_deg)[0]
+    win = find_window(blocks, 600.0, start_s=0.0)
+    lat = math.radians(32.06)
+    vals, warn = check_at_rest(blocks, win, lat, 10.0)
+    assert vals["latitude_measured_deg"] == pytest.approx(32.06, abs=0.5) and not warn
+    _, warn = check_at_rest(blocks, win, -lat, 10.0)  # the southern hemisphere by mistake
+    assert "measure latitude 32.0" in warn[0] and "the site says -32.06°" in warn[0]

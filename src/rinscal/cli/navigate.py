@@ -8,7 +8,7 @@ from typing import Annotated
 import typer
 
 from rinscal.cli._app import app
-from rinscal.cli._options import AlignLengthOpt, PolicyOpt, is_same_file
+from rinscal.cli._options import PolicyOpt, is_same_file
 from rinscal.thermal.presets import DEFAULT_PRESET, PRESETS
 
 #: The plant ``rinscal navigate`` runs unless ``--imu`` names another (as simulate and
@@ -27,6 +27,7 @@ _OUTPUTS = (
 
 @app.command("navigate")
 def navigate(
+    ctx: typer.Context,
     out: Annotated[Path, typer.Option("--out", "-o", help="Output folder (created if needed).")],
     scenario: Annotated[
         str | None,
@@ -70,7 +71,8 @@ def navigate(
         typer.Option(
             "--imu",
             help=f"The simulated IMU: a preset ({', '.join(PRESETS)}) or an IMU TOML file. "
-            f"Default {DEFAULT_IMU}.",
+            f"Default {DEFAULT_IMU}. With --log: the IMU whose noise the alignment filter "
+            "assumes (default the log's metadata, else estimated on the window).",
         ),
     ] = None,
     imu_config: Annotated[
@@ -80,13 +82,22 @@ def navigate(
     rotation: Annotated[
         str, typer.Option(help="Turntable: four-position, continuous or none.")
     ] = "four-position",
-    align_s: AlignLengthOpt = 600.0,
+    align_s: Annotated[
+        float,
+        typer.Option(
+            "--align-s",
+            min=60.0,
+            max=7200.0,
+            help="Self-alignment length [s], 60-7200: coarse (60 s) + Kalman filter. With "
+            "--log and no --align-start-s: the longest window the finder takes.",
+        ),
+    ] = 600.0,
     align_start_s: Annotated[
         float | None,
         typer.Option(
             "--align-start-s",
             min=0.0,
-            max=86400.0,
+            max=1e10,
             help="Seconds after power-on at which the alignment starts (the unit warms before "
             "it; navigation starts at align-start-s + align-s). Scenario: default 0; --log: "
             "default the earliest quiet stretch of at least 300 s.",
@@ -169,11 +180,18 @@ def navigate(
     from rinscal.cli._app import console, fail
     from rinscal.errors import RinscalError
 
-    if (scenario is None) == (log is None):
-        raise fail("give either --scenario (simulate) or --log (a recording), not both")
+    if scenario is None and log is None:
+        raise fail("give --scenario (a simulated run) or --log (a recording)")
+    if scenario is not None and log is not None:
+        raise fail("give either --scenario (a simulated run) or --log (a recording), not both")
     if log is not None:
         extra = {"--record": record, "--hours": hours, "--imu-config": imu_config}
         given = [k for k, v in extra.items() if v is not None] + (["--increments"] * increments)
+        given += [
+            f"--{p.replace('_', '-')}"
+            for p in ("rate", "seed", "rotation", "oracle")
+            if ctx.get_parameter_source(p).name != "DEFAULT"  # type: ignore[union-attr]
+        ]
         if given:
             raise fail(f"{', '.join(given)}: only with --scenario, not with --log")
         _navigate_log(
@@ -209,6 +227,9 @@ def navigate(
 
         if record.suffix.lower() not in FORMATS:
             raise fail(f"--record {record}: give a .parquet, .csv or .tsv file name")
+        for dst in out_paths:
+            if is_same_file(record, dst) or record.resolve() == dst.resolve():
+                raise fail(f"--record {record}: that is one of the outputs in --out; name another")
         if not record.resolve().parent.is_dir():
             raise fail(f"--record {record}: folder {record.resolve().parent} does not exist")
         out_paths += [record, meta_path(record)]
@@ -308,24 +329,37 @@ def _write_outputs(out: Path, result: object, summary: dict, temps: object) -> N
         d.insert(0, "variant", name)
         frames.append(d)
     errors = pd.concat(frames, ignore_index=True)
-    # Arrow's CSV writer: every float to round-trip precision, 10× faster than pandas'
-    # formatting (which was a third of an 8 h run's whole command)
+    # everything is made before anything is written: a failure leaves the folder as it was
+    import io
+
     import pyarrow as pa
     import pyarrow.csv as pacsv
 
-    for name, frame in (("errors.csv", errors), ("truth.csv", result.truth)):  # type: ignore[attr-defined]
-        with atomic_path(out / name) as tmp:
-            pacsv.write_csv(pa.Table.from_pandas(frame, preserve_index=False), tmp)
-    with atomic_path(out / "summary.json") as tmp:
-        tmp.write_text(json.dumps(summary, indent=2, allow_nan=False, default=float) + "\n")
+    text = json.dumps(summary, indent=2, allow_nan=False, default=float) + "\n"
     figures = {
         "position_error.png": plot_position_error(result),  # type: ignore[arg-type]
         "trajectory.png": plot_trajectory(result),  # type: ignore[arg-type]
         "temperatures.png": plot_temperatures(temps),  # type: ignore[arg-type]
     }
+    png = {}
     for fname, fig in figures.items():
+        buf = io.BytesIO()
+        fig.savefig(buf, format="png", dpi=110)
+        png[fname] = buf.getvalue()
+    # Arrow's CSV writer: every float to round-trip precision, 10× faster than pandas'
+    # formatting (which was a third of an 8 h run's whole command)
+    tables = {
+        name: pa.Table.from_pandas(frame, preserve_index=False)
+        for name, frame in (("errors.csv", errors), ("truth.csv", result.truth))  # type: ignore[attr-defined]
+    }
+    for name, table in tables.items():
+        with atomic_path(out / name) as tmp:
+            pacsv.write_csv(table, tmp)
+    with atomic_path(out / "summary.json") as tmp:
+        tmp.write_text(text)
+    for fname, data in png.items():
         with atomic_path(out / fname) as tmp:
-            fig.savefig(tmp, format="png", dpi=110)
+            tmp.write_bytes(data)
 
 
 def _print_variants(summary: dict) -> None:
@@ -477,10 +511,11 @@ def _navigate_log(log: Path, out: Path, models: list[Path], policy: str, **kw: o
         console.print(f"{gaps['count']} gap(s) in time, the longest {gaps['longest_s']:.3f} s",
                       highlight=False, soft_wrap=True)  # fmt: skip
     for w in nav.warnings:
-        console.print(f"[yellow]warning:[/] {w}", highlight=False, soft_wrap=True)
+        console.print(f"warning: {w}", highlight=False, soft_wrap=True)
     c = nav.result.config
     console.print(
-        f"navigation from {c.nav_start_s:g} s to {c.duration_s:g} s of the recording",
+        f"navigation from {c.nav_start_s:g} s to {c.time_origin_s + c.duration_s:g} s of the "
+        "recording's clock",
         highlight=False,
         soft_wrap=True,
     )

@@ -39,8 +39,10 @@ def plot_position_error(result: NavResult, title: str | None = None) -> Figure:
     """Horizontal position error [nmi] of each variant against time [h]."""
     fig = Figure(figsize=(8.0, 4.6), layout="constrained")
     ax = fig.add_subplot()
+    c = result.config
+    t0 = float(getattr(c, "time_origin_s", 0.0))  # a recording's clock may not start at 0
     for k, (name, df) in enumerate(result.errors.items()):
-        t = df["time_s"].to_numpy() / units.HOUR_TO_S
+        t = (df["time_s"].to_numpy() - t0) / units.HOUR_TO_S
         h = df["horizontal_nmi"].to_numpy()
         mx = float(h.max()) if h.size else float("nan")
         ax.plot(t, h, lw=1.3, label=f"{_label(name)} (max {mx:.3f} nmi)", **_style(name, k))
@@ -51,9 +53,8 @@ def plot_position_error(result: NavResult, title: str | None = None) -> Figure:
         functions=(lambda x: x * units.NMI_TO_M / 1000, lambda x: x * 1000 / units.NMI_TO_M),
     )
     sec.set_ylabel("[km]")
-    c = result.config
-    start = c.nav_start_s / units.HOUR_TO_S
-    align0 = c.align_start_s / units.HOUR_TO_S
+    start = (c.nav_start_s - t0) / units.HOUR_TO_S
+    align0 = (c.align_start_s - t0) / units.HOUR_TO_S
     # shade the warm-up before the alignment (if any) and the alignment itself
     for lo, hi, tag, shade in ((0.0, align0, "warm-up", "0.96"), (align0, start, "align", "0.9")):
         if hi > lo:

@@ -41,7 +41,7 @@ from rinscal.errors import ConfigError, LogError
 from rinscal.nav import earth
 from rinscal.nav.align import AlignConfig, Aligner, AlignResult
 from rinscal.nav.strapdown import Strapdown, VerticalMode
-from rinscal.schema import CHANNELS, NavSamples
+from rinscal.schema import CHANNELS, GAP_FACTOR, NavSamples
 
 #: Length of the blocks the first pass sums over [s].
 BLOCK_S = 1.0
@@ -55,6 +55,9 @@ FLOOR_PERCENTILE = 10.0
 #: this [deg] (or than this rate [deg/s] times the interval, if larger) is a jump.
 ENCODER_JUMP_DEG = 5.0
 ENCODER_JUMP_DPS = 200.0
+#: The latitude the gyros measure at rest may differ from the site's by this much [deg]
+#: before the site is questioned (a 0.1 °/h gyro bias moves it by about 0.4°).
+LATITUDE_TOL_DEG = 2.0
 
 
 # --------------------------------------------------------------------------- recording
@@ -143,7 +146,11 @@ class Blocks:
     table_start : float [rad]
         The encoder's first reading.
     dt : float [s]
-        Nominal sample interval (median).
+        Nominal sample interval: the mean of the intervals that are not gaps.
+    dt_jitter : float [-]
+        Standard deviation of those intervals over their mean.
+    gaps : ndarray of bool, optional
+        Blocks holding an interval longer than :data:`GAP_FACTOR` × the usual.
     has_table : bool
     """
 
@@ -160,6 +167,8 @@ class Blocks:
     dt: float
     has_table: bool
     table_start: float = 0.0
+    dt_jitter: float = 0.0
+    gaps: NDArray[np.bool_] | None = None
 
     @property
     def size(self) -> int:
@@ -207,7 +216,9 @@ class BlockStats:
         #: encoder jumps seen: (time [s], data row, size [deg]), the first 20, and their count
         self.jumps: list[tuple[float, int, float]] = []
         self.n_jumps = 0
-        self._dts: list[NDArray] = []
+        self._dt_sum = 0.0
+        self._dt_sq = 0.0
+        self._dt_n = 0
 
     def add(self, s: NavSamples) -> None:
         """Add one piece (in time order)."""
@@ -275,7 +286,14 @@ class BlockStats:
                 "turn": bsum(turn),
             }
         )
-        self._dts.append(np.median(dt) * np.ones(1))
+        # the nominal step: the mean of the intervals that are not gaps (a clock in whole
+        # ms gives 7 and 8 ms intervals for 128 Hz: the median would be 8 ms)
+        med = float(np.median(dt))
+        ok = dt <= GAP_FACTOR * med
+        self._dt_sum += float(dt[ok].sum())
+        self._dt_sq += float((dt[ok] ** 2).sum())
+        self._dt_n += int(ok.sum())
+        self._parts[-1]["gap"] = np.bincount(k, weights=(~ok).astype(float), minlength=m)
 
     def finish(self) -> Blocks:
         """The per-second table (blocks split between pieces merged)."""
@@ -315,7 +333,14 @@ class BlockStats:
             f_dvar=0.5 * merge("df2")[keep] / n[:, None],
             w_dvar=0.5 * merge("dw2")[keep] / n[:, None],
             table_turn=merge("turn")[keep],
-            dt=float(np.median(np.concatenate(self._dts))),
+            dt=self._dt_sum / max(self._dt_n, 1),
+            dt_jitter=math.sqrt(
+                max(
+                    self._dt_sq / max(self._dt_n, 1) - (self._dt_sum / max(self._dt_n, 1)) ** 2, 0.0
+                )
+            )
+            / max(self._dt_sum / max(self._dt_n, 1), 1e-300),
+            gaps=merge("gap")[keep] > 0,
             has_table=bool(self._has_table),
             table_start=self._table_start,
         )
@@ -352,11 +377,13 @@ class Window:
 def quiet_blocks(blocks: Blocks) -> tuple[NDArray[np.bool_], float, float]:
     """Which seconds are quiet, the floor and the threshold of ``|f|``'s spread [m/s²].
 
-    A block holding fewer than half the usual samples (a gap, the recording's ends) is
+    A block holding fewer than half the usual samples (the recording's ends) or a gap is
     never quiet. One loud second between quiet ones (a turntable starting with a jerk) is
     forgiven.
     """
     full = blocks.n >= 0.5 * np.median(blocks.n)
+    if blocks.gaps is not None:  # the aligner steps by the nominal interval: no gap in it
+        full = full & ~blocks.gaps
     sd = blocks.fmag_sd
     floor = float(np.percentile(sd[full], FLOOR_PERCENTILE)) if full.any() else float("nan")
     thr = QUIET_FACTOR * max(floor, 1e-9)
@@ -528,8 +555,8 @@ def check_at_rest(
     if not 0.9 <= ratio <= 1.1:
         raise LogError(
             f"at rest the accelerometers read |f| = {fbar:.6g} m/s² where local gravity is "
-            f"{g:.5f} m/s² (× {ratio:.4g}): wrong accelerometer units (µg read as m/s², "
-            "counts without weights, increments read as rates?)"
+            f"{g:.5f} m/s² (× {ratio:.4g}): wrong accelerometer units"
+            f"{_factor_hint(ratio, blocks.dt, 'accel')}"
         )
     if abs(ratio - 1) > 0.01:
         warn.append(f"at rest |f| is {100 * (ratio - 1):+.2f} % from local gravity")
@@ -558,14 +585,95 @@ def check_at_rest(
         raise LogError(
             f"at rest the gyros read |ω| = {wbar / units.DPH_TO_RPS:.6g} °/h where the Earth "
             f"turns at {earth.RATE / units.DPH_TO_RPS:.4f} °/h (× {rr:.4g}): wrong gyro "
-            "units (deg/s read as rad/s, counts without weights, increments read as rates?)"
+            f"units{_factor_hint(rr, blocks.dt, 'gyro')}, or a gyro whose bias is beyond "
+            "20 × the Earth rate (a consumer MEMS cannot find north by itself)"
         )
     if not 0.5 <= rr <= 2:
         warn.append(
             f"at rest |ω| is {rr:.2f} × the Earth rate (a gyro bias of that size spoils "
             "the heading of any alignment)"
         )
+        return out, warn
+    # the latitude the IMU measures: the angle between the Earth rate and gravity
+    f = blocks.f_mean[sel][still]
+    ws = w[still]
+    cosang = np.einsum("ij,ij->i", ws, f) / (np.linalg.norm(ws, axis=1) * np.linalg.norm(f, axis=1))
+    lat_meas = float(np.median(np.arcsin(np.clip(cosang, -1.0, 1.0))))
+    out["latitude_measured_deg"] = math.degrees(lat_meas)
+    if abs(lat_meas - lat) > math.radians(LATITUDE_TOL_DEG):
+        warn.append(
+            f"the gyros at rest measure latitude {math.degrees(lat_meas):.2f}° (the angle "
+            f"between the Earth rate and gravity), the site says {math.degrees(lat):.2f}°: "
+            "is the site right (the sign of its latitude)?"
+        )
     return out, warn
+
+
+def check_encoder(blocks: Blocks) -> list[str]:
+    """The encoder against the z gyro over the seconds the table turns: same sense, same unit.
+
+    A wrong ``table_sign`` or ``table_unit`` does not touch the navigation (it runs in the
+    IMU frame) but turns every heading error into nonsense; the gyro knows the truth. The
+    sense is judged where both turn (a vehicle's own yaw is in the gyro, not the encoder);
+    the unit where the gyro turns, only when the ratio is a degree-radian factor.
+    """
+    if not blocks.has_table:
+        return []
+    span = np.maximum(blocks.t1 - blocks.t0, 1e-9)
+    gyro = blocks.w_mean[:, 2] * span
+    fast = 1.0 * units.DEG_TO_RAD * span
+    both = (np.abs(gyro) > fast) & (np.abs(blocks.table_turn) > fast)
+    out = []
+    if both.sum() >= 3 and float(np.sum(np.sign(blocks.table_turn[both]) * gyro[both])) < 0:
+        out.append(
+            "the encoder turns against the z gyro (the IMU's own turn): its sign is wrong "
+            "(table_sign in the mapping); positive table_deg turns the IMU counter-clockwise "
+            "seen from above, as the z gyro reads it"
+        )
+    turning = np.abs(gyro) > fast
+    if turning.sum() >= 3:
+        size = float(np.sum(np.abs(blocks.table_turn[turning])) / np.sum(np.abs(gyro[turning])))
+        for k in (units.DEG_TO_RAD, 1 / units.DEG_TO_RAD):
+            if abs(math.log(size / k)) < math.log(1.1):
+                out.append(
+                    f"the encoder turns {size:.3g} × what the z gyro turns while the table "
+                    "moves: its unit is wrong (table_unit in the mapping: deg or rad)"
+                )
+    return out
+
+
+#: Factors a wrong unit gives, by sensor: what is read as what.
+_UNIT_FACTORS: dict[str, tuple[tuple[float, str], ...]] = {
+    "gyro": (
+        (1 / units.DEG_TO_RAD, "deg/s read as rad/s"),
+        (units.DEG_TO_RAD, "rad/s read as deg/s"),
+        (3600.0, "deg/h read as deg/s"),
+        (1 / 3600.0, "deg/s read as deg/h"),
+        (1 / units.DPH_TO_RPS, "deg/h read as rad/s"),
+        (units.DPH_TO_RPS, "rad/s read as deg/h"),
+    ),
+    "accel": (
+        (1 / units.UG_TO_MPS2, "µg read as m/s²"),
+        (1 / units.MG_TO_MPS2, "mg read as m/s²"),
+        (units.G0, "m/s² read as g"),
+        (1 / units.G0, "g read as m/s²"),
+        (1e3, "µg read as mg"),
+        (1e-3, "mg read as µg"),
+    ),
+}
+
+
+def _factor_hint(ratio: float, dt: float, sensor: str) -> str:
+    """Name the unit mix-up a measured/expected ratio points to, if one is near (10 %)."""
+    cands = [
+        *_UNIT_FACTORS[sensor],
+        (dt, "increments read as rates (× the interval)"),
+        (1 / dt, "rates read as increments"),
+    ]
+    for k, what in cands:
+        if abs(math.log(ratio / k)) < math.log(1.1):
+            return f" ({what}?)"
+    return " (counts without pulse weights, or a unit mix-up)"
 
 
 def seen_schedule(blocks: Blocks) -> dict[str, Any]:
@@ -606,7 +714,7 @@ def align_config(
         noise.accel_bias_rw,
         total_s=window.length_s,
         coarse_s=coarse_s,
-        start_s=window.start_s,
+        start_s=max(window.start_s, 0.0),  # informative only: a log's clock may start < 0
     )
 
 
@@ -658,6 +766,12 @@ class CausalModelCompensator:
         self._last_temp: NDArray | None = None
         self._last_out: float = float("nan")
         self.readings = 0
+        #: thermometer readings skipped because no thermometer had read yet
+        self.skipped = 0
+        #: the model uses the gradient ΔT (needs the outer temperature)
+        self.needs_outer = bool(getattr(model, "use_gradient", False)) and any(
+            getattr(model.models[c], "n_inputs", 3) >= 3 for c in model.channels
+        )
 
     def __call__(self, s: NavSamples) -> NDArray[np.float64]:
         from rinscal.units import MIN_TO_S
@@ -674,6 +788,21 @@ class CausalModelCompensator:
             temp = s.temps[new][:, self._idx].copy()
             t_out = None if s.temp_out is None else s.temp_out[new].copy()
             self._hold(temp, t_out)
+            # no reading yet (a thermometer empty from the start): the model waits for one
+            ok = np.isfinite(temp).all(axis=1)
+            if self.needs_outer:
+                if t_out is None:
+                    raise ConfigError(
+                        f"the model uses the gradient ΔT = T − temp_out for "
+                        f"{', '.join(self.channels)}, and the recording has no outer "
+                        "temperature (a temp_out column, or a mapping onto it)"
+                    )
+                ok &= np.isfinite(t_out)
+            if not ok.all():
+                self.skipped += int((~ok).sum())
+                new, temp = new[ok], temp[ok]
+                t_out = None if t_out is None else t_out[ok]
+        if new.size:
             times = tick[new] * self.update_s
             rate = self._slope.update(times.astype(float), temp) * MIN_TO_S
             bias = np.zeros((new.size, 6))
@@ -684,10 +813,10 @@ class CausalModelCompensator:
             np.cumsum(seg, out=seg)
             np.take(np.vstack([self._bias, bias]), seg, axis=0, out=out)
             self._bias = bias[-1]
-            self._tick = int(tick[-1])
             self.readings += new.size
         else:
             out[:] = self._bias
+        self._tick = int(tick[-1])
         return out
 
     def _hold(self, temp: NDArray, t_out: NDArray | None) -> None:
@@ -756,6 +885,13 @@ class Reference:
         vu = np.interp(t, tt, np.gradient(hh) / dt)
         return np.column_stack([lat, lon, h, ve, vn, vu])
 
+    def covers(self, t: NDArray[np.float64]) -> NDArray[np.bool_]:
+        """Where the reference exists: everywhere for a site, within a track's span."""
+        if self.track is None:
+            return np.ones(t.shape, dtype=bool)
+        tt = self.track[0]
+        return (t >= tt[0]) & (t <= tt[-1])
+
     def overlap(self, t0: float, t1: float) -> None:
         """Refuse a track that does not cover ``[t0, t1]`` (the part navigated)."""
         if self.track is None:
@@ -771,7 +907,12 @@ class Reference:
 # --------------------------------------------------------------------------- pass 2
 @dataclass(frozen=True)
 class RecordedRun:
-    """What a recorded run was (the attributes the navigation plots and summary read)."""
+    """What a recorded run was (the attributes the navigation plots and summary read).
+
+    Times are on the recording's clock; ``time_origin_s`` is the start of its first
+    sample's interval (``duration_s`` counts from there). ``notes`` says what the reference
+    did not cover.
+    """
 
     name: str
     duration_s: float
@@ -781,6 +922,8 @@ class RecordedRun:
     align: AlignConfig
     schedule: Any
     trajectory: Any
+    time_origin_s: float = 0.0
+    notes: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -816,6 +959,7 @@ def navigate_recording(
     out_dt_s: float = 1.0,
     vertical: VerticalMode = "hold",
     schedule: str = "encoder",
+    use_heading_column: bool = True,
     progress: Callable[[float], None] | None = None,
 ) -> Any:
     """Navigate a recording's variants side by side (the second pass).
@@ -839,12 +983,22 @@ def navigate_recording(
         Interval of the reported errors (a whole number of samples).
     vertical : {"hold", "damped", "free"}
         Vertical channel, held or damped to the reference height.
+    use_heading_column : bool
+        Take the body's true heading from the pieces' ``ref_heading`` (else only the
+        reference's ``heading``, e.g. one given on the command line).
 
     Returns
     -------
     NavResult
-        ``errors`` per variant from the navigation start, ``truth`` (the reference) at the
-        same times, ``alignment`` per variant; ``config`` a :class:`RecordedRun`.
+        ``errors`` per variant from the navigation start, where the reference exists
+        (a track's span, its finite values), ``truth`` (the reference) at the same times,
+        ``alignment`` per variant; ``config`` a :class:`RecordedRun`.
+
+    Raises
+    ------
+    LogError
+        When the alignment does not end before the recording does, nothing is left to
+        navigate, or the reference covers none of the navigated part.
     """
     from rinscal.nav.scenario import NavResult, _error_frame
 
@@ -860,8 +1014,9 @@ def navigate_recording(
     consumed = 0
     t_origin: float | None = None
     unwrap = TableUnwrap()
-    prev_h: NDArray | None = None
+    track = _LogTrack(reference)
     t_last = float("nan")
+    t_align = t_nav = float("nan")
     for s in pieces:
         if s.n == 0:
             continue
@@ -882,12 +1037,12 @@ def navigate_recording(
         gidx = consumed + np.arange(1, s.n + 1)
         consumed += s.n
         t_last = float(s.t[-1])
-        ref = _piece_reference(s, reference)
-        if s.ref is not None:  # vertical rate of the track: second-order backward difference
-            h = ref[:, 2]
-            hx = np.concatenate([[h[0], h[0]] if prev_h is None else prev_h, h])
-            ref[:, 5] = (3 * hx[2:] - 4 * hx[1:-1] + hx[:-2]) / (2 * s.dt)
-            prev_h = hx[-2:].copy()
+        ref, valid = track(s)
+        if n_start is not None and gidx[0] <= n_start + 1 <= gidx[-1]:
+            i = n_start - (gidx[0] - 1)
+            t_align = float(s.t[i] - s.dt[i])
+        if n_nav is not None and gidx[0] <= n_nav <= gidx[-1]:
+            t_nav = float(s.t[n_nav - gidx[0]])
         table = unwrap(s.table) if s.table is not None else np.zeros(s.n)
         if n_start is None or gidx[-1] <= n_start:
             comps_run = [c for c in comps.values() if c is not None]
@@ -899,16 +1054,24 @@ def navigate_recording(
         assert n_nav is not None
         sel = (gidx % out_every == 0) & (gidx > n_nav)
         if sel.any():
-            head = np.full(s.n, np.nan) if s.ref_heading is None else s.ref_heading
+            column = s.ref_heading if use_heading_column else None
+            head = np.full(s.n, np.nan) if column is None else column
             static = reference.track is None and s.ref is None
-            if s.ref_heading is None and reference.heading is not None:
+            if column is None and reference.heading is not None:
                 if static:  # the body stands: its heading is the one given, all along
                     head = np.full(s.n, reference.heading)
                 elif not truth_rows:  # a track: the heading given holds at the start only
                     head[np.flatnonzero(sel)[0]] = reference.heading
             truth_rows.append(
                 np.column_stack(
-                    [s.t[sel], ref[sel], head[sel], np.full((sel.sum(), 2), np.nan), table[sel]]
+                    [
+                        s.t[sel],
+                        ref[sel],
+                        head[sel],
+                        np.full((sel.sum(), 2), np.nan),
+                        table[sel],
+                        valid[sel],
+                    ]
                 )
             )
         i_first = max(0, n_start - (gidx[0] - 1))
@@ -927,8 +1090,9 @@ def navigate_recording(
                     v.accel_bias = v.aligner.accel_bias.copy()
             if i0 < s.n:
                 assert v.nav is not None
+                step = s.dt[i0:, None]  # the estimates are rates: over each sample's own interval
                 out = _run_nav(
-                    v.nav, d_th[i0:] - v.gyro_bias * dt, d_v[i0:] - v.accel_bias * dt,
+                    v.nav, d_th[i0:] - v.gyro_bias * step, d_v[i0:] - v.accel_bias * step,
                     s.dt[i0:], dt, ref[i0:, 2], ref[i0:, 5], out_every,
                 )  # fmt: skip
                 if out.shape[0]:
@@ -942,9 +1106,26 @@ def navigate_recording(
             f"the recording ends at {t_last:.1f} s, before the alignment "
             f"({window.start_s:g} s + {window.length_s:g} s) does"
         )
-    truth = np.concatenate(truth_rows) if truth_rows else np.empty((0, 11))
-    if truth.shape[0]:
-        reference.overlap(float(truth[0, 0]), float(truth[-1, 0]))
+    truth = np.concatenate(truth_rows) if truth_rows else np.empty((0, 12))
+    if truth.shape[0] == 0:
+        raise LogError(
+            f"the recording ends at {t_last:.1f} s, when the alignment "
+            f"({window.start_s:g} s + {window.length_s:g} s) does: nothing is left to "
+            "navigate (a shorter --align-s, or a longer recording)"
+        )
+    reference.overlap(float(truth[0, 0]), float(truth[-1, 0]))
+    keep = truth[:, 11] > 0
+    notes: list[str] = []
+    if not keep.any():
+        raise LogError(
+            f"the reference has no value at any navigated time ({truth[0, 0]:.1f}-"
+            f"{truth[-1, 0]:.1f} s): nothing to measure the errors against"
+        )
+    if not keep.all():
+        notes.append(
+            f"the reference covers {int(keep.sum())} of the {keep.size} output times "
+            f"({truth[keep, 0][0]:.1f}-{truth[keep, 0][-1]:.1f} s): errors are reported there only"
+        )
     truth_df = pd.DataFrame(
         {
             "time_s": truth[:, 0],
@@ -961,28 +1142,59 @@ def navigate_recording(
     errors = {}
     for vname, v in variants.items():
         rows = np.concatenate(v.rows) if v.rows else np.empty((0, 10))
-        errors[vname] = _error_frame(truth, rows)
+        errors[vname] = _error_frame(truth[keep, :11], rows[keep]).reset_index(drop=True)
+    truth_df = truth_df[keep].reset_index(drop=True)
     alignment: dict[str, AlignResult | None] = {k: v.aligner.result() for k, v in variants.items()}
     run = RecordedRun(
         name=name,
         duration_s=t_last - t_origin,
         rate_hz=1.0 / dt,
-        align_start_s=window.start_s,
-        nav_start_s=window.start_s + (n_nav - n_start) * dt,
+        align_start_s=t_align,
+        nav_start_s=t_nav,
         align=align,
         schedule=_Named(schedule),
         trajectory=_Site(reference.lat, reference.lon),
+        time_origin_s=t_origin,
+        notes=tuple(notes),
     )
     return NavResult(run, truth_df, errors, alignment)  # type: ignore[arg-type]
 
 
-def _piece_reference(s: NavSamples, reference: Reference) -> NDArray[np.float64]:
-    """Reference ``lat, lon, h, v_e, v_n, v_u`` at every sample of a piece."""
-    if s.ref is None:
-        return reference.at(s.t)
-    out = np.zeros((s.n, 6))
-    out[:, :3] = s.ref
-    return out
+class _LogTrack:
+    """The reference at every sample of a piece: ``lat, lon, h, v_e, v_n, v_u`` and whether
+    it exists there. From the piece's own ``ref`` columns (velocities by second-order
+    backward differences, an empty cell holding the last value for the vertical hold), else
+    from :class:`Reference` (a track file exists over its span only)."""
+
+    def __init__(self, reference: Reference) -> None:
+        self.reference = reference
+        self._prev: NDArray | None = None  # the last two rows (lat, lon, h), finite
+
+    def __call__(self, s: NavSamples) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+        ref = self.reference
+        if s.ref is None:
+            out = ref.at(s.t)
+            return out, ref.covers(s.t)
+        r = np.array(s.ref, dtype=float)
+        valid = np.isfinite(r).all(axis=1)
+        if not valid.all():
+            last = (
+                self._prev[-1]
+                if self._prev is not None
+                else (r[valid][0] if valid.any() else np.array([ref.lat, ref.lon, ref.h]))
+            )
+            for j in range(3):
+                r[:, j] = _ffill(r[:, j], float(last[j]))
+        x = np.concatenate([np.repeat(r[:1], 2, axis=0) if self._prev is None else self._prev, r])
+        self._prev = x[-2:].copy()
+        rate = (3 * x[2:] - 4 * x[1:-1] + x[:-2]) / (2 * s.dt[:, None])
+        rn, re = earth.principal_radii(r[:, 0])
+        out = np.empty((s.n, 6))
+        out[:, :3] = r
+        out[:, 3] = rate[:, 1] * (re + r[:, 2]) * np.cos(r[:, 0])
+        out[:, 4] = rate[:, 0] * (rn + r[:, 2])
+        out[:, 5] = rate[:, 2]
+        return out, valid
 
 
 def _run_nav(
@@ -996,7 +1208,7 @@ def _run_nav(
     out_every: int,
 ) -> NDArray[np.float64]:
     """Strapdown over a stretch; an interval longer than 1.5 steps (a gap) with its own length."""
-    gaps = np.flatnonzero(dts > 1.5 * dt)
+    gaps = np.flatnonzero(dts > GAP_FACTOR * dt)
     if gaps.size == 0:
         return nav.run(d_th, d_v, alt_ref=alt_ref, vu_ref=vu_ref, out_every=out_every)
     outs = []
@@ -1028,6 +1240,7 @@ __all__ = [
     "Window",
     "align_config",
     "check_at_rest",
+    "check_encoder",
     "estimate_noise",
     "find_window",
     "navigate_recording",
