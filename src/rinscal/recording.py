@@ -401,8 +401,9 @@ def _noise(log: Any, blocks: Any, window: Any) -> Noise:
 def heading_text(report: dict[str, Any]) -> str:
     """One line on the window for the terminal."""
     w = report["window"]
+    a = round(w["start_s"], 3) + 0.0  # never "-0" for a clock starting a hair before 0
     return (
-        f"alignment window {w['start_s']:.0f}-{w['start_s'] + w['length_s']:.0f} s ({w['how']}"
+        f"alignment window {a:.0f}-{a + w['length_s']:.0f} s ({w['how']}"
         f", |f| spread median {w['sd_ug_median']:.0f} µg against a floor of "
         f"{w['floor_ug']:.0f} µg, {100 * w['quiet_fraction']:.0f} % of its seconds quiet); "
         f"filter noise {report['noise']['source']}: "

@@ -514,8 +514,8 @@ def _navigate_log(log: Path, out: Path, models: list[Path], policy: str, **kw: o
         console.print(f"warning: {w}", highlight=False, soft_wrap=True)
     c = nav.result.config
     console.print(
-        f"navigation from {c.nav_start_s:g} s to {c.time_origin_s + c.duration_s:g} s of the "
-        "recording's clock",
+        f"navigation from {c.nav_start_s:.1f} s to {c.time_origin_s + c.duration_s:.1f} s of "
+        "the recording's clock",
         highlight=False,
         soft_wrap=True,
     )
