@@ -50,6 +50,7 @@ import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from rinscal.errors import ConfigError
+from rinscal.schema import CHANNELS
 
 #: Sensor nodes in channel order (gyro x, y, z, accel x, y, z).
 N_SENSORS = 6
@@ -73,6 +74,17 @@ N_NODES = COIL0 + N_GYROS
 STRESS0 = N_NODES
 #: Number of states: 4 structural nodes, 6 sensors, 3 coils, 6 stress states.
 N_STATES = STRESS0 + N_SENSORS
+#: Name of each state of :meth:`ThermalNetworkConfig.system`'s ``x`` (and of the columns of
+#: :attr:`ThermalField.nodes`), in that order.
+NODE_NAMES: tuple[str, ...] = (
+    "housing",
+    "electronics",
+    "air",
+    "block",
+    *(f"sensor_{c}" for c in CHANNELS),
+    *(f"coil_{c}" for c in CHANNELS[:3]),
+    *(f"stress_{c}" for c in CHANNELS),
+)
 #: Inputs: chamber [°C], power switch, motor switch, power·cos φ, power·sin φ.
 N_INPUTS = 5
 #: Inputs held over each integration step (zero-order): the power and motor switches. The
@@ -397,6 +409,12 @@ class ThermalField:
         accelerometers).
     coil_gradient_rate : ndarray, shape (n, 6) [°C/s]
         Exact time derivative of ``coil_gradient``.
+    nodes : ndarray, shape (n, 19) [°C], optional
+        Every state of the network in the order of :meth:`ThermalNetworkConfig.system`'s
+        ``x`` (names in :data:`NODE_NAMES`): housing, electronics, inner air, IMU block, the
+        six sensors, the three coils' outer layers, the six stress states. Set by
+        :func:`simulate_field`; the mechanistic thermal law needs it. None for a field built
+        by hand from the thermometer-visible signals alone.
     """
 
     t: NDArray[np.float64]
@@ -407,6 +425,15 @@ class ThermalField:
     stress: NDArray[np.float64]
     coil_gradient: NDArray[np.float64]
     coil_gradient_rate: NDArray[np.float64]
+    nodes: NDArray[np.float64] | None = None
+
+    def node(self, name: str) -> NDArray[np.float64]:
+        """One state of the network by its name in :data:`NODE_NAMES`, shape (n,) [°C]."""
+        if self.nodes is None:
+            raise ConfigError("this thermal field carries no network states (nodes)")
+        if name not in NODE_NAMES:
+            raise ConfigError(f"unknown node {name!r}; known {', '.join(NODE_NAMES)}")
+        return self.nodes[:, NODE_NAMES.index(name)]
 
     @property
     def gradient(self) -> NDArray[np.float64]:
@@ -432,6 +459,7 @@ class ThermalField:
             stress=interp(self.stress),
             coil_gradient=interp(self.coil_gradient),
             coil_gradient_rate=interp(self.coil_gradient_rate),
+            nodes=None if self.nodes is None else interp(self.nodes),
         )
 
 
@@ -541,6 +569,7 @@ def simulate_field(
         stress=x[:, STRESS0:].copy(),
         coil_gradient=coil,
         coil_gradient_rate=coil_rate,
+        nodes=x,
     )
 
 
@@ -642,6 +671,7 @@ def measure(
 
 
 __all__ = [
+    "NODE_NAMES",
     "ChamberProfile",
     "ThermalField",
     "ThermalNetworkConfig",

@@ -28,7 +28,17 @@ from numpy.typing import NDArray
 from rinscal import units
 from rinscal.errors import ConfigError
 from rinscal.schema import CHANNELS
-from rinscal.thermal.field import ThermalField, ThermalNetworkConfig, ThermometerConfig
+from rinscal.thermal.field import (
+    BLOCK,
+    COIL0,
+    ELECTRONICS,
+    N_GYROS,
+    SENSOR0,
+    STRESS0,
+    ThermalField,
+    ThermalNetworkConfig,
+    ThermometerConfig,
+)
 from rinscal.thermal.presets import DEFAULT_PRESET, PRESETS
 
 #: Engineering unit of each channel in configuration files and physical-unit logs.
@@ -198,6 +208,186 @@ class ChannelThermal:
         )
 
 
+#: Keys of ``[thermal.<channel>]`` that make up the polynomial law's bias. Under the
+#: mechanistic law they are replaced by ``[mechanistic.<channel>]``; the other keys of
+#: ``[thermal.<channel>]`` (Shupe, hysteresis, signal errors, lever arm) hold under both laws.
+POLYNOMIAL_KEYS = (
+    "b0",
+    "t",
+    "rate",
+    "grad",
+    "t_grad",
+    "t_rate",
+    "stress",
+    "rate_range",
+    "grad_range",
+)
+#: The thermal laws an :class:`ImuConfig` can use (``[imu] thermal_law``).
+THERMAL_LAWS = ("polynomial", "mechanistic")
+
+
+@dataclass(frozen=True)
+class MechanisticThermal:
+    """Thermal bias of one channel driven by the network's own states (engineering units).
+
+    The bias is a sum of physically shaped terms, each driven by a node of the thermal
+    network (:data:`rinscal.thermal.field.NODE_NAMES`), several of them nodes that no
+    thermometer sees::
+
+        b = b0
+          + k_t · s_t · tanh((T_j − t_ref) / s_t)             own temperature, saturating
+          + k_mount · y + k_mount2 · y²,  y = T_block − t_mount_c   mount, zero at assembly
+          + k_elec · (L_τe[T_electronics] − t_ref)            electronics box, lagged
+          + k_path · (T_electronics − T_block)                gradient along the mount path
+          + k_coil · (T_coil − T_hub)                         coil's radial gradient (gyros)
+          + k_stress · σ_j                                    package stress (τ_σ lag)
+
+    ``T_j`` is the sensor's own node (its inner thermometer's), ``L_τ`` a first-order lag of
+    time constant ``τ`` (:func:`first_order_lag`, from equilibrium at the run's first
+    sample) and ``t_ref`` the configuration's ``t_ref_c``. Shupe, hysteresis and the signal
+    errors come from the channel's ``[thermal.<channel>]`` table as under the polynomial law.
+    See ``docs/plant.md`` ("The mechanistic law") for the physical reading of each term.
+
+    Parameters
+    ----------
+    b0 : float [unit]
+        Bias with every driving term at zero.
+    k_t : float [unit/°C]
+        Slope of the own-temperature term at ``t_ref``.
+    t_sat_c : float [°C]
+        Saturation scale of the own-temperature term (> 0): linear within a few degrees of
+        ``t_ref``, bounded by ``±k_t·t_sat_c`` far from it.
+    k_mount, k_mount2 : float [unit/°C, unit/°C²]
+        Linear and quadratic sensitivity to the IMU block (the sensor's mount) relative to
+        ``t_mount_c``; the linear term changes sign across ``t_mount_c``.
+    t_mount_c : float [°C]
+        Temperature at which the mount is stress-free (the bonding/assembly temperature).
+    k_elec : float [unit/°C]
+        Sensitivity to the lagged electronics-box temperature.
+    tau_elec_s : float [s]
+        Time constant of that lag (> 0): the readout's components behind the box node.
+    k_path : float [unit/°C]
+        Sensitivity to the gradient from the electronics box to the IMU block.
+    k_coil : float [unit/°C]
+        Sensitivity to the static radial gradient of a gyro's fibre coil (outer layers minus
+        hub); must be 0 for an accelerometer.
+    k_stress : float [unit/°C]
+        Sensitivity to the hidden package-stress state (network ``tau_stress_s``).
+    """
+
+    b0: float = 0.0
+    k_t: float = 0.0
+    t_sat_c: float = 30.0
+    k_mount: float = 0.0
+    k_mount2: float = 0.0
+    t_mount_c: float = 20.0
+    k_elec: float = 0.0
+    tau_elec_s: float = 600.0
+    k_path: float = 0.0
+    k_coil: float = 0.0
+    k_stress: float = 0.0
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            _finite(f"mechanistic.{f.name}", getattr(self, f.name))
+        if self.t_sat_c <= 0:
+            raise ConfigError(f"mechanistic.t_sat_c must be > 0 °C, got {self.t_sat_c}")
+        if self.tau_elec_s <= 0:
+            raise ConfigError(f"mechanistic.tau_elec_s must be > 0 s, got {self.tau_elec_s}")
+
+    def terms(self, field: ThermalField, j: int, t_ref_c: float) -> dict[str, NDArray[np.float64]]:
+        """Each term of the bias of channel ``j`` [unit] through ``field`` (in time order,
+        the whole run: the electronics lag starts at equilibrium with its first sample).
+
+        Returns
+        -------
+        dict of str to ndarray, shape (n,)
+            ``b0, temperature, mount, electronics, path, coil, stress``; their sum is
+            :meth:`evaluate`.
+        """
+        if field.nodes is None:
+            raise ConfigError(
+                "the mechanistic thermal law needs the network's states (ThermalField.nodes, "
+                "set by simulate_field)"
+            )
+        x = field.nodes
+        n = x.shape[0]
+        own = x[:, SENSOR0 + j]
+        block = x[:, BLOCK]
+        elec = x[:, ELECTRONICS]
+        y = block - self.t_mount_c
+        out = {
+            "b0": np.full(n, self.b0),
+            "temperature": self.k_t * self.t_sat_c * np.tanh((own - t_ref_c) / self.t_sat_c),
+            "mount": self.k_mount * y + self.k_mount2 * y * y,
+            "electronics": np.zeros(n),
+            "path": self.k_path * (elec - block),
+            "coil": np.zeros(n),
+            "stress": self.k_stress * x[:, STRESS0 + j],
+        }
+        if self.k_elec:
+            lag = first_order_lag(field.t, elec, self.tau_elec_s)
+            out["electronics"] = self.k_elec * (lag - t_ref_c)
+        if j < N_GYROS and self.k_coil:
+            out["coil"] = self.k_coil * (x[:, COIL0 + j] - own)
+        return out
+
+    def evaluate(self, field: ThermalField, j: int, t_ref_c: float) -> NDArray[np.float64]:
+        """Thermal bias [unit] of channel ``j`` through ``field`` (Shupe, hysteresis and
+        signal errors excluded); see :meth:`terms`."""
+        terms = self.terms(field, j, t_ref_c)
+        out = terms.pop("b0")
+        for v in terms.values():
+            out = out + v
+        return out
+
+
+def first_order_lag(
+    t: NDArray[np.float64], u: NDArray[np.float64], tau_s: float
+) -> NDArray[np.float64]:
+    """First-order lag ``τ dy/dt = u − y`` of a signal sampled at times ``t``.
+
+    Exact for ``u`` linear between samples (any spacing), starting at equilibrium with the
+    first sample (``y[0] = u[0]``).
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,) [s]
+        Sample times, increasing.
+    u : ndarray, shape (n,)
+        Input.
+    tau_s : float [s]
+        Time constant (> 0).
+
+    Returns
+    -------
+    ndarray, shape (n,)
+    """
+    if not (math.isfinite(tau_s) and tau_s > 0):
+        raise ConfigError(f"lag time constant must be > 0 s, got {tau_s}")
+    return _lag(
+        np.ascontiguousarray(t, dtype=np.float64),
+        np.ascontiguousarray(u, dtype=np.float64),
+        float(tau_s),
+    )
+
+
+@numba.njit(cache=True, nogil=True)
+def _lag(t: NDArray[np.float64], u: NDArray[np.float64], tau: float) -> NDArray[np.float64]:
+    out = np.empty(u.shape[0])  # pragma: no cover - compiled
+    if u.shape[0] == 0:
+        return out
+    y = u[0]
+    out[0] = y
+    for k in range(u.shape[0] - 1):
+        h = t[k + 1] - t[k]
+        a = math.exp(-h / tau)
+        # u linear over the step: y → a·y + (1 − a)·u[k] + (u[k+1] − u[k])·(1 − τ(1 − a)/h)
+        y = a * y + (1.0 - a) * u[k] + (u[k + 1] - u[k]) * (1.0 - tau * (1.0 - a) / h)
+        out[k + 1] = y
+    return out
+
+
 @dataclass(frozen=True)
 class EffectsConfig:
     """Which error effects beyond the polynomial bias the plant applies (all on by default).
@@ -361,6 +551,13 @@ class ImuConfig:
         The temperature sensors.
     effects : EffectsConfig
         Which effects beyond the polynomial bias are applied.
+    thermal_law : {"polynomial", "mechanistic"}
+        The law of the thermal bias: the polynomial of each ``thermal`` entry, or the
+        network-driven terms of each ``mechanistic`` entry (Shupe, hysteresis and signal
+        errors from ``thermal`` under both).
+    mechanistic : tuple of 6 MechanisticThermal or None
+        The mechanistic law's coefficients per channel; required with that law (and then
+        the polynomial keys of ``thermal`` must be left at zero), refused with the other.
     """
 
     name: str = "custom"
@@ -377,6 +574,8 @@ class ImuConfig:
     network: ThermalNetworkConfig = field(default_factory=ThermalNetworkConfig)
     thermometer: ThermometerConfig = field(default_factory=ThermometerConfig)
     effects: EffectsConfig = field(default_factory=EffectsConfig)
+    thermal_law: str = "polynomial"
+    mechanistic: tuple[MechanisticThermal, ...] | None = None
 
     def __post_init__(self) -> None:
         lat = _finite("imu.latitude_deg", self.latitude_deg)
@@ -397,6 +596,39 @@ class ImuConfig:
                 )
             if j < 3 and any(coef.lever_arm_m):
                 raise ConfigError(f"[thermal.{ch}] lever_arm_m: a gyro has no size effect")
+        if self.thermal_law not in THERMAL_LAWS:
+            raise ConfigError(
+                f"imu.thermal_law must be one of {', '.join(THERMAL_LAWS)}, "
+                f"got {self.thermal_law!r}"
+            )
+        if self.thermal_law == "polynomial":
+            if self.mechanistic is not None:
+                raise ConfigError(
+                    "[mechanistic] coefficients given but imu.thermal_law = 'polynomial' "
+                    "(they would be ignored): set thermal_law = 'mechanistic' or drop them"
+                )
+            return
+        if self.mechanistic is None or len(self.mechanistic) != len(CHANNELS):
+            raise ConfigError(
+                f"imu.thermal_law = 'mechanistic' needs one [mechanistic.<channel>] table per "
+                f"channel {CHANNELS}"
+            )
+        blank = ChannelThermal()
+        for j, (ch, coef, mech) in enumerate(
+            zip(CHANNELS, self.thermal, self.mechanistic, strict=True)
+        ):
+            if not isinstance(mech, MechanisticThermal):
+                raise ConfigError(f"mechanistic[{j}] must be a MechanisticThermal")
+            if j >= N_GYROS and mech.k_coil != 0.0:
+                raise ConfigError(f"[mechanistic.{ch}] k_coil: an accelerometer has no coil")
+            used = [k for k in POLYNOMIAL_KEYS if getattr(coef, k) != getattr(blank, k)]
+            used = [k for k in used if k not in ("t", "rate", "grad") or any(getattr(coef, k))]
+            if used:
+                raise ConfigError(
+                    f"[thermal.{ch}] polynomial key(s) {used} set but imu.thermal_law = "
+                    "'mechanistic' (they would be ignored): the bias is [mechanistic."
+                    f"{ch}]'s"
+                )
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -409,10 +641,11 @@ class ImuConfig:
         Unknown sections or keys raise :class:`ConfigError` naming them and ``source``.
         """
         known = {"imu", "output", "noise", "thermometer", "network", "effects", "thermal"}
-        extra = set(data) - known
+        known_opt = {"mechanistic"}
+        extra = set(data) - known - known_opt
         if extra:
             raise ConfigError(
-                f"{source}: unknown section(s) {sorted(extra)}; known {sorted(known)}"
+                f"{source}: unknown section(s) {sorted(extra)}; known {sorted(known | known_opt)}"
             )
         thermal_sec = data.get("thermal", {})
         if not isinstance(thermal_sec, dict):
@@ -428,7 +661,15 @@ class ImuConfig:
                 raise ConfigError(f"{source}: unknown key(s) {sorted(bad)} in [{name}]")
             return {k: tuple(v) if isinstance(v, list) else v for k, v in sec.items()}
 
-        imu_keys = {"name", "latitude_deg", "heading_deg", "altitude_m", "t_ref_c", "t_cal_c"}
+        imu_keys = {
+            "name",
+            "latitude_deg",
+            "heading_deg",
+            "altitude_m",
+            "t_ref_c",
+            "t_cal_c",
+            "thermal_law",
+        }
         klasses = {
             "noise": NoiseConfig,
             "output": OutputConfig,
@@ -448,8 +689,14 @@ class ImuConfig:
         missing += [f"[thermal.{ch}]" for ch in CHANNELS if ch not in thermal_sec]
         if missing:
             raise ConfigError(f"{source}: missing section(s) {', '.join(missing)}")
+        law = imu.get("thermal_law", "polynomial")
+        if law not in THERMAL_LAWS:
+            raise ConfigError(
+                f"{source}: imu.thermal_law must be one of {', '.join(THERMAL_LAWS)}, got {law!r}"
+            )
+        mechanistic = _mechanistic_section(data, law, source)
         thermal = []
-        required = {"b0", "t"}
+        required = {"b0", "t"} if law == "polynomial" else set()
         for ch in CHANNELS:
             sec = thermal_sec[ch]
             if not isinstance(sec, dict):
@@ -457,6 +704,13 @@ class ImuConfig:
             bad = set(sec) - {f.name for f in fields(ChannelThermal)}
             if bad:
                 raise ConfigError(f"{source}: unknown key(s) {sorted(bad)} in [thermal.{ch}]")
+            poly = sorted(set(sec) & set(POLYNOMIAL_KEYS))
+            if law == "mechanistic" and poly:
+                raise ConfigError(
+                    f"{source}: polynomial key(s) {poly} in [thermal.{ch}] but imu.thermal_law "
+                    f"= 'mechanistic': the bias is [mechanistic.{ch}]'s; [thermal.{ch}] keeps "
+                    "only shupe, hysteresis, signal errors and lever arm"
+                )
             lacking = required - set(sec)
             if lacking:
                 raise ConfigError(f"{source}: missing key(s) {sorted(lacking)} in [thermal.{ch}]")
@@ -473,6 +727,7 @@ class ImuConfig:
                 network=ThermalNetworkConfig(**section("network", ThermalNetworkConfig)),
                 thermometer=ThermometerConfig(**section("thermometer", ThermometerConfig)),
                 effects=EffectsConfig(**section("effects", EffectsConfig)),
+                mechanistic=mechanistic,
                 **imu,
             )
         except (TypeError, ConfigError) as e:
@@ -511,7 +766,8 @@ class ImuConfig:
 
     def to_dict(self) -> dict[str, Any]:
         """The nested TOML layout (round-trips through :meth:`from_dict`)."""
-        return {
+        drop = POLYNOMIAL_KEYS if self.thermal_law == "mechanistic" else ()
+        out: dict[str, Any] = {
             "imu": {
                 "name": self.name,
                 "latitude_deg": self.latitude_deg,
@@ -519,6 +775,7 @@ class ImuConfig:
                 "altitude_m": self.altitude_m,
                 "t_ref_c": self.t_ref_c,
                 "t_cal_c": self.t_cal_c,
+                "thermal_law": self.thermal_law,
             },
             "output": asdict(self.output),
             "noise": asdict(self.noise),
@@ -526,9 +783,16 @@ class ImuConfig:
             "network": _toml_table(asdict(self.network)),
             "effects": asdict(self.effects),
             "thermal": {
-                ch: _toml_table(asdict(c)) for ch, c in zip(CHANNELS, self.thermal, strict=True)
+                ch: _toml_table(asdict(c), drop=drop)
+                for ch, c in zip(CHANNELS, self.thermal, strict=True)
             },
         }
+        if self.mechanistic is not None:
+            out["mechanistic"] = {
+                ch: {k: v for k, v in asdict(m).items() if j < N_GYROS or k != "k_coil"}
+                for j, (ch, m) in enumerate(zip(CHANNELS, self.mechanistic, strict=True))
+            }
+        return out
 
     # ------------------------------------------------------------------ derived
     @property
@@ -564,9 +828,58 @@ def load_imu(spec: str | Path) -> ImuConfig:
     return ImuConfig.from_toml(path)
 
 
-def _toml_table(d: dict[str, Any]) -> dict[str, Any]:
-    """A dataclass dict as TOML can hold it: tuples as lists, None left out."""
-    return {k: list(v) if isinstance(v, tuple) else v for k, v in d.items() if v is not None}
+def _toml_table(d: dict[str, Any], drop: tuple[str, ...] = ()) -> dict[str, Any]:
+    """A dataclass dict as TOML can hold it: tuples as lists, None and ``drop`` left out."""
+    return {
+        k: list(v) if isinstance(v, tuple) else v
+        for k, v in d.items()
+        if v is not None and k not in drop
+    }
+
+
+def _mechanistic_section(
+    data: dict[str, Any], law: str, source: str
+) -> tuple[MechanisticThermal, ...] | None:
+    """The ``[mechanistic.<channel>]`` tables: all six with every coefficient (``k_coil``
+    for gyros only) under the mechanistic law, none under the polynomial one."""
+    sec = data.get("mechanistic")
+    if law == "polynomial":
+        if sec is not None:
+            raise ConfigError(
+                f"{source}: [mechanistic] given but imu.thermal_law is 'polynomial' (it would "
+                'be ignored): set thermal_law = "mechanistic" in [imu] or drop the section'
+            )
+        return None
+    if not isinstance(sec, dict):
+        raise ConfigError(
+            f"{source}: imu.thermal_law = 'mechanistic' needs the section(s) "
+            + ", ".join(f"[mechanistic.{ch}]" for ch in CHANNELS)
+        )
+    bad = set(sec) - set(CHANNELS)
+    if bad:
+        raise ConfigError(f"{source}: unknown channel(s) {sorted(bad)} in [mechanistic]")
+    missing = [f"[mechanistic.{ch}]" for ch in CHANNELS if ch not in sec]
+    if missing:
+        raise ConfigError(f"{source}: missing section(s) {', '.join(missing)}")
+    names = [f.name for f in fields(MechanisticThermal)]
+    out = []
+    for j, ch in enumerate(CHANNELS):
+        tab = sec[ch]
+        if not isinstance(tab, dict):
+            raise ConfigError(f"{source}: [mechanistic.{ch}] must be a table")
+        allowed = set(names) if j < N_GYROS else set(names) - {"k_coil"}
+        bad = set(tab) - allowed
+        if bad:
+            why = " (an accelerometer has no coil)" if "k_coil" in bad and j >= N_GYROS else ""
+            raise ConfigError(f"{source}: unknown key(s) {sorted(bad)} in [mechanistic.{ch}]{why}")
+        lacking = sorted(allowed - set(tab), key=names.index)
+        if lacking:
+            raise ConfigError(f"{source}: missing key(s) {lacking} in [mechanistic.{ch}]")
+        try:
+            out.append(MechanisticThermal(**tab))
+        except (TypeError, ConfigError) as e:
+            raise ConfigError(f"{source}: [mechanistic.{ch}] {e}") from None
+    return tuple(out)
 
 
 # --------------------------------------------------------------------------- the plant
@@ -671,7 +984,10 @@ def thermal_bias_eng(
         play = hysteresis_play(field, config)
     out = np.empty_like(x)
     for j, coef in enumerate(config.thermal):
-        out[:, j] = coef.evaluate(x[:, j], r[:, j], d[:, j], field.stress[:, j])
+        if config.mechanistic is not None:
+            out[:, j] = config.mechanistic[j].evaluate(field, j, config.t_ref_c)
+        else:
+            out[:, j] = coef.evaluate(x[:, j], r[:, j], d[:, j], field.stress[:, j])
         if fx.shupe and coef.shupe:
             out[:, j] += coef.shupe * field.coil_gradient_rate[:, j] * units.MIN_TO_S
         if fx.hysteresis and coef.hysteresis > 0 and play is not None:
@@ -857,14 +1173,18 @@ __all__ = [
     "DEFAULT_PRESET",
     "ENGINEERING_UNITS",
     "ENG_TO_SI",
+    "POLYNOMIAL_KEYS",
     "PRESETS",
     "STORAGE_C",
+    "THERMAL_LAWS",
     "ChannelThermal",
     "EffectsConfig",
     "ImuConfig",
+    "MechanisticThermal",
     "NoiseConfig",
     "OutputConfig",
     "SensorNoise",
+    "first_order_lag",
     "hysteresis_play",
     "load_imu",
     "log_units_to_si",
