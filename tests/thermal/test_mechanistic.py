@@ -97,12 +97,12 @@ def _t63(t: np.ndarray, y: np.ndarray) -> float:
     return float(t[k - 1] + w * (t[k] - t[k - 1]))
 
 
-def _documented_t63() -> dict[str, tuple[float, float]]:
-    """The table "node | chamber step t63 | power-on t63" of docs/plant.md [min]."""
+def _documented_t63() -> dict[str, tuple[float, float, float]]:
+    """The table "node | own C/ΣG | chamber step t63 | power-on t63" of docs/plant.md [min]."""
     text = DOCS.read_text()
     sec = text[text.index("## The mechanistic law") :]
-    rows = re.findall(r"^\| `(\w+)` \| [^|]* \| ([\d.]+) \| ([\d.]+) \|", sec, re.M)
-    return {name: (float(a), float(b)) for name, a, b in rows}
+    rows = re.findall(r"^\| `(\w+)` \| ([\d.]+) \| ([\d.]+) \| ([\d.]+) \|", sec, re.M)
+    return {name: (float(c), float(a), float(b)) for name, c, a, b in rows}
 
 
 def _scipy_lag(u: np.ndarray, dt: float, tau: float) -> np.ndarray:
@@ -134,8 +134,10 @@ def test_chamber_step_moves_each_node_with_its_documented_time_constant(chamber_
     doc = _documented_t63()
     assert {"housing", "electronics", "block", "sensor_gyro_x", "coil_gyro_x"} <= set(doc)
     power = simulate_field(ChamberProfile.constant(20.0), NET, 20 * 3600.0, power_on_s=0.0)
-    for name, (t_chamber, t_power) in doc.items():
+    A, _ = NET.system()
+    for name, (own, t_chamber, t_power) in doc.items():
         i = NODE_NAMES.index(name)
+        assert -1.0 / A[i, i] / 60 == pytest.approx(own, abs=0.006), name
         assert _t63(chamber_step.t, chamber_step.nodes[:, i]) / 60 == pytest.approx(
             t_chamber, abs=0.1
         ), name
