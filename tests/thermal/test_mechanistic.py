@@ -422,3 +422,14 @@ def test_true_compensation_of_a_mechanistic_plant_equals_an_imu_without_thermal_
     b = plant.thermal_bias(np.array([0.0, 3600.0]))
     assert np.all(np.abs(b[1, 3:] - b[0, 3:]) > 1e-5)  # > 1 µg on every accelerometer
     assert gap > 5.0  # metres (12 m here)
+
+
+def test_field_at_interpolates_the_nodes(cold_start) -> None:  # type: ignore[no-untyped-def]
+    t = np.array([0.0, 10.5, 3600.25, 1e9])
+    g = cold_start.at(t)
+    for i in (0, 1, 3, 10, 15):
+        np.testing.assert_allclose(
+            g.nodes[:, i], np.interp(t, cold_start.t, cold_start.nodes[:, i])
+        )
+    np.testing.assert_array_equal(g.node("sensor_gyro_y"), g.sensor[:, 1])
+    assert cold_start.at(t, nodes=False).nodes is None

@@ -268,7 +268,7 @@ class ThermalPlant:
         thermometers whatever other compensators run beside it.
         """
         tt = np.ascontiguousarray(t, dtype=float)
-        f = self.field.at(tt)
+        f = self.field.at(tt, nodes=False)
         th = self.config.thermometer
         key = zlib.crc32(tt.tobytes())
         rng = np.random.default_rng(np.random.SeedSequence(self._thermo_key, spawn_key=(key,)))
@@ -279,7 +279,7 @@ def temperature_frame(plant: ThermalPlant, step_s: float = 10.0) -> pd.DataFrame
     """True temperatures of a plant's run for plots: ``time_s, chamber, outer,
     sensor_<channel>`` [s, °C], every ``step_s``."""
     t = np.arange(0.0, float(plant.field.t[-1]) + 1e-9, step_s)
-    f = plant.field.at(t)
+    f = plant.field.at(t, nodes=False)
     df = pd.DataFrame({"time_s": t, "chamber": f.chamber, "outer": f.outer})
     for j, c in enumerate(CHANNELS):
         df[f"sensor_{c}"] = f.sensor[:, j]

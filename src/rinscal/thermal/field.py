@@ -440,8 +440,11 @@ class ThermalField:
         """Inner minus outer temperature of each sensor, ΔT, shape (n, 6) [°C]."""
         return self.sensor - self.outer[:, None]
 
-    def at(self, t: ArrayLike) -> ThermalField:
-        """The field linearly interpolated at times ``t`` [s] (held beyond the grid)."""
+    def at(self, t: ArrayLike, nodes: bool = True) -> ThermalField:
+        """The field linearly interpolated at times ``t`` [s] (held beyond the grid).
+
+        ``nodes=False`` leaves the network states out (``nodes`` None), for a caller that
+        reads only the thermometer-visible signals (less than half the work)."""
         t = np.asarray(t, dtype=float)
 
         def interp(y: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -459,7 +462,7 @@ class ThermalField:
             stress=interp(self.stress),
             coil_gradient=interp(self.coil_gradient),
             coil_gradient_rate=interp(self.coil_gradient_rate),
-            nodes=None if self.nodes is None else interp(self.nodes),
+            nodes=None if self.nodes is None or not nodes else interp(self.nodes),
         )
 
 
