@@ -427,6 +427,17 @@ def test_the_streamed_choice_on_the_simulated_soak_is_today_s(soak_small, step, 
         _same_choice(xo, yo, f.run_codes[ok], f.runs, to, monkeypatch, most)
 
 
+def test_rows_dropped_when_k_doubles_are_freed() -> None:
+    """The rows kept of earlier runs are copied when ``k`` doubles, never views that would
+    keep every dropped row in memory."""
+    x, codes, t = _runs(n_runs=5, n=1200)
+    sample = _feed(x, x[:, 0] ** 2, codes, t, 1000)
+    assert sample.step == 8
+    for part in sample.parts[:-1]:  # the last run came in at the final k: nothing dropped
+        for a in part.values():
+            assert a.base is None or a.base.size == a.size
+
+
 def test_the_choice_keeps_every_kth_row_however_long_the_log() -> None:
     """``auto`` keeps of a channel every k-th usable row of the log, k the smallest power
     of two that keeps at most SCREEN_SAMPLES, not every row: memory does not grow with the

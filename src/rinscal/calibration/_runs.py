@@ -161,8 +161,8 @@ class RowSample:
             for off, p in zip(self.offsets, self.parts, strict=True):
                 first = (-off) % self.step
                 i0 = ((-off - first) % step) // self.step
-                for key in p:
-                    p[key] = p[key][i0 :: step // self.step]
+                for key in p:  # copies: a view would keep every dropped row alive
+                    p[key] = p[key][i0 :: step // self.step].copy()
             self.step = step
         keep = np.arange((-self.seen) % step, n, step)
         part = {"x": x[keep], "y": y[keep], "t": t[keep]}
