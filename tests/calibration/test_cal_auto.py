@@ -427,6 +427,17 @@ def test_the_streamed_choice_on_the_simulated_soak_is_today_s(soak_small, step, 
         _same_choice(xo, yo, f.run_codes[ok], f.runs, to, monkeypatch, most)
 
 
+def test_rows_dropped_when_k_doubles_are_freed() -> None:
+    """The rows kept of earlier runs are copied when ``k`` doubles, never views that would
+    keep every dropped row in memory."""
+    x, codes, t = _runs(n_runs=5, n=1200)
+    sample = _feed(x, x[:, 0] ** 2, codes, t, 1000)
+    assert sample.step == 8
+    for part in sample.parts[:-1]:  # the last run came in at the final k: nothing dropped
+        for a in part.values():
+            assert a.base is None or a.base.size == a.size
+
+
 def test_the_choice_keeps_every_kth_row_however_long_the_log() -> None:
     """``auto`` keeps of a channel every k-th usable row of the log, k the smallest power
     of two that keeps at most SCREEN_SAMPLES, not every row: memory does not grow with the
@@ -504,3 +515,28 @@ def test_rinscal_fit_writes_the_whole_rows_choice_while_keeping_every_4th_row(
             )
         sel = written.models[c].selection
         assert (sel["chosen"], sel["fallback"]) == (ref.chosen.name, ref.fallback.name), c
+
+
+def test_the_fold_fits_of_one_batched_qr_are_the_fits_one_by_one() -> None:
+    """The held-out polynomial fits leave each fold's factor out in one batched QR: the same
+    numbers as one QR per fold, rank-deficient designs refused alike."""
+    from rinscal.calibration._fit import fit_factors, fit_factors_leaving_out
+
+    rng = np.random.default_rng(3)
+    m = 12
+    for trial in range(50):
+        rs = [
+            np.linalg.qr(rng.normal(size=(40, m)) * rng.uniform(0.1, 100, m), mode="r")
+            for _ in range(7)
+        ]
+        if trial % 5 == 0:  # a collinear design
+            for r in rs:
+                r[:, 2] = r[:, 1]
+        inner = rng.choice(np.arange(1, m - 1), size=int(rng.integers(1, 9)), replace=False)
+        sel = [0, *sorted(inner.tolist()), m - 1]
+        got = fit_factors_leaving_out(rs, sel)
+        for k in range(7):
+            want = fit_factors([rs[j] for j in range(7) if j != k], sel)
+            assert (got[k] is None) == (want is None)
+            if want is not None:
+                np.testing.assert_array_equal(got[k], want)

@@ -361,3 +361,15 @@ def test_param_validation_missing_key_and_accepts_the_good_forms() -> None:
     np.testing.assert_allclose(
         predict_params(GOOD, x), [1 - 40 + 1200 - 32000, 1, 10, 1 + 40 + 1200 + 32000]
     )
+
+
+def test_distinct_values_are_counted_as_numpy_unique_counts_them() -> None:
+    """The cubic fits refuse fewer than 4 distinct temperatures: the count without a sort
+    says what ``np.unique`` says, NaNs (one value), signed zeros and infinities included."""
+    from rinscal.calibration.baselines import _distinct_at_least
+
+    rng = np.random.default_rng(0)
+    for _ in range(2000):
+        x = rng.choice([0.0, -0.0, 1.0, 2.0, np.nan, np.inf, -np.inf, 3.5], size=rng.integers(12))
+        for m in range(1, 6):
+            assert _distinct_at_least(x, m) == (np.unique(x).size >= m)

@@ -118,6 +118,28 @@ def test_gradient_and_missing_outer_temperature() -> None:
     np.testing.assert_array_equal(g.rate, f.rate)
 
 
+@pytest.mark.parametrize("gradient", [True, False])
+def test_one_channel_s_features_are_those_of_all_channels(gradient: bool) -> None:
+    """A fit builds one channel at a time: its inputs are one block, handed out as the
+    feature matrix without a copy (read-only), the same numbers as built with every channel."""
+    rng = np.random.default_rng(8)
+    log = synthetic_log(rng)
+    if not gradient:
+        log = log.drop(columns="temp_out")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", MissingGradientWarning)
+        every = build_features(log)
+        for j, c in enumerate(CHANNELS):
+            one = build_features(log, channels=(c,))
+            x = one.matrix(0)
+            assert x.shape == (len(log), 3 if gradient else 2) and not x.flags.writeable
+            assert np.shares_memory(x, one.temp) and np.shares_memory(x, one.rate)
+            np.testing.assert_array_equal(x, every.matrix(j))
+            np.testing.assert_array_equal(one.output[:, 0], every.output[:, j])
+            np.testing.assert_array_equal(one.inlier[:, 0], every.inlier[:, j])
+            np.testing.assert_array_equal(one.usable(0), every.usable(j))
+
+
 def test_shared_inner_temperature() -> None:
     rng = np.random.default_rng(6)
     log = synthetic_log(rng)

@@ -161,8 +161,8 @@ class RowSample:
             for off, p in zip(self.offsets, self.parts, strict=True):
                 first = (-off) % self.step
                 i0 = ((-off - first) % step) // self.step
-                for key in p:
-                    p[key] = p[key][i0 :: step // self.step]
+                for key in p:  # copies: a view would keep every dropped row alive
+                    p[key] = p[key][i0 :: step // self.step].copy()
             self.step = step
         keep = np.arange((-self.seen) % step, n, step)
         part = {"x": x[keep], "y": y[keep], "t": t[keep]}
@@ -209,8 +209,10 @@ def _median_at(y: np.ndarray, keep: np.ndarray) -> np.ndarray:
     padded = np.concatenate([np.zeros(h), y, np.zeros(h)])
     view = np.lib.stride_tricks.sliding_window_view(padded, PX4_MEDIAN_KERNEL)
     out = np.empty(keep.size)
-    for s in range(0, keep.size, 1 << 16):  # a few MB of windows at a time
-        out[s : s + (1 << 16)] = np.partition(view[keep[s : s + (1 << 16)]], h, axis=1)[:, h]
+    for s in range(0, keep.size, 1 << 14):  # a few MB of windows at a time, in cache
+        w = view[keep[s : s + (1 << 14)]]  # a copy of the windows: partitioned in place
+        w.partition(h, axis=1)
+        out[s : s + (1 << 14)] = w[:, h]
     return out
 
 
@@ -220,11 +222,7 @@ def _moving_average_at(
     """ArduPilot's smoothed ``T`` and output at rows ``keep`` of one run (window centred on
     the row, as :func:`rinscal.calibration.baselines.ardupilot_smoothed` places it); NaN where
     no complete window is centred there."""
-    from rinscal.calibration.baselines import (
-        ARDUPILOT_WINDOW_S,
-        ardupilot_window,
-        moving_average,
-    )
+    from rinscal.calibration.baselines import ARDUPILOT_WINDOW_S, ardupilot_window
 
     ts, ys = np.full(keep.size, np.nan), np.full(keep.size, np.nan)
     if temp.size < 2:
@@ -237,8 +235,19 @@ def _moving_average_at(
         return temp[keep], y[keep]
     i = keep - w // 2
     ok = (i >= 0) & (i <= temp.size - w)
-    ts[ok], ys[ok] = moving_average(temp, w)[i[ok]], moving_average(y, w)[i[ok]]
+    ts[ok], ys[ok] = _window_means(temp, w, i[ok]), _window_means(y, w, i[ok])
     return ts, ys
+
+
+def _window_means(x: np.ndarray, w: int, i: np.ndarray) -> np.ndarray:
+    """:func:`rinscal.calibration.baselines.moving_average` of ``x`` at positions ``i`` only
+    (each ``0 ≤ i ≤ n − w``): the same numbers, the same cumulative sums, without the means
+    of every other window."""
+    x0 = x[0]
+    c = np.empty(x.size + 1)
+    c[0] = 0.0
+    np.cumsum(x - x0, out=c[1:])
+    return (c[i + w] - c[i]) / w + x0
 
 
 class RunFits:

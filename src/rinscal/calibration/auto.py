@@ -68,7 +68,7 @@ from rinscal.calibration._fit import (
     _center_scale,
     _power_basis,
     factor_ss_about_mean,
-    fit_factors,
+    fit_factors_leaving_out,
     fit_params,
     solve_r,
     tsqr,
@@ -647,8 +647,10 @@ def _averaging_blocks(
     idx = np.flatnonzero(scored)
     if not idx.size:
         return out
-    key = np.column_stack([folds[idx], run_codes[idx], np.floor(t[idx] / BLOCK_S)])
-    change = np.concatenate([[0], np.any(np.diff(key, axis=0) != 0, axis=1).astype(np.int64)])
+    # a new block where the fold, the run or the BLOCK_S interval changes
+    change = np.zeros(idx.size, dtype=np.int64)
+    for key in (folds[idx], run_codes[idx], np.floor(t[idx] / BLOCK_S)):
+        change[1:] |= key[1:] != key[:-1]
     out[idx] = np.cumsum(change)
     return out
 
@@ -741,8 +743,9 @@ def _polynomial_scores(
         sel = [*cols, n_terms]
         m = len(cols)
         ss = np.empty(n_units)
+        betas = fit_factors_leaving_out(rs, sel)
         for k in range(n_folds):
-            beta = fit_factors([rs[j] for j in range(n_folds) if j != k], sel)
+            beta = betas[k]
             mine = np.flatnonzero(unit_fold == k)
             if beta is None:
                 ss[mine] = np.nan
@@ -1016,9 +1019,12 @@ def _choose_scored(
         nf = len(folds.names)
         nu = len(folds.unit_names)
         blocks = _averaging_blocks(units, run_codes, t, scored)
-        counts = np.array(
-            [len(np.unique(blocks[(units == u) & (blocks >= 0)])) for u in range(nu)], dtype=int
-        )
+        # averaging blocks of each unit: a block is one stretch of rows of one unit, numbered
+        # in row order, so each block's first row counts it
+        idx = np.flatnonzero(blocks >= 0)
+        first = idx[np.concatenate([[True], np.diff(blocks[idx]) != 0])] if idx.size else idx
+        of = units[first]
+        counts = np.bincount(of[(of >= 0) & (of < nu)], minlength=nu).astype(int)
         poly = [c for c in cands if c.orders is not None]
         fast = (
             _polynomial_scores(x, y, codes, nf, poly, blocks, units, folds.unit_fold)

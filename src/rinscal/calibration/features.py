@@ -217,6 +217,18 @@ class Features:
         """
         j = self._index(channel)
         cols = [self.temp, self.rate] + ([self.grad] if self.grad is not None else [])
+        block = self.temp.base
+        if (  # one channel's features built as one block (build_features): that block
+            isinstance(block, np.ndarray)
+            and block.shape == (self.temp.shape[0], len(cols))
+            and block.flags.f_contiguous
+            and all(
+                a.base is block and np.may_share_memory(a, block[:, v]) for v, a in enumerate(cols)
+            )
+        ):
+            x = block.view()
+            x.flags.writeable = False  # the features' own arrays
+            return x
         # column-major: each input is one contiguous column (fits and checks go by column)
         x = np.empty((self.temp.shape[0], len(cols)), order="F")
         for v, a in enumerate(cols):
@@ -468,14 +480,23 @@ def build_features(
     t = log[TIME].to_numpy(dtype=np.float64)
     tcols = [temperature_column(log, c) for c in channels]
     uniq = list(dict.fromkeys(tcols))
-    # the rate kernel runs along rows (row-major); the (n, m) features are column-major,
-    # one contiguous column per channel, as every later step reads them
-    tmat_u = np.column_stack([log[c].to_numpy(dtype=np.float64) for c in uniq])
     col_of = np.array([uniq.index(c) for c in tcols])
-    temp = _columns(log, tcols)
+    single = m == 1  # one channel (a fit builds them one at a time): no copies between steps
+    if single:
+        # T, Ṫ (, ΔT) as the columns of one column-major block: the channel's feature
+        # matrix as it is (:meth:`Features.matrix` returns it, not a copy)
+        block = np.empty((n, 3 if use_gradient else 2), order="F")
+        temp, rate = block[:, 0:1], block[:, 1:2]
+        temp[:, 0] = log[tcols[0]].to_numpy(dtype=np.float64)
+        tmat_u, rate_u = temp, rate  # (n, 1): row-major and column-major alike
+    else:
+        # the rate kernel runs along rows (row-major); the (n, m) features are column-major,
+        # one contiguous column per channel, as every later step reads them
+        tmat_u = np.column_stack([log[c].to_numpy(dtype=np.float64) for c in uniq])
+        temp = _columns(log, tcols)
+        rate_u = np.empty_like(tmat_u)
     output = _columns(log, channels)
     codes, runs, rows = run_slices(log[RUN])
-    rate_u = np.empty_like(tmat_u)
     outl = np.zeros((n, m), dtype=bool, order="F")
     removed = np.zeros((len(runs), m), dtype=np.int64)
     missing = np.zeros((len(runs), m), dtype=np.int64)
@@ -491,14 +512,18 @@ def build_features(
             outl[r] = o
             removed[k] = o.sum(axis=0)
         missing[k] = (~np.isfinite(output[r])).sum(axis=0)
-    rate = np.empty((n, m), order="F")
-    for j, u in enumerate(col_of):
-        rate[:, j] = rate_u[:, u]
-    del rate_u
+    if not single:
+        rate = np.empty((n, m), order="F")
+        for j, u in enumerate(col_of):
+            rate[:, j] = rate_u[:, u]
+        del rate_u
     grad = None
     if use_gradient:
         tout = log[TEMP_OUT].to_numpy(dtype=np.float64)
-        grad = temp - tout[:, None]
+        if single:
+            grad = np.subtract(temp, tout[:, None], out=block[:, 2:3])
+        else:
+            grad = temp - tout[:, None]
     inlier = np.isfinite(output) & ~outl
     report = OutlierReport(
         runs=runs,

@@ -454,7 +454,7 @@ class ThermalModel:
         where = f"{source}: " if source else ""
         fitting: _Fitting | None = None
         for log, first_row in runs:
-            _, names, rows = run_slices(log[RUN])
+            names, rows = run_slices(log[RUN])[1:]  # not the codes: a row each
             res = self._check_temperatures(log, rows, first_row, where)
             codes: list[int] | None = None
             for c in self.channels:  # a channel at a time: memory of one channel's features
@@ -493,10 +493,13 @@ class ThermalModel:
         temps = {c: log[c].to_numpy(dtype=np.float64) for c in cols}
         out = []
         for idx in rows:
+            r: slice | np.ndarray = idx
+            if idx.size and idx[-1] - idx[0] + 1 == idx.size:  # one block: views, not copies
+                r = slice(int(idx[0]), int(idx[-1]) + 1)
             try:
                 out.append(
                     check_temperatures(
-                        {c: v[idx] for c, v in temps.items()},
+                        {c: v[r] for c, v in temps.items()},
                         self.temp_range,
                         rows=first_row + idx + 1,
                         warn=False,

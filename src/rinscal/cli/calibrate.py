@@ -326,9 +326,14 @@ def fit(
             )
 
             def runs(sources: Iterator[SourceLog]) -> Iterator[tuple[pd.DataFrame, int]]:
-                for k, src in enumerate(sources):
-                    progress.update(task, description=f"features of run {k + 1}")
+                # no enumerate: its reused result tuple would hold the last run while the
+                # next is read (two runs in memory at once)
+                k = 0
+                for src in sources:
+                    k += 1
+                    progress.update(task, description=f"features of run {k}")
                     yield src.log, src.first_row
+                    del src  # nor this frame
 
             def step(channel: str) -> None:
                 progress.update(task, advance=1, description=f"fitted {channel}")
