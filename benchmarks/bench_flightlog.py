@@ -5,15 +5,15 @@ one-hour, three-IMU 400 Hz DataFlash log, 233 MB), then time each reader as a wh
 paired with its peer::
 
     python benchmarks/bench_flightlog.py write /tmp/fl
-    farm-bench -n 3 --pin 0 --timeout 1500 \\
-        --vs "python benchmarks/bench_flightlog.py pyulog /tmp/fl/ulog1h.ulg" \\
-        -- python benchmarks/bench_flightlog.py read /tmp/fl/ulog1h.ulg
-    farm-bench -n 2 --pin 0 --timeout 1500 \\
-        --vs "ulog2csv -m sensor_gyro,sensor_accel -o /tmp/fl/csv /tmp/fl/ulog1h.ulg" \\
-        -- rinscal plot /tmp/fl/ulog1h.ulg --out /tmp/fl/imus.png
-    farm-bench -n 2 --pin 0 --timeout 1500 \\
-        --vs "python benchmarks/bench_flightlog.py pymavlink /tmp/fl/df1h.bin" \\
-        -- python benchmarks/bench_flightlog.py read /tmp/fl/df1h.bin
+    taskset -c 0 /usr/bin/time -v python benchmarks/bench_flightlog.py read /tmp/fl/ulog1h.ulg
+    taskset -c 0 /usr/bin/time -v python benchmarks/bench_flightlog.py pyulog /tmp/fl/ulog1h.ulg
+    taskset -c 0 /usr/bin/time -v rinscal plot /tmp/fl/ulog1h.ulg --out /tmp/fl/imus.png
+    taskset -c 0 /usr/bin/time -v ulog2csv -m sensor_gyro,sensor_accel -o /tmp/fl/csv \
+        /tmp/fl/ulog1h.ulg
+    taskset -c 0 /usr/bin/time -v python benchmarks/bench_flightlog.py read /tmp/fl/df1h.bin
+    taskset -c 0 /usr/bin/time -v python benchmarks/bench_flightlog.py pymavlink /tmp/fl/df1h.bin
+
+each several times, rinscal and its peer in turn (A B A B), quoting medians.
 
 ``read`` is rinscal's reader (every instance into one canonical frame); ``pyulog`` is
 pyulog's parse of the two topics; ``pymavlink`` is the message loop ArduPilot's
