@@ -181,22 +181,7 @@ class ColumnMapping:
                     f"columns: {foreign!r} -> {canon!r}: {canon!r} is not a canonical column "
                     f"(canonical: {', '.join(CANONICAL)})"
                 )
-        targets = list(self.columns.values())
-        if self.time is not None:
-            targets.append(TIME)
-        if self.temperature is not None:
-            targets.append(TEMP_IN)
-        dup = sorted({t for t in targets if targets.count(t) > 1})
-        if dup:
-            raise ConfigError(f"columns: several foreign columns map to {', '.join(dup)}")
-        if self.time_unit not in TIME_UNITS:
-            raise ConfigError(
-                f"time_unit: {self.time_unit!r} is not one of {', '.join(TIME_UNITS)}"
-            )
-        if self.separator is not None and self.separator not in SEPARATORS:
-            raise ConfigError(
-                f"separator: {self.separator!r} is not one of auto, tab, comma, semicolon"
-            )
+        check_mapping_basics(self)
         for ch, k in self.scale.items():
             if ch not in CHANNELS:
                 raise ConfigError(f"scale: {ch!r} is not a channel ({', '.join(CHANNELS)})")
@@ -268,6 +253,36 @@ class ColumnMapping:
         cols = list(self.columns)
         cols += [c for c in (self.time, self.temperature) if c is not None]
         return cols
+
+
+def check_mapping_basics(mapping: Any) -> None:
+    """The checks every mapping shares: no two foreign columns onto one canonical name, a
+    known time unit and separator.
+
+    Parameters
+    ----------
+    mapping : ColumnMapping or rinscal.navlog.NavMapping
+        Anything with ``columns``, ``time``, ``temperature``, ``time_unit``, ``separator``.
+
+    Raises
+    ------
+    ConfigError
+        Naming the key.
+    """
+    targets = list(mapping.columns.values())
+    if mapping.time is not None:
+        targets.append(TIME)
+    if mapping.temperature is not None:
+        targets.append(TEMP_IN)
+    dup = sorted({t for t in targets if targets.count(t) > 1})
+    if dup:
+        raise ConfigError(f"columns: several foreign columns map to {', '.join(dup)}")
+    if mapping.time_unit not in TIME_UNITS:
+        raise ConfigError(f"time_unit: {mapping.time_unit!r} is not one of {', '.join(TIME_UNITS)}")
+    if mapping.separator is not None and mapping.separator not in SEPARATORS:
+        raise ConfigError(
+            f"separator: {mapping.separator!r} is not one of auto, tab, comma, semicolon"
+        )
 
 
 def channel_unit(units: Mapping[str, Any], channel: str) -> str | None:

@@ -95,6 +95,7 @@ from rinscal.io import (
     _sniff_text,
     _text_frames,
     channel_unit,
+    check_mapping_basics,
     format_of,
     read_meta,
 )
@@ -298,22 +299,7 @@ class NavMapping:
                     f"columns: {foreign!r} -> {canon!r}: {canon!r} is not a column of the "
                     f"navigation log (canonical: {', '.join(NAV_CANONICAL)})"
                 )
-        targets = list(self.columns.values())
-        if self.time is not None:
-            targets.append(TIME)
-        if self.temperature is not None:
-            targets.append(TEMP_IN)
-        dup = sorted({t for t in targets if targets.count(t) > 1})
-        if dup:
-            raise ConfigError(f"columns: several foreign columns map to {', '.join(dup)}")
-        if self.time_unit not in TIME_UNITS:
-            raise ConfigError(
-                f"time_unit: {self.time_unit!r} is not one of {', '.join(TIME_UNITS)}"
-            )
-        if self.separator is not None and self.separator not in SEPARATORS:
-            raise ConfigError(
-                f"separator: {self.separator!r} is not one of auto, tab, comma, semicolon"
-            )
+        check_mapping_basics(self)
         for key, unit in self.units.items():
             if key not in CHANNELS and key not in _GROUPS:
                 raise ConfigError(

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -504,4 +505,36 @@ class Aligner:
         )
 
 
-__all__ = ["AlignConfig", "AlignResult", "Aligner", "InertialCoarseAlign", "wahba"]
+def feed_and_hand_over(variant: Any, dtheta: NDArray[np.float64], dv: NDArray[np.float64]) -> int:
+    """Feed a navigation variant's aligner; once it is done, hand its strapdown and bias
+    estimates over to the variant.
+
+    Parameters
+    ----------
+    variant : object
+        With attributes ``aligner`` (an :class:`Aligner`), ``nav``, ``gyro_bias`` and
+        ``accel_bias`` (set here when the alignment ends).
+    dtheta, dv : ndarray, shape (n, 3) [rad, m/s]
+        Compensated increments from where the aligner stands.
+
+    Returns
+    -------
+    int
+        Samples the alignment consumed (the rest are navigation's).
+    """
+    used = variant.aligner.feed(dtheta, dv)
+    if variant.aligner.done:
+        variant.nav = variant.aligner.nav
+        variant.gyro_bias = variant.aligner.gyro_bias.copy()
+        variant.accel_bias = variant.aligner.accel_bias.copy()
+    return int(used)
+
+
+__all__ = [
+    "AlignConfig",
+    "AlignResult",
+    "Aligner",
+    "InertialCoarseAlign",
+    "feed_and_hand_over",
+    "wahba",
+]

@@ -39,7 +39,7 @@ from numpy.typing import NDArray
 from rinscal import units
 from rinscal.errors import ConfigError, LogError
 from rinscal.nav import earth
-from rinscal.nav.align import AlignConfig, Aligner, AlignResult
+from rinscal.nav.align import AlignConfig, Aligner, AlignResult, feed_and_hand_over
 from rinscal.nav.strapdown import Strapdown, VerticalMode
 from rinscal.schema import CHANNELS, GAP_FACTOR, NavSamples
 
@@ -1083,11 +1083,7 @@ def navigate_recording(
                 d_v = d_v - c[:, 3:] * s.dt[:, None]
             i0 = i_first
             if not v.aligner.done:
-                i0 += v.aligner.feed(d_th[i_first:], d_v[i_first:])
-                if v.aligner.done:
-                    v.nav = v.aligner.nav
-                    v.gyro_bias = v.aligner.gyro_bias.copy()
-                    v.accel_bias = v.aligner.accel_bias.copy()
+                i0 += feed_and_hand_over(v, d_th[i_first:], d_v[i_first:])
             if i0 < s.n:
                 assert v.nav is not None
                 step = s.dt[i0:, None]  # the estimates are rates: over each sample's own interval

@@ -33,7 +33,7 @@ from numpy.typing import NDArray
 from rinscal import units
 from rinscal.errors import ConfigError
 from rinscal.nav import earth
-from rinscal.nav.align import AlignConfig, Aligner, AlignResult
+from rinscal.nav.align import AlignConfig, Aligner, AlignResult, feed_and_hand_over
 from rinscal.nav.imu import ImuChunk, ImuSynthesizer
 from rinscal.nav.rotation import C_br, RotationSchedule
 from rinscal.nav.sensors import (
@@ -622,11 +622,7 @@ def run_scenario(
                 d_v = d_v - c[:, 3:] * dt
             i0 = 0
             if v.aligner is not None and not v.aligner.done:
-                i0 = v.aligner.feed(d_th, d_v)
-                if v.aligner.done:
-                    v.nav = v.aligner.nav
-                    v.gyro_bias = v.aligner.gyro_bias.copy()
-                    v.accel_bias = v.aligner.accel_bias.copy()
+                i0 = feed_and_hand_over(v, d_th, d_v)
             if i0 < ch.n:
                 assert v.nav is not None
                 out = v.nav.run(
