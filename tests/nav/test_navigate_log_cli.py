@@ -145,10 +145,13 @@ def test_pulse_counts_in_front_right_down_through_a_mapping(recorded, tmp_path) 
     assert res.exit_code == 0, res.output
     a, b = _errors(d / "sim_increments"), _errors(tmp_path / "out")
     np.testing.assert_array_equal(a["time_s"], b["time_s"])
-    scale = a["horizontal_m"].max()
     diff = np.max(np.abs(a["horizontal_m"] - b["horizontal_m"]))
-    # measured: 2e-3 of the error; a wrong axis, sign or weight gives order 1
-    assert diff <= 0.02 * scale + 0.5, (diff, scale)
+    # what the quantisation explains: at most one count of attitude (0.1″ of tilt, g·θ·t²/2)
+    # and one count of velocity (w_a·t) carried through the navigated time t (300 s):
+    # 0.21 m + 0.37 m; measured 0.10 m of a 7.8 m error
+    t_nav = float(a["time_s"].iloc[-1] - a["time_s"].iloc[0])
+    bound = 0.5 * units.G0 * w_g * t_nav**2 + w_a * t_nav
+    assert 0.0 < diff <= bound, (diff, bound)
     s = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert sorted(s["recording"]["rotation"]["positions_deg"]) == [-135, -45, 45, 135]
     assert s["recording"]["noise"]["source"] == "--imu paper"
