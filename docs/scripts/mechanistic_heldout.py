@@ -2,7 +2,7 @@
 
 Run from the repository root (a few minutes on one core; ``--neural`` adds the network)::
 
-    python docs/scripts/mechanistic_heldout.py [--neural]
+    python docs/scripts/mechanistic_heldout.py [--neural] [--auto]
 
 For each preset, the soak protocol (7 × 3 h at 1 Hz, seed 1) trains every method, as
 ``rinscal simulate soak --rate 1 --seed 1`` then ``rinscal fit --method M`` would; the
@@ -54,9 +54,10 @@ def heldout_fractions(
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--neural", action="store_true", help="add the neural method (slow)")
+    ap.add_argument("--auto", action="store_true", help="add the auto method")
     ap.add_argument("--preset", action="append", choices=PRESETS, help="default: all four")
     args = ap.parse_args(argv)
-    methods = METHODS + (("neural",) if args.neural else ())
+    methods = METHODS + (("neural",) if args.neural else ()) + (("auto",) if args.auto else ())
     rows = []
     for preset in args.preset or PRESETS:
         frac = heldout_fractions(preset, methods)
