@@ -127,14 +127,39 @@ def test_match_residual_is_what_the_header_says(base: str) -> None:
         assert abs(res[ch]["pct"] - said[ch][1]) < 0.006, ch
 
 
-def test_regression_leaves_more_of_the_swing_on_the_mechanistic_paper() -> None:
+ACCELS = ["accel_x", "accel_y", "accel_z"]
+
+
+@cache
+def _worst_accel(preset: str, methods: tuple[str, ...]) -> dict[str, float]:
+    frac = mh.heldout_fractions(preset, methods)
+    return {m: float(frac.loc[ACCELS, m].max()) for m in methods}
+
+
+def test_every_method_leaves_more_of_the_swing_on_the_mechanistic_paper() -> None:
     """Trained on soak (7 × 3 h, 1 Hz), held out on repeat: the worst accelerometer's share
-    of the thermal swing the regression leaves, 2-7 % on paper, >= 20 % (measured 23.7 %)
-    on paper_mechanistic (docs/plant.md's table)."""
-    worst = {}
-    for preset in ("paper", "paper_mechanistic"):
-        frac = mh.heldout_fractions(preset, ("regression",))
-        worst[preset] = frac.loc[["accel_x", "accel_y", "accel_z"], "regression"].max()
-    assert 0.02 <= worst["paper"] <= 0.07
-    assert worst["paper_mechanistic"] >= 0.20
-    assert worst["paper_mechanistic"] > 3 * worst["paper"]
+    of the thermal swing left. The regression: 2-7 % on paper, >= 20 % (measured 23.7 %) on
+    paper_mechanistic; poly-t and sectional leave more than that there (docs/plant.md)."""
+    methods = ("poly-t", "sectional", "regression")
+    paper = _worst_accel("paper", methods)
+    mech = _worst_accel("paper_mechanistic", methods)
+    assert 0.02 <= paper["regression"] <= 0.07
+    assert mech["regression"] >= 0.20
+    assert mech["regression"] > 3 * paper["regression"]
+    assert min(mech.values()) >= 0.20
+
+
+def test_navigation_grade_mechanistic_is_not_told_apart_by_the_regression() -> None:
+    """On navigation_grade's class the regression leaves >= 10 % on the mechanistic preset,
+    but as much on the polynomial one: the common hysteresis and noise, not the law."""
+    nav = _worst_accel("navigation_grade", ("regression",))["regression"]
+    mech = _worst_accel("navigation_grade_mechanistic", ("regression",))["regression"]
+    assert mech >= 0.10 and nav >= 0.10
+    assert abs(mech - nav) < 0.03
+
+
+@pytest.mark.slow
+def test_neural_and_auto_leave_more_of_the_swing_on_the_mechanistic_paper() -> None:
+    """The same fraction for the network and auto (measured 51.7 % and 24.8 %)."""
+    mech = _worst_accel("paper_mechanistic", ("neural", "auto"))
+    assert min(mech.values()) >= 0.20
