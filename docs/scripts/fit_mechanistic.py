@@ -19,13 +19,13 @@ For each base preset (``paper``, ``navigation_grade``):
 3. Per channel, the law's coefficients ``b0, k_t, k_mount, k_mount2, k_elec, k_path,
    k_coil (gyros), k_stress`` enter linearly: for fixed nonlinear parameters they are a
    least-squares solve over all seven runs stacked (absolute bias, so the level across set
-   points is matched as well as the transients). The solve bounds every term's swing: on
-   standardised regressors, no coefficient (that term's standard deviation over the soak)
-   may exceed ``SWING`` = 2 times the target's standard deviation (bounded least squares,
-   ``b0`` free). Without the bound the fit matches much more closely, but only with large
-   opposite terms cancelling (for paper's accel_x, k_elec ≈ −k_path ≈ −k_mount ≈ 800 µg/°C,
-   whose sum is ``k·(L[T_e] − T_e) ≈ −k·τ·dT_e/dt``: a rate term made out of the difference
-   of two large ones, on a unit whose whole drift is ~50 µg); that is not the law's physics.
+   points is matched as well as the transients). The solve bounds every term's swing: within
+   the runs (RMS about each run's mean, pooled over the seven), no term may swing more than
+   ``SWING`` = 2 times the target does (bounded least squares, ``b0`` free). Without the
+   bound the fit matches much more closely, but only with large opposite terms cancelling
+   (for paper's accel_x, k_elec ≈ −k_path ≈ −k_mount ≈ 860 µg/°C, whose sum is
+   ``k·(L[T_e] − T_e) ≈ −k·τ·dT_e/dt``: a rate term made out of the difference of two large
+   ones, on a unit whose whole drift is ~50 µg); that is not the law's physics.
 4. The nonlinear parameters, bounded to physical ranges: ``t_sat_c`` in [5, 100] °C (a
    compensated sensor's residual bends over within a few tens of degrees) and ``tau_elec_s``
    in [60, 3600] s (the readout's parts 1-60 min behind the electronics-box node): a
@@ -77,8 +77,8 @@ T_SAT_BOUNDS = (5.0, 100.0)
 TAU_ELEC_BOUNDS = (60.0, 3600.0)
 #: Grid points per nonlinear parameter (log-spaced within its bounds).
 GRID = 13
-#: Largest swing of any one term over the soak (its standard deviation), in units of the
-#: target's standard deviation: no mechanism may be much larger than the whole drift.
+#: Largest swing of any one term within the soak runs (RMS about each run's mean, pooled), in
+#: units of the target's: no mechanism may be much larger than the whole drift.
 SWING = 2.0
 #: Smallest step of the refinement [log units]: 0.5 %.
 STEP_MIN = 0.005
@@ -138,11 +138,12 @@ def regressors(
     )
 
 
-def _solve(X: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Least squares on standardised columns with every mechanism's swing bounded: the
-    coefficient of a standardised column (that term's standard deviation over the soak) at
-    most :data:`SWING` times the target's standard deviation. The constant (column 0) is
-    free; all-zero columns (an accelerometer's coil) get a zero coefficient."""
+def _solve(
+    X: NDArray[np.float64], y: NDArray[np.float64], runs: NDArray[np.int64]
+) -> NDArray[np.float64]:
+    """Least squares with every mechanism's swing bounded: within the runs (RMS about each
+    run's mean, pooled), no term may swing more than :data:`SWING` times the target. The
+    constant (column 0) is free; all-zero columns (an accelerometer's coil) get zero."""
     mu = X.mean(axis=0)
     sd = X.std(axis=0)
     live = sd > 0
@@ -154,7 +155,9 @@ def _solve(X: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64
     # the same minimiser from the small normal equations: ||R b - R^-T h||, G = R^T R
     R = np.linalg.cholesky(G + 1e-12 * np.trace(G) * np.eye(G.shape[0])).T
     rhs = scipy.linalg.solve_triangular(R, h, trans="T")
-    cap = SWING * float(y.std())
+    sd_run = np.sqrt(np.mean(_about_run_mean(X[:, live], runs) ** 2, axis=0))
+    y_run = float(np.sqrt(np.mean(_about_run_mean(y, runs) ** 2)))
+    cap = SWING * y_run * sd[live] / np.maximum(sd_run, 1e-300)
     beta = scipy.optimize.lsq_linear(R, rhs, bounds=(-cap, cap), method="bvls").x
     coef = np.zeros(X.shape[1])
     coef[live] = beta / sd[live]
@@ -163,11 +166,17 @@ def _solve(X: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64
 
 
 def _about_run_mean(v: NDArray[np.float64], runs: NDArray[np.int64]) -> NDArray[np.float64]:
-    out = v.copy()
+    """``v`` (n,) or (n, k) less its mean over each run."""
+    out = np.array(v, dtype=np.float64, copy=True)
     for k in np.unique(runs):
         m = runs == k
-        out[m] -= out[m].mean()
+        out[m] -= out[m].mean(axis=0)
     return out
+
+
+def run_index(fields: list[ThermalField]) -> NDArray[np.int64]:
+    """The run of every stacked sample."""
+    return np.concatenate([np.full(f.t.size, k) for k, f in enumerate(fields)])
 
 
 def fit_channel(
@@ -175,6 +184,7 @@ def fit_channel(
 ) -> tuple[MechanisticThermal, dict[str, float]]:
     """Fit channel ``j``'s mechanistic coefficients to ``target`` (stacked over ``fields``)."""
     t_mount = config.t_cal_c
+    runs = run_index(fields)
 
     def design(t_sat: float, tau: float) -> NDArray[np.float64]:
         return np.concatenate(
@@ -183,7 +193,7 @@ def fit_channel(
 
     def cost(p: NDArray[np.float64]) -> float:
         X = design(math.exp(p[0]), math.exp(p[1]))
-        c = _solve(X, target)
+        c = _solve(X, target, runs)
         return float(np.mean((X @ c - target) ** 2))
 
     lo = np.log([T_SAT_BOUNDS[0], TAU_ELEC_BOUNDS[0]])
@@ -195,7 +205,7 @@ def fit_channel(
     p0 = np.array(grid[int(np.argmin(costs))])
     p = _pattern_search(cost, p0, lo, hi, costs[int(np.argmin(costs))])
     t_sat, tau = math.exp(p[0]), math.exp(p[1])
-    c = _solve(design(t_sat, tau), target)
+    c = _solve(design(t_sat, tau), target, runs)
     kw = {k: _round(v) for k, v in zip(LINEAR, c, strict=True)}
     if j >= N_GYROS:
         kw["k_coil"] = 0.0
@@ -262,7 +272,7 @@ def match_residual(
     """Per channel: the match on the soak fields of ``mech``'s law against ``base``'s
     polynomial bias: ``rms`` [unit] of the difference, ``pct`` of the target's swing (both
     about each run's mean, pooled over the runs) and ``rms_abs`` (the level included)."""
-    runs = np.concatenate([np.full(f.t.size, k) for k, f in enumerate(fields)])
+    runs = run_index(fields)
     target = np.concatenate([polynomial_target(f, base) for f in fields])
     model = np.concatenate(
         [
@@ -330,8 +340,8 @@ def to_toml(config: ImuConfig, base_name: str, residual: dict[str, dict[str, flo
         "# bias (for paper: Table 6's regression), least squares over all runs; t_sat_c bounded",
         f"# to {T_SAT_BOUNDS[0]:g}-{T_SAT_BOUNDS[1]:g} degC, tau_elec_s to "
         f"{TAU_ELEC_BOUNDS[0]:g}-{TAU_ELEC_BOUNDS[1]:g} s, t_mount_c fixed at t_cal_c",
-        "# (not identified beside k_mount2); no term may swing (its SD over the soak) more than",
-        f"# {SWING:g}x the target's SD: no large opposite terms cancelling.",
+        "# (not identified beside k_mount2); within the runs no term may swing (RMS about each",
+        f"# run's mean) more than {SWING:g}x the target: no large opposite terms cancelling.",
         "# Everything else (network, noise, Shupe, hysteresis, scale factor, misalignment, lever",
         f"# arm, effects) is {base_name}.toml's, unchanged. See docs/plant.md.",
         "# Match residual on the soak protocol, RMS about each run's mean (% of target swing):",

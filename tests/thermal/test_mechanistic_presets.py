@@ -77,6 +77,7 @@ def test_committed_preset_reproduced_by_its_script(base: str) -> None:
     assert committed.mechanistic is not None
     fields = _fields(base)
     target = np.concatenate([fm.polynomial_target(f, cfg) for f in fields])
+    runs = fm.run_index(fields)
     for j, ch in enumerate(CHANNELS):
         law = committed.mechanistic[j]
         assert law.t_mount_c == cfg.t_cal_c
@@ -87,7 +88,7 @@ def test_committed_preset_reproduced_by_its_script(base: str) -> None:
             X = np.concatenate(
                 [fm.regressors(f, j, cfg.t_ref_c, t_sat, cfg.t_cal_c, tau) for f in fields]
             )
-            c = fm._solve(X, target[:, j])
+            c = fm._solve(X, target[:, j], runs)
             return float(np.mean((X @ c - target[:, j]) ** 2)), c
 
         best, coef = cost(law.t_sat_c, law.tau_elec_s)
