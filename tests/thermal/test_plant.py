@@ -193,7 +193,12 @@ def test_a_missing_section_is_an_error_naming_it(tmp_path, section: str) -> None
 def test_presets_by_name_and_unknown_names() -> None:
     from rinscal.thermal.plant import PRESETS, load_imu
 
-    assert set(PRESETS) == {"paper", "navigation_grade"}
+    assert set(PRESETS) == {
+        "paper",
+        "navigation_grade",
+        "paper_mechanistic",
+        "navigation_grade_mechanistic",
+    }
     assert load_imu("navigation_grade") == PRESET
     assert load_imu("paper").name.startswith("the paper")
     with pytest.raises(ConfigError, match="neither a preset"):

@@ -9,6 +9,8 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
+from rinscal.thermal.presets import PRESETS
+
 if TYPE_CHECKING:
     from rinscal.experiments.cluster import TLSFiles
     from rinscal.flightlog import FlightLogOptions
@@ -63,7 +65,7 @@ ImuOpt = Annotated[
     str,
     typer.Option(
         "--imu",
-        help="The simulated IMU: a preset (paper, navigation_grade) or an IMU TOML file.",
+        help=f"The simulated IMU: a preset ({', '.join(PRESETS)}) or an IMU TOML file.",
     ),
 ]
 WorkersOpt = Annotated[

@@ -16,6 +16,7 @@ from rinscal.cli._options import (
     WorkersOpt,
     cluster_options,
 )
+from rinscal.thermal.presets import PRESETS
 
 
 @app.command("study")
@@ -52,7 +53,7 @@ def study(
         str | None,
         typer.Option(
             "--imu",
-            help="Replace every plant's IMU with this preset (paper, navigation_grade) or IMU "
+            help=f"Replace every plant's IMU with this preset ({', '.join(PRESETS)}) or IMU "
             "TOML file; sweeps are kept.",
         ),
     ] = None,
