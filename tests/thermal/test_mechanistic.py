@@ -101,7 +101,9 @@ def _documented_t63() -> dict[str, tuple[float, float, float]]:
     """The table "node | own C/ΣG | chamber step t63 | power-on t63" of docs/plant.md [min]."""
     text = DOCS.read_text()
     sec = text[text.index("## The mechanistic law") :]
-    rows = re.findall(r"^\| `(\w+)` \| ([\d.]+) \| ([\d.]+) \| ([\d.]+) \|", sec, re.M)
+    head = sec.index("| node | own `C/ΣG`")  # the time-constant table, to a blank line
+    table = sec[head : sec.index("\n\n", head)]
+    rows = re.findall(r"^\| `(\w+)` \| ([\d.]+) \| ([\d.]+) \| ([\d.]+) \|", table, re.M)
     return {name: (float(c), float(a), float(b)) for name, c, a, b in rows}
 
 
