@@ -217,16 +217,7 @@ class ColumnMapping:
         ConfigError
             Naming ``source`` and the offending key.
         """
-        known = {f.name for f in dataclasses.fields(cls)}
-        unknown = sorted(set(data) - known)
-        if unknown:
-            raise ConfigError(
-                f"{source}: unknown key(s) {', '.join(unknown)} (known: {', '.join(sorted(known))})"
-            )
-        kw = dict(data)
-        for key in ("columns", "scale", "units"):
-            if key in kw and not isinstance(kw[key], Mapping):
-                raise ConfigError(f"{source}: {key} must be a table")
+        kw = mapping_keys(cls, data, source, tables=("columns", "scale", "units"))
         if "drop" in kw:
             drop = kw["drop"]
             if isinstance(drop, str):
@@ -253,6 +244,35 @@ class ColumnMapping:
         cols = list(self.columns)
         cols += [c for c in (self.time, self.temperature) if c is not None]
         return cols
+
+
+def mapping_keys(
+    cls: type, data: Mapping[str, Any], source: str, tables: Sequence[str]
+) -> dict[str, Any]:
+    """A mapping's keys as a dict for ``cls``, unknown keys and non-table tables refused.
+
+    Parameters
+    ----------
+    cls : dataclass type
+        The mapping class (its fields are the known keys).
+    data : mapping
+        Parsed TOML.
+    source : str
+        Named in error messages.
+    tables : sequence of str
+        Keys whose values must be tables.
+    """
+    known = {f.name for f in dataclasses.fields(cls)}
+    unknown = sorted(set(data) - known)
+    if unknown:
+        raise ConfigError(
+            f"{source}: unknown key(s) {', '.join(unknown)} (known: {', '.join(sorted(known))})"
+        )
+    kw = dict(data)
+    for key in tables:
+        if key in kw and not isinstance(kw[key], Mapping):
+            raise ConfigError(f"{source}: {key} must be a table")
+    return kw
 
 
 def check_mapping_basics(mapping: Any) -> None:

@@ -70,7 +70,6 @@ Row numbers in messages are data rows of the file: 1-based, the header not count
 from __future__ import annotations
 
 import csv
-import dataclasses
 import math
 import os
 import re
@@ -97,6 +96,7 @@ from rinscal.io import (
     channel_unit,
     check_mapping_basics,
     format_of,
+    mapping_keys,
     read_meta,
 )
 from rinscal.schema import (
@@ -354,16 +354,7 @@ class NavMapping:
         ConfigError
             Naming ``source`` and the offending key.
         """
-        known = {f.name for f in dataclasses.fields(cls)}
-        unknown = sorted(set(data) - known)
-        if unknown:
-            raise ConfigError(
-                f"{source}: unknown key(s) {', '.join(unknown)} (known: {', '.join(sorted(known))})"
-            )
-        kw = dict(data)
-        for key in ("columns", "units", "weights"):
-            if key in kw and not isinstance(kw[key], Mapping):
-                raise ConfigError(f"{source}: {key} must be a table")
+        kw = mapping_keys(cls, data, source, tables=("columns", "units", "weights"))
         for key in ("time", "time_unit", "separator", "temperature", "table_unit", "run"):
             if key in kw and not isinstance(kw[key], str):
                 raise ConfigError(f"{source}: {key} must be a string, got {kw[key]!r}")
