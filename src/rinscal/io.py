@@ -338,14 +338,27 @@ def read_mapping(path: str | os.PathLike[str]) -> ColumnMapping:
         If the file is missing, not TOML, or has an unknown or invalid key (named).
     """
     p = Path(path)
+    return ColumnMapping.from_dict(mapping_toml(p), source=str(p))
+
+
+def mapping_toml(path: str | os.PathLike[str]) -> dict[str, Any]:
+    """The parsed TOML of a mapping file (either reader's).
+
+    Raises
+    ------
+    ConfigError
+        If the file is missing, a folder or not TOML (named).
+    """
+    p = Path(path)
     try:
         with p.open("rb") as fh:
-            data = tomllib.load(fh)
+            return tomllib.load(fh)
     except FileNotFoundError:
         raise ConfigError(f"{p}: mapping file not found") from None
+    except IsADirectoryError:
+        raise ConfigError(f"{p}: is a folder, not a mapping file") from None
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise ConfigError(f"{p}: not a valid TOML mapping file: {exc}") from None
-    return ColumnMapping.from_dict(data, source=str(p))
 
 
 def mapping_from_options(

@@ -73,7 +73,6 @@ import csv
 import math
 import os
 import re
-import tomllib
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
@@ -97,6 +96,7 @@ from rinscal.io import (
     check_mapping_basics,
     format_of,
     mapping_keys,
+    mapping_toml,
     read_meta,
 )
 from rinscal.schema import (
@@ -387,16 +387,7 @@ def read_nav_mapping(path: str | os.PathLike[str]) -> NavMapping:
         file).
     """
     p = Path(path)
-    try:
-        with p.open("rb") as fh:
-            data = tomllib.load(fh)
-    except FileNotFoundError:
-        raise ConfigError(f"{p}: mapping file not found") from None
-    except IsADirectoryError:
-        raise ConfigError(f"{p}: is a folder, not a mapping file") from None
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"{p}: not a valid TOML mapping file: {exc}") from None
-    return NavMapping.from_dict(data, source=str(p))
+    return NavMapping.from_dict(mapping_toml(p), source=str(p))
 
 
 # --------------------------------------------------------------------------- the log
