@@ -140,8 +140,11 @@ def test_builtin_studies_load_and_quick_applies() -> None:
     assert [s.kind for s in paper.scenarios] == ["quasi-static", "swing", "vehicle"]
     # the paper's Section 5: five lab temperatures, three vehicle runs
     assert [len(s.ambient_c) for s in paper.scenarios] == [5, 5, 3]
+    # both thermal laws (issue 23): the polynomial preset and its mechanistic twin
+    assert [p.imu for p in paper.plants] == ["paper", "paper_mechanistic"]
     sens = load_spec("sensitivity")
-    assert len(sens.plants) == 4 * 2
+    assert len(sens.plants) == 2 * 4 * 2
+    assert {p.imu for p in sens.plants} == {"navigation_grade", "navigation_grade_mechanistic"}
     assert {s.align_start_s for s in sens.scenarios} == {0.0, 1800.0}
 
 
@@ -199,6 +202,13 @@ def test_imu_override_replaces_every_plant_and_keeps_the_sweep() -> None:
     sens = load_spec("sensitivity", imu_override="paper")
     assert {p.imu for p in sens.plants} == {"paper"}
     assert len(sens.plants) == 8
+    both = load_spec("sensitivity", imu_override=["paper", "paper_mechanistic"])
+    assert [p.imu for p in both.plants] == ["paper"] * 8 + ["paper_mechanistic"] * 8
+    assert [p.params for p in both.plants[:8]] == [p.params for p in both.plants[8:]]
+    two = copy.deepcopy(BASE)
+    two["plants"] = [{"imu": "paper"}, {"imu": "paper", "sweep": {"accel_t_scale": [2.0]}}]
+    with pytest.raises(ConfigError, match="different sweeps"):
+        spec_from_dict(two, "s", imu_override="navigation_grade")
     assert sens.fingerprint() != load_spec("sensitivity").fingerprint()
     with pytest.raises(ConfigError, match="--imu = 'nope' is neither a preset"):
         load_spec("paper", imu_override="nope")

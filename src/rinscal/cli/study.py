@@ -50,11 +50,13 @@ def study(
     tls_cert: TLSCertOpt = None,
     tls_key: TLSKeyOpt = None,
     imu: Annotated[
-        str | None,
+        list[str] | None,
         typer.Option(
             "--imu",
-            help=f"Replace every plant's IMU with this preset ({', '.join(PRESETS)}) or IMU "
-            "TOML file; sweeps are kept.",
+            help=f"Replace the spec's plants with this preset ({', '.join(PRESETS)}) or IMU "
+            "TOML file, the spec's sweep kept; give it more than once to run the study over "
+            "several plants (e.g. --imu navigation_grade --imu navigation_grade_mechanistic: "
+            "both thermal laws).",
         ),
     ] = None,
     retry_failed: Annotated[

@@ -175,7 +175,8 @@ class StudyStore:
             df = pd.read_parquet(p)
             df.insert(0, "plant", t.plant)
             frames.append(df)
-        return pd.concat(frames, ignore_index=True)[list(RESULT_COLUMNS)]
+        # reindex: a folder written before a column existed reads it as NaN
+        return pd.concat(frames, ignore_index=True).reindex(columns=list(RESULT_COLUMNS))
 
 
 # --------------------------------------------------------------------------- tasks on workers

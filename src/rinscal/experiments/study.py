@@ -44,13 +44,14 @@ from rinscal import units
 from rinscal.errors import ConfigError
 from rinscal.experiments.paper import (
     METHODS,
+    RESIDUAL_COLUMNS,
     NavJob,
     ReproConfig,
     load_plant,
     run_navigation_job,
     thermal_part_m,
 )
-from rinscal.thermal.plant import PRESETS, ChannelThermal, ImuConfig
+from rinscal.thermal.plant import PRESETS, ImuConfig
 
 #: Studies shipped with rinscal (``src/rinscal/data/studies/<name>.toml``).
 BUILTIN_STUDIES = ("paper", "sensitivity")
@@ -62,20 +63,37 @@ STUDY_VARIANTS = ("none", *METHODS, "true")
 SCENARIO_KINDS = ("quasi-static", "swing", "vehicle", "ramp")
 
 #: Sweepable plant parameters: each multiplies a group of thermal-bias coefficients of the
-#: accelerometers or the gyros (the ``ChannelThermal`` fields named).
-SWEEP_PARAMETERS: dict[str, tuple[str, tuple[str, ...]]] = {
-    "accel_t_scale": ("accel", ("t",)),
-    "accel_rate_scale": ("accel", ("rate", "t_rate")),
-    "accel_grad_scale": ("accel", ("grad", "t_grad")),
-    "accel_dynamic_scale": ("accel", ("rate", "t_rate", "grad", "t_grad")),
-    "gyro_t_scale": ("gyro", ("t",)),
-    "gyro_rate_scale": ("gyro", ("rate", "t_rate")),
-    "gyro_grad_scale": ("gyro", ("grad", "t_grad")),
-    "gyro_dynamic_scale": ("gyro", ("rate", "t_rate", "grad", "t_grad")),
-    "gyro_shupe_scale": ("gyro", ("shupe",)),
+#: accelerometers or the gyros: ``(sensors, ChannelThermal fields of the polynomial law,
+#: MechanisticThermal fields of the mechanistic law)``. Under the mechanistic law the groups
+#: mean the same physics: ``t`` the terms of the sensor's own and its mount's temperature;
+#: ``rate`` the terms that follow the warm-up's history and speed (the lagged electronics box;
+#: a gyro coil's radial gradient, which grows with the heating rate); ``grad`` the gradients
+#: no thermometer pair spans (electronics to block, the coil, the package stress); ``dynamic``
+#: both (everything but the own and mount temperatures). Shupe is a field of both laws.
+SWEEP_PARAMETERS: dict[str, tuple[str, tuple[str, ...], tuple[str, ...]]] = {
+    "accel_t_scale": ("accel", ("t",), ("k_t", "k_mount", "k_mount2")),
+    "accel_rate_scale": ("accel", ("rate", "t_rate"), ("k_elec", "k_coil")),
+    "accel_grad_scale": ("accel", ("grad", "t_grad"), ("k_path", "k_coil", "k_stress")),
+    "accel_dynamic_scale": (
+        "accel",
+        ("rate", "t_rate", "grad", "t_grad"),
+        ("k_elec", "k_path", "k_coil", "k_stress"),
+    ),
+    "gyro_t_scale": ("gyro", ("t",), ("k_t", "k_mount", "k_mount2")),
+    "gyro_rate_scale": ("gyro", ("rate", "t_rate"), ("k_elec", "k_coil")),
+    "gyro_grad_scale": ("gyro", ("grad", "t_grad"), ("k_path", "k_coil", "k_stress")),
+    "gyro_dynamic_scale": (
+        "gyro",
+        ("rate", "t_rate", "grad", "t_grad"),
+        ("k_elec", "k_path", "k_coil", "k_stress"),
+    ),
+    "gyro_shupe_scale": ("gyro", ("shupe",), ()),
 }
-#: Coefficients scattered from unit to unit by ``coefficient_spread`` (relative, 1σ).
+#: Coefficients scattered from unit to unit by ``coefficient_spread`` (relative, 1σ): of the
+#: polynomial law and Shupe/hysteresis (``ChannelThermal``), and of the mechanistic law
+#: (``MechanisticThermal``: every sensitivity, not the nonlinear shape parameters).
 SPREAD_FIELDS = ("t", "rate", "grad", "t_grad", "t_rate", "stress", "shupe", "hysteresis")
+MECH_SPREAD_FIELDS = ("k_t", "k_mount", "k_mount2", "k_elec", "k_path", "k_coil", "k_stress")
 
 
 # --------------------------------------------------------------------------- the spec
@@ -264,7 +282,7 @@ def spec_from_dict(
     *,
     quick: bool = False,
     units_override: int | None = None,
-    imu_override: str | None = None,
+    imu_override: str | Sequence[str] | None = None,
     base: Path | None = None,
 ) -> StudySpec:
     """Validate a study spec in its TOML layout and expand its sweeps.
@@ -280,8 +298,10 @@ def spec_from_dict(
         Apply the ``[quick]`` sizes (an error if the spec has none).
     units_override : int, optional
         Number of units instead of ``study.units``.
-    imu_override : str, optional
-        An IMU (preset or TOML file) that replaces every plant's ``imu``, sweeps kept.
+    imu_override : str or sequence of str, optional
+        IMUs (presets or TOML files) that replace the spec's plants, each with the spec's
+        sweep (the spec's plants must then share one sweep), e.g. ``("navigation_grade",
+        "navigation_grade_mechanistic")`` for the same study over both thermal laws.
     base : Path, optional
         Folder that relative IMU file paths are relative to (the spec file's).
 
@@ -331,17 +351,13 @@ def spec_from_dict(
         ),
     )
     plants_d = _array_of_tables(data, "plants", source)
-    plants: list[PlantVariant] = []
+    sweeps: list[tuple[str, list[tuple[tuple[str, float], ...]]]] = []
     for i, p in enumerate(plants_d):
         where = f"plants[{i}]"
         p = _keys(where, p, _PLANT, source)
         if "imu" not in p:
             raise ConfigError(f"{source}: {where}.imu is missing")
-        imu = (
-            _resolve_imu(imu_override, "--imu", source, Path.cwd())
-            if imu_override is not None
-            else _resolve_imu(p["imu"], f"{where}.imu", source, base)
-        )
+        imu = _resolve_imu(p["imu"], f"{where}.imu", source, base)
         sweep = _keys(f"{where}.sweep", p.get("sweep", {}), set(SWEEP_PARAMETERS), source)
         axes = []
         for k, vals in sweep.items():
@@ -351,8 +367,20 @@ def spec_from_dict(
             axes.append(
                 [(k, _number(f"{where}.sweep.{k}", v, source, positive=False)) for v in vals]
             )
-        for combo in itertools.product(*axes):
-            plants.append(PlantVariant(imu, tuple(combo)))
+        sweeps.append((imu, list(itertools.product(*axes))))
+    if imu_override:
+        overrides = [imu_override] if isinstance(imu_override, str) else list(imu_override)
+        combos = {tuple(c) for _, c in sweeps}
+        if len(combos) > 1:
+            raise ConfigError(
+                f"{source}: --imu replaces the plants' IMUs, but the spec's [[plants]] have "
+                "different sweeps: edit the spec instead"
+            )
+        sweeps = [
+            (_resolve_imu(o, "--imu", source, Path.cwd()), sweeps[0][1] if sweeps else [()])
+            for o in overrides
+        ]
+    plants = [PlantVariant(imu, tuple(c)) for imu, cs in sweeps for c in cs]
     if len({(p.imu, p.params) for p in plants}) != len(plants):
         raise ConfigError(f"{source}: [[plants]] names the same plant variant twice")
     quick_scen = _keys("[quick.scenarios]", qk.get("scenarios", {}), set(SCENARIO_KINDS), source)
@@ -427,7 +455,7 @@ def load_spec(
     *,
     quick: bool = False,
     units_override: int | None = None,
-    imu_override: str | None = None,
+    imu_override: str | Sequence[str] | None = None,
 ) -> StudySpec:
     """A study from a built-in name (:data:`BUILTIN_STUDIES`) or a TOML file.
 
@@ -586,22 +614,33 @@ def _scenario_key(sc: ScenarioSpec) -> int:
 
 
 def plant_config(variant: PlantVariant) -> ImuConfig:
-    """The IMU of a plant variant: the preset or file with the sweep factors applied."""
+    """The IMU of a plant variant: the preset or file with the sweep factors applied (to the
+    fields of its thermal law, :data:`SWEEP_PARAMETERS`)."""
     imu = load_plant(variant.imu)
     if not variant.params:
         return imu
     thermal = list(imu.thermal)
+    mech = list(imu.mechanistic or ())
     for name, factor in variant.params:
-        sensors, fields_ = SWEEP_PARAMETERS[name]
+        sensors, poly_fields, mech_fields = SWEEP_PARAMETERS[name]
         idx = range(0, 3) if sensors == "gyro" else range(3, 6)
         for j in idx:
-            thermal[j] = _scaled(thermal[j], fields_, lambda _k, f=factor: f)
-    return replace(imu, name=f"{imu.name} ({variant.label})", thermal=tuple(thermal))
+            if imu.thermal_law == "mechanistic":
+                mech[j] = _scaled(mech[j], mech_fields, lambda _k, f=factor: f)
+            # (under the mechanistic law the polynomial fields are zero: only Shupe scales)
+            thermal[j] = _scaled(thermal[j], poly_fields, lambda _k, f=factor: f)
+    return replace(
+        imu,
+        name=f"{imu.name} ({variant.label})",
+        thermal=tuple(thermal),
+        mechanistic=tuple(mech) if imu.mechanistic is not None else None,
+    )
 
 
-def _scaled(ch: ChannelThermal, names: Sequence[str], factor: Any) -> ChannelThermal:
-    """``ch`` with each field in ``names`` multiplied by ``factor(k)`` (k counts the scalars
-    scaled so far, so a random factor per coefficient can be drawn)."""
+def _scaled(ch: Any, names: Sequence[str], factor: Any) -> Any:
+    """``ch`` (a frozen dataclass: ``ChannelThermal`` or ``MechanisticThermal``) with each
+    field in ``names`` multiplied by ``factor(k)`` (k counts the scalars scaled so far, so a
+    random factor per coefficient can be drawn)."""
     k = 0
     new: dict[str, Any] = {}
     for n in names:
@@ -619,9 +658,10 @@ def _scaled(ch: ChannelThermal, names: Sequence[str], factor: Any) -> ChannelThe
 
 
 def unit_config(spec: StudySpec, plant: ImuConfig, unit: int) -> ImuConfig:
-    """Unit ``unit`` of a plant: each coefficient of :data:`SPREAD_FIELDS` multiplied by
-    ``1 + coefficient_spread·z`` with ``z`` standard normal from the unit's seed (the same
-    ``z`` in every plant variant; the hysteresis width by ``|1 + spread·z|``)."""
+    """Unit ``unit`` of a plant: each coefficient of :data:`SPREAD_FIELDS` (and, under the
+    mechanistic law, of :data:`MECH_SPREAD_FIELDS`) multiplied by ``1 + coefficient_spread·z``
+    with ``z`` standard normal from the unit's seed (the same ``z`` in every plant variant;
+    the hysteresis width by ``|1 + spread·z|``)."""
     if spec.coefficient_spread == 0.0:
         return plant
     rng = np.random.default_rng(task_seed(spec.seed, unit, 0))
@@ -632,7 +672,14 @@ def unit_config(spec: StudySpec, plant: ImuConfig, unit: int) -> ImuConfig:
         for j, ch in enumerate(plant.thermal)
     )
     thermal = tuple(replace(ch, hysteresis=abs(ch.hysteresis)) for ch in thermal)
-    return replace(plant, thermal=thermal)
+    mech = None
+    if plant.mechanistic is not None:
+        # the columns after the polynomial law's (at most 32 scalars): independent draws
+        mech = tuple(
+            _scaled(m, MECH_SPREAD_FIELDS, lambda k, j=j: 1.0 + sd * z[j, 32 + k])
+            for j, m in enumerate(plant.mechanistic)
+        )
+    return replace(plant, thermal=thermal, mechanistic=mech)
 
 
 def calibrate_unit(spec: StudySpec, plant: ImuConfig, task: CalTask) -> dict[str, Any]:
@@ -688,6 +735,7 @@ RESULT_COLUMNS = (
     "final_error_nmi",
     "thermal_part_nmi",
     "heading_error_arcsec",
+    *RESIDUAL_COLUMNS,
     "seed",
     "elapsed_s",
 )
@@ -701,8 +749,10 @@ def navigate_unit(
     ``calibration`` is :func:`calibrate_unit`'s result for ``task.cal``. Returns one row per
     variant (:data:`RESULT_COLUMNS`): the maximum and final horizontal position error
     [nmi], the maximum of its thermal part (variant minus oracle, see
-    :func:`rinscal.experiments.paper.thermal_part_m`) [nmi] and the heading error at the
-    start of free navigation [arcsec].
+    :func:`rinscal.experiments.paper.thermal_part_m`) [nmi], the heading error at the
+    start of free navigation [arcsec] and the model's held-out thermal residual on this
+    cold start (:func:`rinscal.experiments.paper.thermal_residual`: gyros [°/h], horizontal
+    accelerometers [µg] and [% of the true swing]).
     """
     t0 = time.perf_counter()
     sc = spec.scenarios[task.scenario]
@@ -721,6 +771,7 @@ def navigate_unit(
                 "final_error_nmi": s["final_error_m"] / units.NMI_TO_M,
                 "thermal_part_nmi": float(thermal_part_m(res.errors, v).max()) / units.NMI_TO_M,
                 "heading_error_arcsec": s["attitude_error_at_nav_start"]["heading_arcsec"],
+                **(res.residual or {}).get(v, dict.fromkeys(RESIDUAL_COLUMNS, math.nan)),
             }
         )
     df = pd.DataFrame(rows)
@@ -750,14 +801,21 @@ def sweep_columns(spec: StudySpec) -> list[str]:
 
 
 def plant_table(spec: StudySpec) -> pd.DataFrame:
-    """One row per plant variant: index, label, IMU and each sweep factor (1 where the
-    variant does not set it)."""
+    """One row per plant variant: index, label, IMU, its thermal law (``polynomial`` or
+    ``mechanistic``) and each sweep factor (1 where the variant does not set it)."""
     cols = sweep_columns(spec)
+    laws = {imu: load_plant(imu).thermal_law for imu in {p.imu for p in spec.plants}}
     rows = []
     for i, p in enumerate(spec.plants):
         d = dict(p.params)
         rows.append(
-            {"plant": i, "plant_label": p.label, "imu": p.imu, **{c: d.get(c, 1.0) for c in cols}}
+            {
+                "plant": i,
+                "plant_label": p.label,
+                "imu": p.imu,
+                "law": laws[p.imu],
+                **{c: d.get(c, 1.0) for c in cols},
+            }
         )
     return pd.DataFrame(rows)
 

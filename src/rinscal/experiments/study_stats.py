@@ -20,7 +20,7 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from rinscal.experiments.paper import LABELS, PAPER
+from rinscal.experiments.paper import LABELS, PAPER, RESIDUAL_COLUMNS
 
 #: Confidence level of every interval.
 CONFIDENCE = 0.95
@@ -30,11 +30,16 @@ MIN_SAMPLES = 5
 #: Bootstrap resamples per interval.
 N_RESAMPLES = 4999
 #: The metrics summarised, with their unit: per run maximum horizontal position error,
-#: its thermal part (variant minus oracle), |heading error| at the start of navigation.
+#: its thermal part (variant minus oracle), |heading error| at the start of navigation, and
+#: the model's held-out thermal residual on the cold start itself
+#: (:func:`rinscal.experiments.paper.thermal_residual`).
 METRICS = {
     "max_error_nmi": "nmi",
     "thermal_part_nmi": "nmi",
     "abs_heading_error_arcsec": "arcsec",
+    "accel_residual_pct": "%",
+    "accel_residual_ug": "µg",
+    "gyro_residual_dph": "°/h",
 }
 #: Methods compared pairwise, in order: each pair (a, b) with a before b.
 PAIR_ORDER = ("none", "poly-t", "sectional", "regression", "neural")
@@ -150,6 +155,8 @@ def _groups(results: pd.DataFrame) -> Iterator[tuple[Any, ...]]:
     per variant (:func:`_unit_table`, :func:`_run_table`)."""
     df = prepare(results)
     for metric, unit in METRICS.items():
+        if metric not in df or df[metric].isna().all():
+            continue  # results written before the metric existed
         per_unit = _unit_table(df, metric)
         per_run = _run_table(df, metric)
         for key, g in per_unit.groupby(level=[0, 1, 2], sort=False):
@@ -162,7 +169,7 @@ def method_summary(results: pd.DataFrame) -> pd.DataFrame:
     rows = []
     for metric, unit, (plant, label, scen), g, runs in _groups(results):
         for v in _variants(g.columns):
-            if metric == "thermal_part_nmi" and v == "true":
+            if v == "true" and metric in ("thermal_part_nmi", *RESIDUAL_COLUMNS):
                 continue  # zero by construction
             u = g[v].to_numpy(dtype=float)
             r = runs[v].to_numpy(dtype=float)
@@ -202,6 +209,8 @@ def paired_differences(results: pd.DataFrame) -> pd.DataFrame:
     """
     rows = []
     for metric, unit, (plant, label, scen), g, runs in _groups(results):
+        if metric in RESIDUAL_COLUMNS:
+            continue  # a model's fit, not an outcome to compare pairwise
         for a, b in itertools.combinations(_variants(g.columns), 2):
             if "true" in (a, b):
                 continue
@@ -343,6 +352,88 @@ def uncompensated_wins(pairs: pd.DataFrame) -> list[str]:
     return out
 
 
+def _verdict_kind(verdict: str) -> str:
+    """The verdict's first words: ``direction holds``, ``not shown``, ``reversed`` or
+    ``undecided``."""
+    return verdict.split(":")[0]
+
+
+def structure_pairs(plants: pd.DataFrame) -> list[tuple[pd.Series, pd.Series]]:
+    """Plant variants that differ only in their thermal law: every (polynomial,
+    mechanistic) pair with the same sweep factors (the ``law`` column of
+    :func:`rinscal.experiments.study.plant_table`)."""
+    if "law" not in plants or plants.empty:
+        return []
+    sweep = [c for c in plants.columns if c not in ("plant", "plant_label", "imu", "law")]
+    out = []
+    for _, g in plants.groupby(sweep, sort=False) if sweep else [(None, plants)]:
+        poly = g[g["law"] == "polynomial"]
+        mech = g[g["law"] == "mechanistic"]
+        out += [(a, b) for _, a in poly.iterrows() for _, b in mech.iterrows()]
+    return out
+
+
+def structure_findings(
+    claims: pd.DataFrame, summary: pd.DataFrame, plants: pd.DataFrame
+) -> list[str]:
+    """Which findings survive a change of the plant's thermal law, in words.
+
+    For every pair of plants that differ only in their law (:func:`structure_pairs`): each
+    claim's verdict on both, said to survive when the verdicts agree; and, as the reason, how
+    much of the horizontal accelerometers' thermal swing each model leaves on the cold starts
+    of each plant (``accel_residual_pct``, mean over units with its interval): a model class
+    that cannot follow the mechanistic law leaves more of it there.
+    """
+    out: list[str] = []
+    for poly, mech in structure_pairs(plants):
+        pl, ml = poly["plant_label"], mech["plant_label"]
+        if not claims.empty:
+            for (scen, claim), g in claims.groupby(["scenario", "claim"], sort=False):
+                a = g[g["plant"] == pl]
+                b = g[g["plant"] == ml]
+                if a.empty or b.empty:
+                    continue
+                a, b = a.iloc[0], b.iloc[0]
+                ka, kb = _verdict_kind(a["verdict"]), _verdict_kind(b["verdict"])
+                fa = _pct_ci(a["ours: mean decrease %"], a["ci low"], a["ci high"])
+                fb = _pct_ci(b["ours: mean decrease %"], b["ci low"], b["ci high"])
+                head = claim.split(":")[0]
+                if ka == kb:
+                    tail = "survives the change of thermal law"
+                else:
+                    tail = "does NOT survive the change of thermal law"
+                out.append(f"{scen}, {head}: {ka} on {pl} ({fa}), {kb} on {ml} ({fb}) — {tail}")
+        if summary.empty:
+            continue
+        res = summary[summary["metric"] == "accel_residual_pct"]
+        for v in PAIR_ORDER[1:]:
+            parts = []
+            for scen in dict.fromkeys(res["scenario"]):
+                here = res[(res["scenario"] == scen) & (res["variant"] == v)]
+                a = here[here["plant_label"] == pl]
+                b = here[here["plant_label"] == ml]
+                if a.empty or b.empty:
+                    continue
+                a, b = a.iloc[0], b.iloc[0]
+                pa = _pct_ci(a["mean"], a["ci low"], a["ci high"])
+                pb = _pct_ci(b["mean"], b["ci low"], b["ci high"])
+                parts.append(f"{scen} {pa} against {pb}")
+            if parts:
+                out.append(
+                    f"{LABELS[v]} leaves of the horizontal accelerometers' thermal swing on the "
+                    f"cold starts (RMS about the run's mean, worse of x and y), {pl} against "
+                    f"{ml}: " + "; ".join(parts)
+                )
+    return out
+
+
+def _pct_ci(m: float, lo: float, hi: float) -> str:
+    """``m % [lo, hi]``, or ``m % (no interval)`` where there is none (too few units)."""
+    if math.isfinite(lo) and math.isfinite(hi):
+        return f"{m:.0f} % [{lo:.0f}, {hi:.0f}]"
+    return f"{m:.0f} % (no interval)"
+
+
 def sensitivity_map(pairs: pd.DataFrame, plants: pd.DataFrame) -> pd.DataFrame:
     """Per plant variant and scenario: the decrease of the mean maximum position error from
     method 1 to method 2 and to method 3 [%] with its interval, and whether it pays
@@ -384,5 +475,7 @@ __all__ = [
     "prepare",
     "resolved",
     "sensitivity_map",
+    "structure_findings",
+    "structure_pairs",
     "uncompensated_wins",
 ]

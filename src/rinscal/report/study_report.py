@@ -28,6 +28,8 @@ from rinscal.experiments.study_stats import (
     method_summary,
     paired_differences,
     sensitivity_map,
+    structure_findings,
+    structure_pairs,
     uncompensated_wins,
 )
 from rinscal.io import write_atomic
@@ -56,6 +58,7 @@ class StudyTables:
     sensitivity: pd.DataFrame
     failures: pd.DataFrame
     uncompensated: list[str] = field(default_factory=list)
+    structure: list[str] = field(default_factory=list)
 
 
 @dataclass
@@ -76,15 +79,17 @@ def study_tables(store: StudyStore, spec: StudySpec) -> StudyTables:
         return StudyTables(results, plants, empty, empty, empty, empty, store.failures())
     summary = method_summary(results)
     pairs = paired_differences(results)
+    claims = claims_table(results, pairs)
     return StudyTables(
         results=results,
         plants=plants,
         summary=summary,
         pairs=pairs,
-        claims=claims_table(results, pairs),
+        claims=claims,
         sensitivity=sensitivity_map(pairs, plants) if sweep_columns(spec) else pd.DataFrame(),
         failures=store.failures(),
         uncompensated=uncompensated_wins(pairs),
+        structure=structure_findings(claims, summary, plants),
     )
 
 
@@ -95,6 +100,7 @@ def verdict_lines(t: StudyTables) -> list[str]:
     for _, r in t.claims.iterrows():
         out.append(f"{r['plant']}, {r['scenario']}: {r['claim']} — {r['verdict']}")
     out.extend(t.uncompensated)
+    out.extend(t.structure)
     s = t.sensitivity
     if not s.empty:
         for tag, name in (("m2", "method 2"), ("m3", "method 3")):
@@ -252,7 +258,7 @@ def _fmt_ci(m: float, lo: float, hi: float, nd: int = 3) -> str:
 
 def _summary_view(summary: pd.DataFrame, metric: str) -> pd.DataFrame:
     s = summary[summary["metric"] == metric]
-    nd = 3 if metric.endswith("nmi") else 0
+    nd = {"nmi": 3, "ug": 2, "dph": 5, "pct": 1}.get(metric.rsplit("_", 1)[-1], 0)
     return pd.DataFrame(
         {
             "plant": s["plant_label"],
@@ -374,6 +380,44 @@ def build_report(spec: StudySpec, t: StudyTables, run: RunSummary | None) -> Rep
             "The paper's claims with our interval and verdict",
             "{:.3g}",
         )
+    if t.structure:
+        st = rep.section("Does the verdict survive a change of thermal law?", "structure")
+        pairs_ = structure_pairs(t.plants)
+        st.text(
+            "The study ran plants that differ only in their thermal law: "
+            + "; ".join(
+                f"{a['plant_label']} (polynomial) and {b['plant_label']} (mechanistic)"
+                for a, b in pairs_
+            )
+            + ". The polynomial law is, term for term, the paper's method-2 regression, so a "
+            "verdict for method 2 on it partly measures the plant's own shape; the mechanistic "
+            "law drives each bias by nodes of the thermal network that no thermometer sees "
+            "(the electronics box through a lag, the box-to-mount gradient, the package "
+            "stress, a saturating own temperature), which no model class here represents. "
+            "A finding that holds on both is one the plant's shape did not decide."
+        )
+        st.raw("<ul>" + "".join(f"<li>{html.escape(x)}</li>" for x in t.structure) + "</ul>")
+    if "accel_residual_pct" in set(t.summary.get("metric", [])):
+        h = rep.section("How much of each result is model error", "residual")
+        h.text(
+            "Each model's held-out thermal residual on the cold starts themselves (not the "
+            "soak runs it was fitted to): the RMS of (model − true thermal bias) about its "
+            "mean over the run, from the alignment start, as a share of the true bias's own "
+            "swing (the worse horizontal accelerometer), and in µg and °/h. The mean is left "
+            "out because the alignment absorbs a constant bias; it reappears as heading error "
+            "(the |heading error| table). A model with a small residual and a large position "
+            "error owes its error to the alignment and the noise, not to the model."
+        )
+        for metric, caption, fmt in (
+            (
+                "accel_residual_pct",
+                "Horizontal accelerometers: share of the thermal swing left [%]",
+                "{:.1f}",
+            ),
+            ("accel_residual_ug", "Horizontal accelerometers: residual RMS [µg]", "{:.2f}"),
+            ("gyro_residual_dph", "Gyros: residual RMS, worst axis [°/h]", "{:.2g}"),
+        ):
+            h.table(f"summary_{metric}", _summary_view(t.summary, metric), caption, fmt)
     if t.uncompensated:
         u = rep.section("Where no compensation wins", "uncompensated")
         u.raw("<ul>" + "".join(f"<li>{html.escape(x)}</li>" for x in t.uncompensated) + "</ul>")
@@ -476,6 +520,7 @@ def write_study_report(
         else 0,
         "failed_tasks": len(t.failures),
         "verdicts": verdicts,
+        "structure": t.structure,
         "claims": t.claims.to_dict(orient="records"),
     }
     if run is not None:
