@@ -171,6 +171,7 @@ def test_structure_findings_say_which_verdict_survives_and_why() -> None:
     lines = structure_findings(claims, summary, plants)
     m12 = [x for x in lines if x.startswith("lab qs, method 1 (sectional) → method 2")]
     assert len(m12) == 1
+    assert "46.30 % less max position error (up to)" in m12[0]
     assert "direction holds on paper (50 % [50, 50])" in m12[0]
     assert "reversed on paper_mechanistic (-50 % [-50, -50])" in m12[0]
     assert m12[0].endswith("does NOT survive the change of thermal law")
@@ -183,3 +184,9 @@ def test_structure_findings_say_which_verdict_survives_and_why() -> None:
     # a study of one law has nothing to compare
     one = plants.iloc[:1]
     assert structure_findings(claims, summary, one) == []
+    # with too few units for an interval, nothing is said to survive
+    few = _two_law_results(n_units=3)
+    fp = paired_differences(few)
+    lines = structure_findings(claims_table(few, fp), method_summary(few), plants)
+    m12 = [x for x in lines if x.startswith("lab qs, method 1 (sectional) → method 2")]
+    assert m12[0].endswith("not decided (too few units for an interval)")

@@ -397,12 +397,8 @@ def structure_findings(
                 ka, kb = _verdict_kind(a["verdict"]), _verdict_kind(b["verdict"])
                 fa = _pct_ci(a["ours: mean decrease %"], a["ci low"], a["ci high"])
                 fb = _pct_ci(b["ours: mean decrease %"], b["ci low"], b["ci high"])
-                head = claim.split(":")[0]
-                if ka == kb:
-                    tail = "survives the change of thermal law"
-                else:
-                    tail = "does NOT survive the change of thermal law"
-                out.append(f"{scen}, {head}: {ka} on {pl} ({fa}), {kb} on {ml} ({fb}) — {tail}")
+                tail = _survival(ka, kb)
+                out.append(f"{scen}, {claim}: {ka} on {pl} ({fa}), {kb} on {ml} ({fb}) — {tail}")
         if summary.empty:
             continue
         res = summary[summary["metric"] == "accel_residual_pct"]
@@ -425,6 +421,17 @@ def structure_findings(
                     f"{ml}: " + "; ".join(parts)
                 )
     return out
+
+
+def _survival(ka: str, kb: str) -> str:
+    """Whether a verdict survives the change of law, from its kinds on both plants."""
+    if "undecided" in (ka, kb):
+        return "not decided (too few units for an interval)"
+    if ka == kb == "not shown":
+        return "resolved on neither plant"
+    if ka == kb:
+        return "survives the change of thermal law"
+    return "does NOT survive the change of thermal law"
 
 
 def _pct_ci(m: float, lo: float, hi: float) -> str:
