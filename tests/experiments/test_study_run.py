@@ -228,3 +228,20 @@ def test_a_folder_holds_one_study(tiny_spec: Path, tmp_path: Path) -> None:
     (tmp_path / "file").write_text("x")
     with pytest.raises(StudyFolderError, match="exists and is not a folder"):
         StudyStore(tmp_path / "file").open(spec)
+
+
+def test_each_run_reports_the_model_s_residual_on_the_cold_start(
+    one_worker: pd.DataFrame,
+) -> None:
+    """Issue 23, item 4: no compensation leaves the whole thermal swing, the oracle none,
+    and a model something in between that is its own (not a copy of another's)."""
+    by = one_worker.groupby("variant")
+    pct = by["accel_residual_pct"]
+    assert (pct.min()["none"], pct.max()["none"]) == (pytest.approx(100.0), pytest.approx(100.0))
+    assert pct.max()["true"] == 0.0 and by["gyro_residual_dph"].max()["true"] == 0.0
+    models = one_worker[one_worker["variant"].isin(["poly-t", "regression"])]
+    assert (
+        models[["accel_residual_pct", "accel_residual_ug", "gyro_residual_dph"]].gt(0).all().all()
+    )
+    assert pct.mean()["regression"] < 100.0  # the paper's own law: the regression follows it
+    assert pct.mean()["regression"] != pct.mean()["poly-t"]
