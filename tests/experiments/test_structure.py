@@ -168,7 +168,18 @@ def test_structure_findings_say_which_verdict_survives_and_why() -> None:
     claims = claims_table(res, pairs)
     summary = method_summary(res)
     assert set(pairs["metric"]) == {"max_error_nmi", "thermal_part_nmi", "abs_heading_error_arcsec"}
-    lines = structure_findings(claims, summary, plants)
+    lines = structure_findings(claims, summary, plants, pairs)
+    vs_none = {x.split(" against")[0]: x for x in lines if " against no compensation" in x}
+    # sectional: 2 → 1.35 on average on both plants (identical); regression: 66 % on the
+    # polynomial plant, nothing on the mechanistic one (1.5 × sectional's 1.35 ≈ none's 2)
+    assert vs_none["lab qs, method 1 (sectional)"].endswith(
+        "beats no compensation on paper_mechanistic (32 % [25, 40]) — survives the change of "
+        "thermal law"
+    )
+    reg = vs_none["lab qs, method 2 (regression)"]
+    assert re.search(r"beats no compensation on paper \(66 % \[6\d, 7\d\] less error\)", reg)
+    assert "not resolved on paper_mechanistic (-1 %" in reg
+    assert reg.endswith("does NOT survive the change of thermal law")
     m12 = [x for x in lines if x.startswith("lab qs, method 1 (sectional) → method 2")]
     assert len(m12) == 1
     assert "46.30 % less max position error (up to)" in m12[0]

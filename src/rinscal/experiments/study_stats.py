@@ -374,12 +374,17 @@ def structure_pairs(plants: pd.DataFrame) -> list[tuple[pd.Series, pd.Series]]:
 
 
 def structure_findings(
-    claims: pd.DataFrame, summary: pd.DataFrame, plants: pd.DataFrame
+    claims: pd.DataFrame,
+    summary: pd.DataFrame,
+    plants: pd.DataFrame,
+    pairs: pd.DataFrame | None = None,
 ) -> list[str]:
     """Which findings survive a change of the plant's thermal law, in words.
 
     For every pair of plants that differ only in their law (:func:`structure_pairs`): each
-    claim's verdict on both, said to survive when the verdicts agree; and, as the reason, how
+    claim's verdict on both, said to survive when the verdicts agree; with ``pairs``
+    (:func:`paired_differences`), whether each model beats no compensation on both (the
+    decrease of the mean maximum position error with its interval); and, as the reason, how
     much of the horizontal accelerometers' thermal swing each model leaves on the cold starts
     of each plant (``accel_residual_pct``, mean over units with its interval): a model class
     that cannot follow the mechanistic law leaves more of it there.
@@ -399,6 +404,8 @@ def structure_findings(
                 fb = _pct_ci(b["ours: mean decrease %"], b["ci low"], b["ci high"])
                 tail = _survival(ka, kb)
                 out.append(f"{scen}, {claim}: {ka} on {pl} ({fa}), {kb} on {ml} ({fb}) — {tail}")
+        if pairs is not None and not pairs.empty:
+            out += _against_none(pairs, pl, ml)
         if summary.empty:
             continue
         res = summary[summary["metric"] == "accel_residual_pct"]
@@ -420,6 +427,37 @@ def structure_findings(
                     f"cold starts (RMS about the run's mean, worse of x and y), {pl} against "
                     f"{ml}: " + "; ".join(parts)
                 )
+    return out
+
+
+def _against_none(pairs: pd.DataFrame, pl: str, ml: str) -> list[str]:
+    """Per scenario and model: does it beat no compensation on both plants?"""
+    p = pairs[(pairs["metric"] == "max_error_nmi") & (pairs["a"] == "none")]
+    out = []
+    kinds = {"b better": "beats no compensation", "a better": "loses to no compensation"}
+    for (scen, b), g in p.groupby(["scenario", "b"], sort=False):
+        ra, rb = g[g["plant_label"] == pl], g[g["plant_label"] == ml]
+        if ra.empty or rb.empty:
+            continue
+        ra, rb = ra.iloc[0], rb.iloc[0]
+        k = [
+            kinds.get(resolved(r["diff ci low"], r["diff ci high"]), "not resolved")
+            for r in (ra, rb)
+        ]
+        if not all(math.isfinite(r["decrease ci low"]) for r in (ra, rb)):
+            tail = "not decided (too few units for an interval)"
+        elif k[0] == k[1] == "not resolved":
+            tail = "resolved on neither plant"
+        elif k[0] == k[1]:
+            tail = "survives the change of thermal law"
+        else:
+            tail = "does NOT survive the change of thermal law"
+        fa = _pct_ci(ra["decrease %"], ra["decrease ci low"], ra["decrease ci high"])
+        fb = _pct_ci(rb["decrease %"], rb["decrease ci low"], rb["decrease ci high"])
+        out.append(
+            f"{scen}, {LABELS[b]} against no compensation: {k[0]} on {pl} ({fa} less error), "
+            f"{k[1]} on {ml} ({fb}) — {tail}"
+        )
     return out
 
 

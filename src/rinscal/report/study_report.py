@@ -89,7 +89,7 @@ def study_tables(store: StudyStore, spec: StudySpec) -> StudyTables:
         sensitivity=sensitivity_map(pairs, plants) if sweep_columns(spec) else pd.DataFrame(),
         failures=store.failures(),
         uncompensated=uncompensated_wins(pairs),
-        structure=structure_findings(claims, summary, plants),
+        structure=structure_findings(claims, summary, plants, pairs),
     )
 
 
