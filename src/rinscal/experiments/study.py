@@ -70,23 +70,18 @@ SCENARIO_KINDS = ("quasi-static", "swing", "vehicle", "ramp")
 #: a gyro coil's radial gradient, which grows with the heating rate); ``grad`` the gradients
 #: no thermometer pair spans (electronics to block, the coil, the package stress); ``dynamic``
 #: both (everything but the own and mount temperatures). Shupe is a field of both laws.
+_SWEEP_GROUPS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
+    "t": (("t",), ("k_t", "k_mount", "k_mount2")),
+    "rate": (("rate", "t_rate"), ("k_elec", "k_coil")),
+    "grad": (("grad", "t_grad"), ("k_path", "k_coil", "k_stress")),
+    "dynamic": (("rate", "t_rate", "grad", "t_grad"), ("k_elec", "k_path", "k_coil", "k_stress")),
+}
 SWEEP_PARAMETERS: dict[str, tuple[str, tuple[str, ...], tuple[str, ...]]] = {
-    "accel_t_scale": ("accel", ("t",), ("k_t", "k_mount", "k_mount2")),
-    "accel_rate_scale": ("accel", ("rate", "t_rate"), ("k_elec", "k_coil")),
-    "accel_grad_scale": ("accel", ("grad", "t_grad"), ("k_path", "k_coil", "k_stress")),
-    "accel_dynamic_scale": (
-        "accel",
-        ("rate", "t_rate", "grad", "t_grad"),
-        ("k_elec", "k_path", "k_coil", "k_stress"),
-    ),
-    "gyro_t_scale": ("gyro", ("t",), ("k_t", "k_mount", "k_mount2")),
-    "gyro_rate_scale": ("gyro", ("rate", "t_rate"), ("k_elec", "k_coil")),
-    "gyro_grad_scale": ("gyro", ("grad", "t_grad"), ("k_path", "k_coil", "k_stress")),
-    "gyro_dynamic_scale": (
-        "gyro",
-        ("rate", "t_rate", "grad", "t_grad"),
-        ("k_elec", "k_path", "k_coil", "k_stress"),
-    ),
+    **{
+        f"{sensors}_{group}_scale": (sensors, poly, mech)
+        for sensors in ("accel", "gyro")
+        for group, (poly, mech) in _SWEEP_GROUPS.items()
+    },
     "gyro_shupe_scale": ("gyro", ("shupe",), ()),
 }
 #: Coefficients scattered from unit to unit by ``coefficient_spread`` (relative, 1σ): of the
