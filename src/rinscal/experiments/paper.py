@@ -655,8 +655,7 @@ def _estimate_on(comp: Any, grid: np.ndarray, truth: np.ndarray) -> np.ndarray:
     if comp is None:
         return np.zeros_like(truth)
     if isinstance(comp, ModelCompensator):
-        k = np.clip(np.searchsorted(comp.grid, grid, side="right") - 1, 0, comp.grid.size - 1)
-        return np.asarray(comp.bias[k], dtype=float)
+        return np.asarray(comp(grid), dtype=float)  # its reading held, as in navigation
     return truth
 
 

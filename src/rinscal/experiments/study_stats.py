@@ -444,14 +444,8 @@ def _against_none(pairs: pd.DataFrame, pl: str, ml: str) -> list[str]:
             kinds.get(resolved(r["diff ci low"], r["diff ci high"]), "not resolved")
             for r in (ra, rb)
         ]
-        if not all(math.isfinite(r["decrease ci low"]) for r in (ra, rb)):
-            tail = "not decided (too few units for an interval)"
-        elif k[0] == k[1] == "not resolved":
-            tail = "resolved on neither plant"
-        elif k[0] == k[1]:
-            tail = "survives the change of thermal law"
-        else:
-            tail = "does NOT survive the change of thermal law"
+        decided = all(math.isfinite(r["decrease ci low"]) for r in (ra, rb))
+        tail = _survival(*(k if decided else ("undecided",) * 2), unresolved="not resolved")
         fa = _pct_ci(ra["decrease %"], ra["decrease ci low"], ra["decrease ci high"])
         fb = _pct_ci(rb["decrease %"], rb["decrease ci low"], rb["decrease ci high"])
         out.append(
@@ -461,11 +455,12 @@ def _against_none(pairs: pd.DataFrame, pl: str, ml: str) -> list[str]:
     return out
 
 
-def _survival(ka: str, kb: str) -> str:
-    """Whether a verdict survives the change of law, from its kinds on both plants."""
+def _survival(ka: str, kb: str, unresolved: str = "not shown") -> str:
+    """Whether a verdict survives the change of law, from its kinds on both plants
+    (``undecided``: no interval; ``unresolved``: the word for an interval containing 0)."""
     if "undecided" in (ka, kb):
         return "not decided (too few units for an interval)"
-    if ka == kb == "not shown":
+    if ka == kb == unresolved:
         return "resolved on neither plant"
     if ka == kb:
         return "survives the change of thermal law"
