@@ -106,7 +106,7 @@ def part_scenario() -> None:
 def part_pyins() -> None:
     import dataclasses
 
-    from rinscal.nav import earth
+    from rinscal import earth
     from rinscal.nav.imu import ImuSynthesizer
     from rinscal.nav.rotation import RotationSchedule
     from rinscal.nav.strapdown import Strapdown

@@ -17,8 +17,8 @@ from rinscal.calibration.modelfile import (
     ThermalModelFile,
     payload_sha256,
 )
+from rinscal.earth import static_outputs_r
 from rinscal.errors import ModelFileError
-from rinscal.nav.earth import static_outputs_r
 from rinscal.units import DEG_TO_RAD, DPH_TO_RPS, UG_TO_MPS2
 
 METHODS = ("poly-t", "sectional", "regression", "neural")

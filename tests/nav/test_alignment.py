@@ -7,8 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from rinscal import units
-from rinscal.nav import earth
+from rinscal import earth, units
 from rinscal.nav.align import AlignConfig, InertialCoarseAlign, wahba
 from rinscal.nav.imu import ImuSynthesizer
 from rinscal.nav.rotation import C_br, RotationSchedule

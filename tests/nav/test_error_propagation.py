@@ -20,8 +20,7 @@ import numpy as np
 import scipy.linalg
 from scipy.integrate import solve_ivp
 
-from rinscal import units
-from rinscal.nav import earth
+from rinscal import earth, units
 from rinscal.nav.rotation import RotationSchedule
 from rinscal.nav.scenario import ScenarioConfig, constant_errors, run_scenario
 from rinscal.nav.trajectory import StaticMotion

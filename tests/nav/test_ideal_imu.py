@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from rinscal.nav import earth
+from rinscal import earth
 from rinscal.nav.imu import ImuSynthesizer, body_signals
 from rinscal.nav.rotation import C_br, RotationSchedule
 from rinscal.nav.scenario import ScenarioConfig, run_scenario

@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from rinscal.nav import earth
+from rinscal import earth
 from rinscal.nav.imu import ImuSynthesizer
 from rinscal.nav.rotation import C_br, RotationSchedule
 from rinscal.nav.strapdown import Strapdown

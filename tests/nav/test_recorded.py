@@ -12,9 +12,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from rinscal import units
+from rinscal import earth, units
 from rinscal.errors import ConfigError, LogError
-from rinscal.nav import earth
 from rinscal.nav.recorded import (
     BlockStats,
     CausalModelCompensator,

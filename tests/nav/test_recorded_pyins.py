@@ -38,7 +38,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from rinscal.nav import earth
+from rinscal import earth
 from rinscal.nav.recorded import (
     BlockStats,
     Noise,

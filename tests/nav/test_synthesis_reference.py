@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 from numpy.typing import NDArray
 
-from rinscal.nav import _kernels, earth
+from rinscal import earth
+from rinscal.nav import _kernels
 from rinscal.nav.imu import ImuSynthesizer, body_signals
 from rinscal.nav.rotation import C_br, RotationSchedule
 from rinscal.nav.trajectory import Kinematics, StepChannel, VehicleMotion, vehicle_route

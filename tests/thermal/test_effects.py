@@ -12,8 +12,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from rinscal import units
-from rinscal.nav import earth
+from rinscal import earth, units
 from rinscal.nav.rotation import RotationSchedule
 from rinscal.schema import CHANNELS
 from rinscal.thermal.field import ChamberProfile, ThermalField, simulate_field

@@ -8,9 +8,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from rinscal import units
+from rinscal import earth, units
 from rinscal.errors import ConfigError
-from rinscal.nav import earth
 from rinscal.schema import CHANNELS
 from rinscal.thermal.field import ThermometerConfig
 from rinscal.thermal.plant import (

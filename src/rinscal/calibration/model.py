@@ -143,7 +143,7 @@ def site_reference(
 ) -> dict[str, float | None]:
     """Static output (Earth rate, gravity) of a level IMU on the calibration table, log units.
 
-    Uses :func:`rinscal.nav.earth.static_outputs_r` with the metadata's ``latitude_deg``,
+    Uses :func:`rinscal.earth.static_outputs_r` with the metadata's ``latitude_deg``,
     ``heading_deg`` and optional ``altitude_m``.
 
     Returns
@@ -151,7 +151,7 @@ def site_reference(
     dict of str to float or None
         None for a channel whose unit, or the site, is unknown.
     """
-    from rinscal.nav.earth import static_outputs_r
+    from rinscal.earth import static_outputs_r
 
     meta = meta or {}
     lat, head = meta.get("latitude_deg"), meta.get("heading_deg")

@@ -622,7 +622,7 @@ def run_navigation_job(
         errors[f"{v}_north"] = res.errors[v]["north_m"].to_numpy()
     track = None
     if job.scenario == "vehicle":
-        from rinscal.nav import earth
+        from rinscal import earth
 
         lat0 = np.deg2rad(res.truth["lat_deg"].iloc[0])
         rn, re = earth.principal_radii(lat0)

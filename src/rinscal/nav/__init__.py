@@ -1,9 +1,7 @@
-"""Navigation: Earth model, rotation schedules, trajectories, ideal IMU, strapdown, alignment.
+"""Navigation: rotation schedules, trajectories, ideal IMU, strapdown, alignment.
 
 Modules
 -------
-:mod:`~rinscal.nav.earth`
-    WGS84 radii, normal gravity, Earth rate (ENU).
 :mod:`~rinscal.nav.rotation`
     The rotating IMU frame ``r`` on the turntable (axis = body z, encoder angle φ) and its
     schedules: four-position, continuous, none (paper Eqs. 1-9).

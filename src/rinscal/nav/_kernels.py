@@ -24,7 +24,7 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from rinscal.nav import earth
+from rinscal import earth
 
 # Constants copied into the compiled code (numba freezes module globals at compile time).
 _A = earth.A
@@ -99,7 +99,7 @@ def kf_zero_velocity_update(
 # --------------------------------------------------------------------------- small helpers
 @_jit
 def gravity_scalar(lat: float, alt: float) -> float:
-    """Normal gravity magnitude, same formula as :func:`rinscal.nav.earth.gravity` [m/s²]."""
+    """Normal gravity magnitude, same formula as :func:`rinscal.earth.gravity` [m/s²]."""
     s2 = math.sin(lat) ** 2
     g0 = _GE * (1.0 + _K * s2) / math.sqrt(1.0 - _E2 * s2)
     return g0 * (1.0 - 2.0 / _A * (1.0 + _F + _M - 2.0 * _F * s2) * alt + 3.0 * alt * alt / _A**2)

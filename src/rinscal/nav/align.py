@@ -34,9 +34,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from rinscal import units
+from rinscal import earth, units
 from rinscal.errors import ConfigError
-from rinscal.nav import _kernels, earth
+from rinscal.nav import _kernels
 from rinscal.nav.strapdown import Strapdown, VerticalMode, quat_to_dcm, rotvec_to_dcm
 
 

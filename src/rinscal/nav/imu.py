@@ -32,8 +32,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from rinscal import earth
 from rinscal.errors import ConfigError
-from rinscal.nav import _kernels, earth
+from rinscal.nav import _kernels
 from rinscal.nav.rotation import RotationSchedule
 from rinscal.nav.trajectory import (
     C_nb_from_euler,

@@ -16,8 +16,7 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
-from rinscal import units
-from rinscal.nav import earth
+from rinscal import earth, units
 from rinscal.nav.scenario import NavResult
 
 _STYLES = {"none": ("0.35", "--"), "true": ("black", ":")}

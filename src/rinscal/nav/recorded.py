@@ -36,9 +36,8 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from rinscal import units
+from rinscal import earth, units
 from rinscal.errors import ConfigError, LogError
-from rinscal.nav import earth
 from rinscal.nav.align import AlignConfig, Aligner, AlignResult, feed_and_hand_over
 from rinscal.nav.strapdown import Strapdown, VerticalMode
 from rinscal.schema import CHANNELS, GAP_FACTOR, NavSamples

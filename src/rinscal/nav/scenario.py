@@ -30,9 +30,8 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from rinscal import units
+from rinscal import earth, units
 from rinscal.errors import ConfigError
-from rinscal.nav import earth
 from rinscal.nav.align import AlignConfig, Aligner, AlignResult, feed_and_hand_over
 from rinscal.nav.imu import ImuChunk, ImuSynthesizer
 from rinscal.nav.rotation import C_br, RotationSchedule

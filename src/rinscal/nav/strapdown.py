@@ -3,7 +3,7 @@
 The integrator follows Savage (1998) in the ENU frame: two-sample (previous-sample) coning
 and sculling, the rotation-compensation term ½ Δθ × Δv, exact exponential updates of the
 body (r) and navigation frames, Coriolis and transport rate evaluated at the mid-interval
-velocity, normal gravity (same formula as :func:`rinscal.nav.earth.gravity`), and a
+velocity, normal gravity (same formula as :func:`rinscal.earth.gravity`), and a
 trapezoidal position update. The vertical channel of a marine or land RINS is either held
 to a reference (altitude and vertical velocity, e.g. the truth or an altimeter), damped by
 a third-order loop towards a reference altitude, or left free (unstable, for tests).

@@ -1,7 +1,7 @@
 """Carrier (body frame ``b``) trajectories: quasi-static, swinging base, land vehicle.
 
 A trajectory gives, at any times, the body's ENU velocity and its time derivative and the
-body attitude (heading, pitch, roll, see :func:`rinscal.nav.earth.C_nb_from_euler`) with
+body attitude (heading, pitch, roll, see :func:`rinscal.earth.C_nb_from_euler`) with
 its rates. Position is not part of it: :mod:`rinscal.nav.imu` integrates the velocity
 exactly, chunk by chunk, from the trajectory's origin.
 
@@ -83,7 +83,7 @@ class Trajectory(Protocol):
 
 # --------------------------------------------------------------------------- attitude helpers
 def C_nb_from_euler(euler: ArrayLike) -> NDArray[np.float64]:
-    """Vectorised :func:`rinscal.nav.earth.C_nb_from_euler`.
+    """Vectorised :func:`rinscal.earth.C_nb_from_euler`.
 
     Parameters
     ----------

@@ -21,8 +21,8 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from rinscal import units
+from rinscal.earth import static_outputs_r
 from rinscal.errors import ConfigError
-from rinscal.nav.earth import static_outputs_r
 from rinscal.schema import CHANNELS
 from rinscal.thermal.field import ChamberProfile, measure, simulate_field
 from rinscal.thermal.plant import (
