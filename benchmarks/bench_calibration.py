@@ -66,7 +66,7 @@ def timed(fn, repeat: int = 1):
 
 
 def bench_features(t: np.ndarray, x: np.ndarray) -> None:
-    from rinscal.calibration._rate import causal_slope, centred_slope_run
+    from rinscal.calibration.thermal.rate import causal_slope, centred_slope_run
 
     per = N // N_RUNS
     temp = x[:, :1]
@@ -83,7 +83,7 @@ def bench_features(t: np.ndarray, x: np.ndarray) -> None:
 
 
 def bench_regression(x: np.ndarray, y: np.ndarray):
-    from rinscal.calibration.estimators import Regression
+    from rinscal.calibration.thermal.estimators import Regression
 
     dt, m = timed(lambda: Regression(3, 3, 3).fit(x, y))
     ok = "OK" if dt < 5.0 else "MISSED"
@@ -95,7 +95,7 @@ def bench_regression(x: np.ndarray, y: np.ndarray):
 
 
 def bench_neural(x: np.ndarray, y: np.ndarray, codes: np.ndarray):
-    from rinscal.calibration.estimators import Neural
+    from rinscal.calibration.thermal.estimators import Neural
 
     est = Neural(hidden=6)
     dt, m = timed(lambda: est.fit(x, y, groups=codes))
@@ -109,7 +109,7 @@ def bench_neural(x: np.ndarray, y: np.ndarray, codes: np.ndarray):
 
 
 def bench_compensate(x: np.ndarray, y: np.ndarray, models: dict) -> None:
-    from rinscal.calibration._inference import predict_params
+    from rinscal.calibration.inference import predict_params
 
     for name, m, target in (
         ("regression", models["regression"], 20.0),
@@ -136,7 +136,7 @@ def bench_compensate(x: np.ndarray, y: np.ndarray, models: dict) -> None:
 def bench_pipeline() -> None:
     """Whole ``compensate`` on a log: features (centred rate), model, output frame."""
     from rinscal.calibration.compensate import compensate
-    from rinscal.calibration.model import ThermalModel
+    from rinscal.calibration.thermal.model import ThermalModel
     from rinscal.thermal.protocols import simulate_protocol
 
     log, _, meta = simulate_protocol("repeat", rate_hz=RATE_HZ, seed=5)

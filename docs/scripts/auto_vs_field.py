@@ -99,7 +99,7 @@ def noise_only(seeds: tuple[int, ...] = (11, 12, 13)) -> str:
     """
     import dataclasses
 
-    from rinscal.calibration.model import ThermalModel
+    from rinscal.calibration.thermal.model import ThermalModel
     from rinscal.thermal.plant import ChannelThermal
 
     lines = [

@@ -58,7 +58,7 @@ NEURAL_FAST = {"max_samples": 2000, "n_init": 1, "max_iter": 300, "refine_max_nf
 @pytest.fixture(scope="session")
 def fitted_models(soak_small):
     """A model file of every method, fitted on the small soak log."""
-    from rinscal.calibration.model import ThermalModel
+    from rinscal.calibration.thermal.model import ThermalModel
 
     log, _, meta = soak_small
     out = {}

@@ -17,20 +17,19 @@ import pandas as pd
 import pytest
 
 from rinscal.calibration._domain import fit_domain, inside_domain
-from rinscal.calibration.auto import (
-    Candidate,
+from rinscal.calibration.compensate import compensate
+from rinscal.calibration.evaluate import evaluate
+from rinscal.calibration.modelfile import ThermalModelFile
+from rinscal.calibration.selection.auto import (
     _averaging_blocks,
     _polynomial_scores,
-    candidates,
     choose,
-    holdout_folds,
     select_channel,
 )
-from rinscal.calibration.compensate import compensate
-from rinscal.calibration.estimators import Regression
-from rinscal.calibration.evaluate import evaluate
-from rinscal.calibration.model import ThermalModel
-from rinscal.calibration.modelfile import ThermalModelFile
+from rinscal.calibration.selection.candidates import Candidate, candidates
+from rinscal.calibration.selection.folds import holdout_folds
+from rinscal.calibration.thermal.estimators import Regression
+from rinscal.calibration.thermal.model import ThermalModel
 from rinscal.schema import CHANNELS
 from tests._shared import real_log_path
 
@@ -279,7 +278,7 @@ def test_fallback_keeps_the_network_from_making_accel_x_worse() -> None:
     out = compensate(test, mf, "fallback")
     flagged = out["out_of_range"].to_numpy()
     cm = mf.models["accel_x"]
-    from rinscal.calibration._inference import predict_params
+    from rinscal.calibration.inference import predict_params
 
     t = np.clip(test["temp_in"].to_numpy()[flagged], *cm.train_range[0])
     expect = test["accel_x"].to_numpy()[flagged] - predict_params(cm.fallback, t[:, None])
@@ -302,8 +301,8 @@ def test_auto_on_the_real_log_is_never_worse_than_none_on_its_held_out_legs() ->
 
 
 def test_the_field_s_final_fit_reuses_its_filter_and_equals_the_tool_s_fit() -> None:
-    from rinscal.calibration.auto import _baseline_screens
-    from rinscal.calibration.baselines import ardupilot_fit, px4_fit
+    from rinscal.calibration.selection.auto import _baseline_screens
+    from rinscal.calibration.thermal.baselines import ardupilot_fit, px4_fit
 
     x, codes, t = _runs(n_runs=4, n=900, seed=11)
     rng = np.random.default_rng(11)
@@ -329,7 +328,7 @@ def test_the_field_s_final_fit_reuses_its_filter_and_equals_the_tool_s_fit() -> 
 
 def _feed(x, y, codes, t, most: int, tools=("px4", "ardupilot")):
     """What a log read a run at a time leaves of one channel for the choice."""
-    from rinscal.calibration._runs import RowSample
+    from rinscal.calibration.thermal._runs import RowSample
 
     sample = RowSample(most, tools)
     for k in np.unique(codes):
@@ -340,7 +339,7 @@ def _feed(x, y, codes, t, most: int, tools=("px4", "ardupilot")):
 
 def _streamed(x, y, codes, runs, t, cands, most: int):
     """The choice made from the streamed sample (as ``fit`` makes it)."""
-    from rinscal.calibration.auto import select_thinned
+    from rinscal.calibration.selection.auto import select_thinned
 
     sample = _feed(x, y, codes, t, most)
     xs, ys, cs, rows, ts, tools = sample.arrays()
@@ -353,7 +352,7 @@ def _same_choice(x, y, codes, runs, t, monkeypatch, most: int | None = None) -> 
     every ceil(n / most)-th, the stream every 2^j-th: the same rows when that is a power
     of two); the field's held-out fits then see other filtered samples of the same runs
     (their scores within 1 %), the polynomial candidates the same rows."""
-    from rinscal.calibration import auto
+    from rinscal.calibration.selection import auto
 
     cands = candidates("accel", x.shape[1])
     if most is not None:
@@ -415,7 +414,7 @@ def test_the_streamed_choice_on_the_simulated_soak_is_today_s(soak_small, step, 
     """Every channel of the simulated soak protocol: the choice ``fit`` makes from the
     stream is the one made on the whole rows, when nothing is thinned and when both keep
     every 4th row."""
-    from rinscal.calibration.features import build_features
+    from rinscal.calibration.thermal.features import build_features
 
     log, _, _ = soak_small
     f = build_features(log)
@@ -442,7 +441,7 @@ def test_the_choice_keeps_every_kth_row_however_long_the_log() -> None:
     """``auto`` keeps of a channel every k-th usable row of the log, k the smallest power
     of two that keeps at most SCREEN_SAMPLES, not every row: memory does not grow with the
     log. The kept rows are those of rows[::k] of the whole log."""
-    from rinscal.calibration.auto import SCREEN_SAMPLES
+    from rinscal.calibration.selection.auto import SCREEN_SAMPLES
 
     x, codes, t = _runs(n_runs=5, n=1200)
     y = x[:, 0] ** 2
@@ -457,11 +456,11 @@ def test_the_choice_keeps_every_kth_row_however_long_the_log() -> None:
         np.testing.assert_array_equal(cs, codes[::k])
         np.testing.assert_array_equal(ts, t[::k])
         # the PX4 median at each kept row is the one of its whole run
-        from rinscal.calibration.baselines import px4_filtered
+        from rinscal.calibration.thermal.baselines import px4_filtered
 
         np.testing.assert_array_equal(tools["px4"], px4_filtered(x[:, 0], y, codes)[1][::k])
     # ArduPilot's 2 s moving average at each kept row: the tool's, centred on the row
-    from rinscal.calibration.baselines import ardupilot_smoothed
+    from rinscal.calibration.thermal.baselines import ardupilot_smoothed
 
     t10 = np.tile(np.arange(1200) * 0.1, 5)  # 10 Hz: a 20-sample window
     t_s, y_s, _, _, mid = ardupilot_smoothed(x[:, 0], y, t10, codes)
@@ -489,8 +488,8 @@ def test_rinscal_fit_writes_the_whole_rows_choice_while_keeping_every_4th_row(
     writes the choice that the whole rows, thinned alike, give."""
     from typer.testing import CliRunner
 
-    from rinscal.calibration import auto
-    from rinscal.calibration.features import build_features
+    from rinscal.calibration.selection import auto
+    from rinscal.calibration.thermal.features import build_features
     from rinscal.cli import app
     from rinscal.io import write_log
 
@@ -520,7 +519,7 @@ def test_rinscal_fit_writes_the_whole_rows_choice_while_keeping_every_4th_row(
 def test_the_fold_fits_of_one_batched_qr_are_the_fits_one_by_one() -> None:
     """The held-out polynomial fits leave each fold's factor out in one batched QR: the same
     numbers as one QR per fold, rank-deficient designs refused alike."""
-    from rinscal.calibration._fit import fit_factors, fit_factors_leaving_out
+    from rinscal.calibration.thermal._fit import fit_factors, fit_factors_leaving_out
 
     rng = np.random.default_rng(3)
     m = 12

@@ -3,7 +3,7 @@
 Each tool's procedure is re-derived here in plain steps (running median and moving average
 by explicit loops, temperature bins by a loop over samples, then ``np.polyfit``) on a
 synthetic two-run log with a known cubic, noise and outliers, and compared with
-:mod:`rinscal.calibration.baselines`.
+:mod:`rinscal.calibration.thermal.baselines`.
 """
 
 from __future__ import annotations
@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 from sklearn.base import clone
 
-from rinscal.calibration._inference import n_inputs, predict_params, validate_params
-from rinscal.calibration.baselines import ardupilot_fit, px4_fit
-from rinscal.calibration.estimators import BASELINES, ArduPilotFit, PX4Fit
+from rinscal.calibration.inference import n_inputs, predict_params, validate_params
+from rinscal.calibration.thermal.baselines import ardupilot_fit, px4_fit
+from rinscal.calibration.thermal.estimators import BASELINES, ArduPilotFit, PX4Fit
 
 # true thermal error about 25 °C: [a0, a1, a2, a3] in output units / °C^k (deg/h-like);
 # increasing on 5..45 °C (a1 + 2 a2 d + 3 a3 d² > 0 for |d| ≤ 20)
@@ -366,7 +366,7 @@ def test_param_validation_missing_key_and_accepts_the_good_forms() -> None:
 def test_distinct_values_are_counted_as_numpy_unique_counts_them() -> None:
     """The cubic fits refuse fewer than 4 distinct temperatures: the count without a sort
     says what ``np.unique`` says, NaNs (one value), signed zeros and infinities included."""
-    from rinscal.calibration.baselines import _distinct_at_least
+    from rinscal.calibration.thermal.baselines import _distinct_at_least
 
     rng = np.random.default_rng(0)
     for _ in range(2000):

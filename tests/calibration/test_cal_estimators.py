@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from sklearn.utils.estimator_checks import parametrize_with_checks
 
-from rinscal.calibration._inference import predict_params, raw_polynomial
-from rinscal.calibration.estimators import Neural, PolyT, Regression, Sectional, block_split
+from rinscal.calibration.inference import predict_params, raw_polynomial
+from rinscal.calibration.thermal.estimators import Neural, PolyT, Regression, Sectional, block_split
 
 # Table 6 (method 2): accelerometer x (p = q = s = 3) and gyro x (p = q = s = 1), pulses
 TABLE6_ACCEL_X = {
@@ -212,7 +212,7 @@ def test_neural_split_is_by_contiguous_blocks_of_each_run() -> None:
     # feature among ten, so scoring it is not meaningful for them. The integer data of
     # check_estimators_dtypes (three distinct values per column) and the quantised data of
     # check_positive_only_tag_during_fit cannot determine a cubic: the polynomial estimators
-    # refuse rank-deficient designs (rinscal.calibration.guards), as they must.
+    # refuse rank-deficient designs (rinscal.calibration.thermal.guards), as they must.
     expected_failed_checks=lambda est: {
         "check_regressors_train": "uses only the first 1-3 columns (T, Tdot, dT)",
         **(

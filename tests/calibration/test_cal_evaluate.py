@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from rinscal.calibration.evaluate import StepConfig, edge_crossings, edge_steps, evaluate
-from rinscal.calibration.model import ThermalModel
+from rinscal.calibration.thermal.model import ThermalModel
 from rinscal.errors import ConfigError
 
 

@@ -13,15 +13,15 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-import rinscal.calibration._inference
+import rinscal.calibration.inference
 from rinscal.calibration.export import (
     SmallCoefficientWarning,
     to_ardupilot_parm,
     to_c_header,
     to_px4_params,
 )
-from rinscal.calibration.model import ThermalModel
 from rinscal.calibration.modelfile import ChannelModel, ThermalModelFile
+from rinscal.calibration.thermal.model import ThermalModel
 from rinscal.errors import ConfigError
 
 METHODS = ("poly-t", "sectional", "regression", "neural")
@@ -29,8 +29,8 @@ AXES = ("x", "y", "z")
 CHANNELS = ("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z")
 #: px4/ardupilot model methods known to the inference module (another change adds them)
 needs_clamped_methods = pytest.mark.skipif(
-    "px4" not in rinscal.calibration._inference.METHODS,
-    reason="px4/ardupilot model methods not in rinscal.calibration._inference yet",
+    "px4" not in rinscal.calibration.inference.METHODS,
+    reason="px4/ardupilot model methods not in rinscal.calibration.inference yet",
 )
 
 

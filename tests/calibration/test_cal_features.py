@@ -8,8 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from rinscal.calibration._rate import CausalSlope, causal_slope, centred_slope_run
-from rinscal.calibration.features import (
+from rinscal.calibration.thermal.features import (
     DerivativeConfig,
     MissingGradientWarning,
     OutlierConfig,
@@ -18,6 +17,7 @@ from rinscal.calibration.features import (
     set_points,
     temperature_rate,
 )
+from rinscal.calibration.thermal.rate import CausalSlope, causal_slope, centred_slope_run
 from rinscal.errors import ConfigError
 from rinscal.schema import CHANNELS
 from tests.calibration._helpers import synthetic_log
@@ -220,7 +220,7 @@ def test_short_running_median_equals_scipys(n, k) -> None:
     # the numpy path (short logs: no scipy import) gives scipy's values exactly, ties included
     from scipy.ndimage import median_filter
 
-    from rinscal.calibration.features import _median_filter
+    from rinscal.calibration.thermal.features import _median_filter
 
     rng = np.random.default_rng(n)
     y = rng.normal(size=n)

@@ -12,13 +12,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from rinscal.calibration.guards import (
+from rinscal.calibration.thermal.guards import (
     TrainingDataWarning,
     check_design,
     design_condition,
     temperature_resolution,
 )
-from rinscal.calibration.model import ThermalModel
+from rinscal.calibration.thermal.model import ThermalModel
 from rinscal.errors import ConfigError, LogError
 from rinscal.io import read_log
 from rinscal.schema import CHANNELS

@@ -11,12 +11,12 @@ import numpy as np
 import pytest
 
 from rinscal.calibration.compensate import model_features
-from rinscal.calibration.model import ThermalModel
 from rinscal.calibration.modelfile import (
     SCHEMA_VERSION,
     ThermalModelFile,
     payload_sha256,
 )
+from rinscal.calibration.thermal.model import ThermalModel
 from rinscal.earth import static_outputs_r
 from rinscal.errors import ModelFileError
 from rinscal.units import DEG_TO_RAD, DPH_TO_RPS, UG_TO_MPS2

@@ -7,8 +7,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from rinscal.calibration.features import build_features
-from rinscal.calibration.selection import select_model
+from rinscal.calibration.selection.heldout import select_model
+from rinscal.calibration.thermal.features import build_features
 from rinscal.errors import ConfigError
 from tests.calibration._helpers import synthetic_log
 from tests.calibration.conftest import NEURAL_FAST
@@ -92,8 +92,8 @@ def test_selection_needs_two_runs_and_a_known_method(soak_small) -> None:
 
 def test_regression_selection_from_per_run_factors_equals_refitting(soak_small) -> None:
     """Leave-one-run-out from per-run QR factors equals fitting every fold from the data."""
-    from rinscal.calibration.estimators import Regression
-    from rinscal.calibration.features import DerivativeConfig, OutlierConfig, build_features
+    from rinscal.calibration.thermal.estimators import Regression
+    from rinscal.calibration.thermal.features import DerivativeConfig, OutlierConfig, build_features
 
     res = select_model(soak_small[0], "regression", settings=(1, 2, 3))
     feats = build_features(soak_small[0], DerivativeConfig(), OutlierConfig())

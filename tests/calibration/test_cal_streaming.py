@@ -140,7 +140,7 @@ def _leaves(obj, path=""):
 def test_fit_in_pieces_equals_the_whole_log(tmp_path, soak_small, method) -> None:
     import warnings
 
-    from rinscal.calibration.model import ThermalModel
+    from rinscal.calibration.thermal.model import ThermalModel
 
     from .conftest import NEURAL_FAST
 
@@ -164,10 +164,10 @@ def test_fit_in_pieces_equals_the_whole_log(tmp_path, soak_small, method) -> Non
 def test_run_factors_give_the_fit_of_all_rows(soak_small) -> None:
     """Per-run factors in each run's own scaling, re-expressed in the global one, give the
     least-squares fit of all rows at once (an independent QR of the stacked design)."""
-    from rinscal.calibration._fit import fit_params
-    from rinscal.calibration._inference import predict_params
-    from rinscal.calibration._runs import RunFits
-    from rinscal.calibration.features import build_features
+    from rinscal.calibration.inference import predict_params
+    from rinscal.calibration.thermal._dispatch import fit_params
+    from rinscal.calibration.thermal._runs import RunFits
+    from rinscal.calibration.thermal.features import build_features
 
     log, _, _ = soak_small
     f = build_features(log)
@@ -199,7 +199,7 @@ def test_run_factors_give_the_fit_of_all_rows(soak_small) -> None:
 
 
 def test_select_in_pieces_equals_the_whole_log(tmp_path, soak_small) -> None:
-    from rinscal.calibration.selection import select_model, select_regression_runs
+    from rinscal.calibration.selection.heldout import select_model, select_regression_runs
 
     log, _, _ = soak_small
     path = tmp_path / "soak.parquet"

@@ -51,7 +51,7 @@ def test_true_bias_compensation_equals_an_imu_without_thermal_errors(cold_start)
 
 @pytest.fixture(scope="module")
 def regression_model(tmp_path_factory):  # type: ignore[no-untyped-def]
-    from rinscal.calibration.model import ThermalModel
+    from rinscal.calibration.thermal.model import ThermalModel
     from rinscal.thermal.protocols import simulate_protocol
 
     log, _, meta = simulate_protocol("soak", hours=3.0, rate_hz=1.0, seed=5, config=IMU)

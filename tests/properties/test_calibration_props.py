@@ -19,12 +19,12 @@ from hypothesis import HealthCheck, assume, example, given, settings
 from hypothesis import strategies as st
 
 from rinscal.calibration.compensate import FLAG_COLUMN, compensate
-from rinscal.calibration.model import ThermalModel
 from rinscal.calibration.modelfile import (
     ChannelModel,
     ThermalModelFile,
     payload_sha256,
 )
+from rinscal.calibration.thermal.model import ThermalModel
 from rinscal.errors import ModelFileError
 from rinscal.schema import CHANNELS
 from rinscal.units import SENSOR_TYPE_UNITS, SENSOR_UNITS

@@ -1,14 +1,17 @@
-"""Thermal calibration: features, the paper's three models and the field's baseline.
+"""Calibration: thermal bias models, their selection, model files and compensation.
+
+Sub-packages
+------------
+:mod:`~rinscal.calibration.thermal`
+    Thermal bias models and their fitting (features, estimators, the field's baselines,
+    ``ThermalModel``).
+:mod:`~rinscal.calibration.selection`
+    Model selection on held-out data (``fit --method auto``, Tables 5 and 7, honestly).
 
 Modules
 -------
-:mod:`~rinscal.calibration.features`
-    Per-run model inputs ``T`` [°C], ``Ṫ`` [°C/min], ``ΔT`` [°C] and outlier masks.
-:mod:`~rinscal.calibration.estimators`
-    ``PolyT``, ``Sectional`` (method 1), ``Regression`` (method 2), ``Neural`` (method 3):
-    scikit-learn estimators of one channel.
-:mod:`~rinscal.calibration.model`
-    ``ThermalModel``: one estimator per channel, fitted on a calibration log.
+:mod:`~rinscal.calibration.inference`
+    Numpy-only inference of every method from its stored parameters.
 :mod:`~rinscal.calibration.modelfile`
     ``ThermalModelFile``: the validated JSON model file and numpy-only inference
     (``predict``, ``predict_bias_si``).
@@ -16,10 +19,12 @@ Modules
     Batch and streaming compensation (Eq. 10).
 :mod:`~rinscal.calibration.evaluate`
     RMS before/after (Eq. 16) and steps at segment edges (Figure 7).
-:mod:`~rinscal.calibration.selection`
-    Order / neuron-count selection on held-out runs (Tables 5 and 7, honestly).
+:mod:`~rinscal.calibration.allan`
+    Allan deviation and noise parameters.
 :mod:`~rinscal.calibration.export`
     PX4 ``.params``, ArduPilot ``.parm`` and C headers.
+``_domain``
+    The joint input domain (occupancy grid) a model file stores and checks.
 
 This package imports nothing on purpose: loading a model file and predicting with it
 (:mod:`rinscal.calibration.modelfile`) needs numpy alone, never scikit-learn.

@@ -27,15 +27,15 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from rinscal.calibration._inference import predict_params
-from rinscal.calibration._rate import CausalSlope
-from rinscal.calibration.features import (
+from rinscal.calibration.inference import predict_params
+from rinscal.calibration.modelfile import POLICIES, Policy, ThermalModelFile
+from rinscal.calibration.thermal.features import (
     DerivativeConfig,
     Features,
     OutlierConfig,
     build_features,
 )
-from rinscal.calibration.modelfile import POLICIES, Policy, ThermalModelFile
+from rinscal.calibration.thermal.rate import CausalSlope
 from rinscal.errors import ConfigError, LogError, RangeError
 from rinscal.units import MIN_TO_S
 
@@ -338,7 +338,7 @@ def check_units(
     ConfigError
         Naming every channel whose units differ, with both units.
     """
-    from rinscal.calibration.model import unit_factors
+    from rinscal.calibration.thermal.model import unit_factors
 
     units, _ = unit_factors(meta, model.channels)
     bad = [

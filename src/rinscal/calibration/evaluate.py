@@ -29,8 +29,8 @@ import pandas as pd
 
 from rinscal.calibration.allan import AllanCurve
 from rinscal.calibration.compensate import model_features, predict_log
-from rinscal.calibration.features import Features, OutlierConfig
 from rinscal.calibration.modelfile import Policy, ThermalModelFile
+from rinscal.calibration.thermal.features import Features, OutlierConfig
 from rinscal.errors import ConfigError
 
 __all__ = [

@@ -53,7 +53,7 @@ C header (every method)
     reference function per channel, ``double <prefix>_<channel>(double T, double Tdot,
     double dT)`` returning ``f`` in log units (no clamping, except the clamp that is part of
     a ``px4``/``ardupilot`` model; the training ranges are given as macros), evaluated
-    exactly as :func:`rinscal.calibration._inference.predict_params`.
+    exactly as :func:`rinscal.calibration.inference.predict_params`.
 """
 
 from __future__ import annotations
@@ -66,7 +66,7 @@ from decimal import ROUND_CEILING, ROUND_FLOOR, Decimal
 
 import numpy as np
 
-from rinscal.calibration._inference import poly_shift, segment_params
+from rinscal.calibration.inference import poly_shift, segment_params
 from rinscal.calibration.modelfile import INPUT_NAMES, ThermalModelFile
 from rinscal.errors import ConfigError
 from rinscal.firmware import ARDUPILOT_SCALE, ARDUPILOT_TREF_C, ardupilot_tcal_prefix

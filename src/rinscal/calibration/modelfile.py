@@ -21,7 +21,7 @@ Layout (``schema_version`` 2; version 1 files, without ``domain``, ``fallback`` 
         "source": {"runs": [...], "latitude_deg": 45.0, "heading_deg": 0.0},
         "channel_models": {
           "gyro_x": {
-            "params": {...},                    # see rinscal.calibration._inference
+            "params": {...},                    # see rinscal.calibration.inference
             "unit": "deg/h", "unit_to_si": 4.85e-06,
             "static_reference": 7.3,            # Earth rate/gravity in log units, or null
             "train_range": {"T": [lo, hi], "Tdot": [lo, hi], "dT": [lo, hi]},
@@ -77,7 +77,7 @@ import numpy as np
 
 from rinscal._version import __version__
 from rinscal.calibration._domain import inside_domain, validate_domain
-from rinscal.calibration._inference import METHODS, n_inputs, predict_params, validate_params
+from rinscal.calibration.inference import METHODS, n_inputs, predict_params, validate_params
 from rinscal.errors import ModelFileError, RangeError
 from rinscal.units import G0, check_sensor_unit
 
@@ -106,7 +106,7 @@ POLICIES: tuple[str, ...] = ("clamp", "fallback", "extrapolate", "error")
 INPUT_NAMES: tuple[str, str, str] = ("T", "Tdot", "dT")
 #: Input units, in :data:`INPUT_NAMES` order.
 INPUT_UNITS: tuple[str, str, str] = ("degC", "degC/min", "degC")
-#: Name of the temperature-rate estimator (see :mod:`rinscal.calibration._rate`).
+#: Name of the temperature-rate estimator (see :mod:`rinscal.calibration.thermal.rate`).
 RATE_ESTIMATOR = "windowed least-squares slope"
 #: Keys of the payload, of a channel's entry and of its metrics (exactly these).
 PAYLOAD_KEYS = ("method", "created_by", "channels", "features", "source", "channel_models")
@@ -151,7 +151,7 @@ class ChannelModel:
     Attributes
     ----------
     params : dict
-        Plain parameters (see :mod:`rinscal.calibration._inference`).
+        Plain parameters (see :mod:`rinscal.calibration.inference`).
     train_range : ndarray, shape (k, 2)
         ``[min, max]`` of each input used (``T`` [°C], ``Ṫ`` [°C/min], ``ΔT`` [°C]) over the
         training samples.

@@ -277,9 +277,9 @@ def fit(
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
     from rich.table import Table
 
-    from rinscal.calibration.features import DerivativeConfig, MissingGradientWarning
-    from rinscal.calibration.guards import TrainingDataWarning
-    from rinscal.calibration.model import ThermalModel
+    from rinscal.calibration.thermal.features import DerivativeConfig, MissingGradientWarning
+    from rinscal.calibration.thermal.guards import TrainingDataWarning
+    from rinscal.calibration.thermal.model import ThermalModel
     from rinscal.cli._app import console, err_console, fail, styled
     from rinscal.errors import RinscalError
     from rinscal.io import by_runs
@@ -476,13 +476,13 @@ def select(
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
     from rich.table import Table
 
-    from rinscal.calibration.features import DerivativeConfig, MissingGradientWarning
-    from rinscal.calibration.model import unit_factors
-    from rinscal.calibration.selection import (
+    from rinscal.calibration.selection.heldout import (
         DEFAULT_SETTINGS,
         select_model,
         select_regression_runs,
     )
+    from rinscal.calibration.thermal.features import DerivativeConfig, MissingGradientWarning
+    from rinscal.calibration.thermal.model import unit_factors
     from rinscal.cli._app import console, err_console, fail, styled
     from rinscal.errors import RinscalError
     from rinscal.io import by_runs, read_log_source
@@ -591,8 +591,8 @@ def _select_auto(
 
     from rich.table import Table
 
-    from rinscal.calibration.features import DerivativeConfig
-    from rinscal.calibration.model import ThermalModel
+    from rinscal.calibration.thermal.features import DerivativeConfig
+    from rinscal.calibration.thermal.model import ThermalModel
     from rinscal.cli._app import console, err_console, fail, styled
     from rinscal.errors import RinscalError
 

@@ -72,7 +72,7 @@ def fleet_fit(
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
     from rich.table import Table
 
-    from rinscal.calibration.model import FIT_METHODS
+    from rinscal.calibration.thermal.model import FIT_METHODS
     from rinscal.cli._app import console, fail
     from rinscal.errors import RinscalError
     from rinscal.experiments.fleet import (

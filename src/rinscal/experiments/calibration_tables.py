@@ -25,9 +25,9 @@ import pandas as pd
 
 from rinscal.calibration.compensate import model_features, predict_log
 from rinscal.calibration.evaluate import StepConfig, edge_steps, evaluate
-from rinscal.calibration.features import MissingGradientWarning
-from rinscal.calibration.model import ThermalModel
 from rinscal.calibration.modelfile import ThermalModelFile
+from rinscal.calibration.thermal.features import MissingGradientWarning
+from rinscal.calibration.thermal.model import ThermalModel
 from rinscal.schema import RUN
 
 __all__ = [

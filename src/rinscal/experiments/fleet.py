@@ -182,9 +182,9 @@ def fit_unit(
     """
     import warnings
 
-    from rinscal.calibration._inference import predict_params
     from rinscal.calibration.export import to_ardupilot_parm, to_c_header, to_px4_params
-    from rinscal.calibration.model import ThermalModel
+    from rinscal.calibration.inference import predict_params
+    from rinscal.calibration.thermal.model import ThermalModel
     from rinscal.flightlog import FlightLogOptions, scan_flight_log
     from rinscal.io import is_flight_log, read_log, read_meta
 

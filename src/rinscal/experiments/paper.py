@@ -33,9 +33,9 @@ import pandas as pd
 from rinscal import units
 from rinscal.calibration.compensate import predict_log
 from rinscal.calibration.evaluate import evaluate
-from rinscal.calibration.model import ThermalModel
 from rinscal.calibration.modelfile import ThermalModelFile
-from rinscal.calibration.selection import SelectionResult, select_model
+from rinscal.calibration.selection.heldout import SelectionResult, select_model
+from rinscal.calibration.thermal.model import ThermalModel
 from rinscal.errors import ConfigError
 from rinscal.schema import ACCEL_CHANNELS, CHANNELS
 from rinscal.thermal.field import ChamberProfile
@@ -375,7 +375,7 @@ def coefficient_tables(models: Mapping[str, ThermalModelFile]) -> dict[str, pd.D
     form the fit uses. The network weights act on standardised inputs and outputs (the
     file stores the means and scales), as the paper's Table 8 presumably does.
     """
-    from rinscal.calibration._inference import raw_polynomial
+    from rinscal.calibration.inference import raw_polynomial
 
     out: dict[str, pd.DataFrame] = {}
     for c in ("accel_x", "gyro_x"):

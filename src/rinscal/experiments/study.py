@@ -686,7 +686,7 @@ def calibrate_unit(spec: StudySpec, plant: ImuConfig, task: CalTask) -> dict[str
         ``models``: method → model file JSON text; ``warnings``: method → the warnings its
         fit raised (a weak fit is kept and flagged); ``elapsed_s`` [s]: the task's run time.
     """
-    from rinscal.calibration.model import ThermalModel
+    from rinscal.calibration.thermal.model import ThermalModel
     from rinscal.thermal.protocols import simulate_protocol
 
     t0 = time.perf_counter()

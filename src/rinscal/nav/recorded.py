@@ -732,7 +732,7 @@ class CausalModelCompensator:
     The thermometers are read once per ``update_s`` (the first sample whose interval's
     middle falls in a new tick: its temperature columns, dated at the tick); the
     temperature rate is the model's causal windowed slope over these readings (the
-    compiled :class:`~rinscal.calibration._rate.CausalSlope` of ``compensate --causal``);
+    compiled :class:`~rinscal.calibration.thermal.rate.CausalSlope` of ``compensate --causal``);
     the bias ``(f(T, Ṫ, ΔT) − r)`` in SI is held until the next reading. A reading with a
     NaN temperature keeps the last one. Channels the model lacks are not compensated.
 
@@ -745,7 +745,7 @@ class CausalModelCompensator:
     """
 
     def __init__(self, model: Any, policy: str = "clamp", update_s: float = 1.0) -> None:
-        from rinscal.calibration._rate import CausalSlope
+        from rinscal.calibration.thermal.rate import CausalSlope
 
         if not (math.isfinite(update_s) and update_s > 0):
             raise ConfigError(f"model update interval must be > 0 s, got {update_s}")

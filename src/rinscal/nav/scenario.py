@@ -373,7 +373,7 @@ class ModelCompensator:
         policy: str = "clamp",
         update_s: float = 1.0,
     ) -> None:
-        from rinscal.calibration.features import DerivativeConfig, temperature_rate
+        from rinscal.calibration.thermal.features import DerivativeConfig, temperature_rate
         from rinscal.schema import CHANNELS
 
         if not (math.isfinite(update_s) and update_s > 0):

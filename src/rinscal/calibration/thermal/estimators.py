@@ -2,12 +2,12 @@
 
 Every estimator takes a feature matrix ``X`` whose columns are, in order, the inner
 temperature ``T`` [°C], its rate ``Ṫ`` [°C/min] and the gradient ``ΔT`` [°C] (see
-:mod:`rinscal.calibration.features`), and the raw output ``y`` of one channel in the log's
+:mod:`rinscal.calibration.thermal.features`), and the raw output ``y`` of one channel in the log's
 units. Columns after those a method uses are ignored, so one matrix serves every method.
 ``predict`` returns the modelled output ``f(T, Ṫ, ΔT)``; compensation is ``N' = N − f``
 (Eq. 10). ``__init__`` only stores hyper-parameters; ``fit`` returns ``self``; fitted
 attributes end in ``_``; ``params_`` holds the plain parameters that
-:func:`rinscal.calibration._inference.predict_params` evaluates with numpy alone (and that
+:func:`rinscal.calibration.inference.predict_params` evaluates with numpy alone (and that
 the model file stores), and ``predict`` calls exactly that function.
 
 Methods
@@ -44,7 +44,8 @@ from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.exceptions import ConvergenceWarning
 from sklearn.utils.validation import check_is_fitted, column_or_1d, validate_data
 
-from rinscal.calibration._fit import (
+from rinscal.calibration.inference import predict_params, raw_polynomial
+from rinscal.calibration.thermal._fit import (
     NEURAL_MAX_SAMPLES,
     fit_poly_t,
     fit_regression,
@@ -54,8 +55,7 @@ from rinscal.calibration._fit import (
     solve_r,
     tsqr,
 )
-from rinscal.calibration._inference import predict_params, raw_polynomial
-from rinscal.calibration.baselines import ARDUPILOT_WINDOW_S, ardupilot_fit, px4_fit
+from rinscal.calibration.thermal.baselines import ARDUPILOT_WINDOW_S, ardupilot_fit, px4_fit
 
 __all__ = [
     "ALL_ESTIMATORS",
@@ -104,7 +104,7 @@ class _ThermalEstimator(RegressorMixin, BaseEstimator):
         return predict_params(self.params_, X)
 
     def export_params(self) -> dict[str, Any]:
-        """Plain JSON-able parameters (see :mod:`rinscal.calibration._inference`)."""
+        """Plain JSON-able parameters (see :mod:`rinscal.calibration.inference`)."""
         check_is_fitted(self, "params_")
         import copy
 

@@ -5,7 +5,7 @@ For each sensor channel ``c`` and each sample of a calibration log the features 
 * ``T``  — the inner temperature of the sensor [°C] (``temp_<c>``, or the shared ``temp_in``),
 * ``Ṫ``  — its rate [°C/min], the slope of a least-squares line through the temperature
   samples of a window of ``window_s`` seconds (centred for offline fitting, causal for real
-  time; see :mod:`rinscal.calibration._rate`), and
+  time; see :mod:`rinscal.calibration.thermal.rate`), and
 * ``ΔT`` — the gradient ``T − temp_out`` [°C] between the sensor and the package surface
   (absent, with a :class:`MissingGradientWarning`, when the log has no ``temp_out``).
 
@@ -297,7 +297,7 @@ def temperature_rate(t: np.ndarray, temp: np.ndarray, derivative: DerivativeConf
     -------
     ndarray, same shape as ``temp`` [°C/min]
     """
-    from rinscal.calibration._rate import causal_slope, centred_slope_run  # numba: on demand
+    from rinscal.calibration.thermal.rate import causal_slope, centred_slope_run  # numba: on demand
 
     temp = np.asarray(temp, dtype=np.float64)
     x = temp.reshape(temp.shape[0], -1)

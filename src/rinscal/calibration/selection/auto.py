@@ -9,18 +9,18 @@ the best (those a one-sided paired t-test on the folds' log error ratios cannot 
 PX4's), else the fewest thermal parameters: within noise, the simpler wins. "No compensation"
 is a candidate, so on the held-out data the choice is never clearly worse than doing nothing.
 
-Folds (:func:`holdout_folds`)
+Folds (:func:`rinscal.calibration.selection.folds.holdout_folds`)
     Leave-one-run-out when the log has three runs or more. Otherwise each run is cut into its
     heating and cooling legs (turning points of the temperature, with a hysteresis of
     max(1 °C, 10 % of the run's span)) and each leg is left out in turn; its contiguous blocks
-    (at least :data:`MIN_FOLDS` in all) are scored apart, so that the held-out error has a
+    (at least :data:`~rinscal.calibration.selection.folds.MIN_FOLDS` in all) are scored apart, so that the held-out error has a
     spread (a standard error needs several values) while a leg, a thermal regime of its own,
     is never half in the training data. A single leg is cut into blocks left out one by one.
     Never random rows: neighbouring samples of a slow thermal signal are not independent.
 
-Candidates (:func:`candidates`)
+Candidates (:func:`rinscal.calibration.selection.candidates.candidates`)
     ``none`` (a constant: no thermal compensation), ``ardupilot`` and ``px4`` (the field's
-    own fits, :mod:`rinscal.calibration.baselines`; on held-out folds each tool's filter runs
+    own fits, :mod:`rinscal.calibration.thermal.baselines`; on held-out folds each tool's filter runs
     once per run and its fit on at most :data:`SCREEN_ROWS` filtered samples; the chosen one
     is refitted on every filtered sample kept: all of them up to :data:`SCREEN_SAMPLES`
     rows), ``poly-t`` of degree 1-4, ``regression`` with ``p`` = 1..4, ``q`` = 0..3,
@@ -33,23 +33,23 @@ Above :data:`SCREEN_SAMPLES` inlier samples the held-out scores use every k-th s
 chosen polynomial model is fitted on all of them).
 
 ``fit`` reads a log a run at a time and never holds it whole
-(:class:`rinscal.calibration._runs.RowSample`, :func:`select_thinned`): of each channel it
+(:class:`rinscal.calibration.thermal._runs.RowSample`, :func:`select_thinned`): of each channel it
 keeps every k-th usable row of the log, ``k`` the smallest power of two that keeps at most
 :data:`SCREEN_SAMPLES` (the rows of :func:`select_channel` when its ``k`` is a power of two,
 as on the 7.56 M-sample soak log: ``k`` = 8), each with the value of PX4's median and
 ArduPilot's moving average at that row (computed on the whole run), and of each run its
-legs' temperature ranges (:class:`RunSpan`). The polynomial candidates are then refitted on
+legs' temperature ranges (:class:`rinscal.calibration.selection.folds.RunSpan`). The polynomial candidates are then refitted on
 every row from per-run QR factors, the field's fits on the kept filtered rows. Memory is
 bounded by one run and the kept rows, not by the log.
 
 The polynomial candidates share one pass over the held-out data: per fold the triangular
 factor of
-the largest design (:func:`rinscal.calibration.estimators.tsqr`); any candidate on any
+the largest design (:func:`rinscal.calibration.thermal.estimators.tsqr`); any candidate on any
 training folds is then a QR of the stacked column subsets, and its held-out residual sum of
 squares and mean follow from the held-out fold's factor (``‖R_k [β; −1]‖²``; the first row
 of ``R_k`` holds the column sums, since the design's first column is ones). A candidate
 whose training design is rank-deficient on some fold, or whose inputs are collinear on the
-whole log (:func:`rinscal.calibration.guards.collinear_inputs`), scores ``None`` and is not
+whole log (:func:`rinscal.calibration.thermal.guards.collinear_inputs`), scores ``None`` and is not
 chosen.
 """
 
@@ -64,60 +64,44 @@ from typing import Any
 
 import numpy as np
 
-from rinscal.calibration._fit import (
+from rinscal.calibration.inference import predict_params
+from rinscal.calibration.selection.candidates import (
+    MAX_ORDERS,
+    Candidate,
+    fit_candidate,
+)
+from rinscal.calibration.selection.folds import Folds, RunSpan, fold_plan, holdout_plan
+from rinscal.calibration.thermal._fit import (
     _center_scale,
     _power_basis,
     factor_ss_about_mean,
     fit_factors_leaving_out,
-    fit_params,
     solve_r,
     tsqr,
 )
-from rinscal.calibration._inference import predict_params
-from rinscal.calibration.guards import (
+from rinscal.calibration.thermal.guards import (
     DesignError,
     collinear_inputs,
 )
 
 __all__ = [
-    "DEFAULT_FAMILIES",
-    "FAMILIES",
-    "Candidate",
-    "FoldPlan",
-    "Folds",
-    "RunSpan",
+    "BLOCK_S",
+    "CONFIDENCE",
+    "DEFAULT_TOLERANCE",
+    "SCREEN_ROWS",
+    "SCREEN_SAMPLES",
     "Selection",
-    "candidates",
     "choose",
-    "fit_candidate",
-    "fold_plan",
-    "holdout_folds",
-    "run_span",
     "select_channel",
     "select_thinned",
 ]
 
-#: Candidate families, in order of preference at equal complexity.
-FAMILIES: tuple[str, ...] = ("none", "ardupilot", "px4", "poly-t", "regression", "neural")
-#: Families tried by default.
-DEFAULT_FAMILIES: tuple[str, ...] = ("none", "ardupilot", "px4", "poly-t", "regression")
 #: Default relative tolerance of the choice on the mean square error, on top of the
 #: paired test (:func:`choose`).
 DEFAULT_TOLERANCE = 0.0
 #: One-sided confidence of the paired test by which a candidate is worse than the best
 #: (:func:`choose`).
 CONFIDENCE = 0.9
-#: Largest orders of the polynomial candidates (T, Ṫ, ΔT).
-MAX_ORDERS: tuple[int, int, int] = (4, 3, 3)
-#: Without three runs, legs are cut into contiguous blocks until there are this many folds
-#: (a standard error of held-out error needs several).
-MIN_FOLDS = 8
-#: Leave-one-run-out from this many runs with rows on (fewer: legs, or blocks).
-MIN_RUNS = 3
-#: Hidden-layer sizes screened when ``neural`` is a candidate.
-HIDDEN: tuple[int, ...] = (2, 4, 6)
-#: Screening budget of a neural candidate's held-out fits.
-NEURAL_SCREEN: dict[str, int] = {"max_samples": 5000, "n_init": 1}
 #: Filtered samples (every k-th) the PX4 and ArduPilot fits of a held-out fold use at most.
 SCREEN_ROWS = 200_000
 #: Averaging block of the held-out residual [s]: the score is the RMS of 60 s means of the
@@ -128,443 +112,6 @@ BLOCK_S = 60.0
 #: fitted on all of them. At 100 Hz over 7 × 3 h this keeps one sample in eight (12.5 Hz),
 #: far above the bandwidth of a thermal drift.
 SCREEN_SAMPLES = 1_000_000
-
-
-@dataclass(frozen=True)
-class Candidate:
-    """One model a channel may get.
-
-    Attributes
-    ----------
-    name : str
-        Label (``"none"``, ``"px4"``, ``"poly-t 3"``, ``"regression 3,1,0"``, ``"neural 4"``).
-    family : str
-        One of :data:`FAMILIES`.
-    method : str
-        Estimator method (``none`` is a ``poly-t`` of degree 0).
-    params : dict
-        Estimator hyper-parameters.
-    n_params : int
-        Thermal parameters (the constant not counted): the complexity of the choice.
-    orders : tuple of int or None
-        Orders in (T, Ṫ, ΔT) of a polynomial candidate (the fast path), else None.
-    """
-
-    name: str
-    family: str
-    method: str
-    params: dict[str, Any] = field(default_factory=dict)
-    n_params: int = 0
-    orders: tuple[int, ...] | None = None
-
-    @property
-    def t_only(self) -> bool:
-        """Whether the candidate uses the temperature alone (a fallback may be one)."""
-        if self.family in ("none", "px4", "ardupilot", "poly-t"):
-            return True
-        return self.orders is not None and not any(self.orders[1:])
-
-
-def candidates(
-    sensor: str,
-    n_inputs: int,
-    families: Sequence[str] = DEFAULT_FAMILIES,
-    hidden: Sequence[int] = HIDDEN,
-) -> list[Candidate]:
-    """The candidates of one channel.
-
-    Parameters
-    ----------
-    sensor : {"gyro", "accel"}
-        Sensor type (the PX4 fit removes an accelerometer's median).
-    n_inputs : int
-        Inputs available: 2 (T, Ṫ) or 3 (with ΔT).
-    families : sequence of str
-        Among :data:`FAMILIES`.
-    hidden : sequence of int
-        Hidden-layer sizes of the ``neural`` candidates.
-
-    Returns
-    -------
-    list of Candidate
-    """
-    unknown = [f for f in families if f not in FAMILIES]
-    if unknown or not families:
-        raise ValueError(f"candidate families must be among {', '.join(FAMILIES)}, got {unknown}")
-    out: list[Candidate] = []
-    fams = [f for f in FAMILIES if f in families]
-    for fam in fams:
-        if fam == "none":
-            out.append(Candidate("none", fam, "poly-t", {"degree": 0}, 0, (0, 0, 0)))
-        elif fam in ("px4", "ardupilot"):
-            out.append(Candidate(fam, fam, fam, {"sensor": sensor}, 3))
-        elif fam == "poly-t":
-            for d in range(1, MAX_ORDERS[0] + 1):
-                out.append(Candidate(f"poly-t {d}", fam, "poly-t", {"degree": d}, d, (d, 0, 0)))
-        elif fam == "regression":
-            s_max = MAX_ORDERS[2] if n_inputs >= 3 else 0
-            for p in range(1, MAX_ORDERS[0] + 1):
-                for q in range(MAX_ORDERS[1] + 1):
-                    for s in range(s_max + 1):
-                        if q == s == 0:
-                            continue
-                        orders = (p, q, s) if n_inputs >= 3 else (p, q)
-                        params = dict(
-                            zip(("t_order", "rate_order", "grad_order"), orders, strict=False)
-                        )
-                        if n_inputs < 3:
-                            params["grad_order"] = 0
-                        out.append(
-                            Candidate(
-                                "regression " + ",".join(map(str, orders)),
-                                fam,
-                                "regression",
-                                params,
-                                p + q + s,
-                                (p, q, s),
-                            )
-                        )
-        else:  # neural
-            for n in hidden:
-                out.append(
-                    Candidate(f"neural {n}", fam, "neural", {"hidden": int(n)}, n * (n_inputs + 2))
-                )
-    return out
-
-
-@dataclass(frozen=True)
-class Folds:
-    """Held-out folds of a training set.
-
-    Attributes
-    ----------
-    codes : ndarray of int, shape (n,)
-        Fold of each row: what a held-out fit leaves out.
-    names : tuple of str
-        Fold names (a run, ``<run>/heat``, ``<run>/cool2``, ``<run>/3``...).
-    scheme : str
-        ``leave-one-run-out``, ``legs`` or ``blocks``.
-    units : ndarray of int, shape (n,)
-        Scoring unit of each row: a fold, or a contiguous block of one (a leg's blocks are
-        scored apart so that the error has a spread, but left out together).
-    unit_names : tuple of str
-        Unit names.
-    unit_fold : ndarray of int
-        Fold of each unit.
-    """
-
-    codes: np.ndarray
-    names: tuple[str, ...]
-    scheme: str
-    units: np.ndarray
-    unit_names: tuple[str, ...]
-    unit_fold: np.ndarray
-
-
-def _legs(temp: np.ndarray, min_frac: float = 0.05) -> list[tuple[int, int, str]]:
-    """Heating and cooling legs of one run: (start, stop, "heat" | "cool")."""
-    n = temp.size
-    step = max(1, n // 20000)
-    tz = temp[::step]
-    span = float(np.ptp(tz)) if tz.size else 0.0
-    h = max(1.0, 0.1 * span)
-    turns = [0]
-    direction = 0  # 0: not yet moved by h, 1: heating, -1: cooling
-    first = float(tz[0]) if tz.size else 0.0
-    ext_i, ext_v = 0, first
-    for i in range(1, tz.size):
-        v = float(tz[i])
-        if direction == 0:
-            if abs(v - first) >= h:
-                direction, ext_i, ext_v = (1 if v > first else -1), i, v
-        elif direction * (v - ext_v) > 0:  # further along the current leg
-            ext_i, ext_v = i, v
-        elif abs(v - ext_v) >= h:  # turned back by more than the hysteresis
-            turns.append(ext_i)
-            direction, ext_i, ext_v = -direction, i, v
-    bounds = [t * step for t in turns] + [n]
-    legs: list[tuple[int, int, str]] = []
-    for a, b in itertools.pairwise(bounds):
-        if b <= a:
-            continue
-        kind = "heat" if temp[b - 1] >= temp[a] else "cool"
-        if legs and (b - a) < min_frac * n:
-            pa, _, pk = legs[-1]
-            legs[-1] = (pa, b, pk)
-        else:
-            legs.append((a, b, kind))
-    return legs
-
-
-@dataclass(frozen=True)
-class RunSpan:
-    """What the folds need of one run's usable rows: their number, legs and temperatures.
-
-    Attributes
-    ----------
-    code : int
-        Run code.
-    n : int
-        Rows.
-    legs : tuple of (int, int, str)
-        Heating and cooling legs ``(start, stop, "heat" | "cool")`` (:func:`_legs`), or the
-        whole run as one ``(0, n, "")`` when it is not cut (leave-one-run-out needs no legs).
-    cuts : ndarray of int
-        Every boundary a scoring unit can have (a leg's, and those of the leg cut into
-        1 .. :data:`MIN_FOLDS` equal blocks), 0 and ``n`` included, increasing.
-    lo, hi : ndarray [°C]
-        Lowest and highest temperature of the rows between consecutive cuts.
-    """
-
-    code: int
-    n: int
-    legs: tuple[tuple[int, int, str], ...]
-    cuts: np.ndarray
-    lo: np.ndarray
-    hi: np.ndarray
-
-
-def run_span(code: int, temp: np.ndarray, cut: bool) -> RunSpan:
-    """The :class:`RunSpan` of one run's usable rows.
-
-    Parameters
-    ----------
-    code : int
-        Run code.
-    temp : ndarray, shape (n,) [°C]
-        The run's temperature, rows in time order.
-    cut : bool
-        Cut the run into its legs (needed when the log has fewer than :data:`MIN_RUNS` runs).
-    """
-    n = int(temp.size)
-    legs = tuple(_legs(temp)) if cut and n else ((0, n, ""),)
-    cuts = {0, n}
-    for a, b, _ in legs:
-        for per in range(1, MIN_FOLDS + 1) if cut else (1,):
-            cuts.update((a + np.cumsum([0, *_split_sizes(b - a, per)])).tolist())
-    c = np.array(sorted(cuts), dtype=np.int64)
-    if n:
-        lo, hi = np.minimum.reduceat(temp, c[:-1]), np.maximum.reduceat(temp, c[:-1])
-    else:
-        lo = hi = np.zeros(0)
-    return RunSpan(int(code), n, legs, c, lo, hi)
-
-
-def _split_sizes(n: int, parts: int) -> list[int]:
-    """Sizes of ``numpy.array_split`` of ``n`` rows into ``parts``: the larger ones first."""
-    q, r = divmod(int(n), int(parts))
-    return [q + 1] * r + [q] * (parts - r)
-
-
-@dataclass(frozen=True)
-class FoldPlan:
-    """Folds and scoring units of a log, as segments of each run's rows.
-
-    Attributes
-    ----------
-    names, scheme, unit_names, unit_fold
-        As in :class:`Folds`.
-    segments : tuple of (ndarray, ndarray)
-        Per run (in the order of its span): the start row of each unit segment, and its unit.
-    lo, hi : ndarray [°C]
-        Temperature range of each fold's rows.
-    """
-
-    names: tuple[str, ...]
-    scheme: str
-    unit_names: tuple[str, ...]
-    unit_fold: np.ndarray
-    segments: tuple[tuple[np.ndarray, np.ndarray], ...]
-    lo: np.ndarray
-    hi: np.ndarray
-
-    def label(self, i: int, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Fold and unit of rows ``rows`` (positions within run ``i``)."""
-        starts, units = self.segments[i]
-        u = units[np.searchsorted(starts, rows, side="right") - 1]
-        return self.unit_fold[u], u
-
-    def folds(self, parts: Sequence[tuple[Any, np.ndarray]], n: int) -> Folds:
-        """The :class:`Folds` of ``n`` rows: ``parts[i]`` says where run ``i``'s rows are
-        (an index or a slice) and their positions within the run."""
-        codes = np.empty(n, dtype=np.int64)
-        units = np.empty(n, dtype=np.int64)
-        for i, (where, rows) in enumerate(parts):
-            codes[where], units[where] = self.label(i, rows)
-        return Folds(codes, self.names, self.scheme, units, self.unit_names, self.unit_fold)
-
-    def scored(self, folds: np.ndarray, temp: np.ndarray) -> np.ndarray:
-        """Rows within the temperatures of the folds trained on when theirs is held out.
-
-        Outside that range compensation clamps, and extrapolating in T is not what the
-        choice is about.
-        """
-        nf = len(self.names)
-        lo_o, hi_o = np.empty(nf), np.empty(nf)
-        for k in range(nf):
-            others = np.arange(nf) != k
-            lo_o[k] = self.lo[others].min() if others.any() else np.inf
-            hi_o[k] = self.hi[others].max() if others.any() else -np.inf
-        return (temp >= lo_o[folds]) & (temp <= hi_o[folds])
-
-
-def fold_plan(spans: Sequence[RunSpan], runs: Sequence[str], min_runs: int = MIN_RUNS) -> FoldPlan:
-    """Folds for the held-out choice (see the module docstring) from the runs' spans.
-
-    Parameters
-    ----------
-    spans : sequence of RunSpan
-        The runs with rows, in increasing code (each cut into legs when fewer than
-        ``min_runs``).
-    runs : sequence of str
-        Run names, by code.
-    min_runs : int
-        Leave-one-run-out from this many runs on.
-
-    Returns
-    -------
-    FoldPlan
-    """
-
-    def segment_range(sp: RunSpan, a: int, b: int) -> tuple[float, float]:
-        sel = (sp.cuts[:-1] >= a) & (sp.cuts[:-1] < b)
-        if not sel.any():
-            return np.inf, -np.inf
-        return float(sp.lo[sel].min()), float(sp.hi[sel].max())
-
-    if len(spans) >= min_runs:
-        names = tuple(runs[sp.code] for sp in spans)
-        idx = np.arange(len(spans))
-        ranges = [segment_range(sp, 0, sp.n) for sp in spans]
-        segs = tuple((np.zeros(1, dtype=np.int64), idx[i : i + 1]) for i in range(len(spans)))
-        lo, hi = (np.array(v) for v in zip(*ranges, strict=True))
-        return FoldPlan(names, "leave-one-run-out", names, idx, segs, lo, hi)
-    pieces = [
-        (i, a, b, f"{runs[sp.code]}/{kind}") for i, sp in enumerate(spans) for a, b, kind in sp.legs
-    ]
-    # unique names: a run's second cooling leg is cool2
-    seen: dict[str, int] = {}
-    for *_, name in pieces:
-        seen[name] = seen.get(name, 0) + 1
-    count = dict.fromkeys(seen, 0)
-    named = []
-    for i, a, b, name in pieces:
-        count[name] += 1
-        named.append((i, a, b, name if seen[name] == 1 else f"{name}{count[name]}"))
-    per = math.ceil(MIN_FOLDS / len(named))
-    starts: list[list[int]] = [[] for _ in spans]
-    unit_of: list[list[int]] = [[] for _ in spans]
-    unit_names: list[str] = []
-    leg_of: list[int] = []
-    ranges = []
-    for j, (i, a, b, name) in enumerate(named):
-        bounds = a + np.cumsum([0, *_split_sizes(b - a, per)])
-        for u, (ua, ub) in enumerate(itertools.pairwise(bounds.tolist())):
-            starts[i].append(ua)
-            unit_of[i].append(len(unit_names))
-            unit_names.append(f"{name}/{u + 1}" if per > 1 else name)
-            leg_of.append(j)
-            ranges.append(segment_range(spans[i], ua, ub))
-    segs = tuple(
-        (np.asarray(s, dtype=np.int64), np.asarray(u, dtype=np.int64))
-        for s, u in zip(starts, unit_of, strict=True)
-    )
-    u_lo, u_hi = (np.array(v) for v in zip(*ranges, strict=True))
-    if len(named) >= 2:  # leave one leg out, score its blocks apart
-        fold = np.asarray(leg_of)
-        lo = np.array([u_lo[fold == k].min() for k in range(len(named))])
-        hi = np.array([u_hi[fold == k].max() for k in range(len(named))])
-        return FoldPlan(
-            tuple(name for *_, name in named), "legs", tuple(unit_names), fold, segs, lo, hi
-        )
-    # one leg: its blocks are the folds
-    idx = np.arange(len(unit_names))
-    return FoldPlan(tuple(unit_names), "blocks", tuple(unit_names), idx, segs, u_lo, u_hi)
-
-
-def holdout_folds(
-    run_codes: np.ndarray, runs: Sequence[str], temp: np.ndarray, min_runs: int = MIN_RUNS
-) -> Folds:
-    """Folds for the held-out choice (see the module docstring).
-
-    Parameters
-    ----------
-    run_codes : ndarray of int, shape (n,)
-        Run of each row (each run one contiguous block, rows in time order).
-    runs : sequence of str
-        Run names.
-    temp : ndarray, shape (n,) [°C]
-        Temperature (legs are cut at its turning points).
-    min_runs : int
-        Leave-one-run-out from this many runs on.
-
-    Returns
-    -------
-    Folds
-    """
-    return _holdout(run_codes, runs, temp, min_runs)[0]
-
-
-def _holdout(
-    run_codes: np.ndarray, runs: Sequence[str], temp: np.ndarray, min_runs: int = MIN_RUNS
-) -> tuple[Folds, FoldPlan]:
-    """:func:`holdout_folds` and its plan (fold temperature ranges)."""
-    present = np.unique(run_codes)
-    rows = [np.flatnonzero(run_codes == k) for k in present]
-    cut = present.size < min_runs
-    spans = [run_span(int(k), temp[r], cut) for k, r in zip(present, rows, strict=True)]
-    plan = fold_plan(spans, runs, min_runs)
-    return plan.folds([(r, np.arange(r.size)) for r in rows], run_codes.size), plan
-
-
-def _used_inputs(cand: Candidate, d: int) -> int:
-    """Feature columns a candidate's fit should see (trailing unused inputs dropped)."""
-    if cand.orders is None:
-        return d
-    used = [v + 1 for v, o in enumerate(cand.orders[:d]) if o > 0]
-    return max(used, default=1)
-
-
-def fit_candidate(
-    cand: Candidate,
-    x: np.ndarray,
-    y: np.ndarray,
-    groups: np.ndarray,
-    t: np.ndarray,
-    random_state: int = 0,
-    screen: bool = False,
-) -> dict[str, Any]:
-    """Fit a candidate; its parameters (``screen``: a network's screening budget).
-
-    Parameters
-    ----------
-    cand : Candidate
-        The candidate.
-    x : ndarray, shape (n, d)
-        ``T`` [°C], ``Ṫ`` [°C/min] (, ``ΔT`` [°C]).
-    y : ndarray, shape (n,)
-        Output [log units].
-    groups : ndarray of int, shape (n,)
-        Run of each row.
-    t : ndarray, shape (n,) [s]
-        Time since each run's power-on.
-    random_state : int
-        Seed of a network.
-    screen : bool
-        Held-out screening (:data:`NEURAL_SCREEN`) rather than the final fit.
-
-    Returns
-    -------
-    dict
-        Parameters (see :mod:`rinscal.calibration._inference`).
-    """
-    hyper = dict(cand.params)
-    if cand.method == "neural":
-        hyper["random_state"] = random_state
-        if screen:
-            hyper.update(NEURAL_SCREEN)
-    xs = x[:, : _used_inputs(cand, x.shape[1])]
-    return fit_params(cand.method, hyper, xs, y, groups, t)
 
 
 def _baseline_screens(
@@ -583,10 +130,10 @@ def _baseline_screens(
     :data:`SCREEN_ROWS` are used (the fits average thousands of smooth samples per degree).
     A filter window that straddles a fold boundary sees a few seconds of the held-out fold.
     Returns ``fit(method, k)``: the parameters with fold ``k`` held out, or with ``k`` None
-    the tool's own fit on every row (equal to :func:`rinscal.calibration.baselines.px4_fit`
+    the tool's own fit on every row (equal to :func:`rinscal.calibration.thermal.baselines.px4_fit`
     and ``ardupilot_fit`` on the same data, the filter not run again).
     """
-    from rinscal.calibration.baselines import ardupilot_smoothed, px4_filtered
+    from rinscal.calibration.thermal.baselines import ardupilot_smoothed, px4_filtered
 
     methods = _tool_methods(cands)
     pre: dict[str, tuple[np.ndarray, ...]] = {}
@@ -612,7 +159,7 @@ def _tool_fits(
     ``pre["ardupilot"]``: smoothed temperatures and outputs, their folds, and the raw
     temperatures and outputs for the constant term.
     """
-    from rinscal.calibration.baselines import ardupilot_fit_smoothed, px4_fit_filtered
+    from rinscal.calibration.thermal.baselines import ardupilot_fit_smoothed, px4_fit_filtered
 
     def thin(codes: np.ndarray, k: int) -> np.ndarray:
         """Every step-th row, those of fold ``k`` left out: at most about SCREEN_ROWS."""
@@ -920,7 +467,7 @@ def _select(
     tolerance: float,
     random_state: int,
 ) -> Selection:
-    folds, plan = _holdout(run_codes, runs, x[:, 0])
+    folds, plan = holdout_plan(run_codes, runs, x[:, 0])
     scored = plan.scored(folds.codes, x[:, 0])
     # the PX4/ArduPilot filters run on every sample; the held-out scores use every k-th
     baseline_fold = _baseline_screens(x[:, 0], y, run_codes, t, folds.codes, cands)

@@ -4,7 +4,7 @@ Both fit one cubic in the inner temperature ``T`` [°C] per channel; they differ
 prepare the data, where they put the reference temperature and what they keep of the
 constant. Both firmwares clamp ``T`` to the calibrated range ``[t_min, t_max]`` before
 evaluating. The fitted parameters are the ``px4`` and ``ardupilot`` forms of
-:mod:`rinscal.calibration._inference`:
+:mod:`rinscal.calibration.inference`:
 ``f = Σ_{k=0..3} coef[k] (clip(T, t_min, t_max) − t_ref)^k`` [output units], and compensation
 is ``N' = N − f`` as for every other method. Nothing here is copied from those projects; the
 procedures are re-implemented from their documented scripts with numpy/scipy.
@@ -79,7 +79,7 @@ from typing import Any
 
 import numpy as np
 
-from rinscal.calibration._inference import ARDUPILOT_T_REF, predict_params
+from rinscal.calibration.inference import ARDUPILOT_T_REF, predict_params
 
 __all__ = [
     "ARDUPILOT_WINDOW_S",

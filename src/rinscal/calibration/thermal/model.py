@@ -1,6 +1,6 @@
 """Fit one thermal model per sensor channel on a calibration log.
 
-:class:`ThermalModel` holds one estimator (:mod:`rinscal.calibration.estimators`) per channel,
+:class:`ThermalModel` holds one estimator (:mod:`rinscal.calibration.thermal.estimators`) per channel,
 with the paper's defaults by sensor type:
 
 =============  ==============================  ==============================
@@ -28,21 +28,21 @@ import numpy as np
 import pandas as pd
 
 from rinscal._version import __version__
-from rinscal.calibration._fit import NEURAL_MAX_SAMPLES, fit_params, rms_about_run_mean
-from rinscal.calibration._inference import METHODS, n_inputs, predict_params
-from rinscal.calibration._runs import FACTOR_METHODS, FALLBACK_DEGREE, RowSample, RunFits
-from rinscal.calibration.auto import (
+from rinscal.calibration.inference import METHODS, n_inputs, predict_params
+from rinscal.calibration.modelfile import AUTO, ChannelModel, ThermalModelFile
+from rinscal.calibration.selection.auto import DEFAULT_TOLERANCE, Selection, select_thinned
+from rinscal.calibration.selection.candidates import (
     DEFAULT_FAMILIES,
-    DEFAULT_TOLERANCE,
     MAX_ORDERS,
     Candidate,
-    Selection,
-    _used_inputs,
     candidates,
     fit_candidate,
-    select_thinned,
+    used_inputs,
 )
-from rinscal.calibration.features import (
+from rinscal.calibration.thermal._dispatch import fit_params
+from rinscal.calibration.thermal._fit import NEURAL_MAX_SAMPLES, rms_about_run_mean
+from rinscal.calibration.thermal._runs import FACTOR_METHODS, FALLBACK_DEGREE, RowSample, RunFits
+from rinscal.calibration.thermal.features import (
     DerivativeConfig,
     Features,
     MissingGradientWarning,
@@ -51,14 +51,13 @@ from rinscal.calibration.features import (
     distinct_points,
     run_slices,
 )
-from rinscal.calibration.guards import (
+from rinscal.calibration.thermal.guards import (
     PLAUSIBLE_TEMP_C,
     DesignError,
     check_temperature_span,
     check_temperatures,
     warn_resolution,
 )
-from rinscal.calibration.modelfile import AUTO, ChannelModel, ThermalModelFile
 from rinscal.errors import ConfigError
 from rinscal.schema import (
     CHAMBER,
@@ -181,7 +180,7 @@ class ThermalModel:
     ----------
     method : {"auto", "poly-t", "sectional", "regression", "neural", "px4", "ardupilot"}
         Model form; ``auto`` chooses each channel's by held-out error
-        (:mod:`rinscal.calibration.auto`).
+        (:mod:`rinscal.calibration.selection.auto`).
     orders : tuple of int, optional
         ``(p, q, s)`` for ``regression`` or ``(p, q)`` for ``sectional``, for every channel;
         default by sensor type (see :data:`DEFAULTS`).
@@ -203,7 +202,7 @@ class ThermalModel:
         Further hyper-parameters set on every channel's estimator (e.g.
         ``{"max_samples": 20000}`` for ``neural``, ``{"t_ref": 25.0}`` for ``poly-t``).
     candidates : sequence of str
-        ``auto``: candidate families (see :data:`rinscal.calibration.auto.FAMILIES`).
+        ``auto``: candidate families (see :data:`rinscal.calibration.selection.candidates.FAMILIES`).
     tolerance : float
         ``auto``: relative tolerance of the choice (simplest within it of the best).
     temp_range : (float, float) [°C]
@@ -212,7 +211,7 @@ class ThermalModel:
     Attributes
     ----------
     params_ : dict of str to dict
-        Fitted parameters per channel (see :mod:`rinscal.calibration._inference`).
+        Fitted parameters per channel (see :mod:`rinscal.calibration.inference`).
     features_ : Features or None
         Training features of :meth:`fit` (kept for diagnostics; not written to the model
         file); None after :meth:`fit_runs`, which never holds the whole log.
@@ -293,7 +292,7 @@ class ThermalModel:
         set_pts : ndarray, optional [°C]
             Soak set points (``sectional`` segment edges when ``edges`` is None).
         """
-        from rinscal.calibration.estimators import ALL_ESTIMATORS
+        from rinscal.calibration.thermal.estimators import ALL_ESTIMATORS
 
         est = ALL_ESTIMATORS[self.method]()
         try:
@@ -342,7 +341,7 @@ class ThermalModel:
         if self.method == AUTO:
             # polynomial candidates are refitted from run factors; the held-out choice
             # scores every k-th row; a network (on request) keeps what `neural` keeps
-            from rinscal.calibration import auto
+            from rinscal.calibration.selection import auto
 
             tools = [f for f in ("px4", "ardupilot") if f in self.candidates]
             return RunFits(
@@ -757,7 +756,7 @@ class _Fitting:
             return fits.poly_t(int(cand.params["degree"]))
         if cand.method == "regression":
             assert cand.orders is not None
-            used = _used_inputs(cand, len(fits.powers))
+            used = used_inputs(cand, len(fits.powers))
             return fits.regression(list(cand.orders[:used]))
         xo, yo, codes, to = fits.data()
         return fit_candidate(cand, xo, yo, codes, to, self.model.random_state)

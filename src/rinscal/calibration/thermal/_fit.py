@@ -1,7 +1,7 @@
-"""Fitting of the polynomial thermal models and dispatch of every method: numpy only.
+"""Fitting of the polynomial thermal models: numpy only.
 
-The numerics behind :mod:`rinscal.calibration.estimators` (whose scikit-learn classes call
-these functions) and what :class:`rinscal.calibration.model.ThermalModel` calls directly, so
+The numerics behind :mod:`rinscal.calibration.thermal.estimators` (whose scikit-learn classes call
+these functions) and what :class:`rinscal.calibration.thermal.model.ThermalModel` calls directly, so
 that fitting ``poly-t``, ``sectional``, ``regression``, ``px4`` or ``ardupilot`` never imports
 scikit-learn (about 1 s of a command's start-up); only ``neural`` does.
 
@@ -14,15 +14,14 @@ outputs are in the log's units.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
 
-from rinscal.calibration.guards import check_design
+from rinscal.calibration.thermal.guards import COND_ERROR, check_design, design_condition
 
 __all__ = [
-    "fit_params",
     "fit_poly_t",
     "fit_regression",
     "fit_sectional",
@@ -192,8 +191,6 @@ def fit_factors_leaving_out(factors: Sequence[np.ndarray], sel: Sequence[int]) -
 
 def _coef_from_r(rt: np.ndarray) -> np.ndarray | None:
     """``[β; −1]`` from the factor of ``[A | y]``, or None when ``A`` is rank-deficient."""
-    from rinscal.calibration.guards import COND_ERROR, design_condition
-
     m = rt.shape[1] - 1
     if m > 1 and design_condition(rt[:, :m]) > COND_ERROR:
         return None
@@ -259,7 +256,7 @@ def _fit_power(
 ) -> dict[str, Any]:
     """Fit ``intercept + Σ_v Σ_k coef[v][k] z_v^(k+1)``; return the regression parameters.
 
-    Raises :class:`~rinscal.calibration.guards.DesignError` on a rank-deficient design.
+    Raises :class:`~rinscal.calibration.thermal.guards.DesignError` on a rank-deficient design.
     """
     cs = [_center_scale(x[:, v]) for v in range(len(orders))]
     center = [c for c, _ in cs]
@@ -297,7 +294,7 @@ def fit_poly_t(
     Returns
     -------
     dict
-        ``poly-t`` parameters (see :mod:`rinscal.calibration._inference`).
+        ``poly-t`` parameters (see :mod:`rinscal.calibration.inference`).
     """
     deg = int(degree)
     if deg < 0 or deg > 7:
@@ -446,67 +443,6 @@ def fit_sectional(
         "intercept": intercepts,
         "coef": coefs,
     }
-
-
-def fit_params(
-    method: str,
-    hyper: Mapping[str, Any],
-    X: np.ndarray,
-    y: np.ndarray,
-    groups: np.ndarray | None = None,
-    t: np.ndarray | None = None,
-) -> dict[str, Any]:
-    """Fit one channel with any method; the parameters its model file stores.
-
-    Parameters
-    ----------
-    method : str
-        ``poly-t``, ``regression``, ``sectional``, ``px4``, ``ardupilot`` or ``neural``.
-    hyper : mapping
-        Hyper-parameters, as the estimator classes name them (``degree``, ``t_ref``;
-        ``t_order``, ``rate_order``, ``grad_order``; ``edges``, ``set_points``,
-        ``n_segments``; ``sensor``, ``resample``, ``window_s``; the network's).
-    X : ndarray, shape (n, k)
-        ``T`` [°C], ``Ṫ`` [°C/min] (, ``ΔT`` [°C]), finite.
-    y : ndarray, shape (n,)
-        Raw output [log units].
-    groups : ndarray of int, optional
-        Run of each row (the filters of ``px4``/``ardupilot``, the network's validation).
-    t : ndarray, optional [s]
-        Time since each run's power-on (``ardupilot``).
-
-    Returns
-    -------
-    dict
-        Parameters (see :mod:`rinscal.calibration._inference`).
-    """
-    h = dict(hyper)
-    if method == "poly-t":
-        return fit_poly_t(X, y, h.get("degree", 3), h.get("t_ref"))
-    if method == "regression":
-        return fit_regression(
-            X, y, h.get("t_order", 3), h.get("rate_order", 3), h.get("grad_order", 3)
-        )
-    if method == "sectional":
-        edges = sectional_edges(
-            X[:, 0], h.get("edges"), h.get("set_points"), h.get("n_segments", 7)
-        )
-        return fit_sectional(X, y, edges, h.get("t_order", 3), h.get("rate_order", 3))
-    if method == "px4":
-        from rinscal.calibration.baselines import px4_fit
-
-        return px4_fit(X[:, 0], y, groups, **h)
-    if method == "ardupilot":
-        from rinscal.calibration.baselines import ardupilot_fit
-
-        return ardupilot_fit(X[:, 0], y, t, groups, **h)
-    if method == "neural":
-        from rinscal.calibration.estimators import Neural
-
-        est = Neural()
-        est.set_params(**h)
-        return est.fit(X, y, groups=groups).params_
-    raise ValueError(f"unknown method {method!r}")
 
 
 def rms_about_run_mean(resid: np.ndarray, codes: np.ndarray, n_runs: int = 0) -> float:

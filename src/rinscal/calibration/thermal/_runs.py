@@ -4,7 +4,7 @@ A log is read one run at a time (:func:`rinscal.io.iter_log_source`); of each ru
 channel's fit keeps only
 
 * for ``poly-t`` and ``regression`` (and every method's cubic fallback): the triangular factor
-  ``R`` of ``[A | y]`` (:func:`rinscal.calibration._fit.tsqr`) in a power basis scaled to the
+  ``R`` of ``[A | y]`` (:func:`rinscal.calibration.thermal._fit.tsqr`) in a power basis scaled to the
   run's own range of each input, its sample count and its sum of ``y``;
 * the boxes of a fine grid its samples occupy (:func:`rinscal.calibration._domain.occupied_boxes`)
   and its range of each input, for the joint domain;
@@ -14,10 +14,10 @@ channel's fit keeps only
   decimation);
 * for ``auto``'s held-out choice (:class:`RowSample`): every ``k``-th usable row of the log
   (``k`` a power of two, doubled whenever more than
-  :data:`rinscal.calibration.auto.SCREEN_SAMPLES` rows would be kept), with the value of the
+  :data:`rinscal.calibration.selection.auto.SCREEN_SAMPLES` rows would be kept), with the value of the
   field's filters (PX4's running median, ArduPilot's moving average, both computed on the
   whole run) at each kept row, and the run's legs and temperature ranges
-  (:class:`rinscal.calibration.auto.RunSpan`).
+  (:class:`rinscal.calibration.selection.folds.RunSpan`).
 
 At the end, each run's factor is re-expressed in the basis scaled to the range of all runs:
 with ``z_g = a z_l + b`` (``a = s_l / s_g``, ``b = (c_l − c_g) / s_g``), every power
@@ -25,7 +25,7 @@ with ``z_g = a z_l + b`` (``a = s_l / s_g``, ``b = (c_l − c_g) / s_g``), every
 ``A_g = A_l M`` and ``R_l M`` is a factor of the run's design in the global basis
 (``(R_l M)ᵀ(R_l M) = A_gᵀ A_g``). Stacking those factors and reducing them again gives the
 fit of all runs; each run's residual sum of squares, about its own mean too, follows from its
-factor (:func:`rinscal.calibration._fit.factor_ss_about_mean`). Numpy only.
+factor (:func:`rinscal.calibration.thermal._fit.factor_ss_about_mean`). Numpy only.
 """
 
 from __future__ import annotations
@@ -43,7 +43,8 @@ from rinscal.calibration._domain import (
     domain_from_boxes,
     occupied_boxes,
 )
-from rinscal.calibration._fit import (
+from rinscal.calibration.selection.folds import MIN_RUNS, RunSpan, run_span
+from rinscal.calibration.thermal._fit import (
     _center_scale,
     _power_basis,
     _split_coef,
@@ -51,8 +52,7 @@ from rinscal.calibration._fit import (
     solve_r,
     tsqr,
 )
-from rinscal.calibration.auto import MIN_RUNS, RunSpan, run_span
-from rinscal.calibration.guards import check_design
+from rinscal.calibration.thermal.guards import check_design
 
 __all__ = ["FACTOR_METHODS", "SAMPLE_ROWS", "RowSample", "RunFits"]
 
@@ -136,9 +136,9 @@ class RowSample:
     tools : sequence of str
         Field's filters to evaluate at the kept rows, on each whole run: ``"px4"`` (the
         31-sample running median of the output,
-        :func:`rinscal.calibration.baselines.px4_median_filter`) and ``"ardupilot"`` (the
+        :func:`rinscal.calibration.thermal.baselines.px4_median_filter`) and ``"ardupilot"`` (the
         2 s moving average of ``T`` and the output whose window is centred on the row,
-        :func:`rinscal.calibration.baselines.ardupilot_smoothed`; NaN where none is).
+        :func:`rinscal.calibration.thermal.baselines.ardupilot_smoothed`; NaN where none is).
     """
 
     def __init__(self, most: int, tools: Sequence[str] = ()) -> None:
@@ -198,10 +198,10 @@ class RowSample:
 
 
 def _median_at(y: np.ndarray, keep: np.ndarray) -> np.ndarray:
-    """PX4's running median of one run's output (:func:`rinscal.calibration.baselines.
+    """PX4's running median of one run's output (:func:`rinscal.calibration.thermal.baselines.
     px4_median_filter`: 31 samples, zeros beyond the ends) at rows ``keep``, the same numbers:
     the median of an odd window is one of its samples. Few rows: their windows alone."""
-    from rinscal.calibration.baselines import PX4_MEDIAN_KERNEL, px4_median_filter
+    from rinscal.calibration.thermal.baselines import PX4_MEDIAN_KERNEL, px4_median_filter
 
     if 4 * keep.size > y.size:
         return px4_median_filter(y)[keep]
@@ -220,9 +220,9 @@ def _moving_average_at(
     temp: np.ndarray, y: np.ndarray, t: np.ndarray, keep: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """ArduPilot's smoothed ``T`` and output at rows ``keep`` of one run (window centred on
-    the row, as :func:`rinscal.calibration.baselines.ardupilot_smoothed` places it); NaN where
+    the row, as :func:`rinscal.calibration.thermal.baselines.ardupilot_smoothed` places it); NaN where
     no complete window is centred there."""
-    from rinscal.calibration.baselines import ARDUPILOT_WINDOW_S, ardupilot_window
+    from rinscal.calibration.thermal.baselines import ARDUPILOT_WINDOW_S, ardupilot_window
 
     ts, ys = np.full(keep.size, np.nan), np.full(keep.size, np.nan)
     if temp.size < 2:
@@ -240,7 +240,7 @@ def _moving_average_at(
 
 
 def _window_means(x: np.ndarray, w: int, i: np.ndarray) -> np.ndarray:
-    """:func:`rinscal.calibration.baselines.moving_average` of ``x`` at positions ``i`` only
+    """:func:`rinscal.calibration.thermal.baselines.moving_average` of ``x`` at positions ``i`` only
     (each ``0 ≤ i ≤ n − w``): the same numbers, the same cumulative sums, without the means
     of every other window."""
     x0 = x[0]
@@ -390,7 +390,7 @@ class RunFits:
         return solve_r(r, n_terms)[0], runs
 
     def poly_t(self, degree: int, t_ref: float | None = None) -> dict[str, Any]:
-        """``poly-t`` parameters (as :func:`rinscal.calibration._fit.fit_poly_t`)."""
+        """``poly-t`` parameters (as :func:`rinscal.calibration.thermal._fit.fit_poly_t`)."""
         deg = int(degree)
         if deg < 0 or deg > min(7, self.powers[0]):
             raise ValueError(f"degree must be 0..{min(7, self.powers[0])}, got {degree!r}")
@@ -406,7 +406,7 @@ class RunFits:
         return {"method": "poly-t", "t_ref": float(ref), "coef": coef.tolist()}
 
     def regression(self, orders: Sequence[int]) -> dict[str, Any]:
-        """``regression`` parameters (as :func:`rinscal.calibration._fit.fit_regression`)."""
+        """``regression`` parameters (as :func:`rinscal.calibration.thermal._fit.fit_regression`)."""
         orders = [int(o) for o in orders]
         if any(o < 0 or o > 8 for o in orders):
             raise ValueError(f"orders must be 0..8, got {orders}")

@@ -24,7 +24,7 @@ Parameter dictionaries (every number a float, every array a nested list)
     ``x_mean``, ``x_scale`` (d), ``W`` (n × d), ``b`` (n), ``v`` (n), ``b_out``, ``y_mean``,
     ``y_scale``: ``f = y_mean + y_scale · (v · σ(W z + b) + b_out)`` with
     ``z = (x − x_mean) / x_scale`` and ``σ(a) = 1 / (1 + e^{−a})``.
-``px4``, ``ardupilot`` (the field's own fits, :mod:`rinscal.calibration.baselines`)
+``px4``, ``ardupilot`` (the field's own fits, :mod:`rinscal.calibration.thermal.baselines`)
     ``t_ref``, ``t_min``, ``t_max`` [°C] and ``coef`` (4 numbers):
     ``f = Σ_{k=0..3} coef[k] (clip(T, t_min, t_max) − t_ref)^k``, the temperature clamped to
     the calibrated range as both firmwares do (``t_min ≤ t_max``). ``px4``: ``coef`` are
