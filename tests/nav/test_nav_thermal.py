@@ -5,15 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from rinscal.cli.navigate import model_compensator
 from rinscal.errors import ModelFileError
-from rinscal.nav.scenario import (
-    ModelCompensator,
-    ThermalPlant,
-    model_compensator,
-    oracle_compensator,
-    preset,
-    run_scenario,
-)
+from rinscal.nav.scenario import preset, run_scenario
+from rinscal.nav.sensors import ModelCompensator, ThermalPlant, oracle_compensator
 from rinscal.thermal.plant import ImuConfig
 
 IMU = ImuConfig.navigation_grade()

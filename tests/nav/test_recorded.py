@@ -130,7 +130,7 @@ def test_the_piece_wise_model_compensator_is_the_scenario_s(tmp_path) -> None:  
 
     from rinscal.calibration.modelfile import ThermalModelFile
     from rinscal.cli import app
-    from rinscal.nav.scenario import ModelCompensator
+    from rinscal.nav.sensors import ModelCompensator
 
     runner = CliRunner()
     soak = tmp_path / "soak.parquet"

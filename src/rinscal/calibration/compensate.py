@@ -16,7 +16,9 @@ channel's T-only fallback model on the flagged rows), ``extrapolate`` (the model
 ``error`` (:class:`~rinscal.errors.RangeError`). A dropped sample (NaN) stays NaN.
 
 :class:`StreamingCompensator` does the same one sample at a time with the causal rate; it
-equals :func:`compensate` with ``derivative_kind="causal"`` (same compiled rate kernel).
+equals :func:`compensate` with ``derivative_kind="causal"`` (same compiled rate kernel). Its
+:meth:`StreamingCompensator.bias_si` gives the modelled bias of a whole thermometer record in
+SI units, causal too: what a navigation computer subtracts (:mod:`rinscal.nav.sensors`).
 """
 
 from __future__ import annotations
@@ -34,9 +36,11 @@ from rinscal.calibration.thermal.features import (
     Features,
     OutlierConfig,
     build_features,
+    temperature_rate,
 )
 from rinscal.calibration.thermal.rate import CausalSlope
 from rinscal.errors import ConfigError, LogError, RangeError
+from rinscal.schema import CHANNELS
 from rinscal.units import MIN_TO_S
 
 __all__ = [
@@ -315,6 +319,56 @@ class StreamingCompensator:
             out[j] = raw[j] - (f - self._ref[j])
             flag = flag or bool(fl[0])
         return out, flag
+
+    def bias_si(
+        self,
+        time_s: np.ndarray,
+        temp: np.ndarray,
+        temp_out: np.ndarray | None = None,
+        channels: Sequence[str] = CHANNELS,
+    ) -> np.ndarray:
+        """The modelled thermal bias of a thermometer record, causal, in SI units.
+
+        ``(f(T, Ṫ, ΔT) − r) · unit_to_si`` per channel
+        (:meth:`~rinscal.calibration.modelfile.ThermalModelFile.predict_bias_si`), ``Ṫ`` the
+        causal windowed slope of the record: what a navigation computer reading its
+        thermometers at ``time_s`` subtracts from each channel.
+
+        Parameters
+        ----------
+        time_s : ndarray, shape (n,) [s]
+            Reading times since power-on, increasing.
+        temp : ndarray, shape (n, k) [°C]
+            Inner temperature of each of ``channels``.
+        temp_out : ndarray, shape (n,), optional [°C]
+            Outer temperature (needed if the model uses ΔT).
+        channels : sequence of str
+            The channel of each column of ``temp`` (and of the result).
+
+        Returns
+        -------
+        ndarray, shape (n, k) [rad/s or m/s²]
+            Bias of each channel; zero on channels the model lacks.
+
+        Raises
+        ------
+        ConfigError
+            A model channel that is not among ``channels``.
+        """
+        channels = tuple(channels)
+        rate = temperature_rate(
+            time_s, temp, DerivativeConfig(window_s=self.model.derivative_window_s, kind="causal")
+        )
+        idx = []
+        for c in self.model.channels:
+            if c not in channels:
+                raise ConfigError(f"model channel {c!r} is not one of {channels}")
+            idx.append(channels.index(c))
+        bias = np.zeros((np.shape(time_s)[0], len(channels)))
+        bias[:, idx] = self.model.predict_bias_si(
+            temp[:, idx], rate[:, idx], temp_out, policy=self.policy
+        )
+        return bias
 
 
 def check_units(

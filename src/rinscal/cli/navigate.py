@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
@@ -253,7 +253,6 @@ def navigate(
         from rinscal.nav.scenario import (
             ThermalPlant,
             align_for,
-            model_compensator,
             oracle_compensator,
             preset,
             run_scenario,
@@ -522,4 +521,23 @@ def _navigate_log(log: Path, out: Path, models: list[Path], policy: str, **kw: o
     _print_variants(summary)
 
 
-__all__ = ["navigate"]
+def model_compensator(path: str, plant: Any, policy: str = "clamp") -> Any:
+    """Load a model file (JSON) and build its :class:`rinscal.nav.sensors.ModelCompensator`.
+
+    Parameters
+    ----------
+    path : str
+        The model file.
+    plant : ThermalPlant
+        The plant whose thermometers feed the model.
+    policy : {"clamp", "extrapolate", "error"}
+        Out-of-range handling of the model inputs.
+    """
+    # the model file and the navigation code load on demand (command start-up time)
+    from rinscal.calibration.modelfile import ThermalModelFile
+    from rinscal.nav.sensors import ModelCompensator
+
+    return ModelCompensator(ThermalModelFile.load(path), plant, policy=policy)
+
+
+__all__ = ["model_compensator", "navigate"]

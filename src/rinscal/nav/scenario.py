@@ -16,14 +16,15 @@ contains Earth rate and gravity. A model fitted to such a log predicts the *whol
 output ``b(x) + s`` (thermal bias plus the static reference ``s`` of the calibration site and
 orientation). Navigation must subtract only the bias: the compensator subtracts
 ``model(x) − s``, where ``s`` is recorded in the model file (Earth rate and gravity at the
-calibration latitude and heading, in log units) — see :class:`ModelCompensator`.
+calibration latitude and heading, in log units) — see
+:class:`rinscal.nav.sensors.ModelCompensator`.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -33,17 +34,19 @@ from numpy.typing import NDArray
 from rinscal import earth, units
 from rinscal.errors import ConfigError
 from rinscal.nav.align import AlignConfig, Aligner, AlignResult, feed_and_hand_over
+from rinscal.nav.config import ScenarioConfig
 from rinscal.nav.imu import ImuChunk, ImuSynthesizer
 from rinscal.nav.rotation import C_br, RotationSchedule
 from rinscal.nav.sensors import (
     Compensator,
     ErrorSource,
+    ModelCompensator,
     ThermalPlant,
     constant_errors,
     oracle_compensator,
     temperature_frame,
 )
-from rinscal.nav.strapdown import Strapdown, VerticalMode, quat_to_dcm
+from rinscal.nav.strapdown import Strapdown, quat_to_dcm
 from rinscal.nav.trajectory import (
     C_nb_from_euler,
     StaticMotion,
@@ -67,96 +70,6 @@ VEHICLE_AMBIENT_C = 5.0
 VEHICLE_CABIN_C = 20.0
 #: ... in this time [s] (heater on).
 VEHICLE_WARMUP_S = 3600.0
-
-
-# --------------------------------------------------------------------------- configuration
-@dataclass(frozen=True)
-class ScenarioConfig:
-    """Everything that defines a navigation run except the sensor errors.
-
-    Parameters
-    ----------
-    name : str
-        Scenario name (free text; the presets use :data:`SCENARIOS`).
-    trajectory : Trajectory
-        Carrier motion.
-    schedule : RotationSchedule
-        Turntable schedule.
-    duration_s : float [s]
-        Length of the run from power-on.
-    rate_hz : float [Hz]
-        IMU output rate.
-    align : AlignConfig or None
-        Self-alignment from ``align.start_s`` to ``align.end_s`` after power-on (the
-        carrier must stand still until then); None starts navigation from the true state
-        at t = 0.
-    chamber : ChamberProfile or None
-        Ambient (chamber or cabin) temperature for the thermal plant; None: no thermal run.
-    chunk_s : float [s]
-        Processing chunk length (memory bound).
-    out_dt_s : float [s]
-        Interval of the reported errors.
-    vertical : {"hold", "damped", "free"}
-        Vertical channel of the INS; held or damped towards the true altitude (stand-in for
-        an altimeter), which a marine or land RINS has.
-    """
-
-    name: str
-    trajectory: Trajectory
-    schedule: RotationSchedule
-    duration_s: float
-    rate_hz: float = 100.0
-    align: AlignConfig | None = field(default_factory=AlignConfig)
-    chamber: ChamberProfile | None = None
-    chunk_s: float = 60.0
-    out_dt_s: float = 1.0
-    vertical: VerticalMode = "hold"
-
-    def __post_init__(self) -> None:
-        if not (math.isfinite(self.duration_s) and self.duration_s > 0):
-            raise ConfigError(f"scenario: duration_s must be > 0, got {self.duration_s}")
-        if not (math.isfinite(self.rate_hz) and self.rate_hz > 0):
-            raise ConfigError(f"scenario: rate_hz must be > 0, got {self.rate_hz}")
-        if not (math.isfinite(self.chunk_s) and self.chunk_s > 0):
-            raise ConfigError(f"scenario: chunk_s must be > 0, got {self.chunk_s}")
-        out_every = self.out_dt_s * self.rate_hz
-        if not (out_every >= 1 and abs(out_every - round(out_every)) < 1e-9):
-            raise ConfigError(
-                f"scenario: out_dt_s ({self.out_dt_s} s) must be a whole number of samples "
-                f"at {self.rate_hz} Hz"
-            )
-        if self.align is not None:
-            end = self.align.end_s
-            if end >= self.duration_s:
-                raise ConfigError(
-                    f"scenario: alignment (start {self.align.start_s} s + "
-                    f"{self.align.total_s} s) must end before the run ({self.duration_s} s)"
-                )
-            if end > self.trajectory.stationary_until + 1e-9:
-                raise ConfigError(
-                    f"scenario: the carrier moves at {self.trajectory.stationary_until} s, "
-                    f"before the alignment ends at {end} s"
-                )
-
-    @property
-    def dt(self) -> float:
-        """Sample interval [s]."""
-        return 1.0 / self.rate_hz
-
-    @property
-    def out_every(self) -> int:
-        """Samples between reported errors."""
-        return round(self.out_dt_s * self.rate_hz)
-
-    @property
-    def align_start_s(self) -> float:
-        """Start of the alignment since power-on [s] (0 without alignment)."""
-        return 0.0 if self.align is None else self.align.start_s
-
-    @property
-    def nav_start_s(self) -> float:
-        """Start of free navigation since power-on [s]: alignment start + its length."""
-        return 0.0 if self.align is None else self.align.end_s
 
 
 def preset(
@@ -341,77 +254,6 @@ def align_from_noise(
         accel_bias_tau_s=tau_a,
         accel_bias_markov_sd=sd_a,
     )
-
-
-# --------------------------------------------------------------------------- compensators
-class ModelCompensator:
-    """Compensation by a thermal model file, as the navigation computer would run it.
-
-    The thermometers (inner per sensor, outer on the package) are read once per
-    ``update_s`` (noise and 0.01 °C quantisation of the plant's thermometer model), the
-    temperature rate is the model's causal windowed slope, and the model's bias estimate
-    ``(f(T, Ṫ, ΔT) − static_reference) · unit_to_si`` (see
-    :meth:`rinscal.calibration.modelfile.ThermalModelFile.predict_bias_si`) is held until
-    the next reading (causal). Channels the model lacks are not compensated.
-
-    Parameters
-    ----------
-    model : ThermalModelFile
-        A loaded model file with units and static references.
-    plant : ThermalPlant
-        The plant whose thermometers feed the model.
-    policy : {"clamp", "extrapolate", "error"}
-        Out-of-range handling of the model inputs.
-    update_s : float [s]
-        Thermometer reading and model update interval.
-    """
-
-    def __init__(
-        self,
-        model: Any,
-        plant: ThermalPlant,
-        policy: str = "clamp",
-        update_s: float = 1.0,
-    ) -> None:
-        from rinscal.calibration.thermal.features import DerivativeConfig, temperature_rate
-        from rinscal.schema import CHANNELS
-
-        if not (math.isfinite(update_s) and update_s > 0):
-            raise ConfigError(f"model compensator: update_s must be > 0, got {update_s}")
-        t_end = float(plant.field.t[-1])
-        grid = np.arange(0.0, t_end + 1e-9, update_s)
-        temp, t_out = plant.measured_temperatures(grid)
-        rate = temperature_rate(
-            grid, temp, DerivativeConfig(window_s=model.derivative_window_s, kind="causal")
-        )
-        idx = []
-        for c in model.channels:
-            if c not in CHANNELS:
-                raise ConfigError(f"model channel {c!r} is not one of {CHANNELS}")
-            idx.append(CHANNELS.index(c))
-        bias = np.zeros((grid.size, 6))
-        bias[:, idx] = model.predict_bias_si(temp[:, idx], rate[:, idx], t_out, policy=policy)
-        self.model = model
-        self.grid = grid
-        self.bias = bias
-        self.channels = tuple(model.channels)
-
-    def __call__(
-        self,
-        t: NDArray[np.float64],
-        omega_r: NDArray | None = None,
-        f_r: NDArray | None = None,
-    ) -> NDArray[np.float64]:
-        """Bias estimate held from the last thermometer reading at ``t`` [s], (n, 6) SI."""
-        k = np.searchsorted(self.grid, np.asarray(t, dtype=float), side="right") - 1
-        return self.bias[np.clip(k, 0, self.grid.size - 1)]
-
-
-def model_compensator(path: str, plant: ThermalPlant, policy: str = "clamp") -> ModelCompensator:
-    """Load a model file (JSON) and build its :class:`ModelCompensator`."""
-    from rinscal.calibration.modelfile import ThermalModelFile
-
-    return ModelCompensator(ThermalModelFile.load(path), plant, policy=policy)
 
 
 # --------------------------------------------------------------------------- results
@@ -729,7 +571,6 @@ __all__ = [
     "align_for",
     "align_from_noise",
     "constant_errors",
-    "model_compensator",
     "oracle_compensator",
     "preset",
     "run_scenario",

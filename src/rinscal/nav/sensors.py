@@ -19,15 +19,18 @@ included, is computed for the whole run up front).
 
 from __future__ import annotations
 
+import math
 import zlib
 from collections.abc import Callable
-from typing import TYPE_CHECKING
+from typing import Any
 
 import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from rinscal.calibration.compensate import StreamingCompensator
 from rinscal.errors import ConfigError
+from rinscal.nav.config import ScenarioConfig
 from rinscal.nav.rotation import RotationSchedule
 from rinscal.schema import CHANNELS
 from rinscal.thermal.field import ChamberProfile, ThermalField, measure, simulate_field
@@ -40,9 +43,6 @@ from rinscal.thermal.plant import (
     thermal_bias_r,
     turn_on_offsets,
 )
-
-if TYPE_CHECKING:
-    from rinscal.nav.scenario import ScenarioConfig
 
 #: ``errors(t, omega_r, f_r) -> (n, 6)`` SI in ``r`` (see the module docstring).
 ErrorSource = Callable[
@@ -292,9 +292,66 @@ def oracle_compensator(plant: ThermalPlant) -> Compensator:
     return plant.oracle
 
 
+class ModelCompensator:
+    """Compensation by a thermal model file, as the navigation computer would run it.
+
+    The thermometers (inner per sensor, outer on the package) are read once per
+    ``update_s`` (noise and 0.01 °C quantisation of the plant's thermometer model), the
+    temperature rate is the model's causal windowed slope, and the model's bias estimate
+    ``(f(T, Ṫ, ΔT) − static_reference) · unit_to_si`` (computed by
+    :meth:`rinscal.calibration.compensate.StreamingCompensator.bias_si`) is held until the
+    next reading (causal). Channels the model lacks are not compensated.
+
+    Parameters
+    ----------
+    model : ThermalModelFile or StreamingCompensator
+        A loaded model file with units and static references (or its compensator, whose
+        policy then applies).
+    plant : ThermalPlant
+        The plant whose thermometers feed the model.
+    policy : {"clamp", "extrapolate", "error"}
+        Out-of-range handling of the model inputs (a model file given).
+    update_s : float [s]
+        Thermometer reading and model update interval.
+    """
+
+    def __init__(
+        self,
+        model: Any,
+        plant: ThermalPlant,
+        policy: str = "clamp",
+        update_s: float = 1.0,
+    ) -> None:
+        if not (math.isfinite(update_s) and update_s > 0):
+            raise ConfigError(f"model compensator: update_s must be > 0, got {update_s}")
+        comp = (
+            model
+            if isinstance(model, StreamingCompensator)
+            else StreamingCompensator(model, policy)  # type: ignore[arg-type]
+        )
+        t_end = float(plant.field.t[-1])
+        grid = np.arange(0.0, t_end + 1e-9, update_s)
+        temp, t_out = plant.measured_temperatures(grid)
+        self.bias = comp.bias_si(grid, temp, t_out, CHANNELS)
+        self.model = comp.model
+        self.grid = grid
+        self.channels = tuple(comp.model.channels)
+
+    def __call__(
+        self,
+        t: NDArray[np.float64],
+        omega_r: NDArray | None = None,
+        f_r: NDArray | None = None,
+    ) -> NDArray[np.float64]:
+        """Bias estimate held from the last thermometer reading at ``t`` [s], (n, 6) SI."""
+        k = np.searchsorted(self.grid, np.asarray(t, dtype=float), side="right") - 1
+        return self.bias[np.clip(k, 0, self.grid.size - 1)]
+
+
 __all__ = [
     "Compensator",
     "ErrorSource",
+    "ModelCompensator",
     "ThermalPlant",
     "constant_errors",
     "oracle_compensator",

@@ -13,16 +13,16 @@ Folds (:func:`rinscal.calibration.selection.folds.holdout_folds`)
     Leave-one-run-out when the log has three runs or more. Otherwise each run is cut into its
     heating and cooling legs (turning points of the temperature, with a hysteresis of
     max(1 °C, 10 % of the run's span)) and each leg is left out in turn; its contiguous blocks
-    (at least :data:`~rinscal.calibration.selection.folds.MIN_FOLDS` in all) are scored apart, so that the held-out error has a
-    spread (a standard error needs several values) while a leg, a thermal regime of its own,
-    is never half in the training data. A single leg is cut into blocks left out one by one.
+    (at least :data:`~rinscal.calibration.selection.folds.MIN_FOLDS` in all) are scored
+    apart, so that the held-out error has a spread (a standard error needs several values)
+    while a leg, a thermal regime of its own, is never half in the training data. A single leg is cut into blocks left out one by one.
     Never random rows: neighbouring samples of a slow thermal signal are not independent.
 
 Candidates (:func:`rinscal.calibration.selection.candidates.candidates`)
     ``none`` (a constant: no thermal compensation), ``ardupilot`` and ``px4`` (the field's
-    own fits, :mod:`rinscal.calibration.thermal.baselines`; on held-out folds each tool's filter runs
-    once per run and its fit on at most :data:`SCREEN_ROWS` filtered samples; the chosen one
-    is refitted on every filtered sample kept: all of them up to :data:`SCREEN_SAMPLES`
+    own fits, :mod:`rinscal.calibration.thermal.baselines`; on held-out folds each tool's
+    filter runs once per run and its fit on at most :data:`SCREEN_ROWS` filtered samples;
+    the chosen one is refitted on every filtered sample kept: all of them up to :data:`SCREEN_SAMPLES`
     rows), ``poly-t`` of degree 1-4, ``regression`` with ``p`` = 1..4, ``q`` = 0..3,
     ``s`` = 0..3 (``s`` only with ``ΔT``; ``q = s = 0`` is ``poly-t``), and on request
     ``neural`` with 2, 4 and 6 hidden neurons (screened with
@@ -38,9 +38,9 @@ keeps every k-th usable row of the log, ``k`` the smallest power of two that kee
 :data:`SCREEN_SAMPLES` (the rows of :func:`select_channel` when its ``k`` is a power of two,
 as on the 7.56 M-sample soak log: ``k`` = 8), each with the value of PX4's median and
 ArduPilot's moving average at that row (computed on the whole run), and of each run its
-legs' temperature ranges (:class:`rinscal.calibration.selection.folds.RunSpan`). The polynomial candidates are then refitted on
-every row from per-run QR factors, the field's fits on the kept filtered rows. Memory is
-bounded by one run and the kept rows, not by the log.
+legs' temperature ranges (:class:`rinscal.calibration.selection.folds.RunSpan`). The
+polynomial candidates are then refitted on every row from per-run QR factors, the field's
+fits on the kept filtered rows. Memory is bounded by one run and the kept rows, not by the log.
 
 The polynomial candidates share one pass over the held-out data: per fold the triangular
 factor of

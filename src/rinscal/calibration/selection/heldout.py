@@ -114,8 +114,8 @@ def _regression_scores(
     """Training and leave-one-run-out RMS of ``regression`` orders ``k = k = k``, from factors.
 
     ``fits`` holds each run's triangular factor ``R_k`` of ``[A | y]`` for the largest orders
-    (:class:`~rinscal.calibration.thermal._runs.RunFits`), taken here into the scaling of all runs. A
-    fit of any orders on any runs is then a QR of the stacked column subsets of their
+    (:class:`~rinscal.calibration.thermal._runs.RunFits`), taken here into the scaling of all
+    runs. A fit of any orders on any runs is then a QR of the stacked column subsets of their
     factors, and a run's residual sum of squares about its own mean follows from its factor:
     ``‖R_k [β; −1]‖² − n_k m_k²``, ``m_k`` from the first row of ``R_k`` (the design's first
     column is ones). Equal to refitting from the data (the power basis spans the same

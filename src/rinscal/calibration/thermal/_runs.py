@@ -4,8 +4,8 @@ A log is read one run at a time (:func:`rinscal.io.iter_log_source`); of each ru
 channel's fit keeps only
 
 * for ``poly-t`` and ``regression`` (and every method's cubic fallback): the triangular factor
-  ``R`` of ``[A | y]`` (:func:`rinscal.calibration.thermal._fit.tsqr`) in a power basis scaled to the
-  run's own range of each input, its sample count and its sum of ``y``;
+  ``R`` of ``[A | y]`` (:func:`rinscal.calibration.thermal._fit.tsqr`) in a power basis
+  scaled to the run's own range of each input, its sample count and its sum of ``y``;
 * the boxes of a fine grid its samples occupy (:func:`rinscal.calibration._domain.occupied_boxes`)
   and its range of each input, for the joint domain;
 * a thinned sample of its rows (at most :data:`SAMPLE_ROWS`), for the collinearity check and
@@ -14,9 +14,9 @@ channel's fit keeps only
   decimation);
 * for ``auto``'s held-out choice (:class:`RowSample`): every ``k``-th usable row of the log
   (``k`` a power of two, doubled whenever more than
-  :data:`rinscal.calibration.selection.auto.SCREEN_SAMPLES` rows would be kept), with the value of the
-  field's filters (PX4's running median, ArduPilot's moving average, both computed on the
-  whole run) at each kept row, and the run's legs and temperature ranges
+  :data:`rinscal.calibration.selection.auto.SCREEN_SAMPLES` rows would be kept), with the
+  value of the field's filters (PX4's running median, ArduPilot's moving average, both
+  computed on the whole run) at each kept row, and the run's legs and temperature ranges
   (:class:`rinscal.calibration.selection.folds.RunSpan`).
 
 At the end, each run's factor is re-expressed in the basis scaled to the range of all runs:
@@ -220,8 +220,8 @@ def _moving_average_at(
     temp: np.ndarray, y: np.ndarray, t: np.ndarray, keep: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """ArduPilot's smoothed ``T`` and output at rows ``keep`` of one run (window centred on
-    the row, as :func:`rinscal.calibration.thermal.baselines.ardupilot_smoothed` places it); NaN where
-    no complete window is centred there."""
+    the row, as :func:`rinscal.calibration.thermal.baselines.ardupilot_smoothed` places it);
+    NaN where no complete window is centred there."""
     from rinscal.calibration.thermal.baselines import ARDUPILOT_WINDOW_S, ardupilot_window
 
     ts, ys = np.full(keep.size, np.nan), np.full(keep.size, np.nan)
@@ -406,7 +406,8 @@ class RunFits:
         return {"method": "poly-t", "t_ref": float(ref), "coef": coef.tolist()}
 
     def regression(self, orders: Sequence[int]) -> dict[str, Any]:
-        """``regression`` parameters (as :func:`rinscal.calibration.thermal._fit.fit_regression`)."""
+        """``regression`` parameters (as
+        :func:`rinscal.calibration.thermal._fit.fit_regression`)."""
         orders = [int(o) for o in orders]
         if any(o < 0 or o > 8 for o in orders):
             raise ValueError(f"orders must be 0..8, got {orders}")

@@ -1,7 +1,7 @@
 """Fit one thermal model per sensor channel on a calibration log.
 
-:class:`ThermalModel` holds one estimator (:mod:`rinscal.calibration.thermal.estimators`) per channel,
-with the paper's defaults by sensor type:
+:class:`ThermalModel` holds one estimator (:mod:`rinscal.calibration.thermal.estimators`) per
+channel, with the paper's defaults by sensor type:
 
 =============  ==============================  ==============================
 method         gyroscopes                      accelerometers
@@ -202,7 +202,8 @@ class ThermalModel:
         Further hyper-parameters set on every channel's estimator (e.g.
         ``{"max_samples": 20000}`` for ``neural``, ``{"t_ref": 25.0}`` for ``poly-t``).
     candidates : sequence of str
-        ``auto``: candidate families (see :data:`rinscal.calibration.selection.candidates.FAMILIES`).
+        ``auto``: candidate families (see
+        :data:`rinscal.calibration.selection.candidates.FAMILIES`).
     tolerance : float
         ``auto``: relative tolerance of the choice (simplest within it of the best).
     temp_range : (float, float) [°C]
