@@ -15,15 +15,16 @@ Folds (:func:`rinscal.calibration.selection.folds.holdout_folds`)
     max(1 °C, 10 % of the run's span)) and each leg is left out in turn; its contiguous blocks
     (at least :data:`~rinscal.calibration.selection.folds.MIN_FOLDS` in all) are scored
     apart, so that the held-out error has a spread (a standard error needs several values)
-    while a leg, a thermal regime of its own, is never half in the training data. A single leg is cut into blocks left out one by one.
+    while a leg, a thermal regime of its own, is never half in the training data. A single
+    leg is cut into blocks left out one by one.
     Never random rows: neighbouring samples of a slow thermal signal are not independent.
 
 Candidates (:func:`rinscal.calibration.selection.candidates.candidates`)
     ``none`` (a constant: no thermal compensation), ``ardupilot`` and ``px4`` (the field's
     own fits, :mod:`rinscal.calibration.thermal.baselines`; on held-out folds each tool's
     filter runs once per run and its fit on at most :data:`SCREEN_ROWS` filtered samples;
-    the chosen one is refitted on every filtered sample kept: all of them up to :data:`SCREEN_SAMPLES`
-    rows), ``poly-t`` of degree 1-4, ``regression`` with ``p`` = 1..4, ``q`` = 0..3,
+    the chosen one is refitted on every filtered sample kept: all of them up to
+    :data:`SCREEN_SAMPLES` rows), ``poly-t`` of degree 1-4, ``regression`` with ``p`` = 1..4, ``q`` = 0..3,
     ``s`` = 0..3 (``s`` only with ``ΔT``; ``q = s = 0`` is ``poly-t``), and on request
     ``neural`` with 2, 4 and 6 hidden neurons (screened with
     ``max_samples`` 5000 and one start, refitted with the defaults if chosen; not in the
