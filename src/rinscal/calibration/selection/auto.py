@@ -24,8 +24,8 @@ Candidates (:func:`rinscal.calibration.selection.candidates.candidates`)
     own fits, :mod:`rinscal.calibration.thermal.baselines`; on held-out folds each tool's
     filter runs once per run and its fit on at most :data:`SCREEN_ROWS` filtered samples;
     the chosen one is refitted on every filtered sample kept: all of them up to
-    :data:`SCREEN_SAMPLES` rows), ``poly-t`` of degree 1-4, ``regression`` with ``p`` = 1..4, ``q`` = 0..3,
-    ``s`` = 0..3 (``s`` only with ``ΔT``; ``q = s = 0`` is ``poly-t``), and on request
+    :data:`SCREEN_SAMPLES` rows), ``poly-t`` of degree 1-4, ``regression`` with ``p`` = 1..4,
+    ``q`` = 0..3, ``s`` = 0..3 (``s`` only with ``ΔT``; ``q = s = 0`` is ``poly-t``), and on request
     ``neural`` with 2, 4 and 6 hidden neurons (screened with
     ``max_samples`` 5000 and one start, refitted with the defaults if chosen; not in the
     default set: its held-out fits cost minutes on a 7-run log).
