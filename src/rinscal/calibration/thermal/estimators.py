@@ -31,6 +31,10 @@ Numerics: polynomial inputs are mapped onto ``[−1, 1]`` (centre and half-range
 factorisation of ``[A | y]`` (TSQR; never the normal equations), so memory stays bounded
 for millions of samples. Coefficients are also reportable in the paper's raw form
 (:meth:`Regression.raw_coefficients`).
+
+One idea, about 770 lines: the scikit-learn face of the paper's methods (and of the field's
+two baselines), each class a thin estimator over the numpy fits; they share one base and the
+conventions scikit-learn checks, so they stay together.
 """
 
 from __future__ import annotations

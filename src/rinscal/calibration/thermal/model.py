@@ -15,6 +15,11 @@ method         gyroscopes                      accelerometers
 It builds the features run by run, masks outliers, fits each channel on its inlier samples,
 and produces a :class:`~rinscal.calibration.modelfile.ThermalModelFile` (units, static
 reference, training ranges and metrics included) with :meth:`ThermalModel.to_file`.
+
+One idea, about 800 lines: fitting a log into a model file. ``ThermalModel`` (the settings
+and the public ``fit``/``fit_runs``) and ``_Fitting`` (what each channel keeps of each run
+and the final fit of each channel) are two halves of one procedure that share their state;
+the unit and static-reference helpers at the top are the model file's side of that fit.
 """
 
 from __future__ import annotations
