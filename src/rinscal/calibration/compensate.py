@@ -38,6 +38,7 @@ from rinscal.calibration.thermal.features import (
     build_features,
     temperature_rate,
 )
+from rinscal.calibration.thermal.model import unit_factors
 from rinscal.calibration.thermal.rate import CausalSlope
 from rinscal.errors import ConfigError, LogError, RangeError
 from rinscal.schema import CHANNELS
@@ -392,8 +393,6 @@ def check_units(
     ConfigError
         Naming every channel whose units differ, with both units.
     """
-    from rinscal.calibration.thermal.model import unit_factors
-
     units, _ = unit_factors(meta, model.channels)
     bad = [
         f"{c}: model in {model.models[c].unit!r}, log in {units[c]!r}"

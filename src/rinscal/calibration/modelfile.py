@@ -309,6 +309,7 @@ class ThermalModelFile:
         -------
         Path
         """
+        # rinscal.io imports pandas: deferred so that loading a model needs numpy alone
         from rinscal.io import write_atomic
 
         p = Path(path)
