@@ -150,7 +150,8 @@ def navigate_log(
         ``progress(stage, done_s, total_s)``: stage ``"reading"`` or ``"navigating"``.
     """
     from rinscal.calibration.modelfile import POLICIES, ThermalModelFile
-    from rinscal.navlog import open_nav_log, read_track
+    from rinscal.io.navopen import open_nav_log
+    from rinscal.io.track import read_track
 
     if policy not in POLICIES:
         raise ConfigError(f"--policy must be one of {', '.join(POLICIES)}, got {policy!r}")

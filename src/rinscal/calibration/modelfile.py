@@ -303,7 +303,7 @@ class ThermalModelFile:
         -------
         Path
         """
-        from rinscal.io import write_atomic
+        from rinscal.io.atomic import write_atomic
 
         p = Path(path)
         text = self.dumps()
