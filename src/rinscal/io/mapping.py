@@ -4,6 +4,7 @@ A foreign log (other column names, a µs or ms timestamp, tab separation, one sh
 temperature) is read through a :class:`ColumnMapping`, from a small TOML file
 (:func:`read_mapping`) or built from command-line options (:func:`mapping_from_options`),
 never by editing the file::
+
     # tofupilot_mapping.toml
     separator = "tab"            # "tab", "comma", "semicolon" or "auto"
     time = "timestamp"           # foreign time column ...

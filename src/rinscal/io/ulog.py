@@ -410,7 +410,8 @@ def _onto(
 ) -> list[np.ndarray]:
     """Columns sampled at ``ta`` [µs] put on times ``t`` [µs] (inside ``ta``'s span).
 
-    Where ``gap_nan`` is true for a column, samples across a gap (see the module doc) are NaN.
+    Where ``gap_nan`` is true for a column, samples across a gap (see the doc of
+    :mod:`rinscal.io.flightlog`) are NaN.
     """
     if t.size == ta.size and np.array_equal(t, ta):  # one chip: the same sample times
         return [np.asarray(c, dtype=np.float64) for c in columns]
