@@ -61,7 +61,8 @@ def main() -> None:
     if args.what == "write":
         write(args.path)
     elif args.what == "read":
-        from rinscal.flightlog import FlightLogOptions, read_flight_log
+        from rinscal.io.flightinfo import FlightLogOptions
+        from rinscal.io.flightlog import read_flight_log
 
         print(read_flight_log(args.path, FlightLogOptions(instance="all")).frame.shape)
     elif args.what == "pyulog":

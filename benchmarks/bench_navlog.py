@@ -1,10 +1,10 @@
-"""Benchmark the recorded-navigation log reader (rinscal.navlog) on an 8 h, 200 Hz recording.
+"""Benchmark the recorded-navigation log reader (rinscal.io.navlog) on an 8 h, 200 Hz recording.
 
 ``--make FILE`` writes a 5.76 M-row Parquet log of rates (``time_s``, the six ``gyro_*`` /
 ``accel_*`` in deg/h and µg, ``table_deg``, ``temp_in``, ``temp_out``, a ``comment`` column
-the reader must not read) in row groups of :data:`rinscal.io.PIECE_ROWS`, piece by piece;
-``--read FILE`` reads it with :meth:`rinscal.navlog.NavLog.pieces` and prints the wall time,
-the samples read and the peak resident memory. Run the two as separate processes so that
+the reader must not read) in row groups of :data:`rinscal.io.streaming.PIECE_ROWS`, piece by
+piece; ``--read FILE`` reads it with :meth:`rinscal.io.navlog.NavLog.pieces` and prints the
+wall time, the samples read and the peak resident memory. Run the two as separate processes so that
 the reading peak is the reader's own::
 
     taskset -c 0 python benchmarks/bench_navlog.py --make /tmp/nav8h.parquet
@@ -37,7 +37,7 @@ def make(path: str, rows: int) -> None:
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    from rinscal.io import PIECE_ROWS
+    from rinscal.io.streaming import PIECE_ROWS
 
     rng = np.random.default_rng(1)
     writer = None
@@ -63,7 +63,7 @@ def make(path: str, rows: int) -> None:
 
 
 def read(path: str) -> None:
-    from rinscal.navlog import open_nav_log
+    from rinscal.io.navopen import open_nav_log
 
     t0 = time.perf_counter()
     log = open_nav_log(path)
@@ -82,6 +82,7 @@ def read(path: str) -> None:
 
 def navigate(path: str, models: list[str]) -> None:
     from rinscal.calibration.modelfile import ThermalModelFile
+    from rinscal.io.navopen import open_nav_log
     from rinscal.nav.recorded import (
         BlockStats,
         CausalModelCompensator,
@@ -91,7 +92,6 @@ def navigate(path: str, models: list[str]) -> None:
         find_window,
         navigate_recording,
     )
-    from rinscal.navlog import open_nav_log
 
     t0 = time.perf_counter()
     log = open_nav_log(path)

@@ -26,8 +26,9 @@ from typer.testing import CliRunner
 from rinscal.calibration.modelfile import ThermalModelFile
 from rinscal.cli import app
 from rinscal.errors import LogError, LogNoteWarning
-from rinscal.flightlog import FlightLogOptions, read_flight_log, scan_flight_log
-from rinscal.io import read_log, write_log
+from rinscal.io.flightinfo import FlightLogOptions
+from rinscal.io.flightlog import read_flight_log, scan_flight_log
+from rinscal.io.tables import read_log, write_log
 from rinscal.schema import CHANNELS
 from tests._flightlogs import (
     DataFlashImu,

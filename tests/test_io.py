@@ -15,19 +15,10 @@ from typer.testing import CliRunner
 from rinscal.calibration.modelfile import ThermalModelFile
 from rinscal.cli import app
 from rinscal.errors import ConfigError, LogError
-from rinscal.io import (
-    ColumnMapping,
-    InterleavedRunsError,
-    iter_log_source,
-    mapping_from_options,
-    meta_path,
-    read_log,
-    read_log_source,
-    read_mapping,
-    read_meta,
-    write_log,
-    write_meta,
-)
+from rinscal.io.mapping import ColumnMapping, mapping_from_options, read_mapping
+from rinscal.io.metadata import meta_path, read_meta, write_meta
+from rinscal.io.streaming import InterleavedRunsError, iter_log_source
+from rinscal.io.tables import read_log, read_log_source, write_log
 from rinscal.schema import CHANNELS
 from tests._shared import real_log_path
 
@@ -630,7 +621,7 @@ def test_the_run_by_run_reader_holds_no_run_the_caller_has_dropped(tmp_path, mon
     import gc
     import weakref
 
-    import rinscal.io as rio
+    import rinscal.io.streaming as rio
 
     frames = []
     for k in range(4):

@@ -13,7 +13,8 @@ from matplotlib.figure import Figure
 from typer.testing import CliRunner
 
 from rinscal.cli import app
-from rinscal.io import read_log, write_log, write_meta
+from rinscal.io.metadata import write_meta
+from rinscal.io.tables import read_log, write_log
 from rinscal.report.logplot import decimate, plot_log, pretty_unit, units_from_meta
 from rinscal.schema import CHANNELS, TEMP_CHANNELS
 from tests._flightlogs import px4_topics, write_ulog

@@ -523,7 +523,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             file=sys.stderr,
         )
         return 1
-    from rinscal.io import write_atomic
+    from rinscal.io.atomic import write_atomic
 
     write_atomic(args.readme, lambda tmp: tmp.write_text(new, encoding="utf-8"))
     print(f"{args.readme}: results block rewritten")

@@ -1,7 +1,7 @@
 """PX4 and ArduPilot thermal-correction parameters: names, and the correction they apply.
 
-Used by two layers: the flight-log readers (:mod:`rinscal.flightlog`, which detect an active
-correction and undo it where the log carries it) and the exports
+Used by two layers: the flight-log readers (:mod:`rinscal.io.flightlog`, which detect an
+active correction and undo it where the log carries it) and the exports
 (:mod:`rinscal.calibration.export`, which write these parameters). Temperatures in °C,
 sensor values in SI (rad/s, m/s²).
 

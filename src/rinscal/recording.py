@@ -1,7 +1,7 @@
 """Navigate a recorded run: open the log, find the window, navigate every variant.
 
 The library side of ``rinscal navigate --log``: it reads the recording (twice, piece by
-piece, through :mod:`rinscal.navlog`), the model files and a reference track, and returns
+piece, through :mod:`rinscal.io.navopen`), the model files and a reference track, and returns
 the results; it prints nothing and writes nothing (the command writes the outputs).
 
 >>> from rinscal.recording import navigate_log                      # doctest: +SKIP
@@ -114,7 +114,7 @@ def navigate_log(
     Parameters
     ----------
     path : path-like
-        The recorded-navigation log (see :mod:`rinscal.navlog`).
+        The recorded-navigation log (see :mod:`rinscal.io.navopen`).
     mapping : NavMapping, optional
         How to read a foreign file.
     run : str, optional
@@ -150,7 +150,8 @@ def navigate_log(
         ``progress(stage, done_s, total_s)``: stage ``"reading"`` or ``"navigating"``.
     """
     from rinscal.calibration.modelfile import POLICIES, ThermalModelFile
-    from rinscal.navlog import open_nav_log, read_track
+    from rinscal.io.navopen import open_nav_log
+    from rinscal.io.track import read_track
 
     if policy not in POLICIES:
         raise ConfigError(f"--policy must be one of {', '.join(POLICIES)}, got {policy!r}")

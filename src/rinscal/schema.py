@@ -129,7 +129,7 @@ def temperature_columns(df: pd.DataFrame) -> list[str]:
     return [c for c in (*TEMP_CHANNELS, TEMP_IN, TEMP_OUT, CHAMBER) if c in df.columns]
 
 
-def _label(column: str, names: Mapping[str, str] | None) -> str:
+def col_label(column: str, names: Mapping[str, str] | None) -> str:
     """Column name for a message, with its name in the file when it was renamed."""
     original = (names or {}).get(column)
     if original and original != column:
@@ -181,7 +181,7 @@ def as_float(
         Naming the file, the column, the first non-numeric value and its data row.
     """
     if pd.api.types.is_bool_dtype(values.dtype):
-        raise LogError(f"{source}: {_label(column, names)} holds true/false values, not numbers")
+        raise LogError(f"{source}: {col_label(column, names)} holds true/false values, not numbers")
     if values.dtype == np.float64:
         return values.to_numpy(dtype=np.float64, copy=copy)
     if pd.api.types.is_numeric_dtype(values.dtype) and not pd.api.types.is_complex_dtype(
@@ -197,16 +197,16 @@ def as_float(
             if isinstance(val, str) and val.strip().lower() in _NAN_LIKE:
                 continue
             raise LogError(
-                f"{source}: {_label(column, names)}, data row {first_row + pos + 1}: "
+                f"{source}: {col_label(column, names)}, data row {first_row + pos + 1}: "
                 f"non-numeric value {_fmt(val)} ({_ROWS})"
             )
     try:
         return coerced.to_numpy(dtype=np.float64, na_value=np.nan, copy=True)
     except (TypeError, ValueError) as exc:  # e.g. complex numbers
-        raise LogError(f"{source}: {_label(column, names)} is not real-valued: {exc}") from exc
+        raise LogError(f"{source}: {col_label(column, names)} is not real-valued: {exc}") from exc
 
 
-def _check_finite(
+def check_finite(
     x: np.ndarray,
     source: str,
     column: str,
@@ -220,7 +220,7 @@ def _check_finite(
         pos = int(np.argmax(bad))
         what = "missing value (NaN or empty cell)" if np.isnan(x[pos]) else f"value {x[pos]}"
         raise LogError(
-            f"{source}: {_label(column, names)}, data row {first_row + pos + 1}: {what}; {why} "
+            f"{source}: {col_label(column, names)}, data row {first_row + pos + 1}: {what}; {why} "
             f"({_ROWS})"
         )
 
@@ -317,7 +317,7 @@ def validate_log(
     if empty.any():
         pos = int(np.argmax(empty))
         raise LogError(
-            f"{source}: {_label(RUN, names)}, data row {first_row + pos + 1}: empty run name "
+            f"{source}: {col_label(RUN, names)}, data row {first_row + pos + 1}: empty run name "
             f"({_ROWS})"
         )
     if isinstance(run.dtype, pd.CategoricalDtype):  # Parquet's dictionary: names taken once
@@ -329,13 +329,13 @@ def validate_log(
     for col in CHANNELS:
         x = as_float(out[col], source, col, names, copy=False, first_row=first_row)
         why = "use an empty cell/NaN for a dropped sample"
-        _check_finite(x, source, col, names, allow_nan=True, why=why, first_row=first_row)
+        check_finite(x, source, col, names, allow_nan=True, why=why, first_row=first_row)
         if out[col].dtype != np.float64:
             out[col] = x
     for col in (TIME, *temperature_columns(out)):
         x = as_float(out[col], source, col, names, copy=False, first_row=first_row)
         why = "time must be finite" if col == TIME else "temperatures must be finite"
-        _check_finite(x, source, col, names, allow_nan=False, why=why, first_row=first_row)
+        check_finite(x, source, col, names, allow_nan=False, why=why, first_row=first_row)
         if out[col].dtype != np.float64:
             out[col] = x
 
@@ -358,7 +358,7 @@ def _check_runs(
         _, first = np.unique(codes, return_index=True)  # first row of each run, by code
         k = int(short[np.argmin(first[short])])
         raise LogError(
-            f"{source}: {_label(RUN, names)}, data row {first_row + first[k] + 1}: run "
+            f"{source}: {col_label(RUN, names)}, data row {first_row + first[k] + 1}: run "
             f"{uniques[k]!r} has {counts[k]} sample(s); a run needs at least 2 ({_ROWS})"
         )
     n = len(t)
@@ -384,7 +384,7 @@ def _check_runs(
         j = int(np.argmin(rows))
         r, p = int(rows[j]), int(prev[j])
         raise LogError(
-            f"{source}: {_label(TIME, names)}, data row {first_row + r + 1}: time not strictly "
+            f"{source}: {col_label(TIME, names)}, data row {first_row + r + 1}: time not strictly "
             f"increasing within run {run.iloc[r]!r} ({float(t[r]):.10g} s after "
             f"{float(t[p]):.10g} s at data row {first_row + p + 1}) ({_ROWS})"
         )

@@ -235,7 +235,7 @@ def test_auto_model_file_round_trip_and_version_1(tmp_path, soak_small) -> None:
 
 def _real_legs():
     from rinscal.experiments.calibration_tables import real_log_legs, tofupilot_mapping
-    from rinscal.io import read_log
+    from rinscal.io.tables import read_log
 
     path = real_log_path()
     if not path.exists():
@@ -491,7 +491,7 @@ def test_rinscal_fit_writes_the_whole_rows_choice_while_keeping_every_4th_row(
     from rinscal.calibration.selection import auto
     from rinscal.calibration.thermal.features import build_features
     from rinscal.cli import app
-    from rinscal.io import write_log
+    from rinscal.io.tables import write_log
 
     log, _, _ = soak_small
     path, model = tmp_path / "soak.parquet", tmp_path / "auto.json"

@@ -11,7 +11,8 @@ from typer.testing import CliRunner
 
 from rinscal.calibration.modelfile import ThermalModelFile, payload_sha256
 from rinscal.cli import app
-from rinscal.io import read_log, write_log, write_meta
+from rinscal.io.metadata import write_meta
+from rinscal.io.tables import read_log, write_log
 from rinscal.schema import CHANNELS
 
 runner = CliRunner()

@@ -20,7 +20,7 @@ from rinscal.calibration.thermal.guards import (
 )
 from rinscal.calibration.thermal.model import ThermalModel
 from rinscal.errors import ConfigError, LogError
-from rinscal.io import read_log
+from rinscal.io.tables import read_log
 from rinscal.schema import CHANNELS
 
 META = {"units": {"gyro": "deg/h", "accel": "ug"}}

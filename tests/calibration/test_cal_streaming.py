@@ -7,11 +7,12 @@ import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
-from rinscal import io
 from rinscal.calibration.compensate import FLAG_COLUMN, compensated_channels
 from rinscal.cli import app
 from rinscal.errors import LogError
-from rinscal.io import InterleavedRunsError, iter_log_source, read_log_source, write_log
+from rinscal.io import streaming as io
+from rinscal.io.streaming import InterleavedRunsError, iter_log_source
+from rinscal.io.tables import read_log_source, write_log
 
 runner = CliRunner()
 

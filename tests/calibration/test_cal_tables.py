@@ -12,7 +12,7 @@ from rinscal.experiments.calibration_tables import (
     tofupilot_mapping,
     wide,
 )
-from rinscal.io import read_log
+from rinscal.io.tables import read_log
 from tests._shared import real_log_path
 
 REAL = real_log_path()

@@ -30,7 +30,8 @@ from typer.testing import CliRunner
 from rinscal.calibration.compensate import model_features
 from rinscal.calibration.modelfile import ThermalModelFile, payload_sha256
 from rinscal.cli import app
-from rinscal.io import write_log, write_meta
+from rinscal.io.metadata import write_meta
+from rinscal.io.tables import write_log
 from rinscal.schema import CHANNELS
 from tests.calibration.test_cal_export import (
     _c_outputs,

@@ -18,7 +18,7 @@ from hypothesis import strategies as st
 from typer.testing import CliRunner
 
 from rinscal.cli import app
-from rinscal.io import read_log, write_log
+from rinscal.io.tables import read_log, write_log
 from rinscal.schema import CHANNELS
 
 runner = CliRunner()
@@ -58,7 +58,7 @@ def _invoke(args: list) -> tuple[int, str]:
 
 
 def test_mapping_options_leave_time_as_given_unless_asked(tmp_path, model_file) -> None:
-    from rinscal.cli._options import read_foreign_source
+    from rinscal.io.foreign import read_foreign_source
 
     src = tmp_path / "in.csv"
     _log().to_csv(src, sep=";", index=False)
@@ -215,7 +215,7 @@ def test_static_ref_values_and_site_are_checked(tmp_path) -> None:
 
 
 def test_units_that_differ_from_the_model_are_refused(tmp_path, model_file) -> None:
-    from rinscal.io import write_meta
+    from rinscal.io.metadata import write_meta
 
     src = tmp_path / "pulses.csv"
     write_log(_log(), src)

@@ -10,7 +10,8 @@ import typer
 from typer.testing import CliRunner
 
 from rinscal.cli import app
-from rinscal.io import write_log, write_meta
+from rinscal.io.metadata import write_meta
+from rinscal.io.tables import write_log
 from tests.cli.test_cli_honesty import _log
 
 runner = CliRunner()

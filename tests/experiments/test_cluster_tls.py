@@ -18,7 +18,8 @@ import pytest
 from typer.testing import CliRunner, Result
 
 from rinscal.cli import app
-from rinscal.io import write_log, write_meta
+from rinscal.io.metadata import write_meta
+from rinscal.io.tables import write_log
 from rinscal.thermal.protocols import simulate_protocol
 
 pytest.importorskip(

@@ -28,7 +28,8 @@ from rinscal.experiments.fleet import (
     run_fleet,
     unit_names,
 )
-from rinscal.io import write_log, write_meta
+from rinscal.io.metadata import write_meta
+from rinscal.io.tables import write_log
 from rinscal.thermal.protocols import simulate_protocol
 
 LIMITS = "[limits.gyro]\nmax_noise_density = {gyro}\n"
@@ -184,7 +185,7 @@ def test_fleet_cli_end_to_end(units, tmp_path) -> None:
 # --------------------------------------------------------------------------- unit names
 def _place(src: Path, dst: Path) -> Path:
     """Copy a log and its sidecar metadata to ``dst`` (a production line's folder layout)."""
-    from rinscal.io import meta_path
+    from rinscal.io.metadata import meta_path
 
     dst.parent.mkdir(parents=True, exist_ok=True)
     shutil.copy2(src, dst)

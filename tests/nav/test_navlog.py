@@ -1,4 +1,4 @@
-"""The recorded-navigation log reader (rinscal.navlog): files -> SI increments in the r frame."""
+"""The recorded-navigation log reader (rinscal.io.navopen): files -> SI increments in frame r."""
 
 from __future__ import annotations
 
@@ -12,14 +12,10 @@ import pandas as pd
 import pytest
 
 from rinscal.errors import ConfigError, LogError
-from rinscal.io import write_meta
-from rinscal.navlog import (
-    NavMapping,
-    open_nav_log,
-    parse_weight,
-    read_nav_mapping,
-    read_track,
-)
+from rinscal.io.metadata import write_meta
+from rinscal.io.navmapping import NavMapping, parse_weight, read_nav_mapping
+from rinscal.io.navopen import open_nav_log
+from rinscal.io.track import read_track
 from rinscal.schema import NAV_RATES, NavSamples
 from rinscal.units import ARCSEC_TO_RAD, DEG_TO_RAD, DPH_TO_RPS, G0, UG_TO_MPS2
 

@@ -2,7 +2,7 @@
 recorded, the window a person would choose, and a clear refusal of wrong units.
 
 The recording is converted to NavSamples here by hand (an oracle independent of the
-reader in rinscal.navlog, which has its own tests)."""
+reader in rinscal.io.navopen, which has its own tests)."""
 
 from __future__ import annotations
 

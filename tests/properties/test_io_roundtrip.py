@@ -10,7 +10,7 @@ import pandas as pd
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from rinscal.io import read_log, write_log
+from rinscal.io.tables import read_log, write_log
 from rinscal.schema import CHANNELS, TEMP_CHANNELS
 
 finite = st.floats(allow_nan=False, allow_infinity=False, width=64)

@@ -9,7 +9,7 @@ import pandas as pd
 from typer.testing import CliRunner
 
 from rinscal.cli import app
-from rinscal.io import read_log
+from rinscal.io.tables import read_log
 from rinscal.schema import CHANNELS
 from rinscal.thermal.plant import ImuConfig
 

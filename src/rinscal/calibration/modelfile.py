@@ -309,8 +309,8 @@ class ThermalModelFile:
         -------
         Path
         """
-        # rinscal.io imports pandas: deferred so that loading a model needs numpy alone
-        from rinscal.io import write_atomic
+        # deferred: the io package's other modules are not needed to load a model
+        from rinscal.io.atomic import write_atomic
 
         p = Path(path)
         text = self.dumps()

@@ -1,11 +1,15 @@
-"""Options and guards shared by the commands: reading a foreign log, never overwriting inputs."""
+"""Options and guards shared by the commands: reading a foreign log, never overwriting inputs.
+
+The options of a foreign log are declared here; reading it through them is
+:mod:`rinscal.io.foreign` (library errors, which the commands turn into messages).
+"""
 
 from __future__ import annotations
 
 import os
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
@@ -13,8 +17,6 @@ from rinscal.thermal.presets import PRESETS
 
 if TYPE_CHECKING:
     from rinscal.experiments.cluster import TLSFiles
-    from rinscal.flightlog import FlightLogOptions
-    from rinscal.io import ColumnMapping, SourceLog
 
 LogArg = Annotated[
     Path,
@@ -194,133 +196,3 @@ def refuse_inputs(out: Path, inputs: list[Path], also: Sequence[Path] = ()) -> N
         for src in inputs:
             if path != out and is_same_file(path, src):
                 raise fail(f"{path}: refusing to overwrite the input {src}; choose another --out")
-
-
-def foreign_mapping(
-    map_file: Path | None = None,
-    col: list[str] | None = None,
-    time_col: str | None = None,
-    time_unit: str | None = None,
-    sep: str | None = None,
-    temp_col: str | None = None,
-    drop: list[str] | None = None,
-    run_name: str | None = None,
-    relative_time: bool = False,
-    *,
-    instance: str | None = None,
-    log: Path | None = None,
-) -> ColumnMapping | FlightLogOptions | None:
-    """The column mapping a mapping file and/or options give (None for a canonical log).
-
-    ``relative_time`` turns the mapping's relative time on (a mapping file may also ask for it).
-    For a PX4 ``.ulg`` or ArduPilot ``.bin`` ``log``: the reading options (``--instance``,
-    ``--run-name``) instead; the table options are refused there, as ``--instance`` is for a
-    table.
-    """
-    from rinscal.io import is_flight_log, mapping_from_options, read_mapping
-
-    if log is not None and is_flight_log(log):
-        table = {"map": map_file, "col": col, "time-col": time_col, "time-unit": time_unit}
-        table |= {"sep": sep, "temp-col": temp_col, "drop": drop, "relative-time": relative_time}
-        return flight_options(log, instance, run_name, table)
-    if instance is not None:
-        from rinscal.cli._app import fail
-
-        raise fail(f"{log}: --instance applies to PX4 .ulg and ArduPilot .bin logs only")
-    base = read_mapping(map_file) if map_file is not None else None
-    return mapping_from_options(
-        base,
-        columns=col or (),
-        time=time_col,
-        time_unit=time_unit,
-        separator=sep,
-        temperature=temp_col,
-        run=run_name,
-        drop=drop or (),
-        relative_time=True if relative_time else None,
-    )
-
-
-def flight_options(
-    log: Path, instance: str | None, run_name: str | None, table: dict[str, Any]
-) -> FlightLogOptions:
-    """Reading options of a flight log from ``--instance``/``--run-name``; table options refused."""
-    from rinscal.cli._app import fail
-    from rinscal.flightlog import FlightLogOptions
-
-    given = [k for k, v in table.items() if v]
-    if given:
-        flags = ", ".join("--" + k for k in given)
-        raise fail(
-            f"{log}: {flags} apply to CSV/TSV/Parquet tables; a ULog or DataFlash log is read "
-            "as it is (choose the IMU with --instance)"
-        )
-    which: int | str | None = None
-    if instance is not None:
-        text = instance.strip().lower()
-        if text == "all":
-            which = "all"
-        elif text.isdigit():
-            which = int(text)
-        else:
-            raise fail(f"--instance must be an IMU instance 0, 1, 2 ... or 'all', got {instance!r}")
-    return FlightLogOptions(instance=which, run=run_name)  # type: ignore[arg-type]
-
-
-def foreign_meta(log: Path, mapping: ColumnMapping | FlightLogOptions | None) -> dict[str, Any]:
-    """A log's metadata: its sidecar ``.meta.json``, units from the mapping where it has none.
-
-    ``meta["log"]`` is the log's file name. A flight log's own metadata (units, autopilot,
-    instance, device ids, see :meth:`rinscal.flightlog.FlightLogInfo.meta`) comes first; the
-    sidecar's keys win.
-    """
-    from rinscal.flightlog import FlightLogOptions, scan_flight_log
-    from rinscal.io import read_meta
-    from rinscal.schema import CHANNELS
-
-    if isinstance(mapping, FlightLogOptions):
-        return scan_flight_log(log).meta(mapping) | dict(read_meta(log) or {})
-    meta = dict(read_meta(log) or {})
-    if "units" not in meta and mapping is not None:
-        units = {c: u for c in CHANNELS if (u := mapping.unit_of(c))}
-        if units:
-            meta["units"] = units
-    meta.setdefault("log", log.name)
-    return meta
-
-
-def read_foreign_source(
-    log: Path,
-    map_file: Path | None = None,
-    col: list[str] | None = None,
-    time_col: str | None = None,
-    time_unit: str | None = None,
-    sep: str | None = None,
-    temp_col: str | None = None,
-    drop: list[str] | None = None,
-    run_name: str | None = None,
-    relative_time: bool = False,
-    instance: str | None = None,
-) -> tuple[SourceLog, dict[str, Any]]:
-    """Read a log through a mapping file and/or options: the log as read, and its metadata.
-
-    See :func:`foreign_mapping` and :func:`foreign_meta`. ``.log`` of the result is the
-    canonical frame; ``.raw`` the file's own table, to write it back.
-    """
-    from rinscal.io import read_log_source
-
-    mapping = foreign_mapping(
-        map_file,
-        col,
-        time_col,
-        time_unit,
-        sep,
-        temp_col,
-        drop,
-        run_name,
-        relative_time,
-        instance=instance,
-        log=log,
-    )
-    src = read_log_source(log, mapping)
-    return src, foreign_meta(log, mapping)

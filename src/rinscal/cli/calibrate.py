@@ -28,9 +28,6 @@ from rinscal.cli._options import (
     TempColOpt,
     TimeColOpt,
     TimeUnitOpt,
-    foreign_mapping,
-    foreign_meta,
-    read_foreign_source,
     refuse_inputs,
 )
 
@@ -39,7 +36,7 @@ if TYPE_CHECKING:
     import pandas as pd
 
     from rinscal.calibration.modelfile import ThermalModelFile
-    from rinscal.io import SourceLog
+    from rinscal.io.tables import SourceLog
 
 _METHODS = ("auto", "poly-t", "sectional", "regression", "neural", "px4", "ardupilot")
 
@@ -66,6 +63,8 @@ def _read(
     instance: str | None = None,
 ) -> tuple[pd.DataFrame, dict[str, Any]]:
     """Read a log and its metadata (units from the mapping when there is no sidecar)."""
+    from rinscal.io.foreign import read_foreign_source
+
     src, meta = read_foreign_source(
         log,
         map_file,
@@ -282,7 +281,7 @@ def fit(
     from rinscal.calibration.thermal.model import ThermalModel
     from rinscal.cli._app import console, err_console, fail, styled
     from rinscal.errors import RinscalError
-    from rinscal.io import by_runs
+    from rinscal.io.streaming import by_runs
 
     if method not in _METHODS:
         raise fail(f"--method must be one of {', '.join(_METHODS)}, got {method!r}")
@@ -485,7 +484,8 @@ def select(
     from rinscal.calibration.thermal.model import unit_factors
     from rinscal.cli._app import console, err_console, fail, styled
     from rinscal.errors import RinscalError
-    from rinscal.io import by_runs, read_log_source
+    from rinscal.io.streaming import by_runs
+    from rinscal.io.tables import read_log_source
 
     if method not in DEFAULT_SETTINGS:
         raise fail(f"--method must be regression or neural, got {method!r}")
@@ -692,7 +692,8 @@ def compensate_cmd(
     from rinscal.calibration.modelfile import POLICIES
     from rinscal.cli._app import console, err_console, fail
     from rinscal.errors import RangeError, RinscalError
-    from rinscal.io import by_runs, meta_path, write_meta
+    from rinscal.io.metadata import meta_path, write_meta
+    from rinscal.io.streaming import by_runs
 
     if policy not in POLICIES:
         raise fail(f"--policy must be one of {', '.join(POLICIES)}, got {policy!r}")
@@ -762,6 +763,8 @@ def _mapping_meta(
     log: Path, read_args: tuple[Any, ...], relative_time: bool, instance: str | None
 ) -> tuple[Any, dict[str, Any]]:
     """How to read ``log`` (a column mapping, flight-log options or None) and its metadata."""
+    from rinscal.io.foreign import foreign_mapping, foreign_meta
+
     mapping = foreign_mapping(*read_args, relative_time=relative_time, instance=instance, log=log)
     return mapping, foreign_meta(log, mapping)
 
@@ -778,7 +781,8 @@ def _compensate_runs(
     its channels compensated, nothing else touched); rows written, and per run the rows
     flagged out of range and the rows."""
     from rinscal.calibration.compensate import compensated_channels
-    from rinscal.io import LogStreamWriter, format_of
+    from rinscal.io.streaming import LogStreamWriter
+    from rinscal.io.tables import format_of
 
     shares: dict[str, tuple[int, int]] = {}
     writer: LogStreamWriter | None = None
@@ -864,7 +868,7 @@ def evaluate_cmd(
     from rinscal.calibration.modelfile import POLICIES
     from rinscal.cli._app import console, fail
     from rinscal.errors import RangeError, RinscalError
-    from rinscal.io import by_runs
+    from rinscal.io.streaming import by_runs
 
     if policy not in POLICIES:
         raise fail(f"--policy must be one of {', '.join(POLICIES)}, got {policy!r}")
@@ -966,7 +970,7 @@ def evaluate_cmd(
 
 def _write_allan_plot(path: Path, curves: Any, mf: Any, name: str) -> None:
     """The Allan figure of the longest run, written atomically."""
-    from rinscal.io import write_atomic
+    from rinscal.io.atomic import write_atomic
     from rinscal.report.allan_plot import allan_figure
 
     if not curves:
@@ -1027,7 +1031,7 @@ def export_cmd(
     from rinscal.calibration.modelfile import ThermalModelFile
     from rinscal.cli._app import console, err_console, fail, styled
     from rinscal.errors import RinscalError
-    from rinscal.io import write_atomic
+    from rinscal.io.atomic import write_atomic
 
     if fmt not in ("px4", "ardupilot", "c"):
         raise fail(f"--format must be px4, ardupilot or c, got {fmt!r}")

@@ -223,7 +223,8 @@ def navigate(
             raise fail(f"{src}: file not found")
     out_paths = [out / name for name in _OUTPUTS]
     if record is not None:
-        from rinscal.io import FORMATS, meta_path
+        from rinscal.io.metadata import meta_path
+        from rinscal.io.tables import FORMATS
 
         if record.suffix.lower() not in FORMATS:
             raise fail(f"--record {record}: give a .parquet, .csv or .tsv file name")
@@ -318,7 +319,7 @@ def _write_outputs(out: Path, result: object, summary: dict, temps: object) -> N
 
     import pandas as pd
 
-    from rinscal.io import atomic_path
+    from rinscal.io.atomic import atomic_path
     from rinscal.nav.plots import plot_position_error, plot_temperatures, plot_trajectory
 
     out.mkdir(parents=True, exist_ok=True)
@@ -404,7 +405,8 @@ def _record_scenario(
     """Run the scenario and stream the raw IMU output it navigated into ``record``."""
     import numpy as np
 
-    from rinscal.io import LogStreamWriter, meta_path, write_meta
+    from rinscal.io.metadata import meta_path, write_meta
+    from rinscal.io.streaming import LogStreamWriter
     from rinscal.nav.recorded import recording_frame
     from rinscal.nav.scenario import run_scenario
 
@@ -451,7 +453,7 @@ def _navigate_log(log: Path, out: Path, models: list[Path], policy: str, **kw: o
     """``navigate --log``: read, align, navigate, write the same outputs as a scenario."""
     from rinscal.cli._app import console, fail
     from rinscal.errors import RinscalError
-    from rinscal.io import is_flight_log
+    from rinscal.io.tables import is_flight_log
 
     inputs = [log, *models, *([kw["mapping"]] if kw["mapping"] else []),
               *([kw["track"]] if kw["track"] else [])]  # fmt: skip
@@ -469,7 +471,7 @@ def _navigate_log(log: Path, out: Path, models: list[Path], policy: str, **kw: o
     if is_flight_log(log):
         raise fail(f"{log}: a flight log; navigate --log reads CSV, TSV or Parquet recordings")
     try:
-        from rinscal.navlog import read_nav_mapping
+        from rinscal.io.navmapping import read_nav_mapping
         from rinscal.recording import heading_text, navigate_log, parse_site
 
         mapping = read_nav_mapping(kw["mapping"]) if kw["mapping"] else None

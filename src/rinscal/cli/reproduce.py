@@ -95,7 +95,7 @@ def reproduce(
     )
     from rinscal.experiments.runner import StudyStore, run_study
     from rinscal.experiments.study import reproduction_spec, study_tasks
-    from rinscal.io import write_atomic
+    from rinscal.io.atomic import write_atomic
     from rinscal.report.paper_report import write_reproduction
     from rinscal.report.study_report import write_study_report
 

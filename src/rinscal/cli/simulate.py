@@ -20,7 +20,6 @@ from rinscal.cli._options import (
     TempColOpt,
     TimeColOpt,
     TimeUnitOpt,
-    read_foreign_source,
     refuse_inputs,
 )
 from rinscal.thermal.presets import DEFAULT_PRESET
@@ -34,7 +33,7 @@ _FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
 
 def _every_instance(log: Path, instance: str | None) -> str | None:
     """``--instance`` of a plot: a flight log shows every IMU unless one is chosen."""
-    from rinscal.io import is_flight_log
+    from rinscal.io.tables import is_flight_log
 
     return "all" if instance is None and is_flight_log(log) else instance
 
@@ -71,7 +70,9 @@ def plot(
 
     from rinscal.cli._app import console, fail
     from rinscal.errors import RinscalError
-    from rinscal.io import atomic_path, meta_path
+    from rinscal.io.atomic import atomic_path
+    from rinscal.io.foreign import read_foreign_source
+    from rinscal.io.metadata import meta_path
 
     suffix = out.suffix.lower()
     if suffix not in _FIGURE_SUFFIXES:
@@ -163,7 +164,9 @@ def simulate(
     from rinscal._resources import require_memory
     from rinscal.cli._app import console, fail
     from rinscal.errors import RinscalError
-    from rinscal.io import LogStreamWriter, format_of, meta_path, write_meta
+    from rinscal.io.metadata import meta_path, write_meta
+    from rinscal.io.streaming import LogStreamWriter
+    from rinscal.io.tables import format_of
     from rinscal.thermal.plant import PRESETS, OutputConfig, load_imu
     from rinscal.thermal.protocols import PROTOCOLS, iter_protocol, log_meta, protocol_runs
 

@@ -186,7 +186,7 @@ def tofupilot_mapping() -> Any:
 
     µs timestamps, ``imu.gyro.*`` [rad/s], ``imu.acc.*`` [m/s²], one temperature.
     """
-    from rinscal.io import ColumnMapping
+    from rinscal.io.mapping import ColumnMapping
 
     cols = {f"imu.gyro.{a}": f"gyro_{a}" for a in "xyz"}
     cols.update({f"imu.acc.{a}": f"accel_{a}" for a in "xyz"})
@@ -269,7 +269,7 @@ def real_log_table(
         at the sectional model's edges for every method.
     models : dict of str to ThermalModelFile
     """
-    from rinscal.io import read_log
+    from rinscal.io.tables import read_log
 
     log = real_log_legs(read_log(path, mapping or tofupilot_mapping()))
     meta = {"units": {"gyro": "rad/s", "accel": "m/s^2"}}

@@ -46,7 +46,7 @@ import pandas as pd
 
 from rinscal.errors import ConfigError, RinscalError
 from rinscal.experiments.cluster import TLSFiles, dask_client
-from rinscal.io import write_atomic
+from rinscal.io.atomic import write_atomic
 
 __all__ = [
     "EXPORTS",
@@ -185,8 +185,10 @@ def fit_unit(
     from rinscal.calibration.export import to_ardupilot_parm, to_c_header, to_px4_params
     from rinscal.calibration.inference import predict_params
     from rinscal.calibration.thermal.model import ThermalModel
-    from rinscal.flightlog import FlightLogOptions, scan_flight_log
-    from rinscal.io import is_flight_log, read_log, read_meta
+    from rinscal.io.flightinfo import FlightLogOptions
+    from rinscal.io.flightlog import scan_flight_log
+    from rinscal.io.metadata import read_meta
+    from rinscal.io.tables import is_flight_log, read_log
 
     t0 = time.perf_counter()
     log = read_log(log_path)

@@ -50,7 +50,7 @@ from rinscal.experiments.study import (
     plant_config,
     study_tasks,
 )
-from rinscal.io import write_atomic
+from rinscal.io.atomic import write_atomic
 
 
 class StudyFolderError(RinscalError):

@@ -1,7 +1,7 @@
 """Navigate a recording: alignment window, causal compensation, free navigation.
 
 The recording arrives as :class:`rinscal.schema.NavSamples` pieces (SI increments in the
-IMU frame r, read by :mod:`rinscal.navlog`); nothing here reads a file. Two passes over the
+IMU frame r, read by :mod:`rinscal.io.navopen`); nothing here reads a file. Two passes over the
 pieces:
 
 1. :class:`BlockStats` sums every second of the recording: the specific force magnitude

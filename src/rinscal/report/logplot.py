@@ -17,7 +17,7 @@ import pandas as pd
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
-from rinscal.io import channel_unit
+from rinscal.io.mapping import channel_unit
 from rinscal.schema import (
     ACCEL_CHANNELS,
     CHAMBER,
@@ -57,7 +57,7 @@ def units_from_meta(meta: Mapping[str, Any] | None) -> dict[str, str]:
     Parameters
     ----------
     meta : mapping or None
-        Metadata as read by :func:`rinscal.io.read_meta`.
+        Metadata as read by :func:`rinscal.io.metadata.read_meta`.
 
     Returns
     -------

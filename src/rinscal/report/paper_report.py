@@ -845,7 +845,7 @@ def write_reproduction(
     import json
 
     from rinscal.experiments.paper import claims, load_plant, plant_info
-    from rinscal.io import write_atomic
+    from rinscal.io.atomic import write_atomic
 
     if plant is None:
         plant = plant_info(cfg.imu, cal.imu or load_plant(cfg.imu))

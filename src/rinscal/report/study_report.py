@@ -32,7 +32,7 @@ from rinscal.experiments.study_stats import (
     structure_pairs,
     uncompensated_wins,
 )
-from rinscal.io import write_atomic
+from rinscal.io.atomic import write_atomic
 from rinscal.report.html import Report, figure_to_png
 
 #: Colours of the variants in every figure.

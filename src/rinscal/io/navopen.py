@@ -1,0 +1,360 @@
+"""Open a recorded-navigation log: its header, mapping, metadata and units resolved.
+
+:func:`open_nav_log` reads the header (and the sidecar metadata, :mod:`rinscal.io.metadata`),
+finds which columns hold what (rates, increments or counts, see
+:mod:`rinscal.io.navmapping`) and returns a :class:`rinscal.io.navlog.NavLog` that reads the
+samples piece by piece.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from rinscal.errors import ConfigError, LogError
+from rinscal.io.mapping import SEPARATORS, channel_unit
+from rinscal.io.metadata import read_meta
+from rinscal.io.navlog import NavLog
+from rinscal.io.navmapping import Kind, NavMapping, parse_weight
+from rinscal.io.tables import _check_parquet, _sniff_text, format_of
+from rinscal.io.track import parse_utc
+from rinscal.schema import (
+    CHANNELS,
+    DTHETA,
+    DVEL,
+    NAV_CANONICAL,
+    NAV_RATES,
+    REF_HEADING,
+    REF_TRACK,
+    RUN,
+    TABLE,
+    TEMP_CHANNELS,
+    TEMP_IN,
+    TEMP_OUT,
+    TIME,
+    quoted_columns,
+)
+from rinscal.units import DEG_TO_RAD, SENSOR_UNITS, check_sensor_unit
+
+__all__ = [
+    "DEFAULT_RATE_UNITS",
+    "open_nav_log",
+]
+
+#: Default units of rate columns when neither the mapping nor the metadata says.
+DEFAULT_RATE_UNITS: dict[str, str] = {"gyro": "deg/h", "accel": "ug"}
+
+
+def _header(
+    p: Path, fmt: str, mapping: NavMapping | None
+) -> tuple[list[str], str | None, int | None]:
+    """The file's column names, its separator (text) and its row count (Parquet)."""
+    if fmt == "parquet":
+        # deferred on purpose: pyarrow is heavy and only Parquet needs it
+        import pyarrow.parquet as pq
+
+        _check_parquet(p)
+        try:
+            pf = pq.ParquetFile(p)
+        except Exception as exc:  # pyarrow raises many types for a damaged file
+            raise LogError(f"{p}: unreadable Parquet file: {exc}") from None
+        names = [n for n in pf.schema_arrow.names if not n.startswith("__index_level_")]
+        return names, None, int(pf.metadata.num_rows)
+    header = _sniff_text(p)
+    name = mapping.separator if mapping is not None else None
+    if name is None:
+        sep = "\t" if fmt == "tsv" else ","
+    else:
+        sep = SEPARATORS[name]
+        if sep is None:
+            counts = {s: header.count(s) for s in ("\t", ",", ";")}
+            sep = max(counts, key=counts.__getitem__)
+            if counts[sep] == 0:
+                raise LogError(f"{p}: cannot guess the separator: header has no tab, comma or ';'")
+    cols = next(csv.reader([header], delimiter=sep), [])
+    dup = sorted({c for c in cols if cols.count(c) > 1})
+    if dup:
+        raise LogError(
+            f"{p}: column(s) {', '.join(map(repr, dup))} appear more than once in the header"
+        )
+    if len(cols) < 2:
+        seps = {"\t": "tab", ",": "comma", ";": "semicolon"}
+        found = [nm for s, nm in seps.items() if s != sep and s in header]
+        hint = f" (the header contains a {found[0]}: set the separator)" if found else ""
+        raise LogError(
+            f"{p}: not a table: only one column {header[:60]!r} with "
+            f"{seps.get(sep, repr(sep))} separation{hint}"
+        )
+    return cols, sep, None
+
+
+def _resolve(p: Path, cols: list[str], mapping: NavMapping | None) -> dict[str, str]:
+    """Canonical name -> the file's column, for every canonical column the file has."""
+    names = {c: c for c in cols if c in NAV_CANONICAL}
+    if mapping is None:
+        return names
+    rename = mapping.rename()
+    missing = [c for c in rename if c not in cols]
+    if missing:
+        raise LogError(
+            f"{p}: column(s) {', '.join(map(repr, missing))} named in the mapping are not in "
+            f"the file (columns found: {quoted_columns(cols)})"
+        )
+    clash = [c for c in rename.values() if c in names and c not in rename]
+    if clash:
+        raise LogError(
+            f"{p}: the mapping renames other columns to {', '.join(map(repr, clash))}, which "
+            "the file already has; map only one of them"
+        )
+    for foreign, canon in rename.items():
+        names.pop(foreign, None)  # a canonical-named column mapped onto another name
+        names[canon] = foreign
+    return names
+
+
+def _kind(
+    p: Path, names: dict[str, str], mapping: NavMapping | None, cols: list[str]
+) -> tuple[Kind, tuple[str, ...]]:
+    """How the file gives the IMU's output, and its six sensor columns (canonical names)."""
+    rates = [c for c in NAV_RATES if c in names]
+    incr = [c for c in (*DTHETA, *DVEL) if c in names]
+
+    def shown(cs: list[str]) -> str:
+        return ", ".join(repr(names[c]) if names[c] == c else f"{names[c]!r} ({c})" for c in cs)
+
+    if rates and incr:
+        raise LogError(
+            f"{p}: both rates ({shown(rates)}) and increments ({shown(incr)}): a log gives "
+            "the IMU's output one way; map only one kind of column"
+        )
+    if not rates and not incr:
+        raise LogError(
+            f"{p}: no IMU output columns: need rates {', '.join(NAV_RATES)} or increments "
+            f"{', '.join((*DTHETA, *DVEL))} (columns found: {quoted_columns(cols)}); a foreign log "
+            "needs a mapping"
+        )
+    want = NAV_RATES if rates else (*DTHETA, *DVEL)
+    have = rates or incr
+    if len(have) < 6:
+        lacking = [c for c in want if c not in names]
+        raise LogError(
+            f"{p}: {'rate' if rates else 'increment'} columns {shown(have)} but not "
+            f"{', '.join(map(repr, lacking))}: all six are needed"
+        )
+    if mapping is not None and mapping.weights:
+        return "counts", tuple(want)
+    if incr and mapping is not None and mapping.units:
+        raise ConfigError(
+            f"{p}: the mapping gives [units], but the file holds increments ({shown(incr)}) "
+            "in rad and m/s; [units] are for rate columns (gyro_*, accel_*), [weights] for counts"
+        )
+    return ("rates" if rates else "increments"), tuple(want)
+
+
+def _meta_number(meta: Mapping[str, Any], key: str, mp: str, positive: bool = False) -> float:
+    v = meta[key]
+    if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+        raise LogError(f"{mp}: {key}: {v!r} is not a finite number")
+    if positive and v <= 0:
+        raise LogError(f"{mp}: {key}: {v!r} must be positive")
+    return float(v)
+
+
+def _read_meta_fields(meta: dict[str, Any] | None, mp: str) -> dict[str, Any]:
+    out: dict[str, Any] = {
+        "rate_hz": None, "site": None, "heading_deg": None, "noise": None, "utc_start": None,
+    }  # fmt: skip
+    if not meta:
+        return out
+    if "rate_hz" in meta:
+        out["rate_hz"] = _meta_number(meta, "rate_hz", mp, positive=True)
+    if "site" in meta:
+        site = meta["site"]
+        if not isinstance(site, Mapping) or "lat_deg" not in site or "lon_deg" not in site:
+            raise LogError(f'{mp}: site must be {{"lat_deg": ..., "lon_deg": ..., "h_m": ...}}')
+        lat = _meta_number(site, "lat_deg", f"{mp}: site")
+        lon = _meta_number(site, "lon_deg", f"{mp}: site")
+        h = _meta_number(site, "h_m", f"{mp}: site") if "h_m" in site else 0.0
+        if abs(lat) > 90.0:
+            raise LogError(f"{mp}: site.lat_deg: {lat!r} is beyond ±90°")
+        out["site"] = (lat * DEG_TO_RAD, lon * DEG_TO_RAD, h)
+    if meta.get("heading_deg") is not None:
+        out["heading_deg"] = _meta_number(meta, "heading_deg", mp)
+    if "noise" in meta:
+        noise = meta["noise"]
+        if not isinstance(noise, Mapping):
+            raise LogError(f"{mp}: noise must be an object of noise densities")
+        out["noise"] = {
+            k: _meta_number(noise, k, f"{mp}: noise")
+            for k in ("gyro_noise_density", "accel_noise_density", "gyro_bias_rw", "accel_bias_rw")
+            if k in noise
+        }
+        for k, v in out["noise"].items():
+            if v < 0:
+                raise LogError(f"{mp}: noise.{k}: {v!r} is negative")
+    if meta.get("utc_start") is not None:
+        out["utc_start"] = parse_utc(meta["utc_start"], f"{mp}: utc_start")
+    return out
+
+
+def _units(
+    kind: Kind, mapping: NavMapping | None, meta: dict[str, Any] | None, mp: str
+) -> tuple[dict[str, str], dict[str, float]]:
+    units: dict[str, str] = {}
+    to_si: dict[str, float] = {}
+    meta_units = (meta or {}).get("units") or {}
+    if not isinstance(meta_units, Mapping):
+        raise LogError(f"{mp}: units must be an object of unit names")
+    for ch in CHANNELS:
+        sensor = ch.partition("_")[0]
+        if kind == "increments":
+            units[ch], to_si[ch] = ("rad" if sensor == "gyro" else "m/s"), 1.0
+        elif kind == "counts":
+            assert mapping is not None
+            w = channel_unit(mapping.weights, ch)
+            assert w is not None
+            units[ch] = f"{w}/count"
+            to_si[ch] = parse_weight(w, sensor, key=f"weights.{ch}")
+        else:
+            u = mapping.units and channel_unit(mapping.units, ch) if mapping else None
+            if not u:
+                u = channel_unit(meta_units, ch)
+                if u is not None:
+                    if u == "pulse":
+                        raise LogError(
+                            f"{mp}: units.{ch} is 'pulse': a log of counts is read through a "
+                            "mapping with [weights] (the weight of one count)"
+                        )
+                    try:
+                        check_sensor_unit(sensor, u)
+                    except ValueError as exc:
+                        raise LogError(f"{mp}: units.{ch}: {exc}") from None
+            u = u or DEFAULT_RATE_UNITS[sensor]
+            units[ch], to_si[ch] = u, SENSOR_UNITS[u]
+    return units, to_si
+
+
+def open_nav_log(
+    path: str | os.PathLike[str],
+    mapping: NavMapping | None = None,
+    run: str | None = None,
+    *,
+    fmt: str | None = None,
+) -> NavLog:
+    """Open a recorded-navigation log: its header and metadata, not its data.
+
+    Parameters
+    ----------
+    path : path-like
+        ``.csv``, ``.tsv`` or ``.parquet``.
+    mapping : NavMapping, optional
+        How to read a foreign log; None for canonical column names.
+    run : str, optional
+        Which run to read (overrides ``mapping.run``); needed when the file's ``run``
+        column holds several.
+    fmt : {"csv", "tsv", "parquet"}, optional
+        Format, overriding the suffix.
+
+    Returns
+    -------
+    NavLog
+
+    Raises
+    ------
+    LogError
+        For a missing file, an unknown format, columns named in the mapping that the file
+        lacks, both rates and increments, some but not all six sensor columns, partial
+        temperatures or reference columns, bad metadata; each names the file (and the
+        columns). A Parquet file whose run column holds several runs (by its statistics)
+        and no run chosen is refused here, listing the runs.
+    ConfigError
+        For a mapping that does not fit the file (``[units]`` on increments).
+    """
+    p = Path(path)
+    f = format_of(p, fmt)
+    if not p.exists():
+        raise LogError(f"{p}: no such file")
+    if p.is_dir():
+        raise LogError(f"{p}: is a folder, not a log file")
+    cols, sep, n_rows = _header(p, f, mapping)
+    names = _resolve(p, cols, mapping)
+    if TIME not in names:
+        raise LogError(
+            f"{p}: no time column {TIME!r} (columns found: {quoted_columns(cols)}); a foreign log "
+            "names its time column in the mapping (time = ..., time_unit = ...)"
+        )
+    kind, sensors = _kind(p, names, mapping, cols)
+    meta = read_meta(p)
+    mp = f"{p}.meta.json"
+    fields = _read_meta_fields(meta, mp)
+    units, to_si = _units(kind, mapping, meta, mp)
+
+    temp_cols: tuple[str, ...] = ()
+    per_channel = [c for c in TEMP_CHANNELS if c in names]
+    if len(per_channel) == 6 or (TEMP_IN in names):
+        temp_cols = tuple(c if c in names else TEMP_IN for c in TEMP_CHANNELS)
+    elif per_channel:
+        lacking = [c for c in TEMP_CHANNELS if c not in names]
+        raise LogError(
+            f"{p}: inner temperature column(s) {', '.join(map(repr, lacking))} missing; give "
+            f"one per channel or a shared {TEMP_IN!r}"
+        )
+    ref = [c for c in REF_TRACK if c in names]
+    if ref and len(ref) < 3:
+        lacking = [c for c in REF_TRACK if c not in names]
+        raise LogError(
+            f"{p}: reference column(s) {', '.join(map(repr, ref))} without "
+            f"{', '.join(map(repr, lacking))}: a reference track needs all three"
+        )
+    chosen = run if run is not None else (mapping.run if mapping is not None else None)
+    log = NavLog(
+        path=p,
+        mapping=mapping,
+        meta=meta,
+        kind=kind,
+        units=units,
+        to_si=to_si,
+        names={c: names[c] for c in names},
+        run=chosen,
+        n_rows=n_rows,
+        has_table=TABLE in names,
+        has_temps=bool(temp_cols),
+        has_temp_out=TEMP_OUT in names,
+        has_ref=bool(ref),
+        has_ref_heading=REF_HEADING in names,
+        _fmt=f,
+        _sep=sep,
+        _sensors=sensors,
+        _temp_cols=temp_cols,
+        **fields,
+    )
+    if f == "parquet" and chosen is None and RUN in names and _parquet_several_runs(p, names[RUN]):
+        raise log._several_runs()
+    return log
+
+
+def _parquet_several_runs(p: Path, col: str) -> bool:
+    """Whether a Parquet file's run column holds several names, by its statistics."""
+    # deferred on purpose: pyarrow is heavy and only Parquet needs it
+    import pyarrow.parquet as pq
+
+    md = pq.ParquetFile(p).metadata
+    try:
+        j = md.schema.to_arrow_schema().get_field_index(col)
+        if j < 0:
+            return False
+        values: set[object] = set()
+        for g in range(md.num_row_groups):
+            st = md.row_group(g).column(j).statistics
+            if st is None or not st.has_min_max:
+                return False  # unknown here: the pieces will tell
+            values.update((st.min, st.max))
+            if len(values) > 1:
+                return True
+    except Exception:  # statistics are a shortcut only
+        return False
+    return False

@@ -1,0 +1,397 @@
+"""Read and write a log run by run: memory bounded by the longest run, not by the log.
+
+:func:`iter_log_source` reads a log in pieces of :data:`PIECE_ROWS` rows (Parquet record
+batches, CSV chunks) and yields its runs one at a time; :func:`by_runs` falls back to the
+whole log when runs are interleaved. :class:`LogStreamWriter` writes runs as they come,
+atomically.
+"""
+
+from __future__ import annotations
+
+import itertools
+import os
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, TypeVar
+
+import numpy as np
+import pandas as pd
+
+from rinscal.errors import LogError
+from rinscal.io.atomic import atomic_path
+from rinscal.io.mapping import ColumnMapping
+from rinscal.io.tables import (
+    Format,
+    SourceLog,
+    _check_parquet,
+    _check_table,
+    _flight_sources,
+    _log_path,
+    _source,
+    _text_columns,
+    _text_frames,
+    _text_options,
+    format_of,
+    is_flight_log,
+    read_log_source,
+)
+from rinscal.schema import (
+    RUN,
+    validate_log,
+)
+
+if TYPE_CHECKING:
+    from rinscal.io.flightinfo import FlightLogOptions
+
+__all__ = [
+    "PIECE_ROWS",
+    "InterleavedRunsError",
+    "LogStreamWriter",
+    "by_runs",
+    "iter_log_source",
+    "write_log_runs",
+]
+
+T = TypeVar("T")
+
+
+class InterleavedRunsError(LogError):
+    """A run continues after another run began: the log cannot be read run by run."""
+
+
+#: Rows per piece read by :func:`iter_log_source` (Parquet batch or CSV chunk).
+PIECE_ROWS = 1 << 18
+
+
+def _table_pieces(
+    p: Path, fmt: Format, mapping: ColumnMapping | None, piece_rows: int
+) -> tuple[Iterator[Any], str | None]:
+    """The file's table in pieces of at most ``piece_rows`` rows, and its separator.
+
+    Parquet pieces are Arrow record batches (joined in Arrow, converted once per run); text
+    pieces are DataFrames.
+    """
+    if fmt == "parquet":
+        # deferred on purpose: pyarrow is heavy and only Parquet needs it
+        import pyarrow.parquet as pq
+
+        _check_parquet(p)
+        try:  # buffered reads, no pre-buffering of whole row groups (memory: a piece)
+            pf = pq.ParquetFile(p, buffer_size=1 << 20, pre_buffer=False)
+        except Exception as exc:  # pyarrow raises many types for a damaged file
+            raise LogError(f"{p}: unreadable Parquet file: {exc}") from None
+        names = [n for n in pf.schema_arrow.names if not n.startswith("__index_level_")]
+
+        def parquet() -> Iterator[Any]:
+            # deferred on purpose: pyarrow is heavy and only Parquet needs it
+            import pyarrow as pa
+
+            rows = 0
+            try:
+                for batch in pf.iter_batches(batch_size=piece_rows, columns=names):
+                    rows += batch.num_rows
+                    yield batch
+            except Exception as exc:
+                raise LogError(f"{p}: unreadable Parquet file: {exc}") from None
+            if rows == 0:  # no rows: one empty piece, so that the columns are known
+                schema = pa.schema([pf.schema_arrow.field(n) for n in names])
+                yield pa.RecordBatch.from_pylist([], schema=schema)
+
+        return parquet(), None
+    options = _text_options(p, fmt, mapping)
+
+    def text() -> Iterator[pd.DataFrame]:
+        for k, df in enumerate(_text_frames(p, options, piece_rows)):
+            if k == 0:
+                _check_table(p, df, options["sep"])
+            yield df
+
+    return text(), options["sep"]
+
+
+def by_runs(
+    path: str | os.PathLike[str],
+    mapping: ColumnMapping | FlightLogOptions | None,
+    consume: Callable[[Iterator[SourceLog]], T],
+) -> T:
+    """``consume`` the log's runs as :func:`iter_log_source` reads them, one at a time.
+
+    A log whose runs are interleaved cannot be read run by run: ``consume`` is then called
+    again, from the start, with the whole log as its one item
+    (:func:`~rinscal.io.tables.read_log_source`); ``consume`` must not have written anything
+    final before it returns.
+    """
+    try:
+        return consume(iter_log_source(path, mapping))
+    except InterleavedRunsError:
+        return consume(iter([read_log_source(path, mapping)]))
+
+
+def _piece_runs(piece: Any, run_col: str) -> tuple[np.ndarray, np.ndarray, list[object]]:
+    """Start, end and run name of each stretch of equal run names in a piece (none if empty)."""
+    n = len(piece)
+    if n == 0:  # a header and no rows
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), []
+    names = piece.schema.names if not isinstance(piece, pd.DataFrame) else list(piece.columns)
+    if run_col not in names:  # one run (named by the mapping or the file)
+        return np.array([0]), np.array([n]), [run_col]
+    col = piece[run_col] if isinstance(piece, pd.DataFrame) else piece.column(run_col).to_pandas()
+    codes, uniques = pd.factorize(col, sort=False, use_na_sentinel=True)
+    cut = np.flatnonzero(codes[1:] != codes[:-1]) + 1
+    starts = np.concatenate([[0], cut]).astype(np.int64)
+    ends = np.concatenate([cut, [n]]).astype(np.int64)
+    return starts, ends, [None if codes[a] < 0 else uniques[codes[a]] for a in starts]
+
+
+def _piece_table(pieces: list[Any]) -> pd.DataFrame:
+    """One table from consecutive pieces (Arrow batches or DataFrames), RangeIndex."""
+    if not isinstance(pieces[0], pd.DataFrame):
+        # deferred on purpose: pyarrow is heavy and only Parquet needs it
+        import pyarrow as pa
+
+        table = pa.Table.from_batches(pieces)
+        pieces.clear()  # the table holds the only reference: converted, its buffers go
+        # one block per column (no 2-D consolidation copy), Arrow memory freed column by column
+        return table.to_pandas(split_blocks=True, self_destruct=True)
+    if len(pieces) == 1:
+        return pieces[0].reset_index(drop=True)
+    return pd.concat(pieces, ignore_index=True)
+
+
+def iter_log_source(
+    path: str | os.PathLike[str],
+    mapping: ColumnMapping | FlightLogOptions | None = None,
+    *,
+    fmt: str | None = None,
+    piece_rows: int | None = None,
+) -> Iterator[SourceLog]:
+    """Read and validate a log run by run: memory bounded by the longest run, not the log.
+
+    The file is read in pieces of ``piece_rows`` rows (Parquet record batches, CSV chunks);
+    the pieces of a run are joined, and each whole run is mapped, validated and yielded as a
+    :class:`~rinscal.io.tables.SourceLog` (``first_row`` says where it starts in the file).
+    Every run's table is exactly what :func:`~rinscal.io.tables.read_log_source` gives for its rows.
+
+    Parameters
+    ----------
+    path, mapping, fmt
+        As for :func:`~rinscal.io.tables.read_log_source`.
+    piece_rows : int, optional
+        Rows read at a time (default :data:`PIECE_ROWS`).
+
+    Yields
+    ------
+    SourceLog
+        One run, in file order.
+
+    Raises
+    ------
+    InterleavedRunsError
+        When a run's rows resume after another run's (read such a log whole, with
+        :func:`~rinscal.io.tables.read_log_source`), also when the part of a run before
+        another run began is not a valid run on its own (one sample, say): it is never refused
+        for that.
+    LogError
+        As :func:`~rinscal.io.tables.read_log_source`, with the row numbers of the whole file.
+    """
+    piece_rows = PIECE_ROWS if piece_rows is None else int(piece_rows)
+    if piece_rows < 1:
+        raise ValueError(f"piece_rows must be at least 1, got {piece_rows}")
+    if fmt is None and is_flight_log(path):
+        yield from _flight_sources(path, mapping)
+        return
+    p, f = _log_path(path, fmt, mapping)
+    pieces, sep = _table_pieces(p, f, mapping, int(piece_rows))
+    run_col = RUN
+    if mapping is not None:
+        run_col = next((k for k, c in mapping.columns.items() if c == RUN), RUN)
+    heads: list[Any] = []
+    stretches = _stretches(pieces, run_col, heads)
+    held: list[Any] = []
+    current: object = None
+    finished: set[object] = set()
+    first = 0
+    for seg, v in stretches:
+        if held and v == current:
+            held.append(seg)
+            continue
+        if held:
+            rows = sum(len(h) for h in held)
+            try:
+                src = _source(p, _piece_table(held), mapping, sep, first)
+            except LogError:
+                # a run cut short by another run may be a run that resumes later: then the
+                # log is read whole and validated as such, never refused for a piece of a run
+                finished.add(current)
+                row = _resumed_at(itertools.chain([(seg, v)], stretches), first + rows, finished)
+                if row is not None:
+                    raise InterleavedRunsError(
+                        f"{p}: data row {row + 1}: a run resumes after other runs began; "
+                        "the log is read whole instead"
+                    ) from None
+                raise
+            yield src
+            del src  # the run is the caller's now: hold no reference while reading the next
+            first += rows
+            finished.add(current)
+        if v in finished:
+            raise InterleavedRunsError(
+                f"{p}: data row {first + 1}: run {v!r} resumes after other runs began; "
+                "the log is read whole instead"
+            )
+        held, current = [seg], v
+    if held:
+        yield _source(p, _piece_table(held), mapping, sep, first)
+    else:  # a header and no rows: validation says so
+        empty = pd.DataFrame() if not heads else _piece_table(heads)
+        yield _source(p, empty, mapping, sep)
+
+
+def _stretches(
+    pieces: Iterator[Any], run_col: str, heads: list[Any]
+) -> Iterator[tuple[Any, object]]:
+    """Each stretch of equal run names, piece by piece, with its run name.
+
+    The first piece's columns (no rows) go to ``heads``: a file with a header and no rows
+    has no stretch.
+    """
+    for piece in pieces:
+        frame = isinstance(piece, pd.DataFrame)
+        if not heads:
+            heads.append(piece.iloc[:0] if frame else piece.slice(0, 0))
+        for a, b, v in zip(*_piece_runs(piece, run_col), strict=True):
+            if b > a:
+                yield (piece.iloc[a:b] if frame else piece.slice(a, b - a)), v
+
+
+def _resumed_at(
+    stretches: Iterator[tuple[Any, object]], row: int, finished: set[object]
+) -> int | None:
+    """First data row (0-based) where one of the ``finished`` runs resumes, or None.
+
+    ``row`` is the data row where ``stretches`` begin; only their run names and lengths are
+    used. ``finished`` gains the runs that end on the way.
+    """
+    current: object = _NO_RUN
+    for seg, v in stretches:
+        if v != current:
+            if v in finished:
+                return row
+            if current is not _NO_RUN:
+                finished.add(current)
+            current = v
+        row += len(seg)
+    return None
+
+
+_NO_RUN = object()
+
+
+class LogStreamWriter:
+    """Write a log run by run (bounded memory), atomically: nothing appears under ``path``
+    until :meth:`close` succeeds; on an error the partial file is removed.
+
+    Each frame is one or more whole runs with the same columns, stacked in the order
+    written. Parquet gets row groups of at most :data:`PIECE_ROWS` rows (the writer holds one
+    encoded row group at a time: memory bounded by that, not by a run); CSV/TSV are appended.
+    Use as a context manager::
+
+        with LogStreamWriter("soak.parquet") as w:
+            for run in runs:
+                w.write(run)
+
+    Parameters
+    ----------
+    path : path-like
+        Destination; ``.csv``, ``.tsv`` or ``.parquet``.
+    fmt : {"csv", "tsv", "parquet"}, optional
+        Format, overriding the suffix.
+    validate : bool
+        Validate each frame as a calibration log before writing it (off for truth files).
+    sep : str, optional
+        Field separator of a text file (default: tab for ``.tsv``, comma for ``.csv``).
+    """
+
+    def __init__(
+        self,
+        path: str | os.PathLike[str],
+        *,
+        fmt: str | None = None,
+        validate: bool = True,
+        sep: str | None = None,
+    ) -> None:
+        self.path = Path(path)
+        self.fmt = format_of(self.path, fmt)
+        self.validate = validate
+        self.sep = sep or ("\t" if self.fmt == "tsv" else ",")
+        if not self.path.parent.is_dir():
+            raise LogError(f"{self.path}: folder {self.path.parent} does not exist")
+        self.rows = 0
+        self._columns: list[str] | None = None
+        self._writer: Any = None
+        self._ctx = atomic_path(self.path)
+        self._tmp: Path | None = None
+
+    def __enter__(self) -> LogStreamWriter:
+        self._tmp = self._ctx.__enter__()
+        return self
+
+    def write(self, frame: pd.DataFrame) -> None:
+        """Append whole runs [rows keep their order]."""
+        # deferred on purpose: pyarrow is heavy and only Parquet needs it
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        assert self._tmp is not None, "use LogStreamWriter as a context manager"
+        df = validate_log(frame, source=f"log to write to {self.path}") if self.validate else frame
+        if self._columns is None:
+            self._columns = list(df.columns)
+        elif list(df.columns) != self._columns:
+            raise LogError(
+                f"{self.path}: a run has columns {list(df.columns)}, not {self._columns}"
+            )
+        if self.fmt == "parquet":
+            if RUN in df.columns and not isinstance(df[RUN].dtype, pd.CategoricalDtype):
+                df = df.assign(**{RUN: df[RUN].astype("category")})
+            if self._writer is None:
+                table = pa.Table.from_pandas(df, preserve_index=False)
+                self._writer = pq.ParquetWriter(
+                    self._tmp, table.schema, use_dictionary=_text_columns(df)
+                )
+            else:  # every run in the first one's types
+                table = pa.Table.from_pandas(df, schema=self._writer.schema, preserve_index=False)
+            self._writer.write_table(table, row_group_size=PIECE_ROWS)
+        else:
+            df.to_csv(
+                self._tmp,
+                mode="w" if self.rows == 0 else "a",
+                header=self.rows == 0,
+                sep=self.sep,
+                index=False,
+                float_format=None,
+                lineterminator="\n",
+            )
+        self.rows += len(df)
+
+    def __exit__(self, exc_type: object, exc: BaseException | None, tb: object) -> None:
+        if self._writer is not None:
+            self._writer.close()
+        if exc is None and self.rows == 0:
+            exc = LogError(f"{self.path}: nothing to write (no runs)")
+            self._ctx.__exit__(type(exc), exc, None)
+            raise exc
+        self._ctx.__exit__(exc_type, exc, tb)
+
+
+def write_log_runs(
+    frames: Iterator[pd.DataFrame],
+    path: str | os.PathLike[str],
+    *,
+    fmt: str | None = None,
+    validate: bool = True,
+) -> int:
+    """Write an iterator of runs with :class:`LogStreamWriter`; return the rows written."""
+    with LogStreamWriter(path, fmt=fmt, validate=validate) as w:
+        for frame in frames:
+            w.write(frame)
+    return w.rows
