@@ -20,7 +20,7 @@ import sys
 
 import pandas as pd
 
-from rinscal.experiments.calibration_tables import fit_all, heldout_table
+from rinscal.experiments.paper.calibration import fit_all, heldout_table
 from rinscal.thermal.plant import load_imu
 from rinscal.thermal.protocols import simulate_protocol
 

@@ -235,7 +235,7 @@ def test_auto_model_file_round_trip_and_version_1(tmp_path, soak_small) -> None:
 
 
 def _real_legs():
-    from rinscal.experiments.calibration_tables import real_log_legs, tofupilot_mapping
+    from rinscal.experiments.paper.calibration import real_log_legs, tofupilot_mapping
     from rinscal.io import read_log
 
     path = real_log_path()

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import pytest
 
-from rinscal.experiments.calibration_tables import heldout_table, wide
+from rinscal.experiments.paper.calibration import heldout_table, wide
 
 
 @pytest.mark.slow

@@ -20,7 +20,8 @@ from typer.testing import CliRunner, Result
 from rinscal.calibration.modelfile import ThermalModelFile
 from rinscal.cli import app
 from rinscal.errors import ConfigError
-from rinscal.experiments.fleet import (
+from rinscal.io import write_log, write_meta
+from rinscal.production.fleet import (
     FleetLimits,
     FleetStore,
     _noise_density,
@@ -28,7 +29,6 @@ from rinscal.experiments.fleet import (
     run_fleet,
     unit_names,
 )
-from rinscal.io import write_log, write_meta
 from rinscal.thermal.protocols import simulate_protocol
 
 LIMITS = "[limits.gyro]\nmax_noise_density = {gyro}\n"

@@ -32,7 +32,7 @@ import pytest
 from typer.testing import CliRunner
 
 from rinscal.cli import app
-from rinscal.experiments.paper import LABELS, METHODS, VARIANTS
+from rinscal.experiments.paper.config import LABELS, METHODS, VARIANTS
 from rinscal.thermal.plant import DEFAULT_PRESET, PRESETS, load_imu
 from tests.report._browser import chromium, rendered_inventory, screenshot
 

@@ -12,7 +12,7 @@ import pandas as pd
 import pytest
 
 from rinscal import units
-from rinscal.experiments.paper import thermal_residual
+from rinscal.experiments.paper.navigation import thermal_residual
 from rinscal.experiments.study import (
     MECH_SPREAD_FIELDS,
     SWEEP_PARAMETERS,

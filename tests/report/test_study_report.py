@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from rinscal.experiments.paper import ReproConfig
+from rinscal.experiments.paper.config import ReproConfig
 from rinscal.experiments.study import (
     PlantVariant,
     load_spec,

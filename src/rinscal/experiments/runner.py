@@ -38,8 +38,8 @@ import pandas as pd
 from threadpoolctl import threadpool_limits
 
 from rinscal import __version__
+from rinscal.cluster import TLSFiles, dask_client
 from rinscal.errors import ConfigError, RinscalError
-from rinscal.experiments.cluster import TLSFiles, dask_client
 from rinscal.experiments.study import (
     RESULT_COLUMNS,
     CalTask,

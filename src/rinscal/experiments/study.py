@@ -42,12 +42,10 @@ import pandas as pd
 
 from rinscal import units
 from rinscal.errors import ConfigError
-from rinscal.experiments.paper import (
-    METHODS,
+from rinscal.experiments.paper.config import METHODS, ReproConfig, load_plant
+from rinscal.experiments.paper.navigation import (
     RESIDUAL_COLUMNS,
     NavJob,
-    ReproConfig,
-    load_plant,
     run_navigation_job,
     thermal_part_m,
 )
@@ -744,9 +742,9 @@ def navigate_unit(
     ``calibration`` is :func:`calibrate_unit`'s result for ``task.cal``. Returns one row per
     variant (:data:`RESULT_COLUMNS`): the maximum and final horizontal position error
     [nmi], the maximum of its thermal part (variant minus oracle, see
-    :func:`rinscal.experiments.paper.thermal_part_m`) [nmi], the heading error at the
+    :func:`rinscal.experiments.paper.navigation.thermal_part_m`) [nmi], the heading error at the
     start of free navigation [arcsec] and the model's held-out thermal residual on this
-    cold start (:func:`rinscal.experiments.paper.thermal_residual`: gyros [°/h], horizontal
+    cold start (:func:`rinscal.experiments.paper.navigation.thermal_residual`: gyros [°/h], horizontal
     accelerometers [µg] and [% of the true swing]).
     """
     t0 = time.perf_counter()

@@ -20,7 +20,8 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from rinscal.experiments.paper import LABELS, PAPER, RESIDUAL_COLUMNS
+from rinscal.experiments.paper.config import LABELS, PAPER
+from rinscal.experiments.paper.navigation import RESIDUAL_COLUMNS
 
 #: Confidence level of every interval.
 CONFIDENCE = 0.95
@@ -32,7 +33,7 @@ N_RESAMPLES = 4999
 #: The metrics summarised, with their unit: per run maximum horizontal position error,
 #: its thermal part (variant minus oracle), |heading error| at the start of navigation, and
 #: the model's held-out thermal residual on the cold start itself
-#: (:func:`rinscal.experiments.paper.thermal_residual`).
+#: (:func:`rinscal.experiments.paper.navigation.thermal_residual`).
 METRICS = {
     "max_error_nmi": "nmi",
     "thermal_part_nmi": "nmi",

@@ -15,15 +15,9 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from rinscal import units
-from rinscal.experiments.paper import (
-    LABELS,
-    METHODS,
-    PAPER,
-    VARIANTS,
-    CalibrationResult,
-    NavRunResult,
-    ReproConfig,
-)
+from rinscal.experiments.paper.calibration import CalibrationResult
+from rinscal.experiments.paper.config import LABELS, METHODS, PAPER, VARIANTS, ReproConfig
+from rinscal.experiments.paper.navigation import NavRunResult
 from rinscal.report.html import Report, figure_to_png
 
 COLORS = {
@@ -222,7 +216,7 @@ def _join(items: Sequence[str]) -> str:
 def words_uncompensated_heldout(residual: pd.DataFrame, log: str) -> str:
     """One sentence, from the numbers, saying on which channels of a held-out log no
     compensation beats each method (or that every method beats it everywhere)."""
-    from rinscal.experiments.paper import uncompensated_wins_heldout
+    from rinscal.experiments.paper.claims import uncompensated_wins_heldout
 
     where = _LOG_WORDS.get(log, f"the held-out run {log!r}")
     wins = uncompensated_wins_heldout(residual, log)
@@ -242,7 +236,7 @@ def words_uncompensated_heldout(residual: pd.DataFrame, log: str) -> str:
 def words_uncompensated_nav(maxerr: pd.DataFrame) -> str:
     """Sentences, from the numbers, saying where the uncompensated run has a smaller mean
     maximum position error than a method (or that every method beats it)."""
-    from rinscal.experiments.paper import NAV_GROUPS, _group, uncompensated_wins_nav
+    from rinscal.experiments.paper.claims import NAV_GROUPS, nav_group, uncompensated_wins_nav
 
     wins = uncompensated_wins_nav(maxerr)
     if not wins:
@@ -254,7 +248,7 @@ def words_uncompensated_nav(maxerr: pd.DataFrame) -> str:
     for group, exps, scen in NAV_GROUPS:
         if group not in wins:
             continue
-        n = len(_group(maxerr, exps, scen))
+        n = len(nav_group(maxerr, exps, scen))
         base = next(iter(wins[group].values()))[0]
         beaten = [f"{LABELS[m]} at {mm:.3f} nmi" for m, (_b, mm) in wins[group].items()]
         out.append(
@@ -311,12 +305,12 @@ def build_report(
 ) -> Report:
     """Assemble the report: every table and figure, the paper's numbers beside ours.
 
-    ``plant`` is :func:`rinscal.experiments.paper.plant_info` of the IMU that ran (default:
+    ``plant`` is :func:`rinscal.experiments.paper.config.plant_info` of the IMU that ran (default:
     from ``cfg.imu`` and ``cal.imu``). ``study`` is the
     :class:`rinscal.report.study_report.StudyTables` of ``--units N`` (its report is in
     ``study/report.html``).
     """
-    from rinscal.experiments.paper import load_plant, plant_info
+    from rinscal.experiments.paper.config import load_plant, plant_info
 
     if plant is None:
         plant = plant_info(cfg.imu, cal.imu or load_plant(cfg.imu))
@@ -775,13 +769,15 @@ def reproduction_tables(
     cal: CalibrationResult, nav: Sequence[NavRunResult]
 ) -> tuple[pd.DataFrame, dict[str, pd.DataFrame]]:
     """Every table of the reproduction (name -> DataFrame) and the max-error table."""
-    from rinscal.experiments.paper import (
+    from rinscal.experiments.paper.claims import (
         decrease_pct,
-        heading_error_table,
-        max_error_table,
         nav_method_table,
         selection_summary_table,
         summary_table,
+    )
+    from rinscal.experiments.paper.navigation import (
+        heading_error_table,
+        max_error_table,
         thermal_part_table,
     )
 
@@ -813,7 +809,7 @@ def _records(df: pd.DataFrame) -> list[dict[str, Any]]:
 
 def findings(tables: Mapping[str, pd.DataFrame]) -> dict[str, Any]:
     """Where no compensation beats a model, as data and as the report's sentences."""
-    from rinscal.experiments.paper import uncompensated_wins_heldout, uncompensated_wins_nav
+    from rinscal.experiments.paper.claims import uncompensated_wins_heldout, uncompensated_wins_nav
 
     h = tables["heldout_residual"]
     logs = list(dict.fromkeys(h["log"]))
@@ -839,12 +835,13 @@ def write_reproduction(
 ) -> Written:
     """Write report.html, figures/*.png, tables/*.csv, models/*.json and metrics.json.
 
-    ``plant`` is :func:`rinscal.experiments.paper.plant_info` of the IMU that ran (default:
+    ``plant`` is :func:`rinscal.experiments.paper.config.plant_info` of the IMU that ran (default:
     from ``cfg.imu`` and ``cal.imu``).
     """
     import json
 
-    from rinscal.experiments.paper import claims, load_plant, plant_info
+    from rinscal.experiments.paper.claims import claims
+    from rinscal.experiments.paper.config import load_plant, plant_info
     from rinscal.io import write_atomic
 
     if plant is None:

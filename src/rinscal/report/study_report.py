@@ -19,7 +19,7 @@ import numpy as np
 import pandas as pd
 
 from rinscal import __version__
-from rinscal.experiments.paper import LABELS
+from rinscal.experiments.paper.config import LABELS
 from rinscal.experiments.runner import RunSummary, StudyStore
 from rinscal.experiments.study import StudySpec, plant_table, sweep_columns
 from rinscal.experiments.study_stats import (

@@ -2,7 +2,7 @@
 
 A production line calibrates many units, each with its own soak runs. ``run_fleet`` fits
 every log as an independent task on the same Dask layer as ``rinscal study``
-(:func:`rinscal.experiments.cluster.dask_client`: a local cluster by default, any cluster by
+(:func:`rinscal.cluster.dask_client`: a local cluster by default, any cluster by
 its scheduler address) and writes each result as it arrives into a folder that is also its
 memory, so that an interrupted fleet resumes without refitting finished units. A unit is
 named by the shortest end of its log's path that tells the units apart (:func:`unit_names`:
@@ -44,8 +44,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from rinscal.cluster import TLSFiles, dask_client
 from rinscal.errors import ConfigError, RinscalError
-from rinscal.experiments.cluster import TLSFiles, dask_client
 from rinscal.io import write_atomic
 
 __all__ = [
@@ -321,6 +321,11 @@ class FleetStore:
 
     def export_path(self, unit: str, export: str) -> Path:
         return self.root / "exports" / f"{unit}{EXPORTS[export]}"
+
+    def options(self) -> dict[str, Any]:
+        """The fit options the folder was opened with (``fleet.json``)."""
+        marker = self.root / "fleet.json"
+        return json.loads(marker.read_text("utf-8")).get("options", {})
 
     def open(self, options: Mapping[str, Any]) -> None:
         """Create the folder for ``options``, or check that it holds a fleet fitted so."""
@@ -624,14 +629,9 @@ def fleet_report(store: FleetStore, limits: FleetLimits | None = None) -> FleetR
     return FleetReport(verd.reset_index(drop=True), figures, dist)
 
 
-def write_fleet_report(
-    store: FleetStore, report: FleetReport, limits_source: str = "none given"
-) -> dict[str, Path]:
-    """Write ``report.html``, ``verdicts.csv``, ``figures.csv`` and ``distribution.csv``."""
-    from rinscal.report.fleet_report import fleet_html
-
-    options = json.loads((store.root / "fleet.json").read_text("utf-8")).get("options", {})
-    page = fleet_html(report, limits_source, options)
+def write_fleet_report(store: FleetStore, report: FleetReport, page: str) -> dict[str, Path]:
+    """Write ``report.html`` (the rendered ``page``), ``verdicts.csv``, ``figures.csv`` and
+    ``distribution.csv``."""
     html_path = store.root / "report.html"
     write_atomic(html_path, lambda tmp: tmp.write_text(page, encoding="utf-8"))
     out = {"report": html_path}
