@@ -91,8 +91,9 @@ def reproduce(
         navigation_jobs,
         navigation_stage,
     )
-    from rinscal.experiments.runner import StudyStore, run_study
-    from rinscal.experiments.study import reproduction_spec, study_tasks
+    from rinscal.experiments.study.runner import StudyStore, run_study
+    from rinscal.experiments.study.spec import reproduction_spec
+    from rinscal.experiments.study.tasks import study_tasks
     from rinscal.io import write_atomic
     from rinscal.report.paper_report import write_reproduction
     from rinscal.report.study_report import write_study_report

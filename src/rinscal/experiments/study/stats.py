@@ -362,7 +362,7 @@ def _verdict_kind(verdict: str) -> str:
 def structure_pairs(plants: pd.DataFrame) -> list[tuple[pd.Series, pd.Series]]:
     """Plant variants that differ only in their thermal law: every (polynomial,
     mechanistic) pair with the same sweep factors (the ``law`` column of
-    :func:`rinscal.experiments.study.plant_table`)."""
+    :func:`rinscal.experiments.study.spec.plant_table`)."""
     if "law" not in plants or plants.empty:
         return []
     sweep = [c for c in plants.columns if c not in ("plant", "plant_label", "imu", "law")]
