@@ -320,7 +320,7 @@ def _write_outputs(out: Path, result: object, summary: dict, temps: object) -> N
     import pandas as pd
 
     from rinscal.io import atomic_path
-    from rinscal.nav.plots import plot_position_error, plot_temperatures, plot_trajectory
+    from rinscal.report.nav_plots import plot_position_error, plot_temperatures, plot_trajectory
 
     out.mkdir(parents=True, exist_ok=True)
     frames = []

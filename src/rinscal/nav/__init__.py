@@ -15,8 +15,6 @@ Modules
     Inertial-frame coarse alignment and zero-velocity Kalman fine alignment.
 :mod:`~rinscal.nav.scenario`
     Scenarios with the thermal plant alongside, compensation variants, position errors.
-:mod:`~rinscal.nav.plots`
-    Figures 9, 11, 12, 15, 16 of the paper for a run.
 
 Nothing is imported here, so importing :mod:`rinscal.nav` loads no numba kernel.
 """
