@@ -39,15 +39,10 @@ import pandas as pd
 import pytest
 
 from rinscal import earth
-from rinscal.nav.recorded import (
-    BlockStats,
-    Noise,
-    Reference,
-    align_config,
-    find_window,
-    navigate_recording,
-    recording_frame,
-)
+from rinscal.nav.recorded.blocks import BlockStats
+from rinscal.nav.recorded.frame import recording_frame
+from rinscal.nav.recorded.navigate import Reference, navigate_recording
+from rinscal.nav.recorded.window import Noise, align_config, find_window
 from rinscal.nav.rotation import RotationSchedule
 from rinscal.nav.scenario import ThermalPlant, align_for, preset, run_scenario
 from rinscal.nav.trajectory import StepChannel

@@ -406,7 +406,7 @@ def _record_scenario(
     import numpy as np
 
     from rinscal.io import LogStreamWriter, meta_path, write_meta
-    from rinscal.nav.recorded import recording_frame
+    from rinscal.nav.recorded.frame import recording_frame
     from rinscal.nav.scenario import run_scenario
 
     grid = np.arange(0.0, float(plant.field.t[-1]) + 1e-9, 1.0)  # type: ignore[attr-defined]
@@ -470,8 +470,8 @@ def _navigate_log(log: Path, out: Path, models: list[Path], policy: str, **kw: o
     if is_flight_log(log):
         raise fail(f"{log}: a flight log; navigate --log reads CSV, TSV or Parquet recordings")
     try:
+        from rinscal.nav.recording import heading_text, navigate_log, parse_site
         from rinscal.navlog import read_nav_mapping
-        from rinscal.recording import heading_text, navigate_log, parse_site
 
         mapping = read_nav_mapping(kw["mapping"]) if kw["mapping"] else None
         site = parse_site(kw["site"]) if kw["site"] is not None else None  # type: ignore[arg-type]

@@ -560,7 +560,7 @@ def run_scenario(
     recorder : callable, optional
         ``recorder(chunk, dtheta, dv)`` with every chunk from power-on on: the truth and
         the raw increments the IMU put out [rad, m/s] (see
-        :func:`rinscal.nav.recorded.recording_frame`).
+        :func:`rinscal.nav.recorded.frame.recording_frame`).
 
     Returns
     -------

@@ -4,7 +4,7 @@ The library side of ``rinscal navigate --log``: it reads the recording (twice, p
 piece, through :mod:`rinscal.navlog`), the model files and a reference track, and returns
 the results; it prints nothing and writes nothing (the command writes the outputs).
 
->>> from rinscal.recording import navigate_log                      # doctest: +SKIP
+>>> from rinscal.nav.recording import navigate_log                  # doctest: +SKIP
 >>> nav = navigate_log("run.parquet", models=["regression.json"])  # doctest: +SKIP
 >>> nav.result.summary()["variants"]["regression"]["max_error_nmi"]  # doctest: +SKIP
 """
@@ -23,18 +23,17 @@ import pandas as pd
 
 from rinscal import units
 from rinscal.errors import ConfigError, LogError
-from rinscal.nav.recorded import (
+from rinscal.nav.recorded.blocks import BlockStats
+from rinscal.nav.recorded.compensation import CausalModelCompensator
+from rinscal.nav.recorded.navigate import Reference, navigate_recording
+from rinscal.nav.recorded.window import (
     MIN_WINDOW_S,
-    BlockStats,
-    CausalModelCompensator,
     Noise,
-    Reference,
     align_config,
     check_at_rest,
     check_encoder,
     estimate_noise,
     find_window,
-    navigate_recording,
     seen_schedule,
 )
 from rinscal.schema import CHANNELS
