@@ -24,7 +24,7 @@ import numpy as np
 import pandas as pd
 
 from rinscal.experiments.paper.calibration import heldout_table, real_log_table
-from rinscal.thermal.plant import load_imu
+from rinscal.thermal.config import load_imu
 from rinscal.thermal.protocols import simulate_protocol
 
 METHODS = ("px4", "ardupilot", "poly-t", "auto")
@@ -100,7 +100,7 @@ def noise_only(seeds: tuple[int, ...] = (11, 12, 13)) -> str:
     import dataclasses
 
     from rinscal.calibration.model import ThermalModel
-    from rinscal.thermal.plant import ChannelThermal
+    from rinscal.thermal.polynomial import ChannelThermal
 
     lines = [
         "| preset | channels | with a model | largest added error, gyro / accel |",

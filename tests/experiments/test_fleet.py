@@ -93,7 +93,7 @@ def test_fleet_fits_flags_and_reports(units, client, tmp_path) -> None:
         for u, s in store.summaries().items()
     }
     # physics: the simulated white noise recovered (ARW [deg/√h] · 60 = [deg/h·√s]; VRW)
-    from rinscal.thermal.plant import load_imu
+    from rinscal.thermal.config import load_imu
 
     noise = load_imu("navigation_grade").noise  # simulate_protocol's default plant
     for u, summ in store.summaries().items():

@@ -27,7 +27,7 @@ from rinscal.report.paper_report import (
     words_uncompensated_heldout,
     words_uncompensated_nav,
 )
-from rinscal.thermal.plant import PRESETS
+from rinscal.thermal.presets import PRESETS
 
 CHANNELS = ["gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z"]
 

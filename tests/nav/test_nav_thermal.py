@@ -14,7 +14,7 @@ from rinscal.nav.scenario import (
     preset,
     run_scenario,
 )
-from rinscal.thermal.plant import ImuConfig
+from rinscal.thermal.config import ImuConfig
 
 IMU = ImuConfig.navigation_grade()
 

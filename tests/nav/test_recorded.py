@@ -28,7 +28,7 @@ from rinscal.nav.recorded.window import (
 )
 from rinscal.nav.scenario import ThermalPlant, align_for, preset, run_scenario
 from rinscal.schema import CHANNELS, DTHETA, DVEL, NavSamples
-from rinscal.thermal.plant import load_imu
+from rinscal.thermal.config import load_imu
 
 
 def _record(scenario: str, hours: float, rate: float, increments: bool, seed: int = 2):

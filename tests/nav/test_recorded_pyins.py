@@ -47,7 +47,7 @@ from rinscal.nav.rotation import RotationSchedule
 from rinscal.nav.scenario import ThermalPlant, align_for, preset, run_scenario
 from rinscal.nav.trajectory import StepChannel
 from rinscal.schema import DTHETA, DVEL, NavSamples
-from rinscal.thermal.plant import load_imu
+from rinscal.thermal.config import load_imu
 
 pyins = pytest.importorskip("pyins")
 from pyins import strapdown as pstrap  # noqa: E402

@@ -259,7 +259,7 @@ def navigate(
             run_scenario,
             temperature_frame,
         )
-        from rinscal.thermal.plant import load_imu
+        from rinscal.thermal.config import load_imu
 
         plant_cfg = load_imu(imu_spec)
         align = align_for(plant_cfg, total_s=align_s, start_s=align_start_s)

@@ -164,7 +164,8 @@ def simulate(
     from rinscal.cli._app import console, fail
     from rinscal.errors import RinscalError
     from rinscal.io import LogStreamWriter, format_of, meta_path, write_meta
-    from rinscal.thermal.plant import PRESETS, OutputConfig, load_imu
+    from rinscal.thermal.config import OutputConfig, load_imu
+    from rinscal.thermal.presets import PRESETS
     from rinscal.thermal.protocols import PROTOCOLS, iter_protocol, log_meta, protocol_runs
 
     if protocol not in PROTOCOLS:

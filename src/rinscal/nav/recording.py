@@ -355,7 +355,7 @@ def _every(t: np.ndarray, step: float, next_t: float) -> np.ndarray:
 
 def _imu_noise(imu: str) -> Noise:
     """The noise of a plant (preset or TOML file) the filter is told to assume."""
-    from rinscal.thermal.plant import load_imu
+    from rinscal.thermal.config import load_imu
 
     cfg = load_imu(imu)
     wd = cfg.noise.white_density_si()

@@ -52,8 +52,8 @@ from rinscal.nav.trajectory import (
     euler_from_C_nb,
     vehicle_route,
 )
+from rinscal.thermal.config import ImuConfig
 from rinscal.thermal.field import ChamberProfile
-from rinscal.thermal.plant import ImuConfig
 
 #: Scenario names understood by :func:`preset`.
 SCENARIOS = ("quasi-static", "swing", "vehicle", "ramp")

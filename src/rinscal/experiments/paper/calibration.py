@@ -36,7 +36,7 @@ from rinscal.calibration.modelfile import ThermalModelFile
 from rinscal.calibration.selection import SelectionResult, select_model
 from rinscal.experiments.paper.config import METHODS, ReproConfig, load_plant
 from rinscal.schema import CHANNELS, RUN
-from rinscal.thermal.plant import ImuConfig
+from rinscal.thermal.config import ImuConfig
 from rinscal.thermal.protocols import simulate_protocol
 
 __all__ = [

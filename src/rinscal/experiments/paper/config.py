@@ -10,7 +10,8 @@ from typing import Any
 
 from rinscal import units
 from rinscal.errors import ConfigError
-from rinscal.thermal.plant import DEFAULT_PRESET, PRESETS, ImuConfig, load_imu
+from rinscal.thermal.config import ImuConfig, load_imu
+from rinscal.thermal.presets import DEFAULT_PRESET, PRESETS
 
 __all__ = [
     "LABELS",
@@ -94,7 +95,7 @@ class ReproConfig:
     align_start_s : float [s]
         Time after power-on at which the alignment starts (0: at power-on).
     imu : str
-        The plant: a preset name (:data:`rinscal.thermal.plant.PRESETS`) or the path of an
+        The plant: a preset name (:data:`rinscal.thermal.presets.PRESETS`) or the path of an
         IMU TOML file; see :func:`load_plant`.
     jobs : int
         Worker processes (a Dask ``LocalCluster``) for the navigation runs.

@@ -16,8 +16,8 @@ import pandas as pd
 from rinscal import units
 from rinscal.calibration.modelfile import ThermalModelFile
 from rinscal.experiments.paper.config import METHODS, VARIANTS, ReproConfig, load_plant
+from rinscal.thermal.config import ImuConfig
 from rinscal.thermal.field import ChamberProfile
-from rinscal.thermal.plant import ImuConfig
 
 __all__ = [
     "RESIDUAL_COLUMNS",

@@ -41,7 +41,7 @@ import pandas as pd
 from rinscal import units
 from rinscal.errors import ConfigError
 from rinscal.experiments.paper.config import METHODS, ReproConfig, load_plant
-from rinscal.thermal.plant import PRESETS
+from rinscal.thermal.presets import PRESETS
 
 __all__ = [
     "BUILTIN_STUDIES",

@@ -38,7 +38,7 @@ from rinscal.experiments.study.spec import (
     ScenarioSpec,
     StudySpec,
 )
-from rinscal.thermal.plant import ImuConfig
+from rinscal.thermal.config import ImuConfig
 
 __all__ = [
     "RESULT_COLUMNS",
