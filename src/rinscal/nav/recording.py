@@ -22,6 +22,7 @@ import numpy as np
 import pandas as pd
 
 from rinscal import units
+from rinscal.calibration.modelfile import POLICIES, ThermalModelFile
 from rinscal.errors import ConfigError, LogError
 from rinscal.nav.recorded.blocks import BlockStats
 from rinscal.nav.recorded.compensation import CausalModelCompensator
@@ -36,7 +37,9 @@ from rinscal.nav.recorded.window import (
     find_window,
     seen_schedule,
 )
+from rinscal.navlog import open_nav_log, read_track
 from rinscal.schema import CHANNELS
+from rinscal.thermal.config import load_imu
 
 #: Seconds between the temperature samples kept for the figure.
 TEMPERATURE_STEP_S = 10.0
@@ -148,9 +151,6 @@ def navigate_log(
     progress : callable, optional
         ``progress(stage, done_s, total_s)``: stage ``"reading"`` or ``"navigating"``.
     """
-    from rinscal.calibration.modelfile import POLICIES, ThermalModelFile
-    from rinscal.navlog import open_nav_log, read_track
-
     if policy not in POLICIES:
         raise ConfigError(f"--policy must be one of {', '.join(POLICIES)}, got {policy!r}")
     log = open_nav_log(path, mapping, run=run)
@@ -355,8 +355,6 @@ def _every(t: np.ndarray, step: float, next_t: float) -> np.ndarray:
 
 def _imu_noise(imu: str) -> Noise:
     """The noise of a plant (preset or TOML file) the filter is told to assume."""
-    from rinscal.thermal.config import load_imu
-
     cfg = load_imu(imu)
     wd = cfg.noise.white_density_si()
     rw = cfg.noise.bias_rw_si()

@@ -36,6 +36,7 @@ import os
 import time
 import tomllib
 import traceback
+import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -47,6 +48,7 @@ import pandas as pd
 from rinscal.cluster import TLSFiles, dask_client
 from rinscal.errors import ConfigError, RinscalError
 from rinscal.io import write_atomic
+from rinscal.schema import CHANNELS
 
 __all__ = [
     "EXPORTS",
@@ -98,8 +100,6 @@ class FleetLimits:
             Naming the file, the table and the key for anything unknown or not a positive
             finite number.
         """
-        from rinscal.schema import CHANNELS
-
         p = Path(path)
         try:
             data = tomllib.loads(p.read_text(encoding="utf-8"))
@@ -180,8 +180,7 @@ def fit_unit(
         ``model``, ``unit``, ``params`` (flat name -> value), ``heldout_rms``,
         ``thermal_span``, ``noise_density``), ``warnings``, ``elapsed_s``.
     """
-    import warnings
-
+    # deferred: the fitting stack (numba, the log readers) loads on the worker that fits
     from rinscal.calibration._inference import predict_params
     from rinscal.calibration.export import to_ardupilot_parm, to_c_header, to_px4_params
     from rinscal.calibration.model import ThermalModel
@@ -412,7 +411,7 @@ class FleetRun:
 def _task(log: str, method: str, export: str, unit: str) -> dict[str, Any]:
     """A unit's fit on a worker; its error returned, not raised (a unit's bad log is a
     result of the fleet, not a failure of the cluster)."""
-    from threadpoolctl import threadpool_limits
+    from threadpoolctl import threadpool_limits  # deferred: needed on the worker only
 
     try:
         with threadpool_limits(limits=1):  # one core per task: the cluster is the parallelism
@@ -533,7 +532,7 @@ def _collect(
     on_unit: Callable[[str, str], None] | None,
 ) -> None:
     """Write each unit's result as its future completes (``futures`` emptied as it goes)."""
-    from distributed import as_completed
+    from distributed import as_completed  # deferred: Dask is heavy
 
     for fut in as_completed(list(futures)):
         name, path = futures.pop(fut)

@@ -28,13 +28,15 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from rinscal.calibration._inference import raw_polynomial
 from rinscal.calibration.compensate import model_features, predict_log
-from rinscal.calibration.evaluate import StepConfig, edge_steps, evaluate
+from rinscal.calibration.evaluate import StepConfig, allan_table, edge_steps, evaluate
 from rinscal.calibration.features import MissingGradientWarning
 from rinscal.calibration.model import ThermalModel
 from rinscal.calibration.modelfile import ThermalModelFile
 from rinscal.calibration.selection import SelectionResult, select_model
 from rinscal.experiments.paper.config import METHODS, ReproConfig, load_plant
+from rinscal.io import ColumnMapping, read_log
 from rinscal.schema import CHANNELS, RUN
 from rinscal.thermal.config import ImuConfig
 from rinscal.thermal.protocols import simulate_protocol
@@ -198,8 +200,6 @@ def tofupilot_mapping() -> Any:
 
     µs timestamps, ``imu.gyro.*`` [rad/s], ``imu.acc.*`` [m/s²], one temperature.
     """
-    from rinscal.io import ColumnMapping
-
     cols = {f"imu.gyro.{a}": f"gyro_{a}" for a in "xyz"}
     cols.update({f"imu.acc.{a}": f"accel_{a}" for a in "xyz"})
     return ColumnMapping(
@@ -281,8 +281,6 @@ def real_log_table(
         at the sectional model's edges for every method.
     models : dict of str to ThermalModelFile
     """
-    from rinscal.io import read_log
-
     log = real_log_legs(read_log(path, mapping or tofupilot_mapping()))
     meta = {"units": {"gyro": "rad/s", "accel": "m/s^2"}}
     units = {
@@ -429,8 +427,6 @@ def coefficient_tables(models: Mapping[str, ThermalModelFile]) -> dict[str, pd.D
     form the fit uses. The network weights act on standardised inputs and outputs (the
     file stores the means and scales), as the paper's Table 8 presumably does.
     """
-    from rinscal.calibration._inference import raw_polynomial
-
     out: dict[str, pd.DataFrame] = {}
     for c in ("accel_x", "gyro_x"):
         raw = raw_polynomial(models["sectional"].models[c].params)
@@ -534,8 +530,6 @@ def calibration_stage(
     res.tables["ramp_steps"] = steps[steps["log"] == "ramp"].drop(columns="log")
     res.repeat_curves = repeat_curves(models, logs["repeat"])
     note("Allan deviation of the repeat run")
-    from rinscal.calibration.evaluate import allan_table
-
     allan, curves = allan_table(logs["repeat"], models["regression"], "clamp")
     res.tables["allan_repeat"] = allan.drop(columns=["rate_hz"])
     res.allan_curves = next(iter(curves.values()), None)

@@ -5,6 +5,7 @@ heading error)."""
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
@@ -13,9 +14,22 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from rinscal import units
+from rinscal import earth, units
 from rinscal.calibration.modelfile import ThermalModelFile
+from rinscal.cluster import dask_client
 from rinscal.experiments.paper.config import METHODS, VARIANTS, ReproConfig, load_plant
+from rinscal.nav.scenario import (
+    LAB_C,
+    VEHICLE_CABIN_C,
+    VEHICLE_WARMUP_S,
+    ModelCompensator,
+    ThermalPlant,
+    align_for,
+    oracle_compensator,
+    preset,
+    run_scenario,
+    temperature_frame,
+)
 from rinscal.thermal.config import ImuConfig
 from rinscal.thermal.field import ChamberProfile
 
@@ -84,8 +98,6 @@ def alignment_config(imu: ImuConfig, total_s: float, start_s: float = 0.0) -> An
     """Alignment settings of the cold starts: :func:`rinscal.nav.scenario.align_for` with the
     plant's noise, ``total_s`` [s] of coarse plus fine alignment starting ``start_s`` [s]
     after power-on (free navigation starts at ``start_s + total_s``)."""
-    from rinscal.nav.scenario import align_for
-
     return align_for(imu, total_s=total_s, start_s=start_s)
 
 
@@ -105,18 +117,6 @@ def run_navigation_job(
     calibration data came from; the navigation plant is built from it for the scenario
     (its chamber, duration, rate and turntable schedule) with the job's seed.
     """
-    from rinscal.nav.scenario import (
-        LAB_C,
-        VEHICLE_CABIN_C,
-        VEHICLE_WARMUP_S,
-        ModelCompensator,
-        ThermalPlant,
-        oracle_compensator,
-        preset,
-        run_scenario,
-        temperature_frame,
-    )
-
     align = alignment_config(imu, align_s, align_start_s)
     cfg = preset(job.scenario, hours=job.hours, rate_hz=job.rate_hz, align=align)
     if job.scenario in ("quasi-static", "swing"):
@@ -140,8 +140,6 @@ def run_navigation_job(
         errors[f"{v}_north"] = res.errors[v]["north_m"].to_numpy()
     track = None
     if job.scenario == "vehicle":
-        from rinscal import earth
-
         lat0 = np.deg2rad(res.truth["lat_deg"].iloc[0])
         rn, re = earth.principal_radii(lat0)
         track = pd.DataFrame(
@@ -168,8 +166,6 @@ def run_navigation_job(
 def _estimate_on(comp: Any, grid: np.ndarray, truth: np.ndarray) -> np.ndarray:
     """A variant's thermal-bias estimate on ``grid`` [s], (n, 6) SI: none (zero), a model
     (what its compensator subtracts, the 1 s thermometer readings held) or the oracle."""
-    from rinscal.nav.scenario import ModelCompensator
-
     if comp is None:
         return np.zeros_like(truth)
     if isinstance(comp, ModelCompensator):
@@ -236,8 +232,6 @@ def navigation_stage(
     ``imu`` is the plant (default: :func:`load_plant` of ``cfg.imu``); pass the one the
     calibration stage simulated so that both stages run the same IMU.
     """
-    import json
-
     imu = imu or load_plant(cfg.imu)
     texts = {m: json.dumps(models[m].to_dict()) for m in METHODS}
     jobs = navigation_jobs(cfg)
@@ -251,9 +245,7 @@ def navigation_stage(
             if done:
                 done(r)
     else:
-        from distributed import as_completed
-
-        from rinscal.cluster import dask_client
+        from distributed import as_completed  # deferred: Dask only for parallel jobs
 
         with dask_client(workers=cfg.jobs) as client:
             futures = [

@@ -250,7 +250,7 @@ def _submit_all(
 ) -> float:
     """Submit ``todo`` to ``client`` and write each result as it completes; returns the
     largest peak memory a worker reported [MiB]."""
-    from distributed import as_completed
+    from distributed import as_completed  # deferred: Dask is heavy
 
     peak = 0.0
     versions = client.run(_worker_version)

@@ -23,6 +23,7 @@ import numpy as np
 import pandas as pd
 
 from rinscal import units
+from rinscal.calibration.model import ThermalModel
 from rinscal.experiments.paper.config import load_plant
 from rinscal.experiments.paper.navigation import (
     RESIDUAL_COLUMNS,
@@ -39,6 +40,7 @@ from rinscal.experiments.study.spec import (
     StudySpec,
 )
 from rinscal.thermal.config import ImuConfig
+from rinscal.thermal.protocols import simulate_protocol
 
 __all__ = [
     "RESULT_COLUMNS",
@@ -192,9 +194,6 @@ def calibrate_unit(spec: StudySpec, plant: ImuConfig, task: CalTask) -> dict[str
         ``models``: method → model file JSON text; ``warnings``: method → the warnings its
         fit raised (a weak fit is kept and flagged); ``elapsed_s`` [s]: the task's run time.
     """
-    from rinscal.calibration.model import ThermalModel
-    from rinscal.thermal.protocols import simulate_protocol
-
     t0 = time.perf_counter()
     imu = unit_config(spec, plant, task.unit)
     seed = task_seed(spec.seed, task.unit, 1)

@@ -11,6 +11,7 @@ from numpy.typing import NDArray
 
 from rinscal.errors import ConfigError
 from rinscal.schema import CHANNELS, NavSamples
+from rinscal.units import MIN_TO_S
 
 __all__ = [
     "CausalModelCompensator",
@@ -46,7 +47,7 @@ class CausalModelCompensator:
     """
 
     def __init__(self, model: Any, policy: str = "clamp", update_s: float = 1.0) -> None:
-        from rinscal.calibration._rate import CausalSlope
+        from rinscal.calibration._rate import CausalSlope  # deferred: compiles numba kernels
 
         if not (math.isfinite(update_s) and update_s > 0):
             raise ConfigError(f"model update interval must be > 0 s, got {update_s}")
@@ -74,8 +75,6 @@ class CausalModelCompensator:
         )
 
     def __call__(self, s: NavSamples) -> NDArray[np.float64]:
-        from rinscal.units import MIN_TO_S
-
         if s.temps is None:
             raise ConfigError(
                 f"a thermal model needs temperatures, and the recording has none for "

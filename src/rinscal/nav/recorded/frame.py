@@ -9,7 +9,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from rinscal import units
-from rinscal.schema import CHANNELS
+from rinscal.schema import CHANNELS, DTHETA, DVEL, REF_HEADING, REF_TRACK, TABLE, TEMP_OUT
 
 __all__ = [
     "recording_frame",
@@ -49,8 +49,6 @@ def recording_frame(
         ``time_s`` (end of each interval), the IMU, ``table_deg`` (wrapped to ±180°),
         temperatures, the reference track and ``ref_heading_deg`` (true body heading).
     """
-    from rinscal.schema import DTHETA, DVEL, REF_HEADING, REF_TRACK, TABLE, TEMP_OUT
-
     t = chunk.t
     dt = np.diff(t, prepend=t[0] - (t[1] - t[0] if t.size > 1 else 1.0))
     cols: dict[str, Any] = {"time_s": t}

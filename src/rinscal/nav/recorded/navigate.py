@@ -23,6 +23,7 @@ from rinscal.nav.align import AlignConfig, Aligner, AlignResult, feed_and_hand_o
 from rinscal.nav.recorded.blocks import TableUnwrap
 from rinscal.nav.recorded.compensation import PieceCompensator, _ffill
 from rinscal.nav.recorded.window import Window
+from rinscal.nav.scenario import NavResult, _error_frame
 from rinscal.nav.strapdown import Strapdown, VerticalMode
 from rinscal.schema import GAP_FACTOR, NavSamples
 
@@ -193,8 +194,6 @@ def navigate_recording(
         When the alignment does not end before the recording does, nothing is left to
         navigate, or the reference covers none of the navigated part.
     """
-    from rinscal.nav.scenario import NavResult, _error_frame
-
     comps = {"none": None} if compensators is None else dict(compensators)
     if not comps:
         raise ConfigError("navigate_recording: need at least one variant")

@@ -25,6 +25,7 @@ from rinscal import earth, units
 from rinscal.errors import ConfigError, LogError
 from rinscal.nav.align import AlignConfig
 from rinscal.nav.recorded.blocks import Blocks
+from rinscal.nav.scenario import align_from_noise
 
 __all__ = [
     "FLOOR_PERCENTILE",
@@ -412,8 +413,6 @@ def align_config(
     noise: Noise, window: Window, coarse_s: float = 60.0, base: AlignConfig | None = None
 ) -> AlignConfig:
     """Alignment settings for a window and a noise (bias Markov floors as :func:`align_for`)."""
-    from rinscal.nav.scenario import align_from_noise
-
     return align_from_noise(
         noise.gyro_density,
         noise.accel_density,
