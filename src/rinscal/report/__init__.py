@@ -13,8 +13,10 @@ Modules
     Figures of a navigation run (the paper's Figures 9, 11, 12, 15, 16).
 :mod:`~rinscal.report.html`
     The self-contained HTML report builder.
+:mod:`~rinscal.report.paper_figures`
+    The reproduction's figures.
 :mod:`~rinscal.report.paper_report`
-    The reproduction's figures and report.
+    The reproduction's report and files.
 :mod:`~rinscal.report.study_report`
     A study's figures and report.
 :mod:`~rinscal.report.fleet_report`
