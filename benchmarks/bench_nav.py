@@ -80,7 +80,7 @@ def part_integrator() -> None:
 
 def part_scenario() -> None:
     from rinscal.nav.scenario import ThermalPlant, preset, run_scenario
-    from rinscal.thermal.plant import ImuConfig
+    from rinscal.thermal.config import ImuConfig
 
     imu = ImuConfig.paper()  # every effect on: Shupe, hysteresis, scale factor,
     assert all(vars(imu.effects).values())  # misalignment, lever arm, hot side by angle

@@ -83,15 +83,10 @@ def read(path: str) -> None:
 def navigate(path: str, models: list[str]) -> None:
     from rinscal.calibration.modelfile import ThermalModelFile
     from rinscal.io.navopen import open_nav_log
-    from rinscal.nav.recorded import (
-        BlockStats,
-        CausalModelCompensator,
-        Noise,
-        Reference,
-        align_config,
-        find_window,
-        navigate_recording,
-    )
+    from rinscal.nav.recorded.blocks import BlockStats
+    from rinscal.nav.recorded.compensation import CausalModelCompensator
+    from rinscal.nav.recorded.navigate import Reference, navigate_recording
+    from rinscal.nav.recorded.window import Noise, align_config, find_window
 
     t0 = time.perf_counter()
     log = open_nav_log(path)

@@ -36,9 +36,9 @@ def _ok(good: bool) -> str:
 def one_run(units: int, workers: int) -> dict[str, float]:
     from distributed import get_task_stream
 
-    from rinscal.experiments.cluster import dask_client
-    from rinscal.experiments.runner import StudyStore, run_study
-    from rinscal.experiments.study import load_spec
+    from rinscal.cluster import dask_client
+    from rinscal.experiments.study.runner import StudyStore, run_study
+    from rinscal.experiments.study.spec import load_spec
 
     spec = load_spec("paper", quick=True, units_override=units)
     with tempfile.TemporaryDirectory() as tmp:

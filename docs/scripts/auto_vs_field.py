@@ -23,8 +23,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from rinscal.experiments.calibration_tables import heldout_table, real_log_table
-from rinscal.thermal.plant import load_imu
+from rinscal.experiments.paper.calibration import heldout_table, real_log_table
+from rinscal.thermal.config import load_imu
 from rinscal.thermal.protocols import simulate_protocol
 
 METHODS = ("px4", "ardupilot", "poly-t", "auto")
@@ -78,7 +78,7 @@ def simulated_table(preset: str) -> str:
     train, _, meta = logs["soak"]
     tests = [logs["repeat"][0], logs["ramp"][0]]
     truth = [logs["repeat"][1], logs["ramp"][1]]
-    from rinscal.experiments.calibration_tables import fit_all
+    from rinscal.experiments.paper.calibration import fit_all
 
     models = fit_all(train, meta, METHODS)
     tab = heldout_table(train, tests, truth, meta, models=models, methods=METHODS)
@@ -100,7 +100,7 @@ def noise_only(seeds: tuple[int, ...] = (11, 12, 13)) -> str:
     import dataclasses
 
     from rinscal.calibration.thermal.model import ThermalModel
-    from rinscal.thermal.plant import ChannelThermal
+    from rinscal.thermal.polynomial import ChannelThermal
 
     lines = [
         "| preset | channels | with a model | largest added error, gyro / accel |",

@@ -57,6 +57,7 @@ from numpy.typing import NDArray
 
 from rinscal import units
 from rinscal.schema import CHANNELS
+from rinscal.thermal.config import ImuConfig, load_imu
 from rinscal.thermal.field import (
     BLOCK,
     COIL0,
@@ -67,7 +68,7 @@ from rinscal.thermal.field import (
     ThermalField,
     simulate_field,
 )
-from rinscal.thermal.plant import ImuConfig, MechanisticThermal, first_order_lag, load_imu
+from rinscal.thermal.mechanistic import MechanisticThermal, first_order_lag
 from rinscal.thermal.protocols import THERMAL_DT_S, protocol_runs
 
 #: Base presets and the mechanistic presets fitted to them.

@@ -20,8 +20,8 @@ import sys
 
 import pandas as pd
 
-from rinscal.experiments.calibration_tables import fit_all, heldout_table
-from rinscal.thermal.plant import load_imu
+from rinscal.experiments.paper.calibration import fit_all, heldout_table
+from rinscal.thermal.config import load_imu
 from rinscal.thermal.protocols import simulate_protocol
 
 PRESETS = ("paper", "paper_mechanistic", "navigation_grade", "navigation_grade_mechanistic")

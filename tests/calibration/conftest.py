@@ -27,8 +27,8 @@ def quiet_config():
     """The navigation-grade plant without noise, outliers, offsets or thermometer error."""
     from dataclasses import fields, replace
 
+    from rinscal.thermal.config import ImuConfig, NoiseConfig
     from rinscal.thermal.field import ThermometerConfig
-    from rinscal.thermal.plant import ImuConfig, NoiseConfig
 
     cfg = ImuConfig.navigation_grade()
     zero = NoiseConfig(**{f.name: 0.0 for f in fields(NoiseConfig)})

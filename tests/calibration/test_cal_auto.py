@@ -234,7 +234,7 @@ def test_auto_model_file_round_trip_and_version_1(tmp_path, soak_small) -> None:
 
 
 def _real_legs():
-    from rinscal.experiments.calibration_tables import real_log_legs, tofupilot_mapping
+    from rinscal.experiments.paper.calibration import real_log_legs, tofupilot_mapping
     from rinscal.io.tables import read_log
 
     path = real_log_path()
@@ -328,7 +328,7 @@ def test_the_field_s_final_fit_reuses_its_filter_and_equals_the_tool_s_fit() -> 
 
 def _feed(x, y, codes, t, most: int, tools=("px4", "ardupilot")):
     """What a log read a run at a time leaves of one channel for the choice."""
-    from rinscal.calibration.thermal._runs import RowSample
+    from rinscal.calibration.thermal.runs import RowSample
 
     sample = RowSample(most, tools)
     for k in np.unique(codes):
@@ -519,7 +519,7 @@ def test_rinscal_fit_writes_the_whole_rows_choice_while_keeping_every_4th_row(
 def test_the_fold_fits_of_one_batched_qr_are_the_fits_one_by_one() -> None:
     """The held-out polynomial fits leave each fold's factor out in one batched QR: the same
     numbers as one QR per fold, rank-deficient designs refused alike."""
-    from rinscal.calibration.thermal._fit import fit_factors, fit_factors_leaving_out
+    from rinscal.calibration.thermal.fitting import fit_factors, fit_factors_leaving_out
 
     rng = np.random.default_rng(3)
     m = 12

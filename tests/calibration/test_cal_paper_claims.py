@@ -9,12 +9,12 @@ from __future__ import annotations
 
 import pytest
 
-from rinscal.experiments.calibration_tables import heldout_table, wide
+from rinscal.experiments.paper.calibration import heldout_table, wide
 
 
 @pytest.mark.slow
 def test_methods_2_and_3_beat_the_baseline_and_the_sectional_method_held_out() -> None:
-    from rinscal.thermal.plant import ImuConfig
+    from rinscal.thermal.config import ImuConfig
     from rinscal.thermal.protocols import simulate_protocol
 
     paper = ImuConfig.paper()

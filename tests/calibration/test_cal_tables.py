@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rinscal.experiments.calibration_tables import (
+from rinscal.experiments.paper.calibration import (
     heldout_table,
     real_log_legs,
     real_log_table,

@@ -20,7 +20,9 @@ from typer.testing import CliRunner, Result
 from rinscal.calibration.modelfile import ThermalModelFile
 from rinscal.cli import app
 from rinscal.errors import ConfigError
-from rinscal.experiments.fleet import (
+from rinscal.io.metadata import write_meta
+from rinscal.io.tables import write_log
+from rinscal.production.fleet import (
     FleetLimits,
     FleetStore,
     _noise_density,
@@ -28,8 +30,6 @@ from rinscal.experiments.fleet import (
     run_fleet,
     unit_names,
 )
-from rinscal.io.metadata import write_meta
-from rinscal.io.tables import write_log
 from rinscal.thermal.protocols import simulate_protocol
 
 LIMITS = "[limits.gyro]\nmax_noise_density = {gyro}\n"
@@ -94,7 +94,7 @@ def test_fleet_fits_flags_and_reports(units, client, tmp_path) -> None:
         for u, s in store.summaries().items()
     }
     # physics: the simulated white noise recovered (ARW [deg/√h] · 60 = [deg/h·√s]; VRW)
-    from rinscal.thermal.plant import load_imu
+    from rinscal.thermal.config import load_imu
 
     noise = load_imu("navigation_grade").noise  # simulate_protocol's default plant
     for u, summ in store.summaries().items():

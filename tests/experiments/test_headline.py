@@ -13,25 +13,21 @@ from typer.testing import CliRunner
 
 from rinscal.cli import app
 from rinscal.errors import ConfigError
-from rinscal.experiments.paper import (
-    PAPER,
+from rinscal.experiments.paper.claims import (
     SUMMARY_COLUMNS,
-    VARIANTS,
-    ReproConfig,
-    load_plant,
     nav_method_table,
-    plant_info,
     spread,
     summary_table,
     uncompensated_wins_heldout,
     uncompensated_wins_nav,
 )
+from rinscal.experiments.paper.config import PAPER, VARIANTS, ReproConfig, load_plant, plant_info
 from rinscal.report.paper_report import (
     command_line,
     words_uncompensated_heldout,
     words_uncompensated_nav,
 )
-from rinscal.thermal.plant import PRESETS
+from rinscal.thermal.presets import PRESETS
 
 CHANNELS = ["gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z"]
 
@@ -205,7 +201,7 @@ def test_config_and_command_line_carry_the_plant_and_alignment() -> None:
 
 
 def test_alignment_settings_reach_the_navigation_filter() -> None:
-    from rinscal.experiments.paper import alignment_config
+    from rinscal.experiments.paper.navigation import alignment_config
 
     imu = load_plant("navigation_grade")
     a = alignment_config(imu, 300.0, 120.0)

@@ -32,8 +32,9 @@ import pytest
 from typer.testing import CliRunner
 
 from rinscal.cli import app
-from rinscal.experiments.paper import LABELS, METHODS, VARIANTS
-from rinscal.thermal.plant import DEFAULT_PRESET, PRESETS, load_imu
+from rinscal.experiments.paper.config import LABELS, METHODS, VARIANTS
+from rinscal.thermal.config import load_imu
+from rinscal.thermal.presets import DEFAULT_PRESET, PRESETS
 from tests.report._browser import chromium, rendered_inventory, screenshot
 
 ACCELS = ["accel_x", "accel_y", "accel_z"]

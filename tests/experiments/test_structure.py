@@ -12,23 +12,22 @@ import pandas as pd
 import pytest
 
 from rinscal import units
-from rinscal.experiments.paper import thermal_residual
-from rinscal.experiments.study import (
+from rinscal.experiments.paper.navigation import thermal_residual
+from rinscal.experiments.study.spec import (
     MECH_SPREAD_FIELDS,
     SWEEP_PARAMETERS,
-    plant_config,
     plant_table,
     spec_from_dict,
-    unit_config,
 )
-from rinscal.experiments.study_stats import (
+from rinscal.experiments.study.stats import (
     claims_table,
     method_summary,
     paired_differences,
     structure_findings,
     structure_pairs,
 )
-from rinscal.thermal.plant import load_imu
+from rinscal.experiments.study.tasks import plant_config, unit_config
+from rinscal.thermal.config import load_imu
 
 from .test_study_spec import BASE
 

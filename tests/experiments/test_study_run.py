@@ -14,9 +14,10 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from rinscal.experiments import runner
-from rinscal.experiments.runner import StudyFolderError, StudyStore, run_study
-from rinscal.experiments.study import RESULT_COLUMNS, load_spec, spec_from_dict, study_tasks
+from rinscal.experiments.study import runner
+from rinscal.experiments.study.runner import StudyFolderError, StudyStore, run_study
+from rinscal.experiments.study.spec import load_spec, spec_from_dict
+from rinscal.experiments.study.tasks import RESULT_COLUMNS, study_tasks
 
 #: A study small enough for the default suite: 4 units × 3 cold starts of 0.3 h at 5 Hz,
 #: calibrated on 0.5 h soak runs at 1 Hz (16 tasks, each well under a second).

@@ -8,17 +8,14 @@ import numpy as np
 import pytest
 
 from rinscal.errors import ConfigError
-from rinscal.experiments.study import (
+from rinscal.experiments.study.spec import (
     BUILTIN_STUDIES,
     SPREAD_FIELDS,
     load_spec,
-    plant_config,
     spec_from_dict,
-    study_tasks,
-    task_seed,
-    unit_config,
 )
-from rinscal.thermal.plant import ImuConfig
+from rinscal.experiments.study.tasks import plant_config, study_tasks, task_seed, unit_config
+from rinscal.thermal.config import ImuConfig
 
 BASE = {
     "study": {"name": "t", "seed": 3, "units": 4, "methods": ["none", "poly-t", "true"]},

@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from rinscal.experiments.study_stats import (
+from rinscal.experiments.study.stats import (
     MIN_SAMPLES,
     bootstrap_ci,
     claim_verdict,

@@ -20,7 +20,7 @@ from rinscal.nav.align import AlignConfig
 from rinscal.nav.rotation import C_br, RotationSchedule
 from rinscal.nav.scenario import ScenarioConfig, align_for, preset, run_scenario
 from rinscal.nav.trajectory import StaticMotion, vehicle_route
-from rinscal.thermal.plant import ImuConfig
+from rinscal.thermal.config import ImuConfig
 from tests.nav._modulation import cycle_mean
 
 DPH = units.DPH_TO_RPS

@@ -7,9 +7,14 @@ import pytest
 
 from rinscal.cli.navigate import model_compensator
 from rinscal.errors import ModelFileError
-from rinscal.nav.scenario import preset, run_scenario
-from rinscal.nav.sensors import ModelCompensator, ThermalPlant, oracle_compensator
-from rinscal.thermal.plant import ImuConfig
+from rinscal.nav.scenario import (
+    ModelCompensator,
+    ThermalPlant,
+    oracle_compensator,
+    preset,
+    run_scenario,
+)
+from rinscal.thermal.config import ImuConfig
 
 IMU = ImuConfig.navigation_grade()
 

@@ -14,23 +14,21 @@ import pytest
 
 from rinscal import earth, units
 from rinscal.errors import ConfigError, LogError
-from rinscal.nav.recorded import (
-    BlockStats,
-    CausalModelCompensator,
+from rinscal.nav.recorded.blocks import BlockStats, TableUnwrap
+from rinscal.nav.recorded.compensation import CausalModelCompensator
+from rinscal.nav.recorded.frame import recording_frame
+from rinscal.nav.recorded.navigate import Reference, navigate_recording
+from rinscal.nav.recorded.window import (
     Noise,
-    Reference,
-    TableUnwrap,
     align_config,
     check_at_rest,
     estimate_noise,
     find_window,
-    navigate_recording,
-    recording_frame,
     seen_schedule,
 )
 from rinscal.nav.scenario import ThermalPlant, align_for, preset, run_scenario
 from rinscal.schema import CHANNELS, DTHETA, DVEL, NavSamples
-from rinscal.thermal.plant import load_imu
+from rinscal.thermal.config import load_imu
 
 
 def _record(scenario: str, hours: float, rate: float, increments: bool, seed: int = 2):
@@ -392,7 +390,7 @@ def test_thermometers_empty_at_the_start_make_the_model_wait() -> None:
 def test_a_wrong_encoder_sign_or_unit_and_a_wrong_site_are_named() -> None:
     from dataclasses import replace
 
-    from rinscal.nav.recorded import check_encoder
+    from rinscal.nav.recorded.window import check_encoder
 
     _, _, _, rec = _record("quasi-static", 0.2, 5.0, False)
     st = BlockStats()

@@ -3,8 +3,8 @@
 What is compared. A strapdown recording (the turntable does not turn, the IMU is fixed to
 the body) with the paper IMU's real sensor errors (turn-on bias, thermal drift, noise) is
 simulated, written in the recorded-navigation log's columns (SI increments) and turned
-into :class:`rinscal.schema.NavSamples` by hand. :func:`rinscal.nav.recorded.navigate_recording`
-aligns on the window [0, 600 s) and navigates the rest. pyins then navigates the same
+into :class:`rinscal.schema.NavSamples` by hand.
+:func:`rinscal.nav.recorded.navigate.navigate_recording` aligns on the window [0, 600 s) and navigates the rest. pyins then navigates the same
 recorded increments after the navigation start from rinscal's alignment outcome (attitude
 ``C_nr``, the site, velocity zero), minus the same gyro and accelerometer bias estimates
 × dt, and its horizontal error is taken against the same truth at the same output times
@@ -39,20 +39,15 @@ import pandas as pd
 import pytest
 
 from rinscal import earth
-from rinscal.nav.recorded import (
-    BlockStats,
-    Noise,
-    Reference,
-    align_config,
-    find_window,
-    navigate_recording,
-    recording_frame,
-)
+from rinscal.nav.recorded.blocks import BlockStats
+from rinscal.nav.recorded.frame import recording_frame
+from rinscal.nav.recorded.navigate import Reference, navigate_recording
+from rinscal.nav.recorded.window import Noise, align_config, find_window
 from rinscal.nav.rotation import RotationSchedule
 from rinscal.nav.scenario import ThermalPlant, align_for, preset, run_scenario
 from rinscal.nav.trajectory import StepChannel
 from rinscal.schema import DTHETA, DVEL, NavSamples
-from rinscal.thermal.plant import load_imu
+from rinscal.thermal.config import load_imu
 
 pyins = pytest.importorskip("pyins")
 from pyins import strapdown as pstrap  # noqa: E402

@@ -5,14 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from rinscal.experiments.paper import ReproConfig
-from rinscal.experiments.study import (
-    PlantVariant,
-    load_spec,
-    plant_table,
-    reproduction_spec,
-)
-from rinscal.experiments.study_stats import (
+from rinscal.experiments.paper.config import ReproConfig
+from rinscal.experiments.study.spec import PlantVariant, load_spec, plant_table, reproduction_spec
+from rinscal.experiments.study.stats import (
     claims_table,
     method_summary,
     paired_differences,

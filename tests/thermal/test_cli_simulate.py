@@ -11,7 +11,7 @@ from typer.testing import CliRunner
 from rinscal.cli import app
 from rinscal.io.tables import read_log
 from rinscal.schema import CHANNELS
-from rinscal.thermal.plant import ImuConfig
+from rinscal.thermal.config import ImuConfig
 
 runner = CliRunner()
 

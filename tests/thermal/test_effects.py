@@ -15,16 +15,10 @@ import pytest
 from rinscal import earth, units
 from rinscal.nav.rotation import RotationSchedule
 from rinscal.schema import CHANNELS
+from rinscal.thermal.config import EffectsConfig, ImuConfig, NoiseConfig
 from rinscal.thermal.field import ChamberProfile, ThermalField, simulate_field
-from rinscal.thermal.plant import (
-    ChannelThermal,
-    EffectsConfig,
-    ImuConfig,
-    NoiseConfig,
-    hysteresis_play,
-    play_operator,
-    thermal_bias_eng,
-)
+from rinscal.thermal.plant import hysteresis_play, play_operator, thermal_bias_eng
+from rinscal.thermal.polynomial import ChannelThermal
 from rinscal.thermal.protocols import protocol_runs, simulate_run
 
 PAPER = ImuConfig.paper()

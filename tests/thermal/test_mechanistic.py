@@ -16,6 +16,7 @@ from typer.testing import CliRunner
 
 from rinscal.errors import ConfigError
 from rinscal.schema import CHANNELS
+from rinscal.thermal.config import ImuConfig
 from rinscal.thermal.field import (
     HOUSING,
     N_NODES,
@@ -24,12 +25,9 @@ from rinscal.thermal.field import (
     ThermalNetworkConfig,
     simulate_field,
 )
-from rinscal.thermal.plant import (
-    POLYNOMIAL_KEYS,
-    ImuConfig,
-    first_order_lag,
-    thermal_bias_eng,
-)
+from rinscal.thermal.mechanistic import first_order_lag
+from rinscal.thermal.plant import thermal_bias_eng
+from rinscal.thermal.polynomial import POLYNOMIAL_KEYS
 
 DOCS = Path(__file__).resolve().parents[2] / "docs" / "plant.md"
 NET = ThermalNetworkConfig()
@@ -240,7 +238,7 @@ def _alone(key: str, value: float) -> ImuConfig:
 def _effects_off(cfg: ImuConfig) -> ImuConfig:
     from dataclasses import replace
 
-    from rinscal.thermal.plant import EffectsConfig
+    from rinscal.thermal.config import EffectsConfig
 
     return replace(cfg, effects=EffectsConfig(shupe=False, hysteresis=False))
 
@@ -347,7 +345,7 @@ def test_mechanistic_config_round_trips_and_needs_its_nodes(cold_start) -> None:
 
 
 def test_mechanistic_toml_file_loads(tmp_path) -> None:  # type: ignore[no-untyped-def]
-    from rinscal.thermal.plant import load_imu
+    from rinscal.thermal.config import load_imu
 
     path = tmp_path / "mech.toml"
     path.write_text(toml_text(mech_dict()))

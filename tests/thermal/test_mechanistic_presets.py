@@ -20,8 +20,9 @@ import numpy as np
 import pytest
 
 from rinscal.schema import CHANNELS
+from rinscal.thermal.config import ImuConfig, load_imu
 from rinscal.thermal.field import N_GYROS
-from rinscal.thermal.plant import PRESETS, ImuConfig, load_imu
+from rinscal.thermal.presets import PRESETS
 from rinscal.thermal.protocols import simulate_protocol
 
 ROOT = Path(__file__).resolve().parents[2]

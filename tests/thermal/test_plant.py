@@ -11,15 +11,10 @@ import pytest
 from rinscal import earth, units
 from rinscal.errors import ConfigError
 from rinscal.schema import CHANNELS
+from rinscal.thermal.config import ImuConfig, NoiseConfig, OutputConfig
 from rinscal.thermal.field import ThermometerConfig
-from rinscal.thermal.plant import (
-    ChannelThermal,
-    ImuConfig,
-    NoiseConfig,
-    OutputConfig,
-    SensorNoise,
-    thermal_bias_eng,
-)
+from rinscal.thermal.plant import SensorNoise, thermal_bias_eng
+from rinscal.thermal.polynomial import ChannelThermal
 from rinscal.thermal.protocols import protocol_runs, simulate_protocol, simulate_run
 
 PRESET = ImuConfig.navigation_grade()
@@ -190,7 +185,8 @@ def test_a_missing_section_is_an_error_naming_it(tmp_path, section: str) -> None
 
 
 def test_presets_by_name_and_unknown_names() -> None:
-    from rinscal.thermal.plant import PRESETS, load_imu
+    from rinscal.thermal.config import load_imu
+    from rinscal.thermal.presets import PRESETS
 
     assert set(PRESETS) == {
         "paper",

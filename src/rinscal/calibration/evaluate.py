@@ -224,7 +224,7 @@ def evaluate_runs(
     ----------
     runs : iterable of (DataFrame, int)
         The log's runs, each whole and validated, and the data rows of the file before each
-        (as :func:`rinscal.io.iter_log_source` yields them).
+        (as :func:`rinscal.io.streaming.iter_log_source` yields them).
     model, policy, derivative_kind, step
         As for :func:`evaluate`.
 

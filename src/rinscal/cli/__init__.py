@@ -1,66 +1,29 @@
 """Command-line interface: thin commands over plain functions that return data.
 
-Each command module registers its commands on :data:`rinscal.cli._app.app`; library
-functions raise :class:`rinscal.errors.RinscalError` subclasses, which only this layer turns
-into a message and an exit code.
+Each command module (:mod:`~rinscal.cli.calibrate`, :mod:`~rinscal.cli.simulate`,
+:mod:`~rinscal.cli.navigate`, :mod:`~rinscal.cli.reproduce`, :mod:`~rinscal.cli.study`,
+:mod:`~rinscal.cli.fleet`) parses options, calls one library function that returns data,
+prints and writes; it registers its commands on :data:`rinscal.cli._app.app`.
+:mod:`~rinscal.cli.commands` gathers them (``rinscal = "rinscal.cli:main"``). Library functions
+raise :class:`rinscal.errors.RinscalError` subclasses, which only this layer turns into a
+message and an exit code. Nothing here is a Python API: use the names of :mod:`rinscal`.
 """
 
 from __future__ import annotations
 
-import os
-
-# Arrow's allocator (mimalloc) keeps freed pages for a while by default; a command that reads
-# a log run by run frees a run's buffers before the next, and should give them back at once
-# (peak memory of a 400 Hz soak run read: 0.92 GB instead of 1.32 GB). Read when pyarrow
-# loads, which no command does before this point.
-os.environ.setdefault("MIMALLOC_PURGE_DELAY", "0")
-
-from rinscal.cli import (  # noqa: F401  (registers)
-    calibrate,
-    fleet,
-    navigate,
-    reproduce,
-    simulate,
-    study,
-)
-from rinscal.cli._app import PlainUsageCommand, app, guard_os_errors
-
-#: ``rinscal --help``: every command in workflow order, with a summary that reads whole at 80
-#: columns (click would cut a docstring's first sentence at "Eq." or after 45 characters).
-SUMMARIES: dict[str, str] = {
-    "simulate": "Simulate a chamber protocol: calibration log, truth, metadata.",
-    "fit": "Fit a thermal model per channel; write it as a JSON model file.",
-    "select": "Held-out RMS of every candidate model per channel (Tables 5, 7).",
-    "evaluate": "RMS before and after a model (Eq. 16), steps, Allan deviation.",
-    "compensate": "Subtract the modelled thermal bias from every row (Eq. 10).",
-    "export": "Write a model for PX4, ArduPilot or as a C header.",
-    "plot": "Draw outputs and temperatures per run against time (Figure 3).",
-    "navigate": "Navigate a single-axis RINS through a cold start; error in nmi.",
-    "reproduce": "Re-run the paper's Section 5 on a simulated IMU: one report.",
-    "study": "Monte Carlo study over many units and cold starts, on Dask.",
-    "fleet": "Calibrate a fleet of IMUs, one log per unit, on Dask.",
-    "fleet fit": "Fit every unit's log as a Dask task; check limits; resumable.",
-}
-
-for _info in [  # one place turns OS errors into a message
-    *app.registered_commands,
-    *(c for g in app.registered_groups for c in g.typer_instance.registered_commands),
-]:
-    _info.callback = guard_os_errors(_info.callback)
-    _info.cls = PlainUsageCommand
-for _info in [*app.registered_commands, *app.registered_groups]:
-    _info.short_help = SUMMARIES[_info.name]
-for _group in app.registered_groups:
-    for _info in _group.typer_instance.registered_commands:
-        _info.short_help = SUMMARIES[f"{_group.name} {_info.name}"]
-_ORDER = list(SUMMARIES)
-app.registered_commands.sort(key=lambda c: _ORDER.index(c.name))
-app.registered_groups.sort(key=lambda g: _ORDER.index(g.name))
-
-
-def main() -> None:
-    """Entry point of the ``rinscal`` console script."""
-    app()
-
+from typing import Any
 
 __all__ = ["SUMMARIES", "app", "main"]
+
+
+def __getattr__(name: str) -> Any:
+    """``app``, ``main`` and ``SUMMARIES``, from :mod:`rinscal.cli.commands` on first use (PEP 562).
+
+    Lazy, so that importing one command module does not register every other first.
+    """
+    if name in __all__:
+        # deferred: a lazy re-export (PEP 562), run on first attribute access only
+        from rinscal.cli import commands
+
+        return getattr(commands, name)
+    raise AttributeError(f"module 'rinscal.cli' has no attribute {name!r}")

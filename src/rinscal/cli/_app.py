@@ -188,7 +188,7 @@ def print_table(console: Console, table: Any) -> None:
 
 def _version(value: bool) -> None:
     if value:
-        from rinscal import __version__
+        from rinscal._version import __version__
 
         console.print(f"rinscal {__version__}")
         raise typer.Exit()

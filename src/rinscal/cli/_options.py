@@ -16,7 +16,7 @@ import typer
 from rinscal.thermal.presets import PRESETS
 
 if TYPE_CHECKING:
-    from rinscal.experiments.cluster import TLSFiles
+    from rinscal.cluster import TLSFiles
 
 LogArg = Annotated[
     Path,
@@ -151,8 +151,8 @@ def cluster_options(
     scheduler with no certificate in the options or Dask's configuration.
     """
     from rinscal.cli._app import fail
+    from rinscal.cluster import TLSFiles, cluster_security
     from rinscal.errors import ConfigError
-    from rinscal.experiments.cluster import TLSFiles, cluster_security
 
     if workers is not None and scheduler:
         raise fail("--workers and --scheduler exclude each other (the cluster has its own)")

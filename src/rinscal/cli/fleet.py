@@ -75,7 +75,7 @@ def fleet_fit(
     from rinscal.calibration.thermal.model import FIT_METHODS
     from rinscal.cli._app import console, fail
     from rinscal.errors import RinscalError
-    from rinscal.experiments.fleet import (
+    from rinscal.production.fleet import (
         EXPORTS,
         FleetLimits,
         FleetStore,
@@ -83,6 +83,7 @@ def fleet_fit(
         run_fleet,
         write_fleet_report,
     )
+    from rinscal.report.fleet_report import fleet_html
 
     if method not in FIT_METHODS:
         raise fail(f"--method must be one of {', '.join(FIT_METHODS)}, got {method!r}")
@@ -116,7 +117,8 @@ def fleet_fit(
                 on_unit=lambda unit, status: progress.advance(task),
             )
         report = fleet_report(store, lim)
-        paths = write_fleet_report(store, report, lim.source if limits else "none given")
+        page = fleet_html(report, lim.source if limits else "none given", store.options())
+        paths = write_fleet_report(store, report, page)
     except RinscalError as exc:
         raise fail(str(exc)) from None
     console.print(

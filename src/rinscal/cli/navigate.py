@@ -259,7 +259,7 @@ def navigate(
             run_scenario,
             temperature_frame,
         )
-        from rinscal.thermal.plant import load_imu
+        from rinscal.thermal.config import load_imu
 
         plant_cfg = load_imu(imu_spec)
         align = align_for(plant_cfg, total_s=align_s, start_s=align_start_s)
@@ -320,7 +320,7 @@ def _write_outputs(out: Path, result: object, summary: dict, temps: object) -> N
     import pandas as pd
 
     from rinscal.io.atomic import atomic_path
-    from rinscal.nav.plots import plot_position_error, plot_temperatures, plot_trajectory
+    from rinscal.report.nav_plots import plot_position_error, plot_temperatures, plot_trajectory
 
     out.mkdir(parents=True, exist_ok=True)
     frames = []
@@ -407,7 +407,7 @@ def _record_scenario(
 
     from rinscal.io.metadata import meta_path, write_meta
     from rinscal.io.streaming import LogStreamWriter
-    from rinscal.nav.recorded import recording_frame
+    from rinscal.nav.recorded.frame import recording_frame
     from rinscal.nav.scenario import run_scenario
 
     grid = np.arange(0.0, float(plant.field.t[-1]) + 1e-9, 1.0)  # type: ignore[attr-defined]
@@ -472,7 +472,7 @@ def _navigate_log(log: Path, out: Path, models: list[Path], policy: str, **kw: o
         raise fail(f"{log}: a flight log; navigate --log reads CSV, TSV or Parquet recordings")
     try:
         from rinscal.io.navmapping import read_nav_mapping
-        from rinscal.recording import heading_text, navigate_log, parse_site
+        from rinscal.nav.recording import heading_text, navigate_log, parse_site
 
         mapping = read_nav_mapping(kw["mapping"]) if kw["mapping"] else None
         site = parse_site(kw["site"]) if kw["site"] is not None else None  # type: ignore[arg-type]

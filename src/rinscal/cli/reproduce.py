@@ -81,20 +81,19 @@ def reproduce(
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     from rinscal.cli._app import console, err_console, fail, styled
+    from rinscal.cluster import local_workers
     from rinscal.errors import RinscalError
-    from rinscal.experiments.cluster import local_workers
-    from rinscal.experiments.paper import (
-        ReproConfig,
+    from rinscal.experiments.paper.calibration import calibration_stage
+    from rinscal.experiments.paper.claims import claims
+    from rinscal.experiments.paper.config import ReproConfig, load_plant, plant_info
+    from rinscal.experiments.paper.navigation import (
         alignment_config,
-        calibration_stage,
-        claims,
-        load_plant,
         navigation_jobs,
         navigation_stage,
-        plant_info,
     )
-    from rinscal.experiments.runner import StudyStore, run_study
-    from rinscal.experiments.study import reproduction_spec, study_tasks
+    from rinscal.experiments.study.runner import StudyStore, run_study
+    from rinscal.experiments.study.spec import reproduction_spec
+    from rinscal.experiments.study.tasks import study_tasks
     from rinscal.io.atomic import write_atomic
     from rinscal.report.paper_report import write_reproduction
     from rinscal.report.study_report import write_study_report

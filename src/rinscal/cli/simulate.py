@@ -167,7 +167,8 @@ def simulate(
     from rinscal.io.metadata import meta_path, write_meta
     from rinscal.io.streaming import LogStreamWriter
     from rinscal.io.tables import format_of
-    from rinscal.thermal.plant import PRESETS, OutputConfig, load_imu
+    from rinscal.thermal.config import OutputConfig, load_imu
+    from rinscal.thermal.presets import PRESETS
     from rinscal.thermal.protocols import PROTOCOLS, iter_protocol, log_meta, protocol_runs
 
     if protocol not in PROTOCOLS:

@@ -81,8 +81,9 @@ def study(
 
     from rinscal.cli._app import console, fail, styled
     from rinscal.errors import RinscalError
-    from rinscal.experiments.runner import StudyStore, run_study
-    from rinscal.experiments.study import load_spec, study_tasks
+    from rinscal.experiments.study.runner import StudyStore, run_study
+    from rinscal.experiments.study.spec import load_spec
+    from rinscal.experiments.study.tasks import study_tasks
     from rinscal.report.study_report import write_study_report
 
     if workers is not None and workers < 1:

@@ -15,8 +15,10 @@ Modules
     Inertial-frame coarse alignment and zero-velocity Kalman fine alignment.
 :mod:`~rinscal.nav.scenario`
     Scenarios with the thermal plant alongside, compensation variants, position errors.
-:mod:`~rinscal.nav.plots`
-    Figures 9, 11, 12, 15, 16 of the paper for a run.
+:mod:`~rinscal.nav.recorded`
+    Navigating a recording: the two passes (window, causal compensation, free navigation).
+:mod:`~rinscal.nav.recording`
+    The library side of ``rinscal navigate --log``: a recording file in, results out.
 
 Nothing is imported here, so importing :mod:`rinscal.nav` loads no numba kernel.
 """

@@ -55,8 +55,8 @@ from rinscal.nav.trajectory import (
     euler_from_C_nb,
     vehicle_route,
 )
+from rinscal.thermal.config import ImuConfig
 from rinscal.thermal.field import ChamberProfile
-from rinscal.thermal.plant import ImuConfig
 
 #: Scenario names understood by :func:`preset`.
 SCENARIOS = ("quasi-static", "swing", "vehicle", "ramp")
@@ -402,7 +402,7 @@ def run_scenario(
     recorder : callable, optional
         ``recorder(chunk, dtheta, dv)`` with every chunk from power-on on: the truth and
         the raw increments the IMU put out [rad, m/s] (see
-        :func:`rinscal.nav.recorded.recording_frame`).
+        :func:`rinscal.nav.recorded.frame.recording_frame`).
 
     Returns
     -------

@@ -33,9 +33,9 @@ from rinscal.errors import ConfigError
 from rinscal.nav.config import ScenarioConfig
 from rinscal.nav.rotation import RotationSchedule
 from rinscal.schema import CHANNELS
+from rinscal.thermal.config import ImuConfig
 from rinscal.thermal.field import ChamberProfile, ThermalField, measure, simulate_field
 from rinscal.thermal.plant import (
-    ImuConfig,
     SensorNoise,
     hysteresis_play,
     signal_error_coefs,

@@ -1,6 +1,6 @@
 """The fleet's HTML report: verdicts, and every unit's figures across the fleet.
 
-Built from :class:`rinscal.experiments.fleet.FleetReport` (no file is read here): the verdict
+Built from :class:`rinscal.production.fleet.FleetReport` (no file is read here): the verdict
 per unit (pass, fail with the limits exceeded, failed with the error), a figure of the held-out
 residual, thermal span and noise density of every unit per channel, and the distribution table
 of every figure and coefficient across units.
@@ -68,7 +68,7 @@ def fleet_html(report: Any, limits_source: str, options: dict[str, Any]) -> str:
     Parameters
     ----------
     report : FleetReport
-        From :func:`rinscal.experiments.fleet.fleet_report`.
+        From :func:`rinscal.production.fleet.fleet_report`.
     limits_source : str
         Where the limits came from (a file name, or that none were given).
     options : dict

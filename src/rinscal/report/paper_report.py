@@ -1,7 +1,10 @@
 """Figures and the HTML report of ``rinscal reproduce`` (the paper's Section 5 side by side).
 
-Every function takes the data the experiments returned and gives back a matplotlib figure
-or fills a report section; nothing here computes a result.
+Every function takes the data the experiments returned and fills a report section or writes
+the reproduction's files; nothing here computes a result. The figures are drawn in
+:mod:`rinscal.report.paper_figures`. The module is long because it is one idea: the
+reproduction's report, section by section, with the words each section says from the numbers
+and the files it is written to.
 """
 
 from __future__ import annotations
@@ -12,192 +15,20 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-from matplotlib.figure import Figure
 
 from rinscal import units
-from rinscal.experiments.paper import (
-    LABELS,
-    METHODS,
-    PAPER,
-    VARIANTS,
-    CalibrationResult,
-    NavRunResult,
-    ReproConfig,
-)
+from rinscal.experiments.paper.calibration import CalibrationResult
+from rinscal.experiments.paper.config import LABELS, METHODS, PAPER, VARIANTS, ReproConfig
+from rinscal.experiments.paper.navigation import NavRunResult
 from rinscal.report.html import Report, figure_to_png
-
-COLORS = {
-    "none": "#7f7f7f",
-    "poly-t": "#9467bd",
-    "sectional": "#d62728",
-    "regression": "#1f77b4",
-    "neural": "#2ca02c",
-    "true": "#000000",
-}
-STYLES = {"true": ":", "none": "--"}
-
-
-def fig_repeat(cal: CalibrationResult) -> Figure:
-    """Figures 7 and 8: x-axis outputs of the repeat run before and after compensation."""
-    df = cal.repeat_curves
-    assert df is not None
-    edges = np.asarray(cal.models["sectional"].models["accel_x"].segment_edges, dtype=float)
-    fig = Figure(figsize=(11, 6.5), layout="constrained")
-    axes = fig.subplots(2, 2, sharex=True)
-    t = df["time_s"].to_numpy() / 60.0
-    for row, (c, unit) in enumerate((("accel_x", "µg"), ("gyro_x", "°/h"))):
-        ax = axes[row, 0]
-        ax.plot(
-            t, df[f"raw_{c}"] - df[f"raw_{c}"].mean(), color=COLORS["none"], label="uncompensated"
-        )
-        for m in METHODS:
-            y = df[f"{m}_{c}"]
-            ax.plot(t, y - y.mean(), color=COLORS[m], label=LABELS[m], lw=1.0)
-        ax.set_ylabel(f"{c} output − run mean [{unit}]")
-        ax.set_title(f"{c}: output of the repeat cold start at 25 °C (60 s means)", fontsize=10)
-        ax.grid(alpha=0.3)
-        ax2 = axes[row, 1]
-        ax2.plot(t, df[f"temp_{c}"], color="#444")
-        for e in edges:
-            if df[f"temp_{c}"].min() < e < df[f"temp_{c}"].max():
-                ax2.axhline(e, color=COLORS["sectional"], ls="--", lw=0.8)
-                k = int(np.argmax(df[f"temp_{c}"].to_numpy() > e))
-                for a in (ax, ax2):
-                    a.axvline(t[k], color=COLORS["sectional"], ls="--", lw=0.8)
-        ax2.set_ylabel(f"temp_{c} [°C]")
-        ax2.set_title("inner temperature; dashed: a sectional segment edge", fontsize=10)
-        ax2.grid(alpha=0.3)
-    axes[0, 0].legend(fontsize=8, ncol=2)
-    for a in axes[1]:
-        a.set_xlabel("time since power-on [min]")
-    return fig
-
-
-def fig_selection(cal: CalibrationResult) -> Figure:
-    """Tables 5 and 7 as curves: training and held-out RMS against the setting."""
-    fig = Figure(figsize=(11, 7), layout="constrained")
-    axes = fig.subplots(2, 2)
-    for col, method in enumerate(("regression", "neural")):
-        sel = cal.selection[method].table
-        for row, chans in enumerate(
-            (("accel_x", "accel_y", "accel_z"), ("gyro_x", "gyro_y", "gyro_z"))
-        ):
-            ax = axes[row, col]
-            for i, c in enumerate(chans):
-                s = sel[sel["channel"] == c].sort_values("setting")
-                color = f"C{i}"
-                ax.plot(s["setting"], s["rms_train"], "o-", color=color, label=f"{c} train")
-                ax.plot(s["setting"], s["rms_heldout"], "s--", color=color, label=f"{c} held-out")
-                rec = cal.selection[method].recommended.get(c)
-                if rec is not None:
-                    v = s.loc[s["setting"] == rec, "rms_heldout"]
-                    if len(v):
-                        ax.plot([rec], [float(v.iloc[0])], "*", ms=14, color=color)
-            what = "order p = q = s" if method == "regression" else "hidden neurons n"
-            unit = "µg" if row == 0 else "°/h"
-            ax.set_xlabel(what)
-            ax.set_ylabel(f"RMS (Eq. 16, about run mean) [{unit}]")
-            ax.set_title(f"{method}: training vs leave-one-run-out (★ recommended)", fontsize=10)
-            ax.grid(alpha=0.3)
-            ax.legend(fontsize=7, ncol=2)
-    return fig
-
-
-def fig_nav_errors(result: NavRunResult, title: str) -> Figure:
-    """Figures 9, 11, 12, 16: horizontal position error against time per variant."""
-    fig = Figure(figsize=(10, 4.8), layout="constrained")
-    ax = fig.subplots()
-    e = result.errors
-    t = e["time_s"].to_numpy() / units.HOUR_TO_S
-    for v in VARIANTS:
-        ax.plot(
-            t,
-            e[v] / units.NMI_TO_M,
-            color=COLORS[v],
-            ls=STYLES.get(v, "-"),
-            label=LABELS[v],
-            lw=1.2,
-        )
-    ax.set_xlabel("time since power-on [h]")
-    ax.set_ylabel("horizontal position error [nmi]")
-    ax.set_title(title, fontsize=10)
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8, ncol=3)
-    return fig
-
-
-def fig_lab_bars(maxerr: pd.DataFrame) -> Figure:
-    """Figure 13: maximum position error of each lab experiment and method."""
-    lab = maxerr[maxerr["experiment"] == "lab"].sort_values("number")
-    fig = Figure(figsize=(11, 4.5), layout="constrained")
-    ax = fig.subplots()
-    shown = ("none", "sectional", "regression", "neural", "poly-t")
-    w = 0.8 / len(shown)
-    x = np.arange(len(lab))
-    for i, v in enumerate(shown):
-        ax.bar(x + (i - (len(shown) - 1) / 2) * w, lab[v], w, color=COLORS[v], label=LABELS[v])
-    ax.set_xticks(
-        x,
-        [
-            f"{n}\n{s[:5]}, {a:.0f} °C"
-            for n, s, a in zip(lab["number"], lab["scenario"], lab["ambient_c"], strict=True)
-        ],
-    )
-    ax.set_ylabel("maximum horizontal position error [nmi]")
-    ax.set_title(
-        "Lab cold starts: experiments 1-5 quasi-static, 6-10 swing (Figure 13)", fontsize=10
-    )
-    ax.grid(alpha=0.3, axis="y")
-    ax.legend(fontsize=8, ncol=3)
-    return fig
-
-
-def fig_vehicle_track(result: NavRunResult) -> Figure:
-    """Figure 15: the true route and each method's INS track."""
-    tr = result.track
-    assert tr is not None
-    fig = Figure(figsize=(8, 7), layout="constrained")
-    ax = fig.subplots()
-    ax.plot(
-        tr["true_east_m"] / 1000,
-        tr["true_north_m"] / 1000,
-        color="#000",
-        lw=2.2,
-        label="true route (GPS stand-in)",
-    )
-    for v in ("none", "sectional", "regression", "neural"):
-        ax.plot(
-            tr[f"{v}_east_m"] / 1000,
-            tr[f"{v}_north_m"] / 1000,
-            color=COLORS[v],
-            ls=STYLES.get(v, "-"),
-            lw=1.0,
-            label=LABELS[v],
-        )
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.set_xlabel("east [km]")
-    ax.set_ylabel("north [km]")
-    ax.set_title(f"Vehicle experiment {result.job.index}: trajectories (Figure 15)", fontsize=10)
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
-    return fig
-
-
-def fig_temperatures(results: Sequence[NavRunResult]) -> Figure:
-    """The thermal scenario of each navigation experiment (sensor and ambient temperature)."""
-    fig = Figure(figsize=(11, 4.2), layout="constrained")
-    ax = fig.subplots()
-    for r in results:
-        t = r.temperatures["time_s"] / units.HOUR_TO_S
-        lab = f"{r.job.scenario} {r.job.index}"
-        (line,) = ax.plot(t, r.temperatures["sensor_gyro_z"], lw=1.0, label=lab)
-        ax.plot(t, r.temperatures["chamber"], lw=0.7, ls=":", color=line.get_color())
-    ax.set_xlabel("time since power-on [h]")
-    ax.set_ylabel("temperature [°C]")
-    ax.set_title("Navigation runs: gyro z inner temperature (solid), ambient (dotted)", fontsize=10)
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, ncol=4)
-    return fig
+from rinscal.report.paper_figures import (
+    fig_lab_bars,
+    fig_nav_errors,
+    fig_repeat,
+    fig_selection,
+    fig_temperatures,
+    fig_vehicle_track,
+)
 
 
 def _verdict(ok: bool) -> str:
@@ -222,7 +53,7 @@ def _join(items: Sequence[str]) -> str:
 def words_uncompensated_heldout(residual: pd.DataFrame, log: str) -> str:
     """One sentence, from the numbers, saying on which channels of a held-out log no
     compensation beats each method (or that every method beats it everywhere)."""
-    from rinscal.experiments.paper import uncompensated_wins_heldout
+    from rinscal.experiments.paper.claims import uncompensated_wins_heldout
 
     where = _LOG_WORDS.get(log, f"the held-out run {log!r}")
     wins = uncompensated_wins_heldout(residual, log)
@@ -242,7 +73,7 @@ def words_uncompensated_heldout(residual: pd.DataFrame, log: str) -> str:
 def words_uncompensated_nav(maxerr: pd.DataFrame) -> str:
     """Sentences, from the numbers, saying where the uncompensated run has a smaller mean
     maximum position error than a method (or that every method beats it)."""
-    from rinscal.experiments.paper import NAV_GROUPS, _group, uncompensated_wins_nav
+    from rinscal.experiments.paper.claims import NAV_GROUPS, nav_group, uncompensated_wins_nav
 
     wins = uncompensated_wins_nav(maxerr)
     if not wins:
@@ -254,7 +85,7 @@ def words_uncompensated_nav(maxerr: pd.DataFrame) -> str:
     for group, exps, scen in NAV_GROUPS:
         if group not in wins:
             continue
-        n = len(_group(maxerr, exps, scen))
+        n = len(nav_group(maxerr, exps, scen))
         base = next(iter(wins[group].values()))[0]
         beaten = [f"{LABELS[m]} at {mm:.3f} nmi" for m, (_b, mm) in wins[group].items()]
         out.append(
@@ -311,12 +142,12 @@ def build_report(
 ) -> Report:
     """Assemble the report: every table and figure, the paper's numbers beside ours.
 
-    ``plant`` is :func:`rinscal.experiments.paper.plant_info` of the IMU that ran (default:
+    ``plant`` is :func:`rinscal.experiments.paper.config.plant_info` of the IMU that ran (default:
     from ``cfg.imu`` and ``cal.imu``). ``study`` is the
     :class:`rinscal.report.study_report.StudyTables` of ``--units N`` (its report is in
     ``study/report.html``).
     """
-    from rinscal.experiments.paper import load_plant, plant_info
+    from rinscal.experiments.paper.config import load_plant, plant_info
 
     if plant is None:
         plant = plant_info(cfg.imu, cal.imu or load_plant(cfg.imu))
@@ -775,13 +606,15 @@ def reproduction_tables(
     cal: CalibrationResult, nav: Sequence[NavRunResult]
 ) -> tuple[pd.DataFrame, dict[str, pd.DataFrame]]:
     """Every table of the reproduction (name -> DataFrame) and the max-error table."""
-    from rinscal.experiments.paper import (
+    from rinscal.experiments.paper.claims import (
         decrease_pct,
-        heading_error_table,
-        max_error_table,
         nav_method_table,
         selection_summary_table,
         summary_table,
+    )
+    from rinscal.experiments.paper.navigation import (
+        heading_error_table,
+        max_error_table,
         thermal_part_table,
     )
 
@@ -813,7 +646,7 @@ def _records(df: pd.DataFrame) -> list[dict[str, Any]]:
 
 def findings(tables: Mapping[str, pd.DataFrame]) -> dict[str, Any]:
     """Where no compensation beats a model, as data and as the report's sentences."""
-    from rinscal.experiments.paper import uncompensated_wins_heldout, uncompensated_wins_nav
+    from rinscal.experiments.paper.claims import uncompensated_wins_heldout, uncompensated_wins_nav
 
     h = tables["heldout_residual"]
     logs = list(dict.fromkeys(h["log"]))
@@ -839,12 +672,13 @@ def write_reproduction(
 ) -> Written:
     """Write report.html, figures/*.png, tables/*.csv, models/*.json and metrics.json.
 
-    ``plant`` is :func:`rinscal.experiments.paper.plant_info` of the IMU that ran (default:
+    ``plant`` is :func:`rinscal.experiments.paper.config.plant_info` of the IMU that ran (default:
     from ``cfg.imu`` and ``cal.imu``).
     """
     import json
 
-    from rinscal.experiments.paper import claims, load_plant, plant_info
+    from rinscal.experiments.paper.claims import claims
+    from rinscal.experiments.paper.config import load_plant, plant_info
     from rinscal.io.atomic import write_atomic
 
     if plant is None:

@@ -1,8 +1,8 @@
 """The report of a study: ``report.html`` (self-contained), ``tables/*.csv``,
 ``summary.json``.
 
-Everything is computed from the results folder (:class:`rinscal.experiments.runner.
-StudyStore`) by :mod:`rinscal.experiments.study_stats`; the report can be rebuilt from the
+Everything is computed from the results folder (:class:`rinscal.experiments.study.runner.
+StudyStore`) by :mod:`rinscal.experiments.study.stats`; the report can be rebuilt from the
 folder at any time, and a resumed study's report covers every task that ever finished.
 """
 
@@ -18,11 +18,11 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from rinscal import __version__
-from rinscal.experiments.paper import LABELS
-from rinscal.experiments.runner import RunSummary, StudyStore
-from rinscal.experiments.study import StudySpec, plant_table, sweep_columns
-from rinscal.experiments.study_stats import (
+from rinscal._version import __version__
+from rinscal.experiments.paper.config import LABELS
+from rinscal.experiments.study.runner import RunSummary, StudyStore
+from rinscal.experiments.study.spec import StudySpec, plant_table, sweep_columns
+from rinscal.experiments.study.stats import (
     CONFIDENCE,
     claims_table,
     method_summary,

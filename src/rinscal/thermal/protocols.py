@@ -24,9 +24,9 @@ from rinscal import units
 from rinscal.earth import static_outputs_r
 from rinscal.errors import ConfigError
 from rinscal.schema import CHANNELS
+from rinscal.thermal.config import ImuConfig
 from rinscal.thermal.field import ChamberProfile, measure, simulate_field
 from rinscal.thermal.plant import (
-    ImuConfig,
     SensorNoise,
     hysteresis_play,
     log_units_to_si,

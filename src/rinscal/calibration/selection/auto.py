@@ -34,7 +34,7 @@ Above :data:`SCREEN_SAMPLES` inlier samples the held-out scores use every k-th s
 chosen polynomial model is fitted on all of them).
 
 ``fit`` reads a log a run at a time and never holds it whole
-(:class:`rinscal.calibration.thermal._runs.RowSample`, :func:`select_thinned`): of each channel it
+(:class:`rinscal.calibration.thermal.runs.RowSample`, :func:`select_thinned`): of each channel it
 keeps every k-th usable row of the log, ``k`` the smallest power of two that keeps at most
 :data:`SCREEN_SAMPLES` (the rows of :func:`select_channel` when its ``k`` is a power of two,
 as on the 7.56 M-sample soak log: ``k`` = 8), each with the value of PX4's median and
@@ -72,9 +72,9 @@ from rinscal.calibration.selection.candidates import (
     fit_candidate,
 )
 from rinscal.calibration.selection.folds import Folds, RunSpan, fold_plan, holdout_plan
-from rinscal.calibration.thermal._fit import (
-    _center_scale,
-    _power_basis,
+from rinscal.calibration.thermal.fitting import (
+    center_scale,
+    power_basis,
     factor_ss_about_mean,
     fit_factors_leaving_out,
     solve_r,
@@ -236,8 +236,8 @@ def _polynomial_scores(
     n_units = int(unit_fold.size)
     d = x.shape[1]
     max_orders = list(MAX_ORDERS[:d])
-    cs = [_center_scale(x[:, v]) for v in range(d)]
-    basis = _power_basis([c for c, _ in cs], [s for _, s in cs], max_orders)
+    cs = [center_scale(x[:, v]) for v in range(d)]
+    basis = power_basis([c for c, _ in cs], [s for _, s in cs], max_orders)
     n_terms = 1 + sum(max_orders)
 
     def factor(sel: np.ndarray) -> np.ndarray:

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from rinscal.calibration.thermal._dispatch import fit_params
+from rinscal.calibration.thermal.dispatch import fit_params
 
 __all__ = [
     "DEFAULT_FAMILIES",

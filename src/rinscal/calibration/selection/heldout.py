@@ -22,8 +22,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from rinscal.calibration.thermal._fit import rms_about_run_mean
-from rinscal.calibration.thermal._runs import RunFits
+from rinscal.calibration.thermal.fitting import rms_about_run_mean
+from rinscal.calibration.thermal.runs import RunFits
 from rinscal.calibration.thermal.features import (
     DerivativeConfig,
     Features,
@@ -114,14 +114,14 @@ def _regression_scores(
     """Training and leave-one-run-out RMS of ``regression`` orders ``k = k = k``, from factors.
 
     ``fits`` holds each run's triangular factor ``R_k`` of ``[A | y]`` for the largest orders
-    (:class:`~rinscal.calibration.thermal._runs.RunFits`), taken here into the scaling of all
+    (:class:`~rinscal.calibration.thermal.runs.RunFits`), taken here into the scaling of all
     runs. A fit of any orders on any runs is then a QR of the stacked column subsets of their
     factors, and a run's residual sum of squares about its own mean follows from its factor:
     ``‖R_k [β; −1]‖² − n_k m_k²``, ``m_k`` from the first row of ``R_k`` (the design's first
     column is ones). Equal to refitting from the data (the power basis spans the same
     polynomials whatever its centring and scaling), without touching the data again.
     """
-    from rinscal.calibration.thermal._fit import factor_ss_about_mean, fit_factors
+    from rinscal.calibration.thermal.fitting import factor_ss_about_mean, fit_factors
 
     d, kmax = len(fits.powers), max(settings)
     n_terms = 1 + d * kmax
@@ -224,14 +224,14 @@ def select_regression_runs(
     """:func:`select_model` of ``regression`` for a log given a run at a time.
 
     Each run's features are built a channel at a time and reduced at once to the run's
-    factors (:class:`~rinscal.calibration.thermal._runs.RunFits`); nothing else of the run is kept.
+    factors (:class:`~rinscal.calibration.thermal.runs.RunFits`); nothing else of the run is kept.
     The result equals :func:`select_model`'s on the whole log.
 
     Parameters
     ----------
     runs : iterable of DataFrame
         The log's runs, each whole and validated (e.g. from
-        :func:`rinscal.io.iter_log_source`).
+        :func:`rinscal.io.streaming.iter_log_source`).
     settings, tolerance, channels, derivative, outliers, use_gradient, on_fit
         As for :func:`select_model`.
     """

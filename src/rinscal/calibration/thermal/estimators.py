@@ -49,7 +49,7 @@ from sklearn.exceptions import ConvergenceWarning
 from sklearn.utils.validation import check_is_fitted, column_or_1d, validate_data
 
 from rinscal.calibration.inference import predict_params, raw_polynomial
-from rinscal.calibration.thermal._fit import (
+from rinscal.calibration.thermal.fitting import (
     NEURAL_MAX_SAMPLES,
     fit_poly_t,
     fit_regression,

@@ -44,9 +44,9 @@ from rinscal.calibration.selection.candidates import (
     fit_candidate,
     used_inputs,
 )
-from rinscal.calibration.thermal._dispatch import fit_params
-from rinscal.calibration.thermal._fit import NEURAL_MAX_SAMPLES, rms_about_run_mean
-from rinscal.calibration.thermal._runs import FACTOR_METHODS, FALLBACK_DEGREE, RowSample, RunFits
+from rinscal.calibration.thermal.dispatch import fit_params
+from rinscal.calibration.thermal.fitting import NEURAL_MAX_SAMPLES, rms_about_run_mean
+from rinscal.calibration.thermal.runs import FACTOR_METHODS, FALLBACK_DEGREE, RowSample, RunFits
 from rinscal.calibration.thermal.features import (
     DerivativeConfig,
     Features,
@@ -446,7 +446,7 @@ class ThermalModel:
         ----------
         runs : iterable of (DataFrame, int)
             The log's runs in file order, validated, each whole (as
-            :func:`rinscal.io.iter_log_source` yields them; a frame may hold several), and
+            :func:`rinscal.io.streaming.iter_log_source` yields them; a frame may hold several), and
             the data rows of the file before each (for messages).
         meta, on_channel, source
             As for :meth:`fit`.

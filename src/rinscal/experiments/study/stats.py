@@ -20,7 +20,8 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from rinscal.experiments.paper import LABELS, PAPER, RESIDUAL_COLUMNS
+from rinscal.experiments.paper.config import LABELS, PAPER
+from rinscal.experiments.paper.navigation import RESIDUAL_COLUMNS
 
 #: Confidence level of every interval.
 CONFIDENCE = 0.95
@@ -32,7 +33,7 @@ N_RESAMPLES = 4999
 #: The metrics summarised, with their unit: per run maximum horizontal position error,
 #: its thermal part (variant minus oracle), |heading error| at the start of navigation, and
 #: the model's held-out thermal residual on the cold start itself
-#: (:func:`rinscal.experiments.paper.thermal_residual`).
+#: (:func:`rinscal.experiments.paper.navigation.thermal_residual`).
 METRICS = {
     "max_error_nmi": "nmi",
     "thermal_part_nmi": "nmi",
@@ -361,7 +362,7 @@ def _verdict_kind(verdict: str) -> str:
 def structure_pairs(plants: pd.DataFrame) -> list[tuple[pd.Series, pd.Series]]:
     """Plant variants that differ only in their thermal law: every (polynomial,
     mechanistic) pair with the same sweep factors (the ``law`` column of
-    :func:`rinscal.experiments.study.plant_table`)."""
+    :func:`rinscal.experiments.study.spec.plant_table`)."""
     if "law" not in plants or plants.empty:
         return []
     sweep = [c for c in plants.columns if c not in ("plant", "plant_label", "imu", "law")]

@@ -4,7 +4,7 @@ The library side of ``rinscal navigate --log``: it reads the recording (twice, p
 piece, through :mod:`rinscal.io.navopen`), the model files and a reference track, and returns
 the results; it prints nothing and writes nothing (the command writes the outputs).
 
->>> from rinscal.recording import navigate_log                      # doctest: +SKIP
+>>> from rinscal.nav.recording import navigate_log                  # doctest: +SKIP
 >>> nav = navigate_log("run.parquet", models=["regression.json"])  # doctest: +SKIP
 >>> nav.result.summary()["variants"]["regression"]["max_error_nmi"]  # doctest: +SKIP
 """
@@ -22,22 +22,25 @@ import numpy as np
 import pandas as pd
 
 from rinscal import units
+from rinscal.calibration.modelfile import POLICIES, ThermalModelFile
 from rinscal.errors import ConfigError, LogError
-from rinscal.nav.recorded import (
+from rinscal.io.navopen import open_nav_log
+from rinscal.io.track import read_track
+from rinscal.nav.recorded.blocks import BlockStats
+from rinscal.nav.recorded.compensation import CausalModelCompensator
+from rinscal.nav.recorded.navigate import Reference, navigate_recording
+from rinscal.nav.recorded.window import (
     MIN_WINDOW_S,
-    BlockStats,
-    CausalModelCompensator,
     Noise,
-    Reference,
     align_config,
     check_at_rest,
     check_encoder,
     estimate_noise,
     find_window,
-    navigate_recording,
     seen_schedule,
 )
 from rinscal.schema import CHANNELS
+from rinscal.thermal.config import load_imu
 
 #: Seconds between the temperature samples kept for the figure.
 TEMPERATURE_STEP_S = 10.0
@@ -149,10 +152,6 @@ def navigate_log(
     progress : callable, optional
         ``progress(stage, done_s, total_s)``: stage ``"reading"`` or ``"navigating"``.
     """
-    from rinscal.calibration.modelfile import POLICIES, ThermalModelFile
-    from rinscal.io.navopen import open_nav_log
-    from rinscal.io.track import read_track
-
     if policy not in POLICIES:
         raise ConfigError(f"--policy must be one of {', '.join(POLICIES)}, got {policy!r}")
     log = open_nav_log(path, mapping, run=run)
@@ -357,8 +356,6 @@ def _every(t: np.ndarray, step: float, next_t: float) -> np.ndarray:
 
 def _imu_noise(imu: str) -> Noise:
     """The noise of a plant (preset or TOML file) the filter is told to assume."""
-    from rinscal.thermal.plant import load_imu
-
     cfg = load_imu(imu)
     wd = cfg.noise.white_density_si()
     rw = cfg.noise.bias_rw_si()

@@ -16,9 +16,11 @@ and the key (:func:`task_seed`): results do not depend on where, in which order 
 many workers the tasks run. The same unit has the same seeds in every plant variant of a
 sweep (common random numbers), so a sweep's points are paired too.
 
-Nothing here reads or writes files except :func:`load_spec` (the spec itself); execution on
-Dask and the results store are in :mod:`rinscal.experiments.runner`, statistics in
-:mod:`rinscal.experiments.study_stats`.
+This module holds the spec (its TOML layout, validation and sweeps); the tasks and their
+pure functions are in :mod:`rinscal.experiments.study.tasks`. Nothing here reads or writes
+files except :func:`load_spec` (the spec itself); execution on Dask and the results store
+are in :mod:`rinscal.experiments.study.runner`, statistics in
+:mod:`rinscal.experiments.study.stats`.
 """
 
 from __future__ import annotations
@@ -27,31 +29,37 @@ import hashlib
 import itertools
 import json
 import math
-import time
 import tomllib
-import warnings
-import zlib
 from collections.abc import Mapping, Sequence
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass
 from importlib import resources
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import pandas as pd
 
 from rinscal import units
 from rinscal.errors import ConfigError
-from rinscal.experiments.paper import (
-    METHODS,
-    RESIDUAL_COLUMNS,
-    NavJob,
-    ReproConfig,
-    load_plant,
-    run_navigation_job,
-    thermal_part_m,
-)
-from rinscal.thermal.plant import PRESETS, ImuConfig
+from rinscal.experiments.paper.config import METHODS, ReproConfig, load_plant
+from rinscal.thermal.presets import PRESETS
+
+__all__ = [
+    "BUILTIN_STUDIES",
+    "MECH_SPREAD_FIELDS",
+    "SCENARIO_KINDS",
+    "SPREAD_FIELDS",
+    "STUDY_VARIANTS",
+    "SWEEP_PARAMETERS",
+    "CalibrationSpec",
+    "PlantVariant",
+    "ScenarioSpec",
+    "StudySpec",
+    "load_spec",
+    "plant_table",
+    "reproduction_spec",
+    "spec_from_dict",
+    "sweep_columns",
+]
 
 #: Studies shipped with rinscal (``src/rinscal/data/studies/<name>.toml``).
 BUILTIN_STUDIES = ("paper", "sensitivity")
@@ -547,244 +555,6 @@ def reproduction_spec(cfg: ReproConfig, units: int) -> StudySpec:
     return spec_from_dict(data, "rinscal reproduce --units", base=Path.cwd())
 
 
-# --------------------------------------------------------------------------- tasks
-@dataclass(frozen=True)
-class CalTask:
-    """Calibration of one unit of one plant variant."""
-
-    plant: int
-    unit: int
-
-    @property
-    def key(self) -> str:
-        return f"cal-p{self.plant:03d}-u{self.unit:05d}"
-
-
-@dataclass(frozen=True)
-class NavTask:
-    """One cold start of one unit: scenario ``scenario`` (index in the spec), start
-    ``start`` (index into its ``ambient_c``)."""
-
-    plant: int
-    unit: int
-    scenario: int
-    start: int
-
-    @property
-    def key(self) -> str:
-        return f"nav-p{self.plant:03d}-u{self.unit:05d}-s{self.scenario:02d}-r{self.start:02d}"
-
-    @property
-    def cal(self) -> CalTask:
-        return CalTask(self.plant, self.unit)
-
-
-def study_tasks(spec: StudySpec) -> list[tuple[CalTask, list[NavTask]]]:
-    """Every task, unit by unit: each calibration task with the navigation tasks that use
-    its models (in the order they are best submitted: a unit's runs right after its
-    calibration, so that results stream in from the first minutes)."""
-    out = []
-    for u in range(spec.units):
-        for p in range(len(spec.plants)):
-            navs = [
-                NavTask(p, u, s, r)
-                for s, sc in enumerate(spec.scenarios)
-                for r in range(len(sc.ambient_c))
-            ]
-            out.append((CalTask(p, u), navs))
-    return out
-
-
-def task_seed(spec_seed: int, *key: int) -> int:
-    """A 32-bit seed from the study's seed and an integer key path (numpy's SeedSequence
-    spawn keys: independent streams, the same on every machine)."""
-    ss = np.random.SeedSequence(spec_seed, spawn_key=tuple(int(k) for k in key))
-    return int(ss.generate_state(1)[0])
-
-
-def _scenario_key(sc: ScenarioSpec) -> int:
-    """Stable integer of a scenario group (its name), so that adding a scenario to a spec
-    does not change the seeds of the others."""
-    return zlib.crc32(sc.name.encode())
-
-
-def plant_config(variant: PlantVariant) -> ImuConfig:
-    """The IMU of a plant variant: the preset or file with the sweep factors applied (to the
-    fields of its thermal law, :data:`SWEEP_PARAMETERS`)."""
-    imu = load_plant(variant.imu)
-    if not variant.params:
-        return imu
-    thermal = list(imu.thermal)
-    mech = list(imu.mechanistic or ())
-    for name, factor in variant.params:
-        sensors, poly_fields, mech_fields = SWEEP_PARAMETERS[name]
-        idx = range(0, 3) if sensors == "gyro" else range(3, 6)
-        for j in idx:
-            if imu.thermal_law == "mechanistic":
-                mech[j] = _scaled(mech[j], mech_fields, lambda _k, f=factor: f)
-            # (under the mechanistic law the polynomial fields are zero: only Shupe scales)
-            thermal[j] = _scaled(thermal[j], poly_fields, lambda _k, f=factor: f)
-    return replace(
-        imu,
-        name=f"{imu.name} ({variant.label})",
-        thermal=tuple(thermal),
-        mechanistic=tuple(mech) if imu.mechanistic is not None else None,
-    )
-
-
-def _scaled(ch: Any, names: Sequence[str], factor: Any) -> Any:
-    """``ch`` (a frozen dataclass: ``ChannelThermal`` or ``MechanisticThermal``) with each
-    field in ``names`` multiplied by ``factor(k)`` (k counts the scalars scaled so far, so a
-    random factor per coefficient can be drawn)."""
-    k = 0
-    new: dict[str, Any] = {}
-    for n in names:
-        v = getattr(ch, n)
-        if isinstance(v, tuple):
-            vals = []
-            for x in v:
-                vals.append(float(x * factor(k)))
-                k += 1
-            new[n] = tuple(vals)
-        else:
-            new[n] = float(v * factor(k))
-            k += 1
-    return replace(ch, **new)
-
-
-def unit_config(spec: StudySpec, plant: ImuConfig, unit: int) -> ImuConfig:
-    """Unit ``unit`` of a plant: each coefficient of :data:`SPREAD_FIELDS` (and, under the
-    mechanistic law, of :data:`MECH_SPREAD_FIELDS`) multiplied by ``1 + coefficient_spread·z``
-    with ``z`` standard normal from the unit's seed (the same ``z`` in every plant variant;
-    the hysteresis width by ``|1 + spread·z|``)."""
-    if spec.coefficient_spread == 0.0:
-        return plant
-    rng = np.random.default_rng(task_seed(spec.seed, unit, 0))
-    z = rng.standard_normal((6, 64))
-    sd = spec.coefficient_spread
-    thermal = tuple(
-        _scaled(ch, SPREAD_FIELDS, lambda k, j=j: 1.0 + sd * z[j, k])
-        for j, ch in enumerate(plant.thermal)
-    )
-    thermal = tuple(replace(ch, hysteresis=abs(ch.hysteresis)) for ch in thermal)
-    mech = None
-    if plant.mechanistic is not None:
-        # the columns after the polynomial law's (at most 32 scalars): independent draws
-        mech = tuple(
-            _scaled(m, MECH_SPREAD_FIELDS, lambda k, j=j: 1.0 + sd * z[j, 32 + k])
-            for j, m in enumerate(plant.mechanistic)
-        )
-    return replace(plant, thermal=thermal, mechanistic=mech)
-
-
-def calibrate_unit(spec: StudySpec, plant: ImuConfig, task: CalTask) -> dict[str, Any]:
-    """Simulate a unit's soak calibration and fit every model of the spec.
-
-    Returns
-    -------
-    dict
-        ``models``: method → model file JSON text; ``warnings``: method → the warnings its
-        fit raised (a weak fit is kept and flagged); ``elapsed_s`` [s]: the task's run time.
-    """
-    from rinscal.calibration.thermal.model import ThermalModel
-    from rinscal.thermal.protocols import simulate_protocol
-
-    t0 = time.perf_counter()
-    imu = unit_config(spec, plant, task.unit)
-    seed = task_seed(spec.seed, task.unit, 1)
-    log, _, meta = simulate_protocol(
-        "soak",
-        hours=spec.calibration.hours,
-        rate_hz=spec.calibration.rate_hz,
-        seed=seed,
-        config=imu,
-    )
-    models: dict[str, str] = {}
-    caught: dict[str, list[str]] = {}
-    for m in spec.models:
-        params = {"max_samples": spec.calibration.neural_max_samples} if m == "neural" else {}
-        with warnings.catch_warnings(record=True) as w:
-            warnings.simplefilter("always")
-            fitted = ThermalModel(m, random_state=seed, estimator_params=params).fit(log, meta)
-        mf = fitted.to_file(source={"log": f"study {spec.name}, unit {task.unit}, soak"})
-        models[m] = json.dumps(mf.to_dict())
-        msgs = sorted({str(x.message) for x in w if not issubclass(x.category, RuntimeWarning)})
-        if msgs:
-            caught[m] = msgs
-    return {"models": models, "warnings": caught, "elapsed_s": time.perf_counter() - t0}
-
-
-#: Columns of a navigation task's result rows (one row per variant).
-RESULT_COLUMNS = (
-    "plant",
-    "plant_label",
-    "unit",
-    "scenario",
-    "kind",
-    "start",
-    "ambient_c",
-    "align_start_s",
-    "align_s",
-    "variant",
-    "max_error_nmi",
-    "final_error_nmi",
-    "thermal_part_nmi",
-    "heading_error_arcsec",
-    *RESIDUAL_COLUMNS,
-    "seed",
-    "elapsed_s",
-)
-
-
-def navigate_unit(
-    spec: StudySpec, plant: ImuConfig, task: NavTask, calibration: Mapping[str, Any]
-) -> pd.DataFrame:
-    """Navigate one cold start of a unit with every variant on the same raw output.
-
-    ``calibration`` is :func:`calibrate_unit`'s result for ``task.cal``. Returns one row per
-    variant (:data:`RESULT_COLUMNS`): the maximum and final horizontal position error
-    [nmi], the maximum of its thermal part (variant minus oracle, see
-    :func:`rinscal.experiments.paper.thermal_part_m`) [nmi], the heading error at the
-    start of free navigation [arcsec] and the model's held-out thermal residual on this
-    cold start (:func:`rinscal.experiments.paper.thermal_residual`: gyros [°/h], horizontal
-    accelerometers [µg] and [% of the true swing]).
-    """
-    t0 = time.perf_counter()
-    sc = spec.scenarios[task.scenario]
-    imu = unit_config(spec, plant, task.unit)
-    seed = task_seed(spec.seed, task.unit, 2, _scenario_key(sc), task.start)
-    job = NavJob(
-        sc.name, sc.kind, task.start + 1, sc.ambient_c[task.start], sc.hours, sc.rate_hz, seed
-    )
-    res = run_navigation_job(job, calibration["models"], imu, sc.align_s, sc.align_start_s)
-    rows = []
-    for v, s in res.summary["variants"].items():
-        rows.append(
-            {
-                "variant": v,
-                "max_error_nmi": s["max_error_nmi"],
-                "final_error_nmi": s["final_error_m"] / units.NMI_TO_M,
-                "thermal_part_nmi": float(thermal_part_m(res.errors, v).max()) / units.NMI_TO_M,
-                "heading_error_arcsec": s["attitude_error_at_nav_start"]["heading_arcsec"],
-                **(res.residual or {}).get(v, dict.fromkeys(RESIDUAL_COLUMNS, math.nan)),
-            }
-        )
-    df = pd.DataFrame(rows)
-    amb = sc.ambient_c[task.start]
-    df.insert(0, "plant", task.plant)
-    df.insert(1, "plant_label", spec.plants[task.plant].label)
-    df.insert(2, "unit", task.unit)
-    df.insert(3, "scenario", sc.name)
-    df.insert(4, "kind", sc.kind)
-    df.insert(5, "start", task.start)
-    df.insert(6, "ambient_c", float("nan") if amb is None else amb)
-    df.insert(7, "align_start_s", sc.align_start_s)
-    df.insert(8, "align_s", sc.align_s)
-    df["seed"] = seed
-    df["elapsed_s"] = time.perf_counter() - t0
-    return df[list(RESULT_COLUMNS)]
-
-
 def sweep_columns(spec: StudySpec) -> list[str]:
     """Names of the sweep parameters used by any plant of the spec, in spec order."""
     out: list[str] = []
@@ -813,28 +583,3 @@ def plant_table(spec: StudySpec) -> pd.DataFrame:
             }
         )
     return pd.DataFrame(rows)
-
-
-__all__ = [
-    "BUILTIN_STUDIES",
-    "RESULT_COLUMNS",
-    "STUDY_VARIANTS",
-    "SWEEP_PARAMETERS",
-    "CalTask",
-    "CalibrationSpec",
-    "NavTask",
-    "PlantVariant",
-    "ScenarioSpec",
-    "StudySpec",
-    "calibrate_unit",
-    "load_spec",
-    "navigate_unit",
-    "plant_config",
-    "plant_table",
-    "reproduction_spec",
-    "spec_from_dict",
-    "study_tasks",
-    "sweep_columns",
-    "task_seed",
-    "unit_config",
-]

@@ -209,7 +209,7 @@ def factor_ss_about_mean(r: np.ndarray, coef: np.ndarray, n: int) -> float:
     return max(total - n * mean**2, 0.0)
 
 
-def _center_scale(x: np.ndarray) -> tuple[float, float]:
+def center_scale(x: np.ndarray) -> tuple[float, float]:
     """Centre and half-range of ``x``, mapping it onto ``[−1, 1]`` (half-range 1 if 0)."""
     lo, hi = float(np.min(x)), float(np.max(x))
     c = 0.5 * (lo + hi)
@@ -219,7 +219,7 @@ def _center_scale(x: np.ndarray) -> tuple[float, float]:
     return c, s
 
 
-def _power_basis(
+def power_basis(
     center: Sequence[float], scale: Sequence[float], orders: Sequence[int]
 ) -> Callable[[np.ndarray], np.ndarray]:
     """Basis ``[1, z_0 .. z_0^p, z_1 .. z_1^q, ...]`` with ``z_v = (x_v − c_v)/s_v``."""
@@ -258,12 +258,12 @@ def _fit_power(
 
     Raises :class:`~rinscal.calibration.thermal.guards.DesignError` on a rank-deficient design.
     """
-    cs = [_center_scale(x[:, v]) for v in range(len(orders))]
+    cs = [center_scale(x[:, v]) for v in range(len(orders))]
     center = [c for c, _ in cs]
     scale = [s for _, s in cs]
     label = f"{what} {tuple(int(o) for o in orders)}"
     beta = _checked_lstsq(
-        _power_basis(center, scale, orders), x, y, orders, label, not what.startswith("sectional")
+        power_basis(center, scale, orders), x, y, orders, label, not what.startswith("sectional")
     )
     intercept, coef = _split_coef(beta, orders)
     return {
@@ -303,7 +303,7 @@ def fit_poly_t(
     ref = 0.5 * (t.min() + t.max()) if t_ref is None else float(t_ref)
     s = float(np.max(np.abs(t - ref)))
     s = s if s > 0 else 1.0
-    beta = _checked_lstsq(_power_basis([ref], [s], [deg]), X, y, [deg], f"degree-{deg} poly-t")
+    beta = _checked_lstsq(power_basis([ref], [s], [deg]), X, y, [deg], f"degree-{deg} poly-t")
     coef = beta / s ** np.arange(deg + 1)
     return {"method": "poly-t", "t_ref": float(ref), "coef": coef.tolist()}
 

@@ -2,7 +2,7 @@
 
 A production line calibrates many units, each with its own soak runs. ``run_fleet`` fits
 every log as an independent task on the same Dask layer as ``rinscal study``
-(:func:`rinscal.experiments.cluster.dask_client`: a local cluster by default, any cluster by
+(:func:`rinscal.cluster.dask_client`: a local cluster by default, any cluster by
 its scheduler address) and writes each result as it arrives into a folder that is also its
 memory, so that an interrupted fleet resumes without refitting finished units. A unit is
 named by the shortest end of its log's path that tells the units apart (:func:`unit_names`:
@@ -36,6 +36,7 @@ import os
 import time
 import tomllib
 import traceback
+import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -44,9 +45,10 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from rinscal.cluster import TLSFiles, dask_client
 from rinscal.errors import ConfigError, RinscalError
-from rinscal.experiments.cluster import TLSFiles, dask_client
 from rinscal.io.atomic import write_atomic
+from rinscal.schema import CHANNELS
 
 __all__ = [
     "EXPORTS",
@@ -98,8 +100,6 @@ class FleetLimits:
             Naming the file, the table and the key for anything unknown or not a positive
             finite number.
         """
-        from rinscal.schema import CHANNELS
-
         p = Path(path)
         try:
             data = tomllib.loads(p.read_text(encoding="utf-8"))
@@ -180,8 +180,7 @@ def fit_unit(
         ``model``, ``unit``, ``params`` (flat name -> value), ``heldout_rms``,
         ``thermal_span``, ``noise_density``), ``warnings``, ``elapsed_s``.
     """
-    import warnings
-
+    # deferred: the fitting stack (numba, the log readers) loads on the worker that fits
     from rinscal.calibration.export import to_ardupilot_parm, to_c_header, to_px4_params
     from rinscal.calibration.inference import predict_params
     from rinscal.calibration.thermal.model import ThermalModel
@@ -324,6 +323,11 @@ class FleetStore:
     def export_path(self, unit: str, export: str) -> Path:
         return self.root / "exports" / f"{unit}{EXPORTS[export]}"
 
+    def options(self) -> dict[str, Any]:
+        """The fit options the folder was opened with (``fleet.json``)."""
+        marker = self.root / "fleet.json"
+        return json.loads(marker.read_text("utf-8")).get("options", {})
+
     def open(self, options: Mapping[str, Any]) -> None:
         """Create the folder for ``options``, or check that it holds a fleet fitted so."""
         if self.root.exists() and not self.root.is_dir():
@@ -409,7 +413,7 @@ class FleetRun:
 def _task(log: str, method: str, export: str, unit: str) -> dict[str, Any]:
     """A unit's fit on a worker; its error returned, not raised (a unit's bad log is a
     result of the fleet, not a failure of the cluster)."""
-    from threadpoolctl import threadpool_limits
+    from threadpoolctl import threadpool_limits  # deferred: needed on the worker only
 
     try:
         with threadpool_limits(limits=1):  # one core per task: the cluster is the parallelism
@@ -530,7 +534,7 @@ def _collect(
     on_unit: Callable[[str, str], None] | None,
 ) -> None:
     """Write each unit's result as its future completes (``futures`` emptied as it goes)."""
-    from distributed import as_completed
+    from distributed import as_completed  # deferred: Dask is heavy
 
     for fut in as_completed(list(futures)):
         name, path = futures.pop(fut)
@@ -626,14 +630,9 @@ def fleet_report(store: FleetStore, limits: FleetLimits | None = None) -> FleetR
     return FleetReport(verd.reset_index(drop=True), figures, dist)
 
 
-def write_fleet_report(
-    store: FleetStore, report: FleetReport, limits_source: str = "none given"
-) -> dict[str, Path]:
-    """Write ``report.html``, ``verdicts.csv``, ``figures.csv`` and ``distribution.csv``."""
-    from rinscal.report.fleet_report import fleet_html
-
-    options = json.loads((store.root / "fleet.json").read_text("utf-8")).get("options", {})
-    page = fleet_html(report, limits_source, options)
+def write_fleet_report(store: FleetStore, report: FleetReport, page: str) -> dict[str, Path]:
+    """Write ``report.html`` (the rendered ``page``), ``verdicts.csv``, ``figures.csv`` and
+    ``distribution.csv``."""
     html_path = store.root / "report.html"
     write_atomic(html_path, lambda tmp: tmp.write_text(page, encoding="utf-8"))
     out = {"report": html_path}

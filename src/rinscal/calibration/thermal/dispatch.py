@@ -1,7 +1,7 @@
 """Fitting one channel with any method: the dispatch behind ``ThermalModel`` and ``auto``.
 
 :func:`fit_params` fits ``poly-t``, ``regression`` and ``sectional`` with the numpy code of
-:mod:`rinscal.calibration.thermal._fit`, ``px4`` and ``ardupilot`` with the field's fits
+:mod:`rinscal.calibration.thermal.fitting`, ``px4`` and ``ardupilot`` with the field's fits
 (:mod:`rinscal.calibration.thermal.baselines`) and ``neural`` with the scikit-learn estimator
 (:class:`rinscal.calibration.thermal.estimators.Neural`, imported only then). Kept apart from
 ``_fit`` so that the estimators, which build on ``_fit``, are not imported back by it.
@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from rinscal.calibration.thermal._fit import (
+from rinscal.calibration.thermal.fitting import (
     fit_poly_t,
     fit_regression,
     fit_sectional,

@@ -78,7 +78,7 @@ def cluster_security(scheduler: str | None, tls: TLSFiles | None = None) -> Any:
                 "scheduler's address, tls://host:port"
             )
         return None
-    from distributed import Security
+    from distributed import Security  # deferred: Dask is heavy
 
     security = Security(require_encryption=True, **given)
     if not (security.tls_ca_file and security.tls_client_cert):
@@ -104,7 +104,7 @@ def dask_client(
     :func:`cluster_security` of ``tls``), or on a new :class:`distributed.LocalCluster` of
     ``workers`` single-threaded worker processes (default: one per core available to this
     process), closed on exit."""
-    from distributed import Client, LocalCluster
+    from distributed import Client, LocalCluster  # deferred: Dask is heavy
 
     security = cluster_security(scheduler, tls)
     if scheduler:

@@ -1,10 +1,10 @@
 """Fitting a channel from what each run leaves behind: polynomial models never see the data twice.
 
-A log is read one run at a time (:func:`rinscal.io.iter_log_source`); of each run, a
+A log is read one run at a time (:func:`rinscal.io.streaming.iter_log_source`); of each run, a
 channel's fit keeps only
 
 * for ``poly-t`` and ``regression`` (and every method's cubic fallback): the triangular factor
-  ``R`` of ``[A | y]`` (:func:`rinscal.calibration.thermal._fit.tsqr`) in a power basis
+  ``R`` of ``[A | y]`` (:func:`rinscal.calibration.thermal.fitting.tsqr`) in a power basis
   scaled to the run's own range of each input, its sample count and its sum of ``y``;
 * the boxes of a fine grid its samples occupy (:func:`rinscal.calibration._domain.occupied_boxes`)
   and its range of each input, for the joint domain;
@@ -25,7 +25,7 @@ with ``z_g = a z_l + b`` (``a = s_l / s_g``, ``b = (c_l − c_g) / s_g``), every
 ``A_g = A_l M`` and ``R_l M`` is a factor of the run's design in the global basis
 (``(R_l M)ᵀ(R_l M) = A_gᵀ A_g``). Stacking those factors and reducing them again gives the
 fit of all runs; each run's residual sum of squares, about its own mean too, follows from its
-factor (:func:`rinscal.calibration.thermal._fit.factor_ss_about_mean`). Numpy only.
+factor (:func:`rinscal.calibration.thermal.fitting.factor_ss_about_mean`). Numpy only.
 """
 
 from __future__ import annotations
@@ -44,9 +44,9 @@ from rinscal.calibration._domain import (
     occupied_boxes,
 )
 from rinscal.calibration.selection.folds import MIN_RUNS, RunSpan, run_span
-from rinscal.calibration.thermal._fit import (
-    _center_scale,
-    _power_basis,
+from rinscal.calibration.thermal.fitting import (
+    center_scale,
+    power_basis,
     _split_coef,
     factor_ss_about_mean,
     solve_r,
@@ -324,9 +324,9 @@ class RunFits:
         self.sum_y += float(np.sum(y))
         if self.powers:
             k = len(self.powers)
-            cs = [_center_scale(x[:, v]) for v in range(k)]
+            cs = [center_scale(x[:, v]) for v in range(k)]
             n_terms = _n_terms(self.powers)
-            basis = _power_basis([c for c, _ in cs], [s for _, s in cs], self.powers)
+            basis = power_basis([c for c, _ in cs], [s for _, s in cs], self.powers)
             r = tsqr(basis, x[:, :k], y, n_terms)
             pad = np.zeros((n_terms + 1, n_terms + 1))
             pad[: r.shape[0]] = r
@@ -368,7 +368,7 @@ class RunFits:
     def scaling(self) -> list[tuple[float, float]]:
         """Centre and half-range of each input over every run (the global basis)."""
         assert self.lo is not None and self.hi is not None
-        return [_center_scale(np.array(v)) for v in zip(self.lo, self.hi, strict=True)]
+        return [center_scale(np.array(v)) for v in zip(self.lo, self.hi, strict=True)]
 
     def global_factors(
         self, keep: Sequence[int], target: Sequence[tuple[float, float]]
@@ -390,7 +390,7 @@ class RunFits:
         return solve_r(r, n_terms)[0], runs
 
     def poly_t(self, degree: int, t_ref: float | None = None) -> dict[str, Any]:
-        """``poly-t`` parameters (as :func:`rinscal.calibration.thermal._fit.fit_poly_t`)."""
+        """``poly-t`` parameters (as :func:`rinscal.calibration.thermal.fitting.fit_poly_t`)."""
         deg = int(degree)
         if deg < 0 or deg > min(7, self.powers[0]):
             raise ValueError(f"degree must be 0..{min(7, self.powers[0])}, got {degree!r}")
@@ -407,7 +407,7 @@ class RunFits:
 
     def regression(self, orders: Sequence[int]) -> dict[str, Any]:
         """``regression`` parameters (as
-        :func:`rinscal.calibration.thermal._fit.fit_regression`)."""
+        :func:`rinscal.calibration.thermal.fitting.fit_regression`)."""
         orders = [int(o) for o in orders]
         if any(o < 0 or o > 8 for o in orders):
             raise ValueError(f"orders must be 0..8, got {orders}")

@@ -13,7 +13,7 @@ missing:
     Each unit's fitted models (JSON text of the model files), its fit warnings and run time.
 ``results/plant=p<plant>/<task key>.parquet``
     A partitioned Parquet dataset, one file per navigation task, one row per variant
-    (:data:`rinscal.experiments.study.RESULT_COLUMNS`).
+    (:data:`rinscal.experiments.study.tasks.RESULT_COLUMNS`).
 ``failed/<task key>.json``
     A task that raised: its error and traceback. The study goes on without it; it is
     retried only with ``retry_failed``.
@@ -37,14 +37,14 @@ from typing import Any
 import pandas as pd
 from threadpoolctl import threadpool_limits
 
-from rinscal import __version__
+from rinscal._version import __version__
+from rinscal.cluster import TLSFiles, dask_client
 from rinscal.errors import ConfigError, RinscalError
-from rinscal.experiments.cluster import TLSFiles, dask_client
-from rinscal.experiments.study import (
+from rinscal.experiments.study.spec import StudySpec
+from rinscal.experiments.study.tasks import (
     RESULT_COLUMNS,
     CalTask,
     NavTask,
-    StudySpec,
     calibrate_unit,
     navigate_unit,
     plant_config,
@@ -203,9 +203,8 @@ def _nav_task(spec: StudySpec, plant: Any, task: NavTask, cal: dict[str, Any]) -
 
 
 def _worker_version() -> str:
-    import rinscal
-
-    return rinscal.__version__
+    # runs on a worker: this module's global is the worker's installed version
+    return __version__
 
 
 # --------------------------------------------------------------------------- running
@@ -251,7 +250,7 @@ def _submit_all(
 ) -> float:
     """Submit ``todo`` to ``client`` and write each result as it completes; returns the
     largest peak memory a worker reported [MiB]."""
-    from distributed import as_completed
+    from distributed import as_completed  # deferred: Dask is heavy
 
     peak = 0.0
     versions = client.run(_worker_version)

@@ -1,0 +1,32 @@
+"""Navigate a recording: alignment window, causal compensation, free navigation.
+
+The recording arrives as :class:`rinscal.schema.NavSamples` pieces (SI increments in the
+IMU frame r, read by :mod:`rinscal.io.navopen`); nothing here reads a file. Two passes over the
+pieces:
+
+1. :class:`~rinscal.nav.recorded.blocks.BlockStats` sums every second of the recording: the
+   specific force magnitude ``|f|`` (its mean and spread), the mean rate and force vectors,
+   the spread of first differences (white noise) and the encoder's turn. From these
+   :mod:`~rinscal.nav.recorded.window` finds the alignment window (``find_window``), the
+   filter's sensor noise if nobody gave it (``estimate_noise``), whether the units are
+   plausible (``check_at_rest``) and what the turntable did (``seen_schedule``).
+2. :func:`~rinscal.nav.recorded.navigate.navigate_recording` runs the variants
+   (uncompensated, one per model) side by side: every variant's compensator sees every
+   sample from the first on (its temperature history is causal), the aligner the window,
+   the strapdown everything after it.
+
+What "quiet" means is told in :mod:`~rinscal.nav.recorded.window`.
+
+Modules
+-------
+:mod:`~rinscal.nav.recorded.frame`
+    The recorded-navigation log's columns written from a simulated chunk.
+:mod:`~rinscal.nav.recorded.blocks`
+    The first pass: per-second sums.
+:mod:`~rinscal.nav.recorded.window`
+    The alignment window, the sensor noise, the checks, the turntable's schedule.
+:mod:`~rinscal.nav.recorded.compensation`
+    Causal thermal compensation piece by piece.
+:mod:`~rinscal.nav.recorded.navigate`
+    The second pass: the variants navigated side by side against the reference.
+"""

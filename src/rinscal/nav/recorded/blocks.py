@@ -1,0 +1,258 @@
+"""The first pass over a recording: per-second sums (:class:`BlockStats` into :class:`Blocks`).
+
+Every second of the recording is summed: the specific force magnitude ``|f|`` (its mean and
+spread), the mean rate and force vectors, the spread of first differences (white noise) and
+the encoder's turn (:class:`TableUnwrap`). The window, noise and checks of
+:mod:`rinscal.nav.recorded.window` are computed from these sums.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from rinscal import units
+from rinscal.errors import LogError
+from rinscal.schema import GAP_FACTOR, NavSamples
+
+__all__ = [
+    "BLOCK_S",
+    "ENCODER_JUMP_DEG",
+    "ENCODER_JUMP_DPS",
+    "BlockStats",
+    "Blocks",
+    "TableUnwrap",
+]
+
+#: Length of the blocks the first pass sums over [s].
+BLOCK_S = 1.0
+#: An encoder step in one sample that differs from the gyro's turn about z by more than
+#: this [deg] (or than this rate [deg/s] times the interval, if larger) is a jump.
+ENCODER_JUMP_DEG = 5.0
+ENCODER_JUMP_DPS = 200.0
+
+
+# --------------------------------------------------------------------------- pass 1
+@dataclass(frozen=True)
+class Blocks:
+    """Per-second sums of a recording (the first pass).
+
+    Attributes
+    ----------
+    t0, t1 : ndarray [s]
+        Start (end of the sample before) and end of the block's samples.
+    n : ndarray [-]
+        Samples in each block.
+    fmag_mean, fmag_sd : ndarray [m/s²]
+        Mean and standard deviation of ``|f|`` within each block.
+    f_mean, w_mean : ndarray, shape (m, 3) [m/s², rad/s]
+        Mean specific force and rate in r.
+    f_dvar, w_dvar : ndarray, shape (m, 3) [(m/s²)², (rad/s)²]
+        Half the mean square of first differences of the force and rate within the block:
+        the white-noise variance of one sample (smooth motion hardly enters at 100 Hz).
+    table_turn : ndarray [rad]
+        Encoder turn within the block (unwrapped; 0 without encoder).
+    table_start : float [rad]
+        The encoder's first reading.
+    dt : float [s]
+        Nominal sample interval: the mean of the intervals that are not gaps.
+    dt_jitter : float [-]
+        Standard deviation of those intervals over their mean.
+    gaps : ndarray of bool, optional
+        Blocks holding an interval longer than :data:`GAP_FACTOR` × the usual.
+    has_table : bool
+    """
+
+    t0: NDArray[np.float64]
+    t1: NDArray[np.float64]
+    n: NDArray[np.float64]
+    fmag_mean: NDArray[np.float64]
+    fmag_sd: NDArray[np.float64]
+    f_mean: NDArray[np.float64]
+    w_mean: NDArray[np.float64]
+    f_dvar: NDArray[np.float64]
+    w_dvar: NDArray[np.float64]
+    table_turn: NDArray[np.float64]
+    dt: float
+    has_table: bool
+    table_start: float = 0.0
+    dt_jitter: float = 0.0
+    gaps: NDArray[np.bool_] | None = None
+
+    @property
+    def size(self) -> int:
+        return int(self.n.size)
+
+    def select(self, start_s: float, end_s: float) -> NDArray[np.bool_]:
+        """Blocks lying within ``[start_s, end_s]`` (to half a block)."""
+        return (self.t0 >= start_s - 0.5 * BLOCK_S) & (self.t1 <= end_s + 0.5 * BLOCK_S)
+
+
+class TableUnwrap:
+    """Unwraps an encoder angle across pieces (±180° or 0-360° wrap-around): a step of more
+    than half a turn between two samples is taken as the wrap."""
+
+    def __init__(self) -> None:
+        self._raw: float | None = None
+        self._unwrapped = 0.0
+
+    def __call__(self, angle: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Continuous angle [rad] from wrapped readings [rad]."""
+        a = np.asarray(angle, dtype=float)
+        if a.size == 0:
+            return a
+        if self._raw is None:
+            u = np.unwrap(a)
+        else:
+            u = np.unwrap(np.concatenate([[self._raw], a]))
+            u = u[1:] - u[0] + self._unwrapped
+        self._raw, self._unwrapped = float(a[-1]), float(u[-1])
+        return u
+
+
+class BlockStats:
+    """First pass: per-second sums of the recording (bounded memory: a few numbers a second)."""
+
+    def __init__(self) -> None:
+        self._parts: list[dict[str, NDArray]] = []
+        self._origin: float | None = None
+        self._prev_w: NDArray | None = None
+        self._prev_f: NDArray | None = None
+        self._unwrap = TableUnwrap()
+        self._prev_table: float | None = None
+        self._has_table: bool | None = None
+        self._table_start = 0.0
+        #: encoder jumps seen: (time [s], data row, size [deg]), the first 20, and their count
+        self.jumps: list[tuple[float, int, float]] = []
+        self.n_jumps = 0
+        self._dt_sum = 0.0
+        self._dt_sq = 0.0
+        self._dt_n = 0
+
+    def add(self, s: NavSamples) -> None:
+        """Add one piece (in time order)."""
+        if s.n == 0:
+            return
+        if self._origin is None:
+            self._origin = float(s.t[0] - s.dt[0])
+            self._has_table = s.table is not None
+        dt = s.dt
+        w = s.dtheta / dt[:, None]
+        f = s.dv / dt[:, None]
+        fm = np.sqrt(np.einsum("ij,ij->i", f, f))
+        ids = np.floor((s.t - 0.5 * dt - self._origin) / BLOCK_S).astype(np.int64)
+        lo = int(ids[0])
+        k = ids - lo
+        m = int(k[-1]) + 1
+
+        def bsum(x: NDArray) -> NDArray:
+            if x.ndim == 1:
+                return np.bincount(k, weights=x, minlength=m)
+            return np.stack([np.bincount(k, weights=x[:, j], minlength=m) for j in range(3)], 1)
+
+        pw = w[:1] if self._prev_w is None else self._prev_w
+        pf = f[:1] if self._prev_f is None else self._prev_f
+        dw = np.diff(w, axis=0, prepend=pw)
+        df = np.diff(f, axis=0, prepend=pf)
+        self._prev_w, self._prev_f = w[-1:].copy(), f[-1:].copy()
+        if s.table is not None:
+            u = self._unwrap(s.table)
+            if self._prev_table is None:
+                self._table_start = float(u[0])
+            prev = u[0] if self._prev_table is None else self._prev_table
+            turn = np.diff(u, prepend=prev)
+            self._prev_table = float(u[-1])
+            # an encoder jump: the table turned in one sample by more than the gyro about
+            # the same axis saw (plus a vehicle's own yaw, at most ENCODER_JUMP_DPS)
+            lim = np.maximum(ENCODER_JUMP_DEG, ENCODER_JUMP_DPS * dt) * units.DEG_TO_RAD
+            bad = np.flatnonzero(np.abs(turn - s.dtheta[:, 2]) > lim)
+            if bad.size:
+                step = np.abs(turn[bad] - s.dtheta[:, 2][bad])
+                for i, d in zip(bad[:20].tolist(), step[:20].tolist(), strict=True):
+                    if len(self.jumps) < 20:
+                        self.jumps.append((float(s.t[i]), s.first_row + i, d / units.DEG_TO_RAD))
+                self.n_jumps += int(bad.size)
+        else:
+            turn = np.zeros(s.n)
+        # k is sorted (time increases): each block's first and last sample by bisection
+        lo_i = np.searchsorted(k, np.arange(m), side="left")
+        hi_i = np.searchsorted(k, np.arange(m), side="right") - 1
+        empty = hi_i < lo_i
+        first = np.where(empty, np.inf, (s.t - dt)[np.minimum(lo_i, s.n - 1)])
+        last = np.where(empty, -np.inf, s.t[np.maximum(hi_i, 0)])
+        self._parts.append(
+            {
+                "id": np.arange(lo, lo + m),
+                "t0": first,
+                "t1": last,
+                "n": np.bincount(k, minlength=m).astype(float),
+                "fm": bsum(fm),
+                "fm2": bsum(fm * fm),
+                "f": bsum(f),
+                "w": bsum(w),
+                "df2": bsum(df * df),
+                "dw2": bsum(dw * dw),
+                "turn": bsum(turn),
+            }
+        )
+        # the nominal step: the mean of the intervals that are not gaps (a clock in whole
+        # ms gives 7 and 8 ms intervals for 128 Hz: the median would be 8 ms)
+        med = float(np.median(dt))
+        ok = dt <= GAP_FACTOR * med
+        self._dt_sum += float(dt[ok].sum())
+        self._dt_sq += float((dt[ok] ** 2).sum())
+        self._dt_n += int(ok.sum())
+        self._parts[-1]["gap"] = np.bincount(k, weights=(~ok).astype(float), minlength=m)
+
+    def finish(self) -> Blocks:
+        """The per-second table (blocks split between pieces merged)."""
+        if not self._parts:
+            raise LogError("the recording has no samples")
+        ids = np.concatenate([p["id"] for p in self._parts])
+        u, inv = np.unique(ids, return_inverse=True)
+        m = u.size
+
+        def merge(key: str, how: str = "sum") -> NDArray:
+            x = np.concatenate([p[key] for p in self._parts])
+            if how == "min":
+                out = np.full(m, np.inf)
+                np.minimum.at(out, inv, x)
+                return out
+            if how == "max":
+                out = np.full(m, -np.inf)
+                np.maximum.at(out, inv, x)
+                return out
+            if x.ndim == 1:
+                return np.bincount(inv, weights=x, minlength=m)
+            return np.stack([np.bincount(inv, weights=x[:, j], minlength=m) for j in range(3)], 1)
+
+        n = merge("n")
+        keep = n > 0
+        n = n[keep]
+        fm = merge("fm")[keep] / n
+        var = np.maximum(merge("fm2")[keep] / n - fm * fm, 0.0)
+        return Blocks(
+            t0=merge("t0", "min")[keep],
+            t1=merge("t1", "max")[keep],
+            n=n,
+            fmag_mean=fm,
+            fmag_sd=np.sqrt(var),
+            f_mean=merge("f")[keep] / n[:, None],
+            w_mean=merge("w")[keep] / n[:, None],
+            f_dvar=0.5 * merge("df2")[keep] / n[:, None],
+            w_dvar=0.5 * merge("dw2")[keep] / n[:, None],
+            table_turn=merge("turn")[keep],
+            dt=self._dt_sum / max(self._dt_n, 1),
+            dt_jitter=math.sqrt(
+                max(
+                    self._dt_sq / max(self._dt_n, 1) - (self._dt_sum / max(self._dt_n, 1)) ** 2, 0.0
+                )
+            )
+            / max(self._dt_sum / max(self._dt_n, 1), 1e-300),
+            gaps=merge("gap")[keep] > 0,
+            has_table=bool(self._has_table),
+            table_start=self._table_start,
+        )

@@ -1,0 +1,139 @@
+"""Causal compensation of a recording piece by piece, as the navigation computer runs a
+thermal model (:class:`CausalModelCompensator`)."""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from rinscal.errors import ConfigError
+from rinscal.schema import CHANNELS, NavSamples
+from rinscal.units import MIN_TO_S
+
+__all__ = [
+    "CausalModelCompensator",
+    "PieceCompensator",
+]
+
+
+# --------------------------------------------------------------------------- compensation
+class PieceCompensator(Protocol):
+    """Causal compensation of a recording piece by piece: bias (n, 6) SI to subtract."""
+
+    channels: tuple[str, ...]
+
+    def __call__(self, s: NavSamples) -> NDArray[np.float64]: ...
+
+
+class CausalModelCompensator:
+    """A thermal model run as the navigation computer runs it, piece by piece.
+
+    The thermometers are read once per ``update_s`` (the first sample whose interval's
+    middle falls in a new tick: its temperature columns, dated at the tick); the
+    temperature rate is the model's causal windowed slope over these readings (the
+    compiled :class:`~rinscal.calibration.thermal.rate.CausalSlope` of ``compensate --causal``);
+    the bias ``(f(T, Ṫ, ΔT) − r)`` in SI is held until the next reading. A reading with a
+    NaN temperature keeps the last one. Channels the model lacks are not compensated.
+
+    Parameters
+    ----------
+    model : ThermalModelFile
+    policy : {"clamp", "fallback", "extrapolate", "error"}
+    update_s : float [s]
+        Thermometer reading interval (the simulator's is 1 s).
+    """
+
+    def __init__(self, model: Any, policy: str = "clamp", update_s: float = 1.0) -> None:
+        from rinscal.calibration.thermal.rate import CausalSlope
+
+        if not (math.isfinite(update_s) and update_s > 0):
+            raise ConfigError(f"model update interval must be > 0 s, got {update_s}")
+        idx = []
+        for c in model.channels:
+            if c not in CHANNELS:
+                raise ConfigError(f"model channel {c!r} is not one of {CHANNELS}")
+            idx.append(CHANNELS.index(c))
+        self.model = model
+        self.policy = policy
+        self.update_s = float(update_s)
+        self.channels = tuple(model.channels)
+        self._idx = np.array(idx, dtype=np.int64)
+        self._slope = CausalSlope(model.derivative_window_s, len(idx))
+        self._tick = -(2**62)
+        self._bias = np.zeros(6)
+        self._last_temp: NDArray | None = None
+        self._last_out: float = float("nan")
+        self.readings = 0
+        #: thermometer readings skipped because no thermometer had read yet
+        self.skipped = 0
+        #: the model uses the gradient ΔT (needs the outer temperature)
+        self.needs_outer = bool(getattr(model, "use_gradient", False)) and any(
+            getattr(model.models[c], "n_inputs", 3) >= 3 for c in model.channels
+        )
+
+    def __call__(self, s: NavSamples) -> NDArray[np.float64]:
+        if s.temps is None:
+            raise ConfigError(
+                f"a thermal model needs temperatures, and the recording has none for "
+                f"{', '.join(self.channels)} (columns temp_<channel> or temp_in)"
+            )
+        tick = np.floor((s.t - 0.5 * s.dt) / self.update_s + 1e-9).astype(np.int64)
+        new = np.flatnonzero(np.diff(tick, prepend=self._tick) != 0)
+        out = np.empty((s.n, 6))
+        if new.size:
+            temp = s.temps[new][:, self._idx].copy()
+            t_out = None if s.temp_out is None else s.temp_out[new].copy()
+            self._hold(temp, t_out)
+            # no reading yet (a thermometer empty from the start): the model waits for one
+            ok = np.isfinite(temp).all(axis=1)
+            if self.needs_outer:
+                if t_out is None:
+                    raise ConfigError(
+                        f"the model uses the gradient ΔT = T − temp_out for "
+                        f"{', '.join(self.channels)}, and the recording has no outer "
+                        "temperature (a temp_out column, or a mapping onto it)"
+                    )
+                ok &= np.isfinite(t_out)
+            if not ok.all():
+                self.skipped += int((~ok).sum())
+                new, temp = new[ok], temp[ok]
+                t_out = None if t_out is None else t_out[ok]
+        if new.size:
+            times = tick[new] * self.update_s
+            rate = self._slope.update(times.astype(float), temp) * MIN_TO_S
+            bias = np.zeros((new.size, 6))
+            bias[:, self._idx] = self.model.predict_bias_si(temp, rate, t_out, policy=self.policy)
+            # each sample takes the last reading at or before it (row 0: the one held before)
+            seg = np.zeros(s.n, dtype=np.int64)
+            seg[new] = 1
+            np.cumsum(seg, out=seg)
+            np.take(np.vstack([self._bias, bias]), seg, axis=0, out=out)
+            self._bias = bias[-1]
+            self.readings += new.size
+        else:
+            out[:] = self._bias
+        self._tick = int(tick[-1])
+        return out
+
+    def _hold(self, temp: NDArray, t_out: NDArray | None) -> None:
+        """Replace NaN readings by the last finite one (forward fill across pieces)."""
+        for j in range(temp.shape[1]):
+            col = temp[:, j]
+            last = np.nan if self._last_temp is None else self._last_temp[j]
+            temp[:, j] = _ffill(col, last)
+        self._last_temp = temp[-1].copy()
+        if t_out is not None:
+            t_out[:] = _ffill(t_out, self._last_out)
+            self._last_out = float(t_out[-1])
+
+
+def _ffill(x: NDArray, last: float) -> NDArray:
+    ok = np.isfinite(x)
+    if ok.all():
+        return x
+    idx = np.where(ok, np.arange(x.size), -1)
+    np.maximum.accumulate(idx, out=idx)
+    return np.where(idx >= 0, x[np.maximum(idx, 0)], last)

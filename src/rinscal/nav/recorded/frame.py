@@ -1,0 +1,77 @@
+"""The recorded-navigation log's columns written from a simulated chunk (``navigate --record``)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from rinscal import units
+from rinscal.schema import CHANNELS, DTHETA, DVEL, REF_HEADING, REF_TRACK, TABLE, TEMP_OUT
+
+__all__ = [
+    "recording_frame",
+]
+
+
+# --------------------------------------------------------------------------- recording
+def recording_frame(
+    chunk: Any,
+    dtheta: NDArray[np.float64],
+    dv: NDArray[np.float64],
+    *,
+    increments: bool = False,
+    readings: tuple[NDArray, NDArray, NDArray] | None = None,
+    track: bool = False,
+) -> pd.DataFrame:
+    """The raw recording of a simulated chunk, in the recorded-navigation log's columns.
+
+    Parameters
+    ----------
+    chunk : rinscal.nav.imu.ImuChunk
+        Truth of the chunk (times, encoder, position, attitude).
+    dtheta, dv : ndarray, shape (n, 3) [rad, m/s]
+        The IMU's raw increments (errors included).
+    increments : bool
+        Write ``dtheta_*`` [rad] and ``dvel_*`` [m/s]; else mean rates over each interval
+        ``gyro_*`` [deg/h] and ``accel_*`` [µg].
+    readings : (grid, inner, outer), optional
+        Thermometer readings [s, °C (m, 6), °C (m,)]: each sample carries the last reading
+        taken at or before the middle of its interval (what a navigation computer logs).
+    track : bool
+        Write the true position as ``ref_lat_deg, ref_lon_deg, ref_h_m`` (a moving carrier).
+
+    Returns
+    -------
+    DataFrame
+        ``time_s`` (end of each interval), the IMU, ``table_deg`` (wrapped to ±180°),
+        temperatures, the reference track and ``ref_heading_deg`` (true body heading).
+    """
+    t = chunk.t
+    dt = np.diff(t, prepend=t[0] - (t[1] - t[0] if t.size > 1 else 1.0))
+    cols: dict[str, Any] = {"time_s": t}
+    if increments:
+        for j, c in enumerate(DTHETA):
+            cols[c] = dtheta[:, j]
+        for j, c in enumerate(DVEL):
+            cols[c] = dv[:, j]
+    else:
+        for j in range(3):
+            cols[CHANNELS[j]] = dtheta[:, j] / dt / units.DPH_TO_RPS
+        for j in range(3):
+            cols[CHANNELS[3 + j]] = dv[:, j] / dt / units.UG_TO_MPS2
+    cols[TABLE] = (np.rad2deg(chunk.encoder) + 180.0) % 360.0 - 180.0
+    if readings is not None:
+        grid, inner, outer = readings
+        k = np.clip(np.searchsorted(grid, t - 0.5 * dt, side="right") - 1, 0, grid.size - 1)
+        for j, c in enumerate(CHANNELS):
+            cols[f"temp_{c}"] = inner[k, j]
+        cols[TEMP_OUT] = outer[k]
+    if track:
+        cols[REF_TRACK[0]] = np.rad2deg(chunk.lat)
+        cols[REF_TRACK[1]] = np.rad2deg(chunk.lon)
+        cols[REF_TRACK[2]] = chunk.alt
+    cols[REF_HEADING] = np.rad2deg(chunk.euler[:, 0])
+    return pd.DataFrame(cols)

@@ -1,0 +1,414 @@
+"""The second pass over a recording: the variants (uncompensated, one per model) navigated
+side by side (:func:`navigate_recording`).
+
+Every variant's compensator sees every sample from the first on (its temperature history is
+causal), the aligner the window, the strapdown everything after it; the position errors are
+taken against the :class:`Reference` (a known site or a track).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from rinscal import earth
+from rinscal.errors import ConfigError, LogError
+from rinscal.nav.align import AlignConfig, Aligner, AlignResult, feed_and_hand_over
+from rinscal.nav.recorded.blocks import TableUnwrap
+from rinscal.nav.recorded.compensation import PieceCompensator, _ffill
+from rinscal.nav.recorded.window import Window
+from rinscal.nav.scenario import NavResult, _error_frame
+from rinscal.nav.strapdown import Strapdown, VerticalMode
+from rinscal.schema import GAP_FACTOR, NavSamples
+
+__all__ = [
+    "RecordedRun",
+    "Reference",
+    "navigate_recording",
+]
+
+
+# --------------------------------------------------------------------------- reference
+@dataclass(frozen=True)
+class Reference:
+    """Where the IMU really was: a static site, or a track interpolated onto the IMU times.
+
+    Attributes
+    ----------
+    lat, lon : float [rad]
+        The site (or the track's first point).
+    h : float [m]
+    heading : float, optional [rad]
+        True heading of the body at the alignment, clockwise from north; held as the
+        reference while the base is static (no track).
+    track : tuple of ndarray, optional
+        ``(t [s], lat [rad], lon [rad], h [m])`` of a reference track.
+    """
+
+    lat: float
+    lon: float
+    h: float
+    heading: float | None = None
+    track: tuple[NDArray, NDArray, NDArray, NDArray] | None = None
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.lat) and abs(self.lat) <= math.pi / 2):
+            raise ConfigError(f"latitude must lie within ±90°, got {math.degrees(self.lat):g}°")
+
+    def at(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``lat, lon, h, v_e, v_n, v_u`` (n, 6) at ``t`` [s]: rad, rad, m, m/s."""
+        n = t.size
+        if self.track is None:
+            out = np.zeros((n, 6))
+            out[:, 0], out[:, 1], out[:, 2] = self.lat, self.lon, self.h
+            return out
+        tt, la, lo, hh = self.track
+        lat = np.interp(t, tt, la)
+        lon = np.interp(t, tt, lo)
+        h = np.interp(t, tt, hh)
+        rn, re = earth.principal_radii(lat)
+        dt = np.gradient(tt) if tt.size > 1 else np.ones(1)
+        vn = np.interp(t, tt, np.gradient(la) / dt) * (rn + h)
+        ve = np.interp(t, tt, np.gradient(lo) / dt) * (re + h) * np.cos(lat)
+        vu = np.interp(t, tt, np.gradient(hh) / dt)
+        return np.column_stack([lat, lon, h, ve, vn, vu])
+
+    def covers(self, t: NDArray[np.float64]) -> NDArray[np.bool_]:
+        """Where the reference exists: everywhere for a site, within a track's span."""
+        if self.track is None:
+            return np.ones(t.shape, dtype=bool)
+        tt = self.track[0]
+        return (t >= tt[0]) & (t <= tt[-1])
+
+    def overlap(self, t0: float, t1: float) -> None:
+        """Refuse a track that does not cover ``[t0, t1]`` (the part navigated)."""
+        if self.track is None:
+            return
+        tt = self.track[0]
+        if tt[0] > t1 or tt[-1] < t0:
+            raise LogError(
+                f"the reference track ({tt[0]:.1f}-{tt[-1]:.1f} s) does not overlap the "
+                f"recording's navigated part ({t0:.1f}-{t1:.1f} s)"
+            )
+
+
+# --------------------------------------------------------------------------- pass 2
+@dataclass(frozen=True)
+class RecordedRun:
+    """What a recorded run was (the attributes the navigation plots and summary read).
+
+    Times are on the recording's clock; ``time_origin_s`` is the start of its first
+    sample's interval (``duration_s`` counts from there). ``notes`` says what the reference
+    did not cover.
+    """
+
+    name: str
+    duration_s: float
+    rate_hz: float
+    align_start_s: float
+    nav_start_s: float
+    align: AlignConfig
+    schedule: Any
+    trajectory: Any
+    time_origin_s: float = 0.0
+    notes: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class _Named:
+    name: str
+
+
+@dataclass(frozen=True)
+class _Site:
+    lat0: float
+    lon0: float
+
+
+@dataclass
+class _Variant:
+    comp: PieceCompensator | None
+    aligner: Aligner
+    nav: Strapdown | None = None
+    gyro_bias: NDArray[np.float64] = field(default_factory=lambda: np.zeros(3))
+    accel_bias: NDArray[np.float64] = field(default_factory=lambda: np.zeros(3))
+    rows: list[NDArray[np.float64]] = field(default_factory=list)
+
+
+def navigate_recording(
+    pieces: Iterable[NavSamples],
+    reference: Reference,
+    window: Window,
+    align: AlignConfig,
+    dt: float,
+    compensators: Mapping[str, PieceCompensator | None] | None = None,
+    *,
+    name: str = "recording",
+    out_dt_s: float = 1.0,
+    vertical: VerticalMode = "hold",
+    schedule: str = "encoder",
+    use_heading_column: bool = True,
+    progress: Callable[[float], None] | None = None,
+) -> Any:
+    """Navigate a recording's variants side by side (the second pass).
+
+    Parameters
+    ----------
+    pieces : iterable of NavSamples
+        The recording, in time order (read again: the first pass found the window).
+    reference : Reference
+        Static site or track (a track in the pieces' ``ref`` columns wins).
+    window : Window
+        Alignment window (:func:`find_window`).
+    align : AlignConfig
+        Alignment settings (its ``start_s`` and length those of the window).
+    dt : float [s]
+        Nominal sample interval (the aligner's and strapdown's step; a longer interval, a
+        gap, is integrated with its own length).
+    compensators : mapping of str to PieceCompensator or None
+        Variants; default ``{"none": None}``.
+    out_dt_s : float [s]
+        Interval of the reported errors (a whole number of samples).
+    vertical : {"hold", "damped", "free"}
+        Vertical channel, held or damped to the reference height.
+    use_heading_column : bool
+        Take the body's true heading from the pieces' ``ref_heading`` (else only the
+        reference's ``heading``, e.g. one given on the command line).
+
+    Returns
+    -------
+    NavResult
+        ``errors`` per variant from the navigation start, where the reference exists
+        (a track's span, its finite values), ``truth`` (the reference) at the same times,
+        ``alignment`` per variant; ``config`` a :class:`RecordedRun`.
+
+    Raises
+    ------
+    LogError
+        When the alignment does not end before the recording does, nothing is left to
+        navigate, or the reference covers none of the navigated part.
+    """
+    comps = {"none": None} if compensators is None else dict(compensators)
+    if not comps:
+        raise ConfigError("navigate_recording: need at least one variant")
+    out_every = round(out_dt_s / dt)
+    if out_every < 1:
+        raise ConfigError(f"output interval {out_dt_s} s is shorter than a sample ({dt} s)")
+    variants: dict[str, _Variant] = {}
+    n_start = n_nav = None
+    truth_rows: list[NDArray] = []
+    consumed = 0
+    t_origin: float | None = None
+    unwrap = TableUnwrap()
+    track = _LogTrack(reference)
+    t_last = float("nan")
+    t_align = t_nav = float("nan")
+    for s in pieces:
+        if s.n == 0:
+            continue
+        if t_origin is None:
+            t_origin = float(s.t[0] - s.dt[0])
+        if n_start is None:
+            # the window starts at the first sample whose interval starts at window.start_s
+            n_before = int(np.searchsorted(s.t - s.dt, window.start_s - 0.25 * dt))
+            if n_before < s.n:
+                n_start = consumed + n_before
+                for vname, comp in comps.items():
+                    al = Aligner(
+                        reference.lat, reference.lon, reference.h, dt, align, vertical,
+                        k0=n_start,
+                    )  # fmt: skip
+                    variants[vname] = _Variant(comp, al)
+                n_nav = n_start + next(iter(variants.values())).aligner.n_total
+        gidx = consumed + np.arange(1, s.n + 1)
+        consumed += s.n
+        t_last = float(s.t[-1])
+        ref, valid = track(s)
+        if n_start is not None and gidx[0] <= n_start + 1 <= gidx[-1]:
+            i = n_start - (gidx[0] - 1)
+            t_align = float(s.t[i] - s.dt[i])
+        if n_nav is not None and gidx[0] <= n_nav <= gidx[-1]:
+            t_nav = float(s.t[n_nav - gidx[0]])
+        table = unwrap(s.table) if s.table is not None else np.zeros(s.n)
+        if n_start is None or gidx[-1] <= n_start:
+            comps_run = [c for c in comps.values() if c is not None]
+            for c in comps_run:  # the compensators' temperature history runs from power-on
+                c(s)
+            if progress is not None:
+                progress(t_last)
+            continue
+        assert n_nav is not None
+        sel = (gidx % out_every == 0) & (gidx > n_nav)
+        if sel.any():
+            column = s.ref_heading if use_heading_column else None
+            head = np.full(s.n, np.nan) if column is None else column
+            static = reference.track is None and s.ref is None
+            if column is None and reference.heading is not None:
+                if static:  # the body stands: its heading is the one given, all along
+                    head = np.full(s.n, reference.heading)
+                elif not truth_rows:  # a track: the heading given holds at the start only
+                    head[np.flatnonzero(sel)[0]] = reference.heading
+            truth_rows.append(
+                np.column_stack(
+                    [
+                        s.t[sel],
+                        ref[sel],
+                        head[sel],
+                        np.full((sel.sum(), 2), np.nan),
+                        table[sel],
+                        valid[sel],
+                    ]
+                )
+            )
+        i_first = max(0, n_start - (gidx[0] - 1))
+        for v in variants.values():
+            d_th, d_v = s.dtheta, s.dv
+            if v.comp is not None:
+                c = v.comp(s)
+                d_th = d_th - c[:, :3] * s.dt[:, None]
+                d_v = d_v - c[:, 3:] * s.dt[:, None]
+            i0 = i_first
+            if not v.aligner.done:
+                i0 += feed_and_hand_over(v, d_th[i_first:], d_v[i_first:])
+            if i0 < s.n:
+                assert v.nav is not None
+                step = s.dt[i0:, None]  # the estimates are rates: over each sample's own interval
+                out = _run_nav(
+                    v.nav, d_th[i0:] - v.gyro_bias * step, d_v[i0:] - v.accel_bias * step,
+                    s.dt[i0:], dt, ref[i0:, 2], ref[i0:, 5], out_every,
+                )  # fmt: skip
+                if out.shape[0]:
+                    v.rows.append(out)
+        if progress is not None:
+            progress(t_last)
+    if n_start is None or t_origin is None:
+        raise LogError(f"the alignment window ({window.start_s:g} s) starts after the recording")
+    if not all(v.aligner.done for v in variants.values()):
+        raise LogError(
+            f"the recording ends at {t_last:.1f} s, before the alignment "
+            f"({window.start_s:g} s + {window.length_s:g} s) does"
+        )
+    truth = np.concatenate(truth_rows) if truth_rows else np.empty((0, 12))
+    if truth.shape[0] == 0:
+        raise LogError(
+            f"the recording ends at {t_last:.1f} s, when the alignment "
+            f"({window.start_s:g} s + {window.length_s:g} s) does: nothing is left to "
+            "navigate (a shorter --align-s, or a longer recording)"
+        )
+    reference.overlap(float(truth[0, 0]), float(truth[-1, 0]))
+    keep = truth[:, 11] > 0
+    notes: list[str] = []
+    if not keep.any():
+        raise LogError(
+            f"the reference has no value at any navigated time ({truth[0, 0]:.1f}-"
+            f"{truth[-1, 0]:.1f} s): nothing to measure the errors against"
+        )
+    if not keep.all():
+        notes.append(
+            f"the reference covers {int(keep.sum())} of the {keep.size} output times "
+            f"({truth[keep, 0][0]:.1f}-{truth[keep, 0][-1]:.1f} s): errors are reported there only"
+        )
+    truth_df = pd.DataFrame(
+        {
+            "time_s": truth[:, 0],
+            "lat_deg": np.rad2deg(truth[:, 1]),
+            "lon_deg": np.rad2deg(truth[:, 2]),
+            "alt_m": truth[:, 3],
+            "v_e": truth[:, 4],
+            "v_n": truth[:, 5],
+            "v_u": truth[:, 6],
+            "heading_deg": np.rad2deg(truth[:, 7]),
+            "encoder_deg": np.rad2deg(truth[:, 10]),
+        }
+    )
+    errors = {}
+    for vname, v in variants.items():
+        rows = np.concatenate(v.rows) if v.rows else np.empty((0, 10))
+        errors[vname] = _error_frame(truth[keep, :11], rows[keep]).reset_index(drop=True)
+    truth_df = truth_df[keep].reset_index(drop=True)
+    alignment: dict[str, AlignResult | None] = {k: v.aligner.result() for k, v in variants.items()}
+    run = RecordedRun(
+        name=name,
+        duration_s=t_last - t_origin,
+        rate_hz=1.0 / dt,
+        align_start_s=t_align,
+        nav_start_s=t_nav,
+        align=align,
+        schedule=_Named(schedule),
+        trajectory=_Site(reference.lat, reference.lon),
+        time_origin_s=t_origin,
+        notes=tuple(notes),
+    )
+    return NavResult(run, truth_df, errors, alignment)  # type: ignore[arg-type]
+
+
+class _LogTrack:
+    """The reference at every sample of a piece: ``lat, lon, h, v_e, v_n, v_u`` and whether
+    it exists there. From the piece's own ``ref`` columns (velocities by second-order
+    backward differences, an empty cell holding the last value for the vertical hold), else
+    from :class:`Reference` (a track file exists over its span only)."""
+
+    def __init__(self, reference: Reference) -> None:
+        self.reference = reference
+        self._prev: NDArray | None = None  # the last two rows (lat, lon, h), finite
+
+    def __call__(self, s: NavSamples) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+        ref = self.reference
+        if s.ref is None:
+            out = ref.at(s.t)
+            return out, ref.covers(s.t)
+        r = np.array(s.ref, dtype=float)
+        valid = np.isfinite(r).all(axis=1)
+        if not valid.all():
+            last = (
+                self._prev[-1]
+                if self._prev is not None
+                else (r[valid][0] if valid.any() else np.array([ref.lat, ref.lon, ref.h]))
+            )
+            for j in range(3):
+                r[:, j] = _ffill(r[:, j], float(last[j]))
+        x = np.concatenate([np.repeat(r[:1], 2, axis=0) if self._prev is None else self._prev, r])
+        self._prev = x[-2:].copy()
+        rate = (3 * x[2:] - 4 * x[1:-1] + x[:-2]) / (2 * s.dt[:, None])
+        rn, re = earth.principal_radii(r[:, 0])
+        out = np.empty((s.n, 6))
+        out[:, :3] = r
+        out[:, 3] = rate[:, 1] * (re + r[:, 2]) * np.cos(r[:, 0])
+        out[:, 4] = rate[:, 0] * (rn + r[:, 2])
+        out[:, 5] = rate[:, 2]
+        return out, valid
+
+
+def _run_nav(
+    nav: Strapdown,
+    d_th: NDArray,
+    d_v: NDArray,
+    dts: NDArray,
+    dt: float,
+    alt_ref: NDArray,
+    vu_ref: NDArray,
+    out_every: int,
+) -> NDArray[np.float64]:
+    """Strapdown over a stretch; an interval longer than 1.5 steps (a gap) with its own length."""
+    gaps = np.flatnonzero(dts > GAP_FACTOR * dt)
+    if gaps.size == 0:
+        return nav.run(d_th, d_v, alt_ref=alt_ref, vu_ref=vu_ref, out_every=out_every)
+    outs = []
+    a = 0
+    for g in [*gaps.tolist(), None]:
+        b = d_th.shape[0] if g is None else g
+        if b > a:
+            outs.append(nav.run(d_th[a:b], d_v[a:b], alt_ref[a:b], vu_ref[a:b], out_every))
+        if g is not None:
+            nav.dt = float(dts[g])
+            outs.append(nav.run(d_th[g : g + 1], d_v[g : g + 1], alt_ref[g : g + 1],
+                                vu_ref[g : g + 1], out_every))  # fmt: skip
+            nav.dt = dt
+            a = g + 1
+    return np.concatenate(outs) if outs else np.empty((0, 10))

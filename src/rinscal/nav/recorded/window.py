@@ -1,0 +1,424 @@
+"""From the first pass's sums: the alignment window, the sensor noise, the plausibility checks
+and what the turntable did.
+
+What "quiet" means. The inertial-frame coarse alignment and the zero-velocity filter need
+the IMU's *centre* at rest; angular motion (the turntable turning, a base swinging about
+the IMU) is allowed, since the gyros follow it. So a second of data is quiet when ``|f|``
+is steady (rotation about the centre leaves it at g): its spread within the second is at
+most :data:`QUIET_FACTOR` × the recording's floor (the 10th percentile of every second's
+spread, i.e. the sensor noise where at least a tenth of the recording is at rest) and its
+mean moved by no more than that from the previous second. People walking around a vehicle
+shake the IMU's centre by millimetres at a few hertz, milli-g of acceleration, which this
+sees; a smooth constant acceleration it would not (a vehicle never drives that smoothly).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from rinscal import earth, units
+from rinscal.errors import ConfigError, LogError
+from rinscal.nav.align import AlignConfig
+from rinscal.nav.recorded.blocks import Blocks
+from rinscal.nav.scenario import align_from_noise
+
+__all__ = [
+    "FLOOR_PERCENTILE",
+    "LATITUDE_TOL_DEG",
+    "MIN_WINDOW_S",
+    "QUIET_FACTOR",
+    "Noise",
+    "Window",
+    "align_config",
+    "check_at_rest",
+    "check_encoder",
+    "estimate_noise",
+    "find_window",
+    "quiet_blocks",
+    "seen_schedule",
+]
+
+#: A block is quiet when the spread of ``|f|`` within it is at most this many times the floor.
+QUIET_FACTOR = 3.0
+#: Shortest stretch the window finder accepts [s] (the issue's "at least 300 s").
+MIN_WINDOW_S = 300.0
+#: Percentile of the per-second spread of ``|f|`` taken as the noise floor.
+FLOOR_PERCENTILE = 10.0
+#: The latitude the gyros measure at rest may differ from the site's by this much [deg]
+#: before the site is questioned (a 0.1 °/h gyro bias moves it by about 0.4°).
+LATITUDE_TOL_DEG = 2.0
+
+
+# --------------------------------------------------------------------------- the window
+@dataclass(frozen=True)
+class Window:
+    """The alignment window and how it was chosen.
+
+    Attributes
+    ----------
+    start_s, length_s : float [s]
+        Start (time since the recording's time origin) and length.
+    how : {"found", "given"}
+        Found by :func:`find_window` or set by hand.
+    quality : dict
+        ``floor_ug`` (the recording's noise floor of ``|f|`` per sample), ``threshold_ug``,
+        ``sd_ug_median`` and ``sd_ug_max`` (spread of ``|f|`` within the window's seconds),
+        ``quiet_fraction`` (of its seconds), ``stretch_s`` (length of the quiet stretch it
+        starts, when found).
+    """
+
+    start_s: float
+    length_s: float
+    how: str
+    quality: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def end_s(self) -> float:
+        return self.start_s + self.length_s
+
+
+def quiet_blocks(blocks: Blocks) -> tuple[NDArray[np.bool_], float, float]:
+    """Which seconds are quiet, the floor and the threshold of ``|f|``'s spread [m/s²].
+
+    A block holding fewer than half the usual samples (the recording's ends) or a gap is
+    never quiet. One loud second between quiet ones (a turntable starting with a jerk) is
+    forgiven.
+    """
+    full = blocks.n >= 0.5 * np.median(blocks.n)
+    if blocks.gaps is not None:  # the aligner steps by the nominal interval: no gap in it
+        full = full & ~blocks.gaps
+    sd = blocks.fmag_sd
+    floor = float(np.percentile(sd[full], FLOOR_PERCENTILE)) if full.any() else float("nan")
+    thr = QUIET_FACTOR * max(floor, 1e-9)
+    jump = np.abs(np.diff(blocks.fmag_mean, prepend=blocks.fmag_mean[:1]))
+    quiet = full & (sd <= thr) & (jump <= thr)
+    lone = np.zeros_like(quiet)
+    lone[1:-1] = ~quiet[1:-1] & quiet[:-2] & quiet[2:] & full[1:-1]
+    return quiet | lone, floor, thr
+
+
+def _stretches(quiet: NDArray[np.bool_]) -> list[tuple[int, int]]:
+    """[a, b) index ranges of consecutive True."""
+    q = np.concatenate([[False], quiet, [False]]).astype(np.int8)
+    d = np.diff(q)
+    return list(zip(np.flatnonzero(d == 1).tolist(), np.flatnonzero(d == -1).tolist(), strict=True))
+
+
+def find_window(
+    blocks: Blocks,
+    align_s: float,
+    min_s: float = MIN_WINDOW_S,
+    start_s: float | None = None,
+) -> Window:
+    """The alignment window: the earliest quiet stretch of at least ``min_s``, up to ``align_s``.
+
+    Parameters
+    ----------
+    blocks : Blocks
+        The first pass.
+    align_s : float [s]
+        Longest alignment wanted (the window is cut to it).
+    min_s : float [s]
+        Shortest acceptable window (at most ``align_s``).
+    start_s : float, optional [s]
+        Set the window by hand: ``[start_s, start_s + align_s)``; it is checked (its quiet
+        fraction reported) but not moved.
+
+    Raises
+    ------
+    LogError
+        When no quiet stretch is long enough (naming the quietest found), or a given window
+        lies outside the recording.
+    """
+    if not (math.isfinite(align_s) and align_s > 0):
+        raise ConfigError(f"alignment length must be > 0 s, got {align_s}")
+    quiet, floor, thr = quiet_blocks(blocks)
+    ug = units.UG_TO_MPS2
+    base = {"floor_ug": floor / ug, "threshold_ug": thr / ug}
+    t_first, t_last = float(blocks.t0[0]), float(blocks.t1[-1])
+
+    def rate(sel: NDArray[np.bool_]) -> dict[str, float]:
+        sd = blocks.fmag_sd[sel]
+        return {
+            **base,
+            "sd_ug_median": float(np.median(sd)) / ug if sd.size else float("nan"),
+            "sd_ug_max": float(np.max(sd)) / ug if sd.size else float("nan"),
+            "quiet_fraction": float(np.mean(quiet[sel])) if sd.size else 0.0,
+        }
+
+    if start_s is not None:
+        end = start_s + align_s
+        if start_s < t_first - 1e-9 or end > t_last + 1e-6:
+            raise LogError(
+                f"alignment window {start_s:g}-{end:g} s lies outside the recording "
+                f"({t_first:g}-{t_last:g} s)"
+            )
+        return Window(start_s, align_s, "given", rate(blocks.select(start_s, end)))
+    min_s = min(min_s, align_s)
+    best: tuple[float, float] = (float("nan"), 0.0)
+    for a, b in _stretches(quiet):
+        t0, t1 = float(blocks.t0[a]), float(blocks.t1[b - 1])
+        if t1 - t0 > best[1]:
+            best = (t0, t1 - t0)
+        if t1 - t0 >= min_s - 0.5 * blocks.dt:
+            length = min(t1 - t0, align_s)
+            q = rate(blocks.select(t0, t0 + length))
+            q["stretch_s"] = t1 - t0
+            return Window(t0, length, "found", q)
+    what = (
+        f"the longest quiet stretch is {best[1]:.0f} s from {best[0]:.0f} s"
+        if best[1] > 0
+        else "no second of it is quiet"
+    )
+    raise LogError(
+        f"no static window of at least {min_s:g} s to align on: {what} (quiet: the spread of "
+        f"|f| within a second at most {thr / ug:.0f} µg, {QUIET_FACTOR:g} × the recording's "
+        f"floor of {floor / ug:.0f} µg); set one by hand with --align-start-s and --align-s"
+    )
+
+
+# --------------------------------------------------------------------------- noise, checks
+@dataclass(frozen=True)
+class Noise:
+    """White-noise densities and bias random walks the alignment filter assumes.
+
+    Attributes
+    ----------
+    gyro_density : float [rad/√s]
+    accel_density : float [m/s²/√Hz]
+    gyro_bias_rw : float [rad/s/√s]
+    accel_bias_rw : float [m/s²/√s]
+    source : str
+        ``"metadata"``, ``"--imu NAME"`` or ``"estimated on the window"``.
+    """
+
+    gyro_density: float
+    accel_density: float
+    gyro_bias_rw: float = 0.0
+    accel_bias_rw: float = 0.0
+    source: str = "given"
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "source": self.source,
+            "gyro_arw_deg_per_rth": self.gyro_density / units.DPRH_TO_RPRS,
+            "accel_vrw_ug_per_rthz": self.accel_density / units.UG_TO_MPS2,
+        }
+
+
+def estimate_noise(blocks: Blocks, window: Window) -> Noise:
+    """White-noise densities from the first differences within the window's seconds.
+
+    The per-sample variance is half the mean square of first differences (white noise:
+    ``var(x_k − x_{k−1}) = 2σ²``; a smooth motion adds ``O((a·dt)²)``), the median over the
+    window's seconds (a turntable's start and stop spoil a few). Density = σ·√dt.
+    """
+    sel = blocks.select(window.start_s, window.end_s)
+    if not sel.any():
+        raise LogError("the alignment window holds no complete second to estimate noise on")
+    dt = blocks.dt
+    w_sd = np.sqrt(np.median(blocks.w_dvar[sel], axis=0))
+    f_sd = np.sqrt(np.median(blocks.f_dvar[sel], axis=0))
+    # x and y: the table turns about z, whose rate changes at the stops
+    return Noise(
+        gyro_density=float(np.mean(w_sd[:2]) * math.sqrt(dt)),
+        accel_density=float(np.mean(f_sd) * math.sqrt(dt)),
+        source="estimated on the window",
+    )
+
+
+def check_at_rest(
+    blocks: Blocks, window: Window, lat: float, h: float
+) -> tuple[dict[str, Any], list[str]]:
+    """Plausibility of the units on the alignment window: |f| against g, |ω| against Earth rate.
+
+    Returns the measured values and warnings; raises for a factor no sensor error explains
+    (a wrong unit: deg/s read as rad/s, counts without weights, increments read as rates).
+
+    Parameters
+    ----------
+    lat : float [rad]
+    h : float [m]
+
+    Raises
+    ------
+    LogError
+        When ``|f|`` differs from local gravity by more than 10 % or the rate at rest from
+        the Earth rate by more than a factor 20.
+    """
+    sel = blocks.select(window.start_s, window.end_s)
+    if not sel.any():
+        raise LogError("the alignment window holds no complete second")
+    g = float(earth.gravity(lat, h))
+    n = blocks.n[sel]
+    fbar = float(np.sum(blocks.fmag_mean[sel] * n) / np.sum(n))
+    out: dict[str, Any] = {"f_mps2": fbar, "g_mps2": g, "f_over_g": fbar / g}
+    warn: list[str] = []
+    ratio = fbar / g
+    if not 0.9 <= ratio <= 1.1:
+        raise LogError(
+            f"at rest the accelerometers read |f| = {fbar:.6g} m/s² where local gravity is "
+            f"{g:.5f} m/s² (× {ratio:.4g}): wrong accelerometer units"
+            f"{_factor_hint(ratio, blocks.dt, 'accel')}"
+        )
+    if abs(ratio - 1) > 0.01:
+        warn.append(f"at rest |f| is {100 * (ratio - 1):+.2f} % from local gravity")
+    # rate at rest: the turntable's turn (encoder) removed from z, seconds it stood still
+    w = blocks.w_mean[sel].copy()
+    span = blocks.t1[sel] - blocks.t0[sel]
+    if blocks.has_table:
+        w[:, 2] -= blocks.table_turn[sel] / np.maximum(span, 1e-9)
+        still = np.ones(w.shape[0], dtype=bool)
+    else:  # no encoder: the seconds whose rate is smallest (the table's dwells)
+        mag = np.linalg.norm(w, axis=1)
+        still = mag <= np.percentile(mag, 25)
+        turns = np.abs(w[:, 2]) > 5 * earth.RATE
+        if np.mean(turns) > 0.5 and np.median(np.abs(w[:, 2]) / np.maximum(mag, 1e-30)) > 0.99:
+            out["omega_checked"] = False
+            warn.append(
+                "the gyros were not checked against the Earth rate: the table turns all "
+                "through the window and the log has no encoder angle"
+            )
+            return out, warn
+    wbar = float(np.median(np.linalg.norm(w[still], axis=1)))
+    rr = wbar / earth.RATE
+    out.update({"omega_dph": wbar / units.DPH_TO_RPS, "earth_rate_dph": earth.RATE /
+                units.DPH_TO_RPS, "omega_over_earth_rate": rr, "omega_checked": True})  # fmt: skip
+    if not 1 / 20 <= rr <= 20:
+        raise LogError(
+            f"at rest the gyros read |ω| = {wbar / units.DPH_TO_RPS:.6g} °/h where the Earth "
+            f"turns at {earth.RATE / units.DPH_TO_RPS:.4f} °/h (× {rr:.4g}): wrong gyro "
+            f"units{_factor_hint(rr, blocks.dt, 'gyro')}, or a gyro whose bias is beyond "
+            "20 × the Earth rate (a consumer MEMS cannot find north by itself)"
+        )
+    if not 0.5 <= rr <= 2:
+        warn.append(
+            f"at rest |ω| is {rr:.2f} × the Earth rate (a gyro bias of that size spoils "
+            "the heading of any alignment)"
+        )
+        return out, warn
+    # the latitude the IMU measures: the angle between the Earth rate and gravity
+    f = blocks.f_mean[sel][still]
+    ws = w[still]
+    cosang = np.einsum("ij,ij->i", ws, f) / (np.linalg.norm(ws, axis=1) * np.linalg.norm(f, axis=1))
+    lat_meas = float(np.median(np.arcsin(np.clip(cosang, -1.0, 1.0))))
+    out["latitude_measured_deg"] = math.degrees(lat_meas)
+    if abs(lat_meas - lat) > math.radians(LATITUDE_TOL_DEG):
+        warn.append(
+            f"the gyros at rest measure latitude {math.degrees(lat_meas):.2f}° (the angle "
+            f"between the Earth rate and gravity), the site says {math.degrees(lat):.2f}°: "
+            "is the site right (the sign of its latitude)?"
+        )
+    return out, warn
+
+
+def check_encoder(blocks: Blocks) -> list[str]:
+    """The encoder against the z gyro over the seconds the table turns: same sense, same unit.
+
+    A wrong ``table_sign`` or ``table_unit`` does not touch the navigation (it runs in the
+    IMU frame) but turns every heading error into nonsense; the gyro knows the truth. The
+    sense is judged where both turn (a vehicle's own yaw is in the gyro, not the encoder);
+    the unit where the gyro turns, only when the ratio is a degree-radian factor.
+    """
+    if not blocks.has_table:
+        return []
+    span = np.maximum(blocks.t1 - blocks.t0, 1e-9)
+    gyro = blocks.w_mean[:, 2] * span
+    fast = 1.0 * units.DEG_TO_RAD * span
+    both = (np.abs(gyro) > fast) & (np.abs(blocks.table_turn) > fast)
+    out = []
+    if both.sum() >= 3 and float(np.sum(np.sign(blocks.table_turn[both]) * gyro[both])) < 0:
+        out.append(
+            "the encoder turns against the z gyro (the IMU's own turn): its sign is wrong "
+            "(table_sign in the mapping); positive table_deg turns the IMU counter-clockwise "
+            "seen from above, as the z gyro reads it"
+        )
+    turning = np.abs(gyro) > fast
+    if turning.sum() >= 3:
+        size = float(np.sum(np.abs(blocks.table_turn[turning])) / np.sum(np.abs(gyro[turning])))
+        for k in (units.DEG_TO_RAD, 1 / units.DEG_TO_RAD):
+            if abs(math.log(size / k)) < math.log(1.1):
+                out.append(
+                    f"the encoder turns {size:.3g} × what the z gyro turns while the table "
+                    "moves: its unit is wrong (table_unit in the mapping: deg or rad)"
+                )
+    return out
+
+
+#: Factors a wrong unit gives, by sensor: what is read as what.
+_UNIT_FACTORS: dict[str, tuple[tuple[float, str], ...]] = {
+    "gyro": (
+        (1 / units.DEG_TO_RAD, "deg/s read as rad/s"),
+        (units.DEG_TO_RAD, "rad/s read as deg/s"),
+        (3600.0, "deg/h read as deg/s"),
+        (1 / 3600.0, "deg/s read as deg/h"),
+        (1 / units.DPH_TO_RPS, "deg/h read as rad/s"),
+        (units.DPH_TO_RPS, "rad/s read as deg/h"),
+    ),
+    "accel": (
+        (1 / units.UG_TO_MPS2, "µg read as m/s²"),
+        (1 / units.MG_TO_MPS2, "mg read as m/s²"),
+        (units.G0, "m/s² read as g"),
+        (1 / units.G0, "g read as m/s²"),
+        (1e3, "µg read as mg"),
+        (1e-3, "mg read as µg"),
+    ),
+}
+
+
+def _factor_hint(ratio: float, dt: float, sensor: str) -> str:
+    """Name the unit mix-up a measured/expected ratio points to, if one is near (10 %)."""
+    cands = [
+        *_UNIT_FACTORS[sensor],
+        (dt, "increments read as rates (× the interval)"),
+        (1 / dt, "rates read as increments"),
+    ]
+    for k, what in cands:
+        if abs(math.log(ratio / k)) < math.log(1.1):
+            return f" ({what}?)"
+    return " (counts without pulse weights, or a unit mix-up)"
+
+
+def seen_schedule(blocks: Blocks) -> dict[str, Any]:
+    """What the encoder says the turntable did: positions held, dwell, turning rate."""
+    if not blocks.has_table:
+        return {"source": "none (no encoder angle: the IMU is fixed to the body)"}
+    span = np.maximum(blocks.t1 - blocks.t0, 1e-9)
+    rate = blocks.table_turn / span
+    angle = blocks.table_start + np.cumsum(blocks.table_turn)  # at each block's end
+    still = np.abs(rate) < 0.1 * units.DEG_TO_RAD
+    dwell = [(a, b) for a, b in _stretches(still) if b - a >= 2]
+    pos = sorted({round(float(np.rad2deg(angle[a:b].mean())) % 360.0) % 360 for a, b in dwell})
+    moving = ~still
+    return {
+        "source": "encoder",
+        "positions_deg": [p if p <= 180 else p - 360 for p in pos][:24],
+        "dwells": len(dwell),
+        "dwell_s_median": float(np.median([blocks.t1[b - 1] - blocks.t0[a] for a, b in dwell]))
+        if dwell
+        else 0.0,
+        "turning_rate_dps_median": float(np.median(np.abs(rate[moving])) / units.DEG_TO_RAD)
+        if moving.any()
+        else 0.0,
+        "total_turn_deg": float(np.sum(np.abs(blocks.table_turn)) / units.DEG_TO_RAD),
+    }
+
+
+def align_config(
+    noise: Noise, window: Window, coarse_s: float = 60.0, base: AlignConfig | None = None
+) -> AlignConfig:
+    """Alignment settings for a window and a noise (bias Markov floors as :func:`align_for`)."""
+    return align_from_noise(
+        noise.gyro_density,
+        noise.accel_density,
+        noise.gyro_bias_rw,
+        noise.accel_bias_rw,
+        total_s=window.length_s,
+        coarse_s=coarse_s,
+        start_s=max(window.start_s, 0.0),  # informative only: a log's clock may start < 0
+    )
