@@ -167,8 +167,8 @@ def test_run_factors_give_the_fit_of_all_rows(soak_small) -> None:
     least-squares fit of all rows at once (an independent QR of the stacked design)."""
     from rinscal.calibration.inference import predict_params
     from rinscal.calibration.thermal.dispatch import fit_params
-    from rinscal.calibration.thermal.runs import RunFits
     from rinscal.calibration.thermal.features import build_features
+    from rinscal.calibration.thermal.runs import RunFits
 
     log, _, _ = soak_small
     f = build_features(log)

@@ -5,7 +5,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rinscal.cli.navigate import model_compensator
 from rinscal.errors import ModelFileError
 from rinscal.nav.scenario import (
     ModelCompensator,
@@ -14,6 +13,7 @@ from rinscal.nav.scenario import (
     preset,
     run_scenario,
 )
+from rinscal.nav.workflow import model_compensator
 from rinscal.thermal.config import ImuConfig
 
 IMU = ImuConfig.navigation_grade()

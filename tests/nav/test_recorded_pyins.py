@@ -4,7 +4,8 @@ What is compared. A strapdown recording (the turntable does not turn, the IMU is
 the body) with the paper IMU's real sensor errors (turn-on bias, thermal drift, noise) is
 simulated, written in the recorded-navigation log's columns (SI increments) and turned
 into :class:`rinscal.schema.NavSamples` by hand.
-:func:`rinscal.nav.recorded.navigate.navigate_recording` aligns on the window [0, 600 s) and navigates the rest. pyins then navigates the same
+:func:`rinscal.nav.recorded.navigate.navigate_recording` aligns on the window [0, 600 s)
+and navigates the rest. pyins then navigates the same
 recorded increments after the navigation start from rinscal's alignment outcome (attitude
 ``C_nr``, the site, velocity zero), minus the same gyro and accelerometer bias estimates
 × dt, and its horizontal error is taken against the same truth at the same output times

@@ -1,4 +1,5 @@
-"""CLI commands: fit, select, compensate, evaluate, export (thermal calibration).
+"""CLI commands: fit and select (thermal calibration; applying a model is in
+:mod:`rinscal.cli.compensate`).
 
 Thin wrappers over :mod:`rinscal.calibration`: read the log (through a column mapping for a
 foreign log), call a library function that returns data, print a table or JSON, write files
@@ -7,10 +8,8 @@ atomically. Library errors become messages and exit code 2.
 
 from __future__ import annotations
 
-import contextlib
 import json
 import math
-from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
@@ -22,7 +21,6 @@ from rinscal.cli._options import (
     InstanceOpt,
     LogArg,
     MapOpt,
-    PolicyOpt,
     RelTimeOpt,
     SepOpt,
     TempColOpt,
@@ -32,11 +30,8 @@ from rinscal.cli._options import (
 )
 
 if TYPE_CHECKING:
-    import numpy as np
     import pandas as pd
 
-    from rinscal.calibration.modelfile import ThermalModelFile
-    from rinscal.io.tables import SourceLog
 
 _METHODS = ("auto", "poly-t", "sectional", "regression", "neural", "px4", "ardupilot")
 
@@ -133,20 +128,6 @@ def _floats(text: str | None, option: str) -> tuple[float, ...] | None:
         return tuple(float(v) for v in text.split(","))
     except ValueError:
         raise fail(f"{option}: {text!r} is not a comma-separated list of numbers") from None
-
-
-def model_label(cm: Any) -> str:
-    """A channel's model in words: the auto choice, or the method and its settings."""
-    if cm.selection is not None:
-        return str(cm.selection["chosen"])
-    p = cm.params
-    if p["method"] == "regression":
-        return "regression " + ",".join(str(o) for o in p["orders"])
-    if p["method"] == "poly-t":
-        return "none" if len(p["coef"]) == 1 else f"poly-t {len(p['coef']) - 1}"
-    if p["method"] == "neural":
-        return f"neural {len(p['b'])}"
-    return str(p["method"])
 
 
 def _fmt(v: Any, digits: int = 4) -> str:
@@ -271,17 +252,13 @@ def fit(
     among no compensation, the PX4 and ArduPilot fits, cubic-type polynomials in T and the
     paper's regression, the simplest within noise of the best.
     """
-    import warnings
-
+    # deferred: the library loads numpy, pandas and numba; `rinscal --help` must not
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
     from rich.table import Table
 
-    from rinscal.calibration.thermal.features import DerivativeConfig, MissingGradientWarning
-    from rinscal.calibration.thermal.guards import TrainingDataWarning
-    from rinscal.calibration.thermal.model import ThermalModel
+    from rinscal.calibration.workflow import fit as fit_log
     from rinscal.cli._app import console, err_console, fail, styled
     from rinscal.errors import RinscalError
-    from rinscal.io.streaming import by_runs
 
     if method not in _METHODS:
         raise fail(f"--method must be one of {', '.join(_METHODS)}, got {method!r}")
@@ -293,9 +270,6 @@ def fit(
         raise fail("--candidates applies to --method auto only")
     inputs = [log] + ([map_file] if map_file is not None else [])
     refuse_inputs(out, inputs)
-    params: dict[str, Any] = {}
-    if max_samples is not None:
-        params["max_samples"] = max_samples
     try:
         with Progress(
             TextColumn("{task.description}"),
@@ -310,55 +284,35 @@ def fit(
                 log, (map_file, col, time_col, time_unit, sep, temp_col), relative_time, instance
             )
             meta.update(_static_options(latitude, heading, static_ref))
-            model = ThermalModel(
+
+            def step(channel: str, n: int) -> None:
+                progress.update(task, advance=1, description=f"fitted {channel}")
+                progress.update(task, total=n)
+
+            result = fit_log(
+                log,
                 method,
+                meta=meta,
+                mapping=mapping,
                 orders=_ints(orders, "--orders"),
                 hidden=hidden,
                 edges=_floats(edges, "--edges"),
-                derivative=DerivativeConfig(window, "causal" if causal else "centred"),
-                use_gradient=False if no_gradient else None,
-                random_state=seed,
-                estimator_params=params or None,
-                tolerance=tolerance,
+                window_s=window,
+                causal=causal,
+                gradient=False if no_gradient else None,
                 temp_range=(lo_hi[0], lo_hi[1]),
-                **({"candidates": fams} if fams is not None else {}),
+                tolerance=tolerance,
+                candidates=fams,
+                seed=seed,
+                max_samples=max_samples,
+                on_run=lambda k: progress.update(task, description=f"features of run {k}"),
+                on_channel=step,
             )
-
-            def runs(sources: Iterator[SourceLog]) -> Iterator[tuple[pd.DataFrame, int]]:
-                # no enumerate: its reused result tuple would hold the last run while the
-                # next is read (two runs in memory at once)
-                k = 0
-                for src in sources:
-                    k += 1
-                    progress.update(task, description=f"features of run {k}")
-                    yield src.log, src.first_row
-                    del src  # nor this frame
-
-            def step(channel: str) -> None:
-                progress.update(task, advance=1, description=f"fitted {channel}")
-                progress.update(task, total=len(model.channels))
-
-            with warnings.catch_warnings(record=True) as fit_warnings:
-                warnings.simplefilter("always", TrainingDataWarning)
-                warnings.simplefilter("always", MissingGradientWarning)
-                by_runs(  # run by run: memory bounded by the longest run
-                    log,
-                    mapping,
-                    lambda s: model.fit_runs(runs(s), meta, on_channel=step, source=str(log)),
-                )
-            mf = model.to_file(source={"log": log.name})
-            mf.save(out)
+            result.save(out)
     except RinscalError as exc:
         raise fail(str(exc)) from None
-    for w in fit_warnings:
-        if issubclass(w.category, MissingGradientWarning):
-            err_console.print(styled("warning:", "yellow", f" {w.message}"), highlight=False)
-    for w in fit_warnings:
-        if issubclass(w.category, TrainingDataWarning):
-            err_console.print(
-                styled("warning:", "yellow", f" {log}: {w.message}"),
-                highlight=False,
-            )
+    for text in result.warnings:
+        err_console.print(styled("warning:", "yellow", f" {text}"), highlight=False)
     table = Table(title=f"{method} model of {log.name}: training residual (Eq. 16)")
     cols = ["channel", "model", "samples", "masked", "T range [°C]", "RMS*"]
     if method == "auto":
@@ -366,42 +320,20 @@ def fit(
     for name in cols:
         left = name in ("channel", "model", "T range [°C]")
         table.add_column(name, justify="left" if left else "right")
-    for c in mf.channels:
-        cm = mf.models[c]
-        m = cm.metrics
+    for r in result.table.to_dict("records"):
         row = [
-            f"{c} ({cm.unit or '?'})",
-            model_label(cm),
-            f"{int(m['n_train']):,}",
-            f"{int(m['n_outliers']):,}",
-            f"{cm.train_range[0, 0]:.2f} .. {cm.train_range[0, 1]:.2f}",
-            _fmt(m["rms_train_about_run_mean"]),
+            f"{r['channel']} ({r['unit'] or '?'})",
+            r["model"],
+            f"{r['samples']:,}",
+            f"{r['masked']:,}",
+            f"{r['t_min_c']:.2f} .. {r['t_max_c']:.2f}",
+            _fmt(r["rms_train"]),
         ]
-        if method == "auto" and cm.selection is not None:
-            by_name = {r["name"]: r for r in cm.selection["table"]}
-            row += [
-                _fmt(by_name[cm.selection["chosen"]]["heldout_rms"]),
-                _fmt(by_name.get("none", {}).get("heldout_rms")),
-            ]
+        if method == "auto" and "heldout_rms" in r:
+            row += [_fmt(r["heldout_rms"]), _fmt(r["none_heldout_rms"])]
         table.add_row(*row)
     print_table(console, table)
-    note = (
-        "masked: outlier samples left out of the fit; RMS* of the training residual about "
-        "each run's mean (turn-on offsets removed)."
-    )
-    if method == "auto":
-        first = next(iter(mf.models.values())).selection or {}
-        scheme, parts = first.get("scheme", "?"), len(first.get("folds", []))
-        how = (
-            f"leave-one-leg-out, scored on {parts} blocks"
-            if scheme == "legs"
-            else f"{scheme} over {parts} folds"
-        )
-        note += (
-            f" Held-out: RMS of 60 s means of the residual, {how} (rinscal select LOG "
-            "--method auto shows every candidate)."
-        )
-    console.print(f"{note} wrote {out}", highlight=False, soft_wrap=True)
+    console.print(f"{result.note} wrote {out}", highlight=False, soft_wrap=True)
 
 
 @app.command("select")
@@ -668,393 +600,12 @@ def _select_auto(
     )
 
 
-@app.command("compensate")
-def compensate_cmd(
-    log: LogArg,
-    model: ModelOpt,
-    out: Annotated[Path, typer.Option("--out", "-o", help="Compensated log to write.")],
-    policy: PolicyOpt = "clamp",
-    causal: Annotated[
-        bool, typer.Option("--causal", help="Use the causal temperature rate (as in real time).")
-    ] = False,
-    map_file: MapOpt = None,
-    col: ColOpt = None,
-    time_col: TimeColOpt = None,
-    time_unit: TimeUnitOpt = None,
-    sep: SepOpt = None,
-    temp_col: TempColOpt = None,
-    relative_time: RelTimeOpt = False,
-    instance: InstanceOpt = None,
-    ignore_units: IgnoreUnitsOpt = False,
-) -> None:
-    """Compensate every sensor channel (Eq. 10); add the out_of_range flag column."""
-    from rinscal.calibration.compensate import FLAG_COLUMN, check_units, describe_reference
-    from rinscal.calibration.modelfile import POLICIES
-    from rinscal.cli._app import console, err_console, fail
-    from rinscal.errors import RangeError, RinscalError
-    from rinscal.io.metadata import meta_path, write_meta
-    from rinscal.io.streaming import by_runs
-
-    if policy not in POLICIES:
-        raise fail(f"--policy must be one of {', '.join(POLICIES)}, got {policy!r}")
-    inputs = [log, meta_path(log), model] + ([map_file] if map_file is not None else [])
-    refuse_inputs(out, inputs, also=[meta_path(out)])
-    try:
-        mf, mapping, meta = _model_for(
-            model, log, (map_file, col, time_col, time_unit, sep, temp_col), relative_time, instance
-        )
-        if not ignore_units:
-            check_units(mf, meta, str(log))
-        kind = "causal" if causal else None
-        rows, shares = by_runs(  # run by run: memory bounded by the longest run
-            log, mapping, lambda s: _compensate_runs(s, mf, policy, kind, out, FLAG_COLUMN)
-        )
-        if meta:
-            meta = dict(meta)
-            meta["compensated"] = {
-                "model": model.name,
-                "sha256": mf.to_dict()["sha256"],
-                "method": mf.method,
-                "policy": policy,
-                "derivative": "causal" if causal else mf.derivative_kind,
-            }
-            write_meta(meta, out)
-    except RangeError as exc:  # about a data row of LOG: name the file
-        raise fail(f"{log}: {exc}") from None
-    except RinscalError as exc:
-        raise fail(str(exc)) from None
-    n_flag = sum(k for k, _ in shares.values())
-    console.print(
-        f"wrote {out}: {rows:,} rows, {len(mf.channels)} channel(s) compensated with the "
-        f"{mf.method} model; {n_flag:,} row(s) outside the training data ({policy})",
-        highlight=False,
-        soft_wrap=True,
-    )
-    for run, (k, n) in shares.items():
-        console.print(f"  {run}: {k / n:.1%} of rows flagged", highlight=False)
-    summary, missing = describe_reference(mf)
-    console.print(summary, highlight=False, soft_wrap=True)
-    if missing:
-        err_console.print(
-            f"warning: {', '.join(missing)}: the model has no static reference, so their "
-            "static level (gravity, Earth rate) was removed with the thermal bias; refit with "
-            "--latitude/--heading or --static-ref to keep it",
-            highlight=False,
-            soft_wrap=True,
-            markup=False,
-        )
-
-
-def _model_for(
-    model: Path,
-    log: Path,
-    read_args: tuple[Any, ...],
-    relative_time: bool,
-    instance: str | None = None,
-) -> tuple[ThermalModelFile, Any, dict[str, Any]]:
-    """A model file, and the mapping and metadata to read ``log`` with (for its units)."""
-    from rinscal.calibration.modelfile import ThermalModelFile
-
-    mf = ThermalModelFile.load(model)
-    return mf, *_mapping_meta(log, read_args, relative_time, instance)
-
-
 def _mapping_meta(
     log: Path, read_args: tuple[Any, ...], relative_time: bool, instance: str | None
 ) -> tuple[Any, dict[str, Any]]:
     """How to read ``log`` (a column mapping, flight-log options or None) and its metadata."""
+    # deferred: the io layer loads pandas; `rinscal --help` must not
     from rinscal.io.foreign import foreign_mapping, foreign_meta
 
     mapping = foreign_mapping(*read_args, relative_time=relative_time, instance=instance, log=log)
     return mapping, foreign_meta(log, mapping)
-
-
-def _compensate_runs(
-    sources: Iterator[SourceLog],
-    mf: ThermalModelFile,
-    policy: str,
-    kind: str | None,
-    out: Path,
-    flag_column: str,
-) -> tuple[int, dict[str, tuple[int, int]]]:
-    """Compensate runs as they are read and write each at once (the file's own table back,
-    its channels compensated, nothing else touched); rows written, and per run the rows
-    flagged out of range and the rows."""
-    from rinscal.calibration.compensate import compensated_channels
-    from rinscal.io.streaming import LogStreamWriter
-    from rinscal.io.tables import format_of
-
-    shares: dict[str, tuple[int, int]] = {}
-    writer: LogStreamWriter | None = None
-    with contextlib.ExitStack() as stack:
-        for src in sources:
-            if writer is None:
-                same_kind = format_of(out) != "parquet" and src.sep is not None
-                writer = stack.enter_context(
-                    LogStreamWriter(out, validate=False, sep=src.sep if same_kind else None)
-                )
-            values, flagged = compensated_channels(
-                src.log,
-                mf,
-                policy,
-                kind,
-                first_row=src.first_row,  # type: ignore[arg-type]
-            )
-            writer.write(src.write_back(values, {flag_column: flagged}))
-            runs = src.log["run"]
-            for run, k, n in zip(*_run_counts(runs, flagged), strict=True):
-                k0, n0 = shares.get(run, (0, 0))
-                shares[run] = (k0 + k, n0 + n)
-        rows = writer.rows if writer is not None else 0
-    return rows, shares
-
-
-def _run_counts(run: pd.Series, flagged: np.ndarray) -> tuple[list[str], list[int], list[int]]:
-    """Each run's name, flagged rows and rows, in order of first appearance."""
-    import numpy as np
-    import pandas as pd
-
-    codes, names = pd.factorize(run, sort=False)
-    k = np.bincount(codes, weights=flagged, minlength=len(names))
-    n = np.bincount(codes, minlength=len(names))
-    return [str(v) for v in names], [int(v) for v in k], [int(v) for v in n]
-
-
-@app.command("evaluate")
-def evaluate_cmd(
-    log: LogArg,
-    model: ModelOpt,
-    policy: PolicyOpt = "clamp",
-    causal: Annotated[
-        bool, typer.Option("--causal", help="Use the causal temperature rate.")
-    ] = False,
-    step_window: Annotated[
-        float,
-        typer.Option(
-            "--step-window",
-            min=1.0,
-            max=86400.0,
-            help="Fit window on each side of an edge [s], 1-86400.",
-        ),
-    ] = 120.0,
-    allan_plot: Annotated[
-        Path | None,
-        typer.Option(
-            "--allan-plot",
-            help="Write the Allan deviation of raw and compensated output (log-log, one "
-            "panel per channel, longest run) to this PNG.",
-        ),
-    ] = None,
-    as_json: JsonOpt = False,
-    map_file: MapOpt = None,
-    col: ColOpt = None,
-    time_col: TimeColOpt = None,
-    time_unit: TimeUnitOpt = None,
-    sep: SepOpt = None,
-    temp_col: TempColOpt = None,
-    relative_time: RelTimeOpt = False,
-    instance: InstanceOpt = None,
-    ignore_units: IgnoreUnitsOpt = False,
-) -> None:
-    """RMS (Eq. 16, about each run's mean) before/after compensation; steps at segment edges.
-
-    Also: each channel's model (the auto choice), the share of samples outside the training
-    data per run, and the Allan deviation noise parameters of raw and compensated output.
-    """
-    from rich.table import Table
-
-    from rinscal.calibration.compensate import check_units
-    from rinscal.calibration.evaluate import StepConfig, evaluate_runs
-    from rinscal.calibration.modelfile import POLICIES
-    from rinscal.cli._app import console, fail
-    from rinscal.errors import RangeError, RinscalError
-    from rinscal.io.streaming import by_runs
-
-    if policy not in POLICIES:
-        raise fail(f"--policy must be one of {', '.join(POLICIES)}, got {policy!r}")
-    inputs = [log, model] + ([map_file] if map_file is not None else [])
-    if allan_plot is not None:
-        refuse_inputs(allan_plot, inputs)
-    try:
-        mf, mapping, meta = _model_for(
-            model, log, (map_file, col, time_col, time_unit, sep, temp_col), relative_time, instance
-        )
-        if not ignore_units:
-            check_units(mf, meta, str(log))
-        deriv = "causal" if causal else None
-        step = StepConfig(window_s=step_window)
-        res, allan, curves = by_runs(  # run by run: memory bounded by the longest run
-            log,
-            mapping,
-            lambda runs: evaluate_runs(
-                ((s.log, s.first_row) for s in runs),
-                mf,
-                policy,  # type: ignore[arg-type]
-                deriv,
-                step,
-            ),
-        )
-        if allan_plot is not None:
-            _write_allan_plot(allan_plot, curves, mf, log.name)
-    except RangeError as exc:  # about a data row of LOG: name the file
-        raise fail(f"{log}: {exc}") from None
-    except RinscalError as exc:
-        raise fail(str(exc)) from None
-    labels = {c: model_label(mf.models[c]) for c in mf.channels}
-    if as_json:
-        doc = {
-            "log": log.name,
-            "model": model.name,
-            "method": mf.method,
-            "channel_models": labels,
-            "policy": policy,
-            "rms": "Eq. 16 about each run's mean, inlier samples, log units",
-            "step": f"difference of {step_window:g} s linear fits before/after an edge crossing",
-            "out_of_range": "samples outside the training range or joint domain",
-            "rows": json.loads(res.to_json(orient="records")),
-            "allan": json.loads(allan.to_json(orient="records")),
-        }
-        typer.echo(json.dumps(doc, indent=1))
-        return
-    steps = bool((res["crossings"] > 0).any())  # step columns only where edges are crossed
-    table = Table(
-        title=f"{mf.method} model on {log.name}: RMS about each run's mean (Eq. 16); "
-        + ("largest step at a segment edge; " if steps else "")
-        + "share outside the training data"
-    )
-    names = ["run", "channel", "model", "RMS before", "RMS after", "after/ before", "flagged"]
-    if steps:
-        names += ["edges crossed", "step raw", "step comp."]
-    for name in names:
-        table.add_column(name, justify="left" if name in ("run", "channel", "model") else "right")
-    for _, r in res.iterrows():
-        cells = [
-            str(r["run"]),
-            f"{r['channel']} ({r['unit'] or '?'})",
-            labels[r["channel"]],
-            _fmt(r["rms_before"]),
-            _fmt(r["rms_after"]),
-            _fmt(r["ratio"], 3),
-            f"{r['out_of_range'] / max(r['samples'], 1):.1%}",
-        ]
-        if steps:
-            cells += [
-                str(int(r["crossings"])),
-                _fmt(r["max_step_before"], 3),
-                _fmt(r["max_step_after"], 3),
-            ]
-        table.add_row(*cells)
-    print_table(console, table)
-    if not allan.empty:
-        at = Table(
-            title="Allan deviation (overlapping), IEEE Std 952 slopes: N random walk "
-            "[unit·√s] at τ = 1 s, B bias instability [unit] (at τ), K rate random walk "
-            "[unit/√s] at τ = 3 s; '-' where the curve has no such region"
-        )
-        for name in ("run", "channel", "output", "N", "B", "τ(B) [s]", "K"):
-            at.add_column(name, justify="left" if name in ("run", "channel", "output") else "right")
-        for _, r in allan.iterrows():
-            at.add_row(
-                str(r["run"]),
-                f"{r['channel']} ({r['unit'] or '?'})",
-                str(r["output"]),
-                _fmt(r["n"], 3),
-                _fmt(r["b"], 3),
-                _fmt(r["b_tau_s"], 3),
-                _fmt(r["k"], 3),
-            )
-        print_table(console, at)
-    if allan_plot is not None:
-        console.print(f"wrote {allan_plot}", highlight=False)
-
-
-def _write_allan_plot(path: Path, curves: Any, mf: Any, name: str) -> None:
-    """The Allan figure of the longest run, written atomically."""
-    from rinscal.io.atomic import write_atomic
-    from rinscal.report.allan_plot import allan_figure
-
-    if not curves:
-        return
-    run = max(
-        curves,
-        key=lambda r: max((len(v) for c in curves[r].values() for v in c.values()), default=0),
-    )
-    units = {c: mf.models[c].unit or "?" for c in mf.channels}
-    fig = allan_figure(curves[run], units, title=f"{name}, run {run}: Allan deviation")
-    write_atomic(path, lambda tmp: fig.savefig(tmp, format="png", dpi=110))
-
-
-@app.command("export")
-def export_cmd(
-    model: Annotated[Path, typer.Argument(metavar="MODEL", help="Thermal model file (JSON).")],
-    fmt: Annotated[str, typer.Option("--format", help="px4, ardupilot or c.")],
-    out: Annotated[Path, typer.Option("--out", "-o", help="File to write.")],
-    gyro_id: Annotated[
-        int | None,
-        typer.Option(
-            "--gyro-id",
-            help="PX4 TC_G0_ID: the gyro's device id (device_id of sensor_gyro in a ULog, or "
-            "CAL_GYRO0_ID). Default: the model's source device_ids; required for px4.",
-        ),
-    ] = None,
-    accel_id: Annotated[
-        int | None,
-        typer.Option(
-            "--accel-id",
-            help="PX4 TC_A0_ID: the accelerometer's device id (device_id of sensor_accel in a "
-            "ULog, or CAL_ACC0_ID). Default: the model's source device_ids; required for px4.",
-        ),
-    ] = None,
-    instance: Annotated[
-        int | None,
-        typer.Option(
-            "--instance",
-            help="The IMU instance, numbered as the readers' --instance (0-based): px4 writes "
-            "the set TC_G<N>/TC_A<N> (0-3), ardupilot INS_TCAL<N+1>_* (0-2; IMUs 4 and 5 are "
-            "refused). Default: the instance the model was fitted on (.bin/.ulg), else 0.",
-        ),
-    ] = None,
-    imu: Annotated[
-        int | None, typer.Option("--imu", hidden=True, help="Old, 1-based, ArduPilot IMU.")
-    ] = None,
-    prefix: Annotated[str, typer.Option("--prefix", help="C identifier prefix.")] = "rinscal",
-) -> None:
-    """Export a model: PX4 .params, ArduPilot .parm (poly-t/px4/ardupilot) or a C header."""
-    import warnings
-
-    from rinscal.calibration.export import (
-        SmallCoefficientWarning,
-        to_ardupilot_parm,
-        to_c_header,
-        to_px4_params,
-    )
-    from rinscal.calibration.modelfile import ThermalModelFile
-    from rinscal.cli._app import console, err_console, fail, styled
-    from rinscal.errors import RinscalError
-    from rinscal.io.atomic import write_atomic
-
-    if fmt not in ("px4", "ardupilot", "c"):
-        raise fail(f"--format must be px4, ardupilot or c, got {fmt!r}")
-    if imu is not None:
-        raise fail(
-            f"--imu is now --instance, numbered from 0 as the log readers do: --imu {imu} is "
-            f"--instance {imu - 1}"
-        )
-    refuse_inputs(out, [model])
-    try:
-        mf = ThermalModelFile.load(model)
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", SmallCoefficientWarning)
-            if fmt == "px4":
-                text = to_px4_params(mf, gyro_id, accel_id, instance)
-            elif fmt == "ardupilot":
-                text = to_ardupilot_parm(mf, instance)
-            else:
-                text = to_c_header(mf, prefix)
-        write_atomic(out, lambda tmp: tmp.write_text(text, encoding="utf-8"))
-    except RinscalError as exc:
-        raise fail(str(exc)) from None
-    for w in caught:
-        if issubclass(w.category, SmallCoefficientWarning):
-            err_console.print(styled("warning:", "yellow", f" {w.message}"), highlight=False)
-    console.print(f"wrote {out} ({fmt}, {mf.method} model)", highlight=False)

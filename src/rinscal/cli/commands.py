@@ -12,6 +12,7 @@ os.environ.setdefault("MIMALLOC_PURGE_DELAY", "0")
 
 from rinscal.cli import (  # noqa: F401  (registers)
     calibrate,
+    compensate,
     fleet,
     navigate,
     reproduce,

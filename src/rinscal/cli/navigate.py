@@ -250,58 +250,28 @@ def navigate(
         raise fail(f"--policy must be one of {', '.join(POLICIES)}, got {policy!r}")
 
     try:
-        from rinscal.nav.rotation import schedule_from_name
-        from rinscal.nav.scenario import (
-            ThermalPlant,
-            align_for,
-            oracle_compensator,
-            preset,
-            run_scenario,
-            temperature_frame,
-        )
-        from rinscal.thermal.config import load_imu
+        # deferred: navigation loads numba kernels; `rinscal --help` must not
+        from rinscal.nav.workflow import navigate_scenario
 
-        plant_cfg = load_imu(imu_spec)
-        align = align_for(plant_cfg, total_s=align_s, start_s=align_start_s)
-        cfg = preset(
-            scenario, hours=hours, rate_hz=rate, align=align, schedule=schedule_from_name(rotation)
-        )
-        assert cfg.chamber is not None
-        plant = ThermalPlant.for_scenario(plant_cfg, cfg, seed=seed)
-        comps: dict[str, object] = {"none": None}
-        if oracle:
-            comps["true"] = oracle_compensator(plant)
-        for path in models:
-            name = path.stem
-            while name in comps:
-                name += "_"
-            comps[name] = model_compensator(str(path), plant, policy=policy)
-
-        out.mkdir(parents=True, exist_ok=True)  # before the run: an unusable --out fails at once
         with _progress() as progress:  # type: ignore[attr-defined]
-            task = progress.add_task(f"navigating {scenario}", total=cfg.duration_s)
+            tasks: list[Any] = []  # the bar starts with the first tick, which knows the total
 
             def tick(done: float, total: float) -> None:
-                progress.update(task, completed=done)
+                if not tasks:
+                    tasks.append(progress.add_task(f"navigating {scenario}", total=total))
+                progress.update(tasks[0], completed=done)
 
-            if record is None:
-                result = run_scenario(cfg, plant, comps, progress=tick)  # type: ignore[arg-type]
-            else:
-                result = _record_scenario(cfg, plant, comps, tick, record, increments, seed)
+            nav = navigate_scenario(
+                scenario, imu=imu_spec, models=models, hours=hours, rate_hz=rate, seed=seed,
+                rotation=rotation, align_s=align_s, align_start_s=align_start_s, oracle=oracle,
+                policy=policy, record=record, increments=increments, progress=tick,
+                # before the run: an unusable --out fails at once, bad arguments make none
+                before_run=lambda: out.mkdir(parents=True, exist_ok=True),
+            )  # fmt: skip
     except RinscalError as exc:
         raise fail(str(exc)) from None
-
-    summary = result.summary()
-    summary["seed"] = seed
-    summary["imu"] = plant_cfg.name
-    summary["imu_spec"] = imu_spec
-    summary["models"] = {p.stem: str(p) for p in models}
-    summary["chamber"] = {
-        "times_s": list(cfg.chamber.times_s),
-        "temps_c": list(cfg.chamber.temps_c),
-    }
-
-    _write_outputs(out, result, summary, temperature_frame(plant))
+    cfg, result, summary = nav.config, nav.result, nav.summary
+    _write_outputs(out, result, summary, nav.temperatures)
     console.print(
         f"navigation from {cfg.nav_start_s:g} s after power-on "
         f"(alignment from {cfg.align_start_s:g} s, {align_s:g} s long)",
@@ -398,57 +368,6 @@ def _progress() -> object:
     )
 
 
-def _record_scenario(
-    cfg: object, plant: object, comps: dict, tick: object, record: Path, increments: bool,
-    seed: int,
-) -> object:  # fmt: skip
-    """Run the scenario and stream the raw IMU output it navigated into ``record``."""
-    import numpy as np
-
-    from rinscal.io.metadata import meta_path, write_meta
-    from rinscal.io.streaming import LogStreamWriter
-    from rinscal.nav.recorded.frame import recording_frame
-    from rinscal.nav.scenario import run_scenario
-
-    grid = np.arange(0.0, float(plant.field.t[-1]) + 1e-9, 1.0)  # type: ignore[attr-defined]
-    inner, outer = plant.measured_temperatures(grid)  # type: ignore[attr-defined]
-    tr = cfg.trajectory  # type: ignore[attr-defined]
-    moving = cfg.name == "vehicle"  # type: ignore[attr-defined]
-    with LogStreamWriter(record, validate=False) as w:
-
-        def rec(ch: object, dth: object, dv: object) -> None:
-            w.write(recording_frame(ch, dth, dv, increments=increments,
-                                    readings=(grid, inner, outer), track=moving))  # fmt: skip
-
-        result = run_scenario(cfg, plant, comps, progress=tick, recorder=rec)  # type: ignore[arg-type]
-        noise = plant.config.noise  # type: ignore[attr-defined]
-        wd, rw = noise.white_density_si(), noise.bias_rw_si()
-        meta = {
-            "kind": "navigation recording",
-            "source": f"rinscal navigate --scenario {cfg.name} --seed {seed}",  # type: ignore[attr-defined]
-            "rate_hz": cfg.rate_hz,  # type: ignore[attr-defined]
-            "units": {"gyro": "deg/h", "accel": "ug"} if not increments else {},
-            "site": {
-                "lat_deg": float(np.rad2deg(tr.lat0)),
-                "lon_deg": float(np.rad2deg(tr.lon0)),
-                "h_m": float(tr.alt0),
-            },
-            "heading_deg": float(result.truth["heading_deg"].iloc[0])
-            if len(result.truth) and not moving
-            else None,
-            "noise": {
-                "gyro_noise_density": float(wd[0]),
-                "accel_noise_density": float(wd[3]),
-                "gyro_bias_rw": float(rw[0]),
-                "accel_bias_rw": float(rw[3]),
-            },
-            "imu": plant.config.name,  # type: ignore[attr-defined]
-        }
-    write_meta(meta, record)
-    assert meta_path(record).exists()
-    return result
-
-
 def _navigate_log(log: Path, out: Path, models: list[Path], policy: str, **kw: object) -> None:
     """``navigate --log``: read, align, navigate, write the same outputs as a scenario."""
     from rinscal.cli._app import console, fail
@@ -523,23 +442,4 @@ def _navigate_log(log: Path, out: Path, models: list[Path], policy: str, **kw: o
     _print_variants(summary)
 
 
-def model_compensator(path: str, plant: Any, policy: str = "clamp") -> Any:
-    """Load a model file (JSON) and build its :class:`rinscal.nav.sensors.ModelCompensator`.
-
-    Parameters
-    ----------
-    path : str
-        The model file.
-    plant : ThermalPlant
-        The plant whose thermometers feed the model.
-    policy : {"clamp", "extrapolate", "error"}
-        Out-of-range handling of the model inputs.
-    """
-    # the model file and the navigation code load on demand (command start-up time)
-    from rinscal.calibration.modelfile import ThermalModelFile
-    from rinscal.nav.sensors import ModelCompensator
-
-    return ModelCompensator(ThermalModelFile.load(path), plant, policy=policy)
-
-
-__all__ = ["model_compensator", "navigate"]
+__all__ = ["navigate"]

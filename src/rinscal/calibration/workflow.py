@@ -1,0 +1,613 @@
+"""Fit, compensate and evaluate a whole calibration log: the library side of the commands.
+
+Each function takes a log as a file (read run by run, so memory stays bounded by the longest
+run) or as a validated :class:`pandas.DataFrame`, and returns data: a fitted model with its
+report (:class:`FitResult`), a compensated table or a compensation summary
+(:class:`CompensationSummary`), an evaluation (:class:`Evaluation`). They print nothing;
+only :func:`compensate_file` writes, because it streams a log too large to hold.
+
+The command-line interface (``rinscal fit``, ``compensate``, ``evaluate``) is a thin layer
+over these; they are also :func:`rinscal.fit`, :func:`rinscal.compensate` and
+:func:`rinscal.evaluate`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import warnings
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from rinscal.calibration.compensate import (
+    FLAG_COLUMN,
+    check_units,
+    compensated_channels,
+    describe_reference,
+)
+from rinscal.calibration.compensate import compensate as _compensate_frame
+from rinscal.calibration.evaluate import StepConfig, evaluate_runs
+from rinscal.calibration.modelfile import POLICIES, ThermalModelFile
+from rinscal.calibration.thermal.features import DerivativeConfig, MissingGradientWarning
+from rinscal.calibration.thermal.guards import TrainingDataWarning
+from rinscal.calibration.thermal.model import ThermalModel
+from rinscal.errors import ConfigError
+from rinscal.io.foreign import foreign_meta
+from rinscal.io.mapping import ColumnMapping
+from rinscal.io.streaming import LogStreamWriter, by_runs
+from rinscal.io.tables import SourceLog, format_of
+
+__all__ = [
+    "CompensationSummary",
+    "Evaluation",
+    "FitResult",
+    "compensate",
+    "compensate_file",
+    "evaluate",
+    "fit",
+    "load_model",
+    "model_label",
+    "run_counts",
+]
+
+LogLike = str | os.PathLike[str] | pd.DataFrame
+ModelLike = str | os.PathLike[str] | ThermalModelFile
+
+
+@dataclass(frozen=True)
+class FitResult:
+    """A fitted thermal model and its report.
+
+    Attributes
+    ----------
+    model : ThermalModelFile
+        The model, as it is saved (:meth:`save`) and loaded (:func:`load_model`).
+    table : DataFrame
+        One row per channel: ``channel``, ``unit`` (the log's), ``model`` (the fitted
+        family, the auto choice), ``samples``, ``masked`` (outliers left out),
+        ``t_min_c``, ``t_max_c`` (training temperatures [°C]), ``rms_train`` (training
+        residual about each run's mean, Eq. 16, log units) and, for ``method="auto"``,
+        ``heldout_rms`` and ``none_heldout_rms`` (held-out RMS of 60 s means of the chosen
+        model and of no compensation, log units).
+    warnings : tuple of str
+        What the fit warned of, in words: a missing gradient first, then weak training
+        data (prefixed with the log's path when the log was a file).
+    note : str
+        How to read the table (the held-out scheme, what RMS* means).
+    """
+
+    model: ThermalModelFile
+    table: pd.DataFrame
+    warnings: tuple[str, ...] = ()
+    note: str = ""
+
+    def save(self, path: str | os.PathLike[str]) -> Path:
+        """Write the model file (JSON, atomically); returns its path."""
+        return self.model.save(path)
+
+
+def load_model(path: str | os.PathLike[str]) -> ThermalModelFile:
+    """Load and validate a thermal model file (JSON; nothing is unpickled).
+
+    Parameters
+    ----------
+    path : str or PathLike
+        A file written by :func:`rinscal.fit` / ``rinscal fit``.
+
+    Returns
+    -------
+    ThermalModelFile
+        Predicts the thermal bias of each channel in the log's units
+        (:meth:`ThermalModelFile.predict`) or in SI (``predict_bias_si``).
+
+    Examples
+    --------
+    >>> import rinscal
+    >>> model = rinscal.load_model("model.json")  # doctest: +SKIP
+    >>> model.channels  # doctest: +SKIP
+    ('gyro_x', 'gyro_y', 'gyro_z', 'accel_x', 'accel_y', 'accel_z')
+    """
+    return ThermalModelFile.load(path)
+
+
+def _model(model: ModelLike) -> ThermalModelFile:
+    return model if isinstance(model, ThermalModelFile) else load_model(model)
+
+
+def _policy(policy: str) -> None:
+    if policy not in POLICIES:
+        raise ConfigError(f"policy must be one of {', '.join(POLICIES)}, got {policy!r}")
+
+
+def _frame_runs(log: pd.DataFrame) -> Iterator[tuple[pd.DataFrame, int]]:
+    """A validated log's runs in order of first appearance, each with its first row."""
+    for _, part in log.groupby("run", sort=False):
+        yield part, int(part.index[0]) if isinstance(part.index, pd.RangeIndex) else 0
+
+
+def fit(
+    log: LogLike,
+    method: str = "auto",
+    *,
+    meta: Mapping[str, Any] | None = None,
+    mapping: ColumnMapping | Any | None = None,
+    orders: Sequence[int] | None = None,
+    hidden: int | None = None,
+    edges: Sequence[float] | None = None,
+    window_s: float = 60.0,
+    causal: bool = False,
+    gradient: bool | None = None,
+    temp_range: tuple[float, float] = (-60.0, 150.0),
+    tolerance: float = 0.0,
+    candidates: Sequence[str] | None = None,
+    seed: int = 0,
+    max_samples: int | None = None,
+    on_run: Callable[[int], None] | None = None,
+    on_channel: Callable[[str, int], None] | None = None,
+) -> FitResult:
+    """Fit a thermal bias model per channel on a calibration log.
+
+    Parameters
+    ----------
+    log : str, PathLike or DataFrame
+        A calibration log file (CSV, TSV, Parquet, PX4 ``.ulg``, ArduPilot ``.bin``; read
+        run by run) or a validated log table (:func:`rinscal.read_log`).
+    method : str
+        ``auto`` (each channel's model of least held-out error, the simplest within noise of
+        the best), ``poly-t`` (cubic-type polynomial in T), ``sectional`` (paper method 1),
+        ``regression`` (method 2), ``neural`` (method 3), ``px4`` or ``ardupilot``.
+    meta : mapping, optional
+        The log's metadata (units, ``latitude_deg``, ``heading_deg``, ``static_reference``).
+        Default: the file's ``.meta.json`` sidecar, if any.
+    mapping : ColumnMapping or FlightLogOptions, optional
+        How to read a foreign file (:func:`rinscal.io.mapping.read_mapping`).
+    orders : sequence of int, optional
+        ``regression`` (p, q, s), ``sectional`` (p, q), ``poly-t`` (degree,).
+    hidden : int, optional
+        ``neural``: hidden neurons.
+    edges : sequence of float, optional
+        ``sectional``: segment edges [°C].
+    window_s : float
+        Window of the temperature-rate estimate [s].
+    causal : bool
+        Causal temperature rate (real-time use) instead of centred.
+    gradient : bool, optional
+        Use the gradient ΔT (default: where the log has ``temp_out``).
+    temp_range : (float, float)
+        Plausible temperature readings [°C]; others are refused.
+    tolerance : float
+        ``auto``: also take a simpler model within this relative tolerance of the best
+        held-out mean square error.
+    candidates : sequence of str, optional
+        ``auto``: the candidate families.
+    seed : int
+        ``neural``: seed of the first start.
+    max_samples : int, optional
+        ``neural``: decimate training to this many rows.
+    on_run, on_channel : callable, optional
+        Progress: called with the number of runs read so far, and with each fitted
+        channel's name and the number of channels.
+
+    Returns
+    -------
+    FitResult
+
+    Raises
+    ------
+    ConfigError
+        A meaningless model (implausible temperatures, a rank-deficient design): the message
+        names the column and why.
+    LogError
+        A log that cannot be read, named with its row.
+
+    Examples
+    --------
+    >>> import rinscal
+    >>> result = rinscal.fit("soak.parquet", method="regression")  # doctest: +SKIP
+    >>> result.table[["channel", "model", "rms_train"]]  # doctest: +SKIP
+    >>> result.save("regression.json")  # doctest: +SKIP
+    """
+    lo, hi = (float(v) for v in temp_range)
+    if not lo < hi:
+        raise ConfigError(f"temp_range must be (lo, hi) in °C with lo < hi, got {temp_range!r}")
+    if candidates is not None and method != "auto":
+        raise ConfigError("candidates apply to method 'auto' only")
+    params = {"max_samples": max_samples} if max_samples is not None else None
+    model = ThermalModel(
+        method,
+        orders=None if orders is None else tuple(int(v) for v in orders),
+        hidden=hidden,
+        edges=None if edges is None else tuple(float(v) for v in edges),
+        derivative=DerivativeConfig(window_s, "causal" if causal else "centred"),
+        use_gradient=gradient,
+        random_state=seed,
+        estimator_params=params,
+        tolerance=tolerance,
+        temp_range=(lo, hi),
+        **({"candidates": tuple(candidates)} if candidates is not None else {}),
+    )
+
+    def step(channel: str) -> None:
+        if on_channel is not None:
+            on_channel(channel, len(model.channels))
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", TrainingDataWarning)
+        warnings.simplefilter("always", MissingGradientWarning)
+        if isinstance(log, pd.DataFrame):
+            model.fit(log, meta, on_channel=step)
+            source = None
+        else:
+            path = Path(log)
+            meta = foreign_meta(path, mapping) if meta is None else meta
+
+            def runs(sources: Iterator[SourceLog]) -> Iterator[tuple[pd.DataFrame, int]]:
+                for src in sources:  # no enumerate: it would hold the last run while the
+                    yield src.log, src.first_row  # next is read (two runs in memory)
+                    del src
+
+            by_runs(  # run by run: memory bounded by the longest run
+                path,
+                mapping,
+                lambda s: model.fit_runs(
+                    _counted(runs(s), on_run), meta, on_channel=step, source=str(path)
+                ),
+            )
+            source = {"log": path.name}
+    mf = model.to_file(source=source)
+    told = [f"{w.message}" for w in caught if issubclass(w.category, MissingGradientWarning)]
+    where = "" if isinstance(log, pd.DataFrame) else f"{log}: "
+    told += [f"{where}{w.message}" for w in caught if issubclass(w.category, TrainingDataWarning)]
+    return FitResult(mf, fit_table(mf), tuple(told), fit_note(mf, method))
+
+
+def _counted(
+    runs: Iterator[tuple[pd.DataFrame, int]], on_run: Callable[[int], None] | None
+) -> Iterator[tuple[pd.DataFrame, int]]:
+    k = 0
+    for item in runs:
+        k += 1
+        if on_run is not None:
+            on_run(k)
+        yield item
+        del item
+
+
+def fit_table(mf: ThermalModelFile) -> pd.DataFrame:
+    """One row per channel of a fitted model: its family, data and residuals (see
+    :class:`FitResult`)."""
+    rows = []
+    for c in mf.channels:
+        cm = mf.models[c]
+        m = cm.metrics
+        row: dict[str, Any] = {
+            "channel": c,
+            "unit": cm.unit,
+            "model": model_label(cm),
+            "samples": int(m["n_train"]),
+            "masked": int(m["n_outliers"]),
+            "t_min_c": float(cm.train_range[0, 0]),
+            "t_max_c": float(cm.train_range[0, 1]),
+            "rms_train": m["rms_train_about_run_mean"],
+        }
+        if cm.selection is not None:
+            by_name = {r["name"]: r for r in cm.selection["table"]}
+            row["heldout_rms"] = by_name[cm.selection["chosen"]]["heldout_rms"]
+            row["none_heldout_rms"] = by_name.get("none", {}).get("heldout_rms")
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def model_label(cm: Any) -> str:
+    """A channel's model in words: the auto choice, or the method and its settings
+    (``regression 3,3,3``, ``poly-t 3``, ``neural 2``, ``none``)."""
+    if cm.selection is not None:
+        return str(cm.selection["chosen"])
+    p = cm.params
+    if p["method"] == "regression":
+        return "regression " + ",".join(str(o) for o in p["orders"])
+    if p["method"] == "poly-t":
+        return "none" if len(p["coef"]) == 1 else f"poly-t {len(p['coef']) - 1}"
+    if p["method"] == "neural":
+        return f"neural {len(p['b'])}"
+    return str(p["method"])
+
+
+def fit_note(mf: ThermalModelFile, method: str) -> str:
+    """How to read :func:`fit_table`: masked samples, RMS*, the held-out scheme."""
+    note = (
+        "masked: outlier samples left out of the fit; RMS* of the training residual about "
+        "each run's mean (turn-on offsets removed)."
+    )
+    if method == "auto":
+        first = next(iter(mf.models.values())).selection or {}
+        scheme, parts = first.get("scheme", "?"), len(first.get("folds", []))
+        how = (
+            f"leave-one-leg-out, scored on {parts} blocks"
+            if scheme == "legs"
+            else f"{scheme} over {parts} folds"
+        )
+        note += (
+            f" Held-out: RMS of 60 s means of the residual, {how} (rinscal select LOG "
+            "--method auto shows every candidate)."
+        )
+    return note
+
+
+def compensate(
+    log: LogLike,
+    model: ModelLike,
+    *,
+    policy: str = "clamp",
+    causal: bool = False,
+    mapping: ColumnMapping | Any | None = None,
+) -> pd.DataFrame:
+    """Subtract the modelled thermal bias from every sensor channel (Eq. 10), in memory.
+
+    Parameters
+    ----------
+    log : str, PathLike or DataFrame
+        A calibration log (file, read whole, or a validated table).
+    model : str, PathLike or ThermalModelFile
+        The thermal model (a model file's path, or loaded).
+    policy : str
+        Outside the training data: ``clamp`` (hold the model at its domain's edge),
+        ``extrapolate``, ``fallback`` (the model of T alone) or ``raise``.
+    causal : bool
+        Use the causal temperature rate (as in real time).
+    mapping : ColumnMapping, optional
+        How to read a foreign file.
+
+    Returns
+    -------
+    DataFrame
+        The log, every modelled channel compensated (log units), plus the boolean column
+        ``out_of_range`` (the row is outside the training data).
+
+    Examples
+    --------
+    >>> import rinscal
+    >>> table = rinscal.compensate("soak.parquet", "regression.json")  # doctest: +SKIP
+    """
+    # deferred: reading a file needs the table readers only here
+    from rinscal.io.tables import read_log
+
+    _policy(policy)
+    frame = log if isinstance(log, pd.DataFrame) else read_log(log, mapping)
+    return _compensate_frame(frame, _model(model), policy, "causal" if causal else None)  # type: ignore[arg-type]
+
+
+@dataclass(frozen=True)
+class CompensationSummary:
+    """What :func:`compensate_file` wrote.
+
+    Attributes
+    ----------
+    rows : int
+        Rows written.
+    model : ThermalModelFile
+        The model applied.
+    policy : str
+        What was done outside the training data.
+    flagged : dict of str to (int, int)
+        Per run (in order of first appearance): rows flagged ``out_of_range``, and rows.
+    reference : str
+        What the compensation keeps of the static output (gravity, Earth rate), in words.
+    missing_reference : list of str
+        Channels whose static level was removed with the thermal bias (no static reference
+        in the model).
+    meta : dict or None
+        The metadata written beside the output (None: the input had none).
+    """
+
+    rows: int
+    model: ThermalModelFile
+    policy: str
+    flagged: dict[str, tuple[int, int]]
+    reference: str
+    missing_reference: list[str]
+    meta: dict[str, Any] | None = field(default=None)
+
+    @property
+    def flagged_rows(self) -> int:
+        """Rows flagged ``out_of_range`` over all runs."""
+        return sum(k for k, _ in self.flagged.values())
+
+
+def compensate_file(
+    log: str | os.PathLike[str],
+    model: ModelLike,
+    out: str | os.PathLike[str],
+    *,
+    policy: str = "clamp",
+    causal: bool = False,
+    mapping: ColumnMapping | Any | None = None,
+    meta: Mapping[str, Any] | None = None,
+    ignore_units: bool = False,
+) -> CompensationSummary:
+    """Compensate a log file run by run into ``out`` (the same table back, its sensor channels
+    compensated, the ``out_of_range`` column added, nothing else touched).
+
+    Memory stays bounded by the longest run. The output is written as it is computed, in
+    the input's format where ``out`` has the same kind (CSV/TSV), else Parquet by suffix;
+    the caller writes the metadata sidecar (``summary.meta``) if it wants one.
+
+    Parameters
+    ----------
+    log, out : str or PathLike
+        Input and output files; ``out`` must not be ``log``.
+    model : str, PathLike or ThermalModelFile
+        The thermal model.
+    policy, causal, mapping
+        As :func:`compensate`.
+    meta : mapping, optional
+        The log's metadata (units); default its sidecar, with the mapping's units and
+        ``log`` (the file's name).
+    ignore_units : bool
+        Compensate even where the log's units differ from the model's.
+
+    Returns
+    -------
+    CompensationSummary
+
+    Raises
+    ------
+    UnitsError
+        The log's units differ from the model's (unless ``ignore_units``).
+    RangeError
+        A row outside the training data under ``policy="raise"``.
+    """
+    _policy(policy)
+    mf = _model(model)
+    log_path, out_path = Path(log), Path(out)
+    meta = dict(foreign_meta(log_path, mapping) if meta is None else meta)
+    if not ignore_units:
+        check_units(mf, meta, str(log_path))
+    kind = "causal" if causal else None
+    rows, flagged = by_runs(  # run by run: memory bounded by the longest run
+        log_path, mapping, lambda s: _write_runs(s, mf, policy, kind, out_path)
+    )
+    if meta:
+        meta["compensated"] = {
+            "model": Path(model).name if not isinstance(model, ThermalModelFile) else None,
+            "sha256": mf.to_dict()["sha256"],
+            "method": mf.method,
+            "policy": policy,
+            "derivative": "causal" if causal else mf.derivative_kind,
+        }
+    reference, missing = describe_reference(mf)
+    return CompensationSummary(rows, mf, policy, flagged, reference, missing, meta or None)
+
+
+def _write_runs(
+    sources: Iterator[SourceLog],
+    mf: ThermalModelFile,
+    policy: str,
+    kind: str | None,
+    out: Path,
+) -> tuple[int, dict[str, tuple[int, int]]]:
+    """Compensate runs as they are read and write each at once; rows written, and per run
+    the rows flagged out of range and the rows."""
+    shares: dict[str, tuple[int, int]] = {}
+    writer: LogStreamWriter | None = None
+    with contextlib.ExitStack() as stack:
+        for src in sources:
+            if writer is None:
+                same_kind = format_of(out) != "parquet" and src.sep is not None
+                writer = stack.enter_context(
+                    LogStreamWriter(out, validate=False, sep=src.sep if same_kind else None)
+                )
+            values, flagged = compensated_channels(
+                src.log,
+                mf,
+                policy,  # type: ignore[arg-type]
+                kind,
+                first_row=src.first_row,  # type: ignore[arg-type]
+            )
+            writer.write(src.write_back(values, {FLAG_COLUMN: flagged}))
+            for run, k, n in zip(*run_counts(src.log["run"], flagged), strict=True):
+                k0, n0 = shares.get(run, (0, 0))
+                shares[run] = (k0 + k, n0 + n)
+        rows = writer.rows if writer is not None else 0
+    return rows, shares
+
+
+def run_counts(run: pd.Series, flagged: np.ndarray) -> tuple[list[str], list[int], list[int]]:
+    """Each run's name, flagged rows and rows, in order of first appearance."""
+    codes, names = pd.factorize(run, sort=False)
+    k = np.bincount(codes, weights=flagged, minlength=len(names))
+    n = np.bincount(codes, minlength=len(names))
+    return [str(v) for v in names], [int(v) for v in k], [int(v) for v in n]
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    """RMS before and after a model, steps at segment edges, Allan deviation.
+
+    Attributes
+    ----------
+    table : DataFrame
+        Per run and channel: ``rms_before``, ``rms_after`` (Eq. 16, about each run's mean,
+        inlier samples, log units), ``ratio``, ``out_of_range`` and ``samples``,
+        ``crossings``, ``max_step_before``, ``max_step_after`` (log units).
+    allan : DataFrame
+        Per run, channel and output (raw, compensated): the IEEE Std 952 noise parameters
+        ``n`` (random walk at τ = 1 s), ``b`` (bias instability), ``b_tau_s``, ``k``.
+    curves : dict
+        Per run and channel, the Allan deviation curves (for a figure).
+    model : ThermalModelFile
+        The model evaluated.
+    """
+
+    table: pd.DataFrame
+    allan: pd.DataFrame
+    curves: dict[str, Any]
+    model: ThermalModelFile
+
+
+def evaluate(
+    log: LogLike,
+    model: ModelLike,
+    *,
+    policy: str = "clamp",
+    causal: bool = False,
+    step_window_s: float = 120.0,
+    mapping: ColumnMapping | Any | None = None,
+    meta: Mapping[str, Any] | None = None,
+    ignore_units: bool = False,
+) -> Evaluation:
+    """How much a model removes: RMS before and after (Eq. 16), steps, Allan deviation.
+
+    Parameters
+    ----------
+    log : str, PathLike or DataFrame
+        A calibration log (a file is read run by run) the model did or did not see.
+    model : str, PathLike or ThermalModelFile
+        The thermal model.
+    policy, causal, mapping
+        As :func:`compensate`.
+    step_window_s : float
+        Fit window on each side of a segment edge [s] (Figure 7).
+    meta : mapping, optional
+        The log's metadata (units); default its sidecar.
+    ignore_units : bool
+        Evaluate even where the log's units differ from the model's.
+
+    Returns
+    -------
+    Evaluation
+
+    Examples
+    --------
+    >>> import rinscal
+    >>> ev = rinscal.evaluate("soak.parquet", "regression.json")  # doctest: +SKIP
+    >>> ev.table[["run", "channel", "rms_before", "rms_after"]]  # doctest: +SKIP
+    """
+    _policy(policy)
+    mf = _model(model)
+    deriv = "causal" if causal else None
+    step = StepConfig(window_s=step_window_s)
+    if isinstance(log, pd.DataFrame):
+        res, allan, curves = evaluate_runs(_frame_runs(log), mf, policy, deriv, step)  # type: ignore[arg-type]
+    else:
+        path = Path(log)
+        if not ignore_units:
+            known = meta if meta is not None else foreign_meta(path, mapping)
+            check_units(mf, dict(known or {}), str(path))
+        res, allan, curves = by_runs(  # run by run: memory bounded by the longest run
+            path,
+            mapping,
+            lambda runs: evaluate_runs(
+                ((s.log, s.first_row) for s in runs),
+                mf,
+                policy,  # type: ignore[arg-type]
+                deriv,
+                step,
+            ),
+        )
+    return Evaluation(res, allan, curves, mf)

@@ -1,0 +1,327 @@
+"""CLI commands: compensate, evaluate, export (applying a fitted thermal model).
+
+Thin wrappers over :mod:`rinscal.calibration.workflow` and :mod:`rinscal.calibration.export`:
+read options, call one library function that returns data, print a table or JSON, write
+files atomically. Library errors become messages and exit code 2.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+from rinscal.cli._app import app, print_table
+from rinscal.cli._options import (
+    ColOpt,
+    InstanceOpt,
+    LogArg,
+    MapOpt,
+    PolicyOpt,
+    RelTimeOpt,
+    SepOpt,
+    TempColOpt,
+    TimeColOpt,
+    TimeUnitOpt,
+    refuse_inputs,
+)
+from rinscal.cli.calibrate import IgnoreUnitsOpt, JsonOpt, ModelOpt, _fmt, _mapping_meta
+
+
+@app.command("compensate")
+def compensate_cmd(
+    log: LogArg,
+    model: ModelOpt,
+    out: Annotated[Path, typer.Option("--out", "-o", help="Compensated log to write.")],
+    policy: PolicyOpt = "clamp",
+    causal: Annotated[
+        bool, typer.Option("--causal", help="Use the causal temperature rate (as in real time).")
+    ] = False,
+    map_file: MapOpt = None,
+    col: ColOpt = None,
+    time_col: TimeColOpt = None,
+    time_unit: TimeUnitOpt = None,
+    sep: SepOpt = None,
+    temp_col: TempColOpt = None,
+    relative_time: RelTimeOpt = False,
+    instance: InstanceOpt = None,
+    ignore_units: IgnoreUnitsOpt = False,
+) -> None:
+    """Compensate every sensor channel (Eq. 10); add the out_of_range flag column."""
+    # deferred: the library loads numpy, pandas and numba; `rinscal --help` must not
+    from rinscal.calibration.modelfile import POLICIES
+    from rinscal.calibration.workflow import compensate_file, load_model
+    from rinscal.cli._app import console, err_console, fail
+    from rinscal.errors import RangeError, RinscalError
+    from rinscal.io.metadata import meta_path, write_meta
+
+    if policy not in POLICIES:
+        raise fail(f"--policy must be one of {', '.join(POLICIES)}, got {policy!r}")
+    inputs = [log, meta_path(log), model] + ([map_file] if map_file is not None else [])
+    refuse_inputs(out, inputs, also=[meta_path(out)])
+    try:
+        mf = load_model(model)
+        mapping, meta = _mapping_meta(
+            log, (map_file, col, time_col, time_unit, sep, temp_col), relative_time, instance
+        )
+        done = compensate_file(
+            log, mf, out, policy=policy, causal=causal, mapping=mapping, meta=meta,
+            ignore_units=ignore_units,
+        )  # fmt: skip
+        if done.meta:
+            done.meta["compensated"]["model"] = model.name
+            write_meta(done.meta, out)
+    except RangeError as exc:  # about a data row of LOG: name the file
+        raise fail(f"{log}: {exc}") from None
+    except RinscalError as exc:
+        raise fail(str(exc)) from None
+    console.print(
+        f"wrote {out}: {done.rows:,} rows, {len(mf.channels)} channel(s) compensated with the "
+        f"{mf.method} model; {done.flagged_rows:,} row(s) outside the training data ({policy})",
+        highlight=False,
+        soft_wrap=True,
+    )
+    for run, (k, n) in done.flagged.items():
+        console.print(f"  {run}: {k / n:.1%} of rows flagged", highlight=False)
+    console.print(done.reference, highlight=False, soft_wrap=True)
+    if done.missing_reference:
+        err_console.print(
+            f"warning: {', '.join(done.missing_reference)}: the model has no static reference, "
+            "so their static level (gravity, Earth rate) was removed with the thermal bias; "
+            "refit with --latitude/--heading or --static-ref to keep it",
+            highlight=False,
+            soft_wrap=True,
+            markup=False,
+        )
+
+
+@app.command("evaluate")
+def evaluate_cmd(
+    log: LogArg,
+    model: ModelOpt,
+    policy: PolicyOpt = "clamp",
+    causal: Annotated[
+        bool, typer.Option("--causal", help="Use the causal temperature rate.")
+    ] = False,
+    step_window: Annotated[
+        float,
+        typer.Option(
+            "--step-window",
+            min=1.0,
+            max=86400.0,
+            help="Fit window on each side of an edge [s], 1-86400.",
+        ),
+    ] = 120.0,
+    allan_plot: Annotated[
+        Path | None,
+        typer.Option(
+            "--allan-plot",
+            help="Write the Allan deviation of raw and compensated output (log-log, one "
+            "panel per channel, longest run) to this PNG.",
+        ),
+    ] = None,
+    as_json: JsonOpt = False,
+    map_file: MapOpt = None,
+    col: ColOpt = None,
+    time_col: TimeColOpt = None,
+    time_unit: TimeUnitOpt = None,
+    sep: SepOpt = None,
+    temp_col: TempColOpt = None,
+    relative_time: RelTimeOpt = False,
+    instance: InstanceOpt = None,
+    ignore_units: IgnoreUnitsOpt = False,
+) -> None:
+    """RMS (Eq. 16, about each run's mean) before/after compensation; steps at segment edges.
+
+    Also: each channel's model (the auto choice), the share of samples outside the training
+    data per run, and the Allan deviation noise parameters of raw and compensated output.
+    """
+    # deferred: the library loads numpy, pandas and numba; `rinscal --help` must not
+    from rich.table import Table
+
+    from rinscal.calibration.modelfile import POLICIES
+    from rinscal.calibration.workflow import evaluate, load_model, model_label
+    from rinscal.cli._app import console, fail
+    from rinscal.errors import RangeError, RinscalError
+
+    if policy not in POLICIES:
+        raise fail(f"--policy must be one of {', '.join(POLICIES)}, got {policy!r}")
+    inputs = [log, model] + ([map_file] if map_file is not None else [])
+    if allan_plot is not None:
+        refuse_inputs(allan_plot, inputs)
+    try:
+        mf = load_model(model)
+        mapping, meta = _mapping_meta(
+            log, (map_file, col, time_col, time_unit, sep, temp_col), relative_time, instance
+        )
+        ev = evaluate(
+            log, mf, policy=policy, causal=causal, step_window_s=step_window, mapping=mapping,
+            meta=meta, ignore_units=ignore_units,
+        )  # fmt: skip
+        res, allan = ev.table, ev.allan
+        if allan_plot is not None:
+            _write_allan_plot(allan_plot, ev.curves, mf, log.name)
+    except RangeError as exc:  # about a data row of LOG: name the file
+        raise fail(f"{log}: {exc}") from None
+    except RinscalError as exc:
+        raise fail(str(exc)) from None
+    labels = {c: model_label(mf.models[c]) for c in mf.channels}
+    if as_json:
+        doc = {
+            "log": log.name,
+            "model": model.name,
+            "method": mf.method,
+            "channel_models": labels,
+            "policy": policy,
+            "rms": "Eq. 16 about each run's mean, inlier samples, log units",
+            "step": f"difference of {step_window:g} s linear fits before/after an edge crossing",
+            "out_of_range": "samples outside the training range or joint domain",
+            "rows": json.loads(res.to_json(orient="records")),
+            "allan": json.loads(allan.to_json(orient="records")),
+        }
+        typer.echo(json.dumps(doc, indent=1))
+        return
+    steps = bool((res["crossings"] > 0).any())  # step columns only where edges are crossed
+    table = Table(
+        title=f"{mf.method} model on {log.name}: RMS about each run's mean (Eq. 16); "
+        + ("largest step at a segment edge; " if steps else "")
+        + "share outside the training data"
+    )
+    names = ["run", "channel", "model", "RMS before", "RMS after", "after/ before", "flagged"]
+    if steps:
+        names += ["edges crossed", "step raw", "step comp."]
+    for name in names:
+        table.add_column(name, justify="left" if name in ("run", "channel", "model") else "right")
+    for _, r in res.iterrows():
+        cells = [
+            str(r["run"]),
+            f"{r['channel']} ({r['unit'] or '?'})",
+            labels[r["channel"]],
+            _fmt(r["rms_before"]),
+            _fmt(r["rms_after"]),
+            _fmt(r["ratio"], 3),
+            f"{r['out_of_range'] / max(r['samples'], 1):.1%}",
+        ]
+        if steps:
+            cells += [
+                str(int(r["crossings"])),
+                _fmt(r["max_step_before"], 3),
+                _fmt(r["max_step_after"], 3),
+            ]
+        table.add_row(*cells)
+    print_table(console, table)
+    if not allan.empty:
+        at = Table(
+            title="Allan deviation (overlapping), IEEE Std 952 slopes: N random walk "
+            "[unit·√s] at τ = 1 s, B bias instability [unit] (at τ), K rate random walk "
+            "[unit/√s] at τ = 3 s; '-' where the curve has no such region"
+        )
+        for name in ("run", "channel", "output", "N", "B", "τ(B) [s]", "K"):
+            at.add_column(name, justify="left" if name in ("run", "channel", "output") else "right")
+        for _, r in allan.iterrows():
+            at.add_row(
+                str(r["run"]),
+                f"{r['channel']} ({r['unit'] or '?'})",
+                str(r["output"]),
+                _fmt(r["n"], 3),
+                _fmt(r["b"], 3),
+                _fmt(r["b_tau_s"], 3),
+                _fmt(r["k"], 3),
+            )
+        print_table(console, at)
+    if allan_plot is not None:
+        console.print(f"wrote {allan_plot}", highlight=False)
+
+
+def _write_allan_plot(path: Path, curves: Any, mf: Any, name: str) -> None:
+    """The Allan figure of the longest run, written atomically."""
+    from rinscal.io.atomic import write_atomic
+    from rinscal.report.allan_plot import allan_figure
+
+    if not curves:
+        return
+    run = max(
+        curves,
+        key=lambda r: max((len(v) for c in curves[r].values() for v in c.values()), default=0),
+    )
+    units = {c: mf.models[c].unit or "?" for c in mf.channels}
+    fig = allan_figure(curves[run], units, title=f"{name}, run {run}: Allan deviation")
+    write_atomic(path, lambda tmp: fig.savefig(tmp, format="png", dpi=110))
+
+
+@app.command("export")
+def export_cmd(
+    model: Annotated[Path, typer.Argument(metavar="MODEL", help="Thermal model file (JSON).")],
+    fmt: Annotated[str, typer.Option("--format", help="px4, ardupilot or c.")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="File to write.")],
+    gyro_id: Annotated[
+        int | None,
+        typer.Option(
+            "--gyro-id",
+            help="PX4 TC_G0_ID: the gyro's device id (device_id of sensor_gyro in a ULog, or "
+            "CAL_GYRO0_ID). Default: the model's source device_ids; required for px4.",
+        ),
+    ] = None,
+    accel_id: Annotated[
+        int | None,
+        typer.Option(
+            "--accel-id",
+            help="PX4 TC_A0_ID: the accelerometer's device id (device_id of sensor_accel in a "
+            "ULog, or CAL_ACC0_ID). Default: the model's source device_ids; required for px4.",
+        ),
+    ] = None,
+    instance: Annotated[
+        int | None,
+        typer.Option(
+            "--instance",
+            help="The IMU instance, numbered as the readers' --instance (0-based): px4 writes "
+            "the set TC_G<N>/TC_A<N> (0-3), ardupilot INS_TCAL<N+1>_* (0-2; IMUs 4 and 5 are "
+            "refused). Default: the instance the model was fitted on (.bin/.ulg), else 0.",
+        ),
+    ] = None,
+    imu: Annotated[
+        int | None, typer.Option("--imu", hidden=True, help="Old, 1-based, ArduPilot IMU.")
+    ] = None,
+    prefix: Annotated[str, typer.Option("--prefix", help="C identifier prefix.")] = "rinscal",
+) -> None:
+    """Export a model: PX4 .params, ArduPilot .parm (poly-t/px4/ardupilot) or a C header."""
+    import warnings
+
+    from rinscal.calibration.export import (
+        SmallCoefficientWarning,
+        to_ardupilot_parm,
+        to_c_header,
+        to_px4_params,
+    )
+    from rinscal.calibration.modelfile import ThermalModelFile
+    from rinscal.cli._app import console, err_console, fail, styled
+    from rinscal.errors import RinscalError
+    from rinscal.io.atomic import write_atomic
+
+    if fmt not in ("px4", "ardupilot", "c"):
+        raise fail(f"--format must be px4, ardupilot or c, got {fmt!r}")
+    if imu is not None:
+        raise fail(
+            f"--imu is now --instance, numbered from 0 as the log readers do: --imu {imu} is "
+            f"--instance {imu - 1}"
+        )
+    refuse_inputs(out, [model])
+    try:
+        mf = ThermalModelFile.load(model)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", SmallCoefficientWarning)
+            if fmt == "px4":
+                text = to_px4_params(mf, gyro_id, accel_id, instance)
+            elif fmt == "ardupilot":
+                text = to_ardupilot_parm(mf, instance)
+            else:
+                text = to_c_header(mf, prefix)
+        write_atomic(out, lambda tmp: tmp.write_text(text, encoding="utf-8"))
+    except RinscalError as exc:
+        raise fail(str(exc)) from None
+    for w in caught:
+        if issubclass(w.category, SmallCoefficientWarning):
+            err_console.print(styled("warning:", "yellow", f" {w.message}"), highlight=False)
+    console.print(f"wrote {out} ({fmt}, {mf.method} model)", highlight=False)
