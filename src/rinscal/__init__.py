@@ -30,8 +30,78 @@ Naming
 Randomness
     Only through a seeded :class:`numpy.random.Generator` passed in; configs are frozen
     dataclasses; nothing random or mutable at import time.
+
+Python API
+----------
+The names below are the supported API; everything else is private unless it is in the
+``__all__`` of its own module (and the ``_``-prefixed modules and names never are). They are
+imported on first use (PEP 562), so ``import rinscal`` stays as light as the CLI's start-up.
+
+Data
+    :func:`read_log` (a calibration log file → validated table), :func:`write_log` and
+    :func:`write_meta` (a table and its ``.meta.json`` sidecar, atomically),
+    :func:`simulate` (a chamber protocol → log, truth, metadata), :func:`load_imu` (an IMU
+    preset or TOML file).
+Calibration
+    :func:`fit` (→ :class:`FitResult`: the model and its report), :class:`ThermalModel`
+    (the estimator itself), :func:`load_model` (a JSON model file → :class:`ThermalModelFile`),
+    :func:`compensate` (in memory), :func:`compensate_file` (streamed, file to file),
+    :func:`evaluate` (RMS before/after, steps, Allan), :func:`select` (held-out RMS per
+    setting, Tables 5 and 7).
+Navigation
+    :func:`navigate` (a scenario or a recording, with and without models), :class:`Scenario`
+    (a scenario built in code), :func:`scenario` (the paper's, by name).
+
+A notebook session: ``docs/api.md``.
+
+>>> import rinscal
+>>> log, truth, meta = rinscal.simulate("soak", hours=1.0)  # doctest: +SKIP
+>>> result = rinscal.fit(log, "regression", meta=meta)  # doctest: +SKIP
+>>> nav = rinscal.navigate("quasi-static", hours=1.0, models={"m2": result.model})  # doctest: +SKIP
 """
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
 
 from rinscal._version import __version__
 
-__all__ = ["__version__"]
+#: The public API: name -> "module" or "module:attribute" it is defined in (loaded lazily).
+_API: dict[str, str] = {
+    "read_log": "rinscal.io.tables",
+    "write_log": "rinscal.io.tables",
+    "write_meta": "rinscal.io.metadata",
+    "simulate": "rinscal.thermal.protocols:simulate_protocol",
+    "load_imu": "rinscal.thermal.config",
+    "ImuConfig": "rinscal.thermal.config",
+    "fit": "rinscal.calibration.workflow",
+    "FitResult": "rinscal.calibration.workflow",
+    "ThermalModel": "rinscal.calibration.thermal.model",
+    "load_model": "rinscal.calibration.workflow",
+    "ThermalModelFile": "rinscal.calibration.modelfile",
+    "compensate": "rinscal.calibration.workflow",
+    "compensate_file": "rinscal.calibration.workflow",
+    "evaluate": "rinscal.calibration.workflow",
+    "select": "rinscal.calibration.selection.heldout:select_model",
+    "navigate": "rinscal.nav.workflow",
+    "Scenario": "rinscal.nav.config:ScenarioConfig",
+    "scenario": "rinscal.nav.scenario:preset",
+}
+
+__all__ = ["__version__", *_API]
+
+
+def __getattr__(name: str) -> Any:
+    """Load a public name on first use (PEP 562)."""
+    target = _API.get(name)
+    if target is None:
+        raise AttributeError(f"module 'rinscal' has no attribute {name!r}")
+    module, _, attr = target.partition(":")
+    value = getattr(importlib.import_module(module), attr or name)
+    globals()[name] = value  # later lookups skip this function
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)

@@ -28,6 +28,7 @@ from rinscal.io.streaming import LogStreamWriter
 from rinscal.io.tables import FORMATS
 from rinscal.nav.config import ScenarioConfig
 from rinscal.nav.recorded.frame import recording_frame
+from rinscal.nav.recording import navigate_log
 from rinscal.nav.rotation import schedule_from_name
 from rinscal.nav.scenario import NavResult, align_for, preset, run_scenario
 from rinscal.nav.sensors import (
@@ -39,7 +40,7 @@ from rinscal.nav.sensors import (
 from rinscal.thermal.config import ImuConfig, load_imu
 from rinscal.thermal.presets import DEFAULT_PRESET
 
-__all__ = ["Navigation", "model_compensator", "navigate_scenario"]
+__all__ = ["Navigation", "model_compensator", "navigate", "navigate_scenario"]
 
 ModelLike = str | os.PathLike[str] | ThermalModelFile
 
@@ -265,3 +266,47 @@ def _record(
         }
     write_meta(meta, record)
     return result
+
+
+def navigate(
+    scenario: str | ScenarioConfig | None = None,
+    *,
+    log: str | os.PathLike[str] | None = None,
+    **options: Any,
+) -> Any:
+    """Navigate a single-axis RINS, simulated (``scenario``) or recorded (``log``).
+
+    Parameters
+    ----------
+    scenario : str or ScenarioConfig, optional
+        A simulated cold start: ``quasi-static``, ``swing``, ``vehicle``, ``ramp`` or a
+        scenario built in code; the options are those of :func:`navigate_scenario`.
+    log : str or PathLike, optional
+        A recording (CSV, TSV or Parquet: rates, increments or counts); the options are
+        those of :func:`rinscal.nav.recording.navigate_log` (``models``, ``mapping``,
+        ``site``, ``heading_deg``, ``track`` ...).
+    **options
+        Passed on.
+
+    Returns
+    -------
+    Navigation or RecordedNavigation
+        Either way ``.result.errors[variant]`` is the error series [m] and
+        ``.result.summary()`` the per-variant summary.
+
+    Raises
+    ------
+    ConfigError
+        Neither or both of ``scenario`` and ``log``.
+
+    Examples
+    --------
+    >>> import rinscal
+    >>> sim = rinscal.navigate("quasi-static", hours=1, models=["m.json"])  # doctest: +SKIP
+    >>> rec = rinscal.navigate(log="run.parquet", models=["m.json"])  # doctest: +SKIP
+    """
+    if (scenario is None) == (log is None):
+        raise ConfigError("give a scenario (a simulated run) or log= (a recording), not both")
+    if log is not None:
+        return navigate_log(log, **options)
+    return navigate_scenario(scenario, **options)  # type: ignore[arg-type]
