@@ -11,7 +11,7 @@ from rinscal.calibration.selection.heldout import select_model
 from rinscal.calibration.thermal.features import build_features
 from rinscal.errors import ConfigError
 from tests.calibration._helpers import synthetic_log
-from tests.calibration.conftest import NEURAL_FAST
+from tests.conftest import NEURAL_FAST
 
 
 def _quadratic_log(seed: int = 0):

@@ -142,8 +142,7 @@ def test_fit_in_pieces_equals_the_whole_log(tmp_path, soak_small, method) -> Non
     import warnings
 
     from rinscal.calibration.thermal.model import ThermalModel
-
-    from .conftest import NEURAL_FAST
+    from tests.conftest import NEURAL_FAST
 
     log, _, meta = soak_small
     path = tmp_path / "soak.csv"

@@ -1,4 +1,4 @@
-"""Shared fixtures of the calibration tests: small simulated logs and synthetic logs."""
+"""Shared fixtures: small simulated and synthetic calibration logs (calibration, CLI tests)."""
 
 from __future__ import annotations
 
