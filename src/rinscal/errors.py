@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import errno
+
 
 class RinscalError(Exception):
     """Base class of every error rinscal raises on bad input or configuration."""
@@ -45,8 +47,6 @@ def describe_os_error(exc: OSError, path: object = None) -> str:
     -------
     str
     """
-    import errno
-
     where = str(path if path is not None else (exc.filename or "output"))
     why = exc.strerror or str(exc)
     hint = {

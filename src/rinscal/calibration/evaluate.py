@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from rinscal.calibration.allan import AllanCurve
+from rinscal.calibration.allan import AllanCurve, allan_deviation, noise_parameters
 from rinscal.calibration.compensate import model_features, predict_log
 from rinscal.calibration.modelfile import Policy, ThermalModelFile
 from rinscal.calibration.thermal.features import Features, OutlierConfig
@@ -382,8 +382,6 @@ def allan_table(
     curves : dict
         ``curves[run][channel][output]`` the :class:`~rinscal.calibration.allan.AllanCurve`.
     """
-    from rinscal.calibration.allan import allan_deviation, noise_parameters
-
     feats, f, _ = prepared or prepare(log, model, policy, derivative_kind, outliers)
     rows: list[dict[str, object]] = []
     curves: dict[str, dict[str, dict[str, AllanCurve]]] = {}

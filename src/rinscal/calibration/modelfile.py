@@ -60,10 +60,10 @@ unit_to_si``, i.e. the modelled output minus the Earth rate and gravity the IMU 
 the calibration table. The intercept also holds the mean turn-on offset of the
 calibration runs.
 
-One idea, about 870 lines: the model file as a validated value. Its layout, its
-validation on load (most of the module: every key, type, shape and consistency check names
-the file and the problem) and its numpy-only evaluation (input policies, the joint domain,
-``predict_bias_si``) are one contract; the numerics of each method live in
+Why one module: about 870 lines, one idea: the model file as a validated value. Its
+layout, its validation on load (most of the module: every key, type, shape and consistency
+check names the file and the problem) and its numpy-only evaluation (input policies, the
+joint domain, ``predict_bias_si``) are one contract; the numerics of each method live in
 :mod:`rinscal.calibration.inference`.
 """
 

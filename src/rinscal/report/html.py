@@ -52,6 +52,7 @@ nav ol { columns: 2; font-size: .92rem; }
 
 def figure_to_png(fig: Figure, dpi: int = 110) -> bytes:
     """Render a matplotlib figure to PNG bytes (and close it)."""
+    # deferred: pyplot loads in ~0.3 s; pages without figures do not need it
     import matplotlib.pyplot as plt
 
     buf = io.BytesIO()

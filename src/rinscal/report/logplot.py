@@ -14,6 +14,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 import pandas as pd
+from matplotlib import colormaps
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
@@ -148,8 +149,6 @@ def _time_scale(t_max: float) -> tuple[float, str]:
 
 
 def _run_colors(n: int) -> list[Any]:
-    from matplotlib import colormaps
-
     if n <= 10:
         return [colormaps["tab10"](i) for i in range(n)]
     return [colormaps["viridis"](x) for x in np.linspace(0.0, 0.95, n)]

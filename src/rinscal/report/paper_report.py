@@ -2,13 +2,16 @@
 
 Every function takes the data the experiments returned and fills a report section or writes
 the reproduction's files; nothing here computes a result. The figures are drawn in
-:mod:`rinscal.report.paper_figures`. The module is long because it is one idea: the
-reproduction's report, section by section, with the words each section says from the numbers
-and the files it is written to.
+:mod:`rinscal.report.paper_figures`.
+
+Why one module: it is long because it is one idea: the reproduction's report, section by
+section, with the words each section says from the numbers and the files it is written to.
 """
 
 from __future__ import annotations
 
+import html
+import json
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -18,9 +21,36 @@ import pandas as pd
 
 from rinscal import units
 from rinscal.experiments.paper.calibration import CalibrationResult
-from rinscal.experiments.paper.config import LABELS, METHODS, PAPER, VARIANTS, ReproConfig
-from rinscal.experiments.paper.navigation import NavRunResult
+from rinscal.experiments.paper.claims import (
+    NAV_GROUPS,
+    claims,
+    decrease_pct,
+    nav_group,
+    nav_method_table,
+    selection_summary_table,
+    summary_table,
+    uncompensated_wins_heldout,
+    uncompensated_wins_nav,
+)
+from rinscal.experiments.paper.config import (
+    LABELS,
+    METHODS,
+    PAPER,
+    VARIANTS,
+    ReproConfig,
+    load_plant,
+    plant_info,
+)
+from rinscal.experiments.paper.navigation import (
+    NavRunResult,
+    heading_error_table,
+    max_error_table,
+    thermal_part_table,
+)
+from rinscal.io.atomic import write_atomic
+from rinscal.report.allan_plot import allan_figure
 from rinscal.report.html import Report, figure_to_png
+from rinscal.report.logplot import plot_log
 from rinscal.report.paper_figures import (
     fig_lab_bars,
     fig_nav_errors,
@@ -53,8 +83,6 @@ def _join(items: Sequence[str]) -> str:
 def words_uncompensated_heldout(residual: pd.DataFrame, log: str) -> str:
     """One sentence, from the numbers, saying on which channels of a held-out log no
     compensation beats each method (or that every method beats it everywhere)."""
-    from rinscal.experiments.paper.claims import uncompensated_wins_heldout
-
     where = _LOG_WORDS.get(log, f"the held-out run {log!r}")
     wins = uncompensated_wins_heldout(residual, log)
     if not wins:
@@ -73,8 +101,6 @@ def words_uncompensated_heldout(residual: pd.DataFrame, log: str) -> str:
 def words_uncompensated_nav(maxerr: pd.DataFrame) -> str:
     """Sentences, from the numbers, saying where the uncompensated run has a smaller mean
     maximum position error than a method (or that every method beats it)."""
-    from rinscal.experiments.paper.claims import NAV_GROUPS, nav_group, uncompensated_wins_nav
-
     wins = uncompensated_wins_nav(maxerr)
     if not wins:
         return (
@@ -113,8 +139,6 @@ def _max_words(r: NavRunResult, variants: Sequence[str] = VARIANTS) -> str:
 
 
 def _plant_html(plant: Mapping[str, Any]) -> str:
-    import html
-
     kind = "preset" if plant["kind"] == "preset" else "IMU file"
     others = " or ".join(f"<code>{html.escape(o)}</code>" for o in plant["run_other"])
     other = (
@@ -147,8 +171,6 @@ def build_report(
     :class:`rinscal.report.study_report.StudyTables` of ``--units N`` (its report is in
     ``study/report.html``).
     """
-    from rinscal.experiments.paper.config import load_plant, plant_info
-
     if plant is None:
         plant = plant_info(cfg.imu, cal.imu or load_plant(cfg.imu))
     mode = "quick" if cfg.quick else "full"
@@ -221,6 +243,7 @@ def build_report(
     )
 
     if study is not None and not study.claims.empty:
+        # deferred: study_report adds ~0.4 s (scipy.stats); only a study's section needs it
         from rinscal.report.study_report import claims_view
 
         n = int(study.results["unit"].nunique())
@@ -458,8 +481,6 @@ def command_line(cfg: ReproConfig) -> str:
 
 
 def _esc(text: str) -> str:
-    import html
-
     return html.escape(text)
 
 
@@ -538,7 +559,6 @@ def render_figures(
     cal: CalibrationResult, nav: Sequence[NavRunResult], maxerr: pd.DataFrame
 ) -> dict[str, bytes]:
     """Every figure of the report as PNG bytes."""
-    from rinscal.report.logplot import plot_log
 
     def first(exp: str, scen: str) -> NavRunResult:
         return next(r for r in nav if r.job.experiment == exp and r.job.scenario == scen)
@@ -569,8 +589,6 @@ def render_figures(
         "temperatures": fig_temperatures(nav),
     }
     if cal.allan_curves:
-        from rinscal.report.allan_plot import allan_figure
-
         units = {c: cal.metas["repeat"]["units"].get(c, "?") for c in cal.allan_curves}
         figs["allan"] = allan_figure(cal.allan_curves, units, title="Repeat run at 25 °C")
         order = list(figs)  # in the report's order: right after the repeat figure
@@ -606,18 +624,6 @@ def reproduction_tables(
     cal: CalibrationResult, nav: Sequence[NavRunResult]
 ) -> tuple[pd.DataFrame, dict[str, pd.DataFrame]]:
     """Every table of the reproduction (name -> DataFrame) and the max-error table."""
-    from rinscal.experiments.paper.claims import (
-        decrease_pct,
-        nav_method_table,
-        selection_summary_table,
-        summary_table,
-    )
-    from rinscal.experiments.paper.navigation import (
-        heading_error_table,
-        max_error_table,
-        thermal_part_table,
-    )
-
     maxerr = max_error_table(nav)
     tables = dict(cal.tables)
     tables["lab_max"] = maxerr[maxerr["experiment"] == "lab"].drop(columns="experiment")
@@ -646,8 +652,6 @@ def _records(df: pd.DataFrame) -> list[dict[str, Any]]:
 
 def findings(tables: Mapping[str, pd.DataFrame]) -> dict[str, Any]:
     """Where no compensation beats a model, as data and as the report's sentences."""
-    from rinscal.experiments.paper.claims import uncompensated_wins_heldout, uncompensated_wins_nav
-
     h = tables["heldout_residual"]
     logs = list(dict.fromkeys(h["log"]))
     maxerr = _maxerr_from(tables)
@@ -675,12 +679,6 @@ def write_reproduction(
     ``plant`` is :func:`rinscal.experiments.paper.config.plant_info` of the IMU that ran (default:
     from ``cfg.imu`` and ``cal.imu``).
     """
-    import json
-
-    from rinscal.experiments.paper.claims import claims
-    from rinscal.experiments.paper.config import load_plant, plant_info
-    from rinscal.io.atomic import write_atomic
-
     if plant is None:
         plant = plant_info(cfg.imu, cal.imu or load_plant(cfg.imu))
     maxerr, tables = reproduction_tables(cal, nav)

@@ -128,6 +128,7 @@ def verdict_lines(t: StudyTables) -> list[str]:
 
 # --------------------------------------------------------------------------- figures
 def _distribution_figure(results: pd.DataFrame, plant: int) -> bytes:
+    # deferred: matplotlib loads in ~0.3 s, for figures only; Agg is chosen before pyplot
     import matplotlib
 
     matplotlib.use("Agg")
@@ -173,6 +174,7 @@ _FOREST = (
 
 
 def _forest_figure(pairs: pd.DataFrame, plant: int) -> bytes:
+    # deferred: matplotlib loads in ~0.3 s, for figures only; Agg is chosen before pyplot
     import matplotlib
 
     matplotlib.use("Agg")
@@ -212,6 +214,7 @@ def _forest_figure(pairs: pd.DataFrame, plant: int) -> bytes:
 
 
 def _map_figure(sens: pd.DataFrame) -> bytes:
+    # deferred: matplotlib loads in ~0.3 s, for figures only; Agg is chosen before pyplot
     import matplotlib
 
     matplotlib.use("Agg")

@@ -72,11 +72,17 @@ from rinscal.calibration.selection.candidates import (
     fit_candidate,
 )
 from rinscal.calibration.selection.folds import Folds, RunSpan, fold_plan, holdout_plan
+from rinscal.calibration.thermal.baselines import (
+    ardupilot_fit_smoothed,
+    ardupilot_smoothed,
+    px4_filtered,
+    px4_fit_filtered,
+)
 from rinscal.calibration.thermal.fitting import (
     center_scale,
-    power_basis,
     factor_ss_about_mean,
     fit_factors_leaving_out,
+    power_basis,
     solve_r,
     tsqr,
 )
@@ -134,8 +140,6 @@ def _baseline_screens(
     the tool's own fit on every row (equal to :func:`rinscal.calibration.thermal.baselines.px4_fit`
     and ``ardupilot_fit`` on the same data, the filter not run again).
     """
-    from rinscal.calibration.thermal.baselines import ardupilot_smoothed, px4_filtered
-
     methods = _tool_methods(cands)
     pre: dict[str, tuple[np.ndarray, ...]] = {}
     if "px4" in methods:
@@ -160,7 +164,6 @@ def _tool_fits(
     ``pre["ardupilot"]``: smoothed temperatures and outputs, their folds, and the raw
     temperatures and outputs for the constant term.
     """
-    from rinscal.calibration.thermal.baselines import ardupilot_fit_smoothed, px4_fit_filtered
 
     def thin(codes: np.ndarray, k: int) -> np.ndarray:
         """Every step-th row, those of fold ``k`` left out: at most about SCREEN_ROWS."""
@@ -393,7 +396,9 @@ def choose(
     k = mse.shape[1]
     near = mean <= mean[b] * (1.0 + tolerance)
     if k > 1:
-        from scipy.special import stdtrit  # Student t quantile (scipy.stats imports slowly)
+        # deferred: scipy.special loads in ~0.2 s and only several folds need the Student t
+        # quantile (taken from scipy.special: scipy.stats imports more slowly still)
+        from scipy.special import stdtrit
 
         floor = 1e-12 * max(float(mean[b]), np.finfo(np.float64).tiny)
         logs = np.log(np.maximum(mse[ok], floor))
@@ -558,6 +563,7 @@ def _choose_scored(
     random_state: int,
 ) -> Selection:
     """Score every candidate on the rows given (already thinned) and choose one."""
+    # deferred: only scoring needs threadpoolctl; importing this module stays numpy-only
     from threadpoolctl import threadpool_limits
 
     # thousands of tiny factorisations: BLAS threads only add overhead (and spin when the

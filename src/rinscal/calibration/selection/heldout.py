@@ -22,15 +22,19 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from rinscal.calibration.thermal.fitting import rms_about_run_mean
-from rinscal.calibration.thermal.runs import RunFits
 from rinscal.calibration.thermal.features import (
     DerivativeConfig,
     Features,
     OutlierConfig,
     build_features,
 )
+from rinscal.calibration.thermal.fitting import (
+    factor_ss_about_mean,
+    fit_factors,
+    rms_about_run_mean,
+)
 from rinscal.calibration.thermal.model import ThermalModel
+from rinscal.calibration.thermal.runs import RunFits
 from rinscal.errors import ConfigError
 from rinscal.schema import CHANNELS
 
@@ -121,8 +125,6 @@ def _regression_scores(
     column is ones). Equal to refitting from the data (the power basis spans the same
     polynomials whatever its centring and scaling), without touching the data again.
     """
-    from rinscal.calibration.thermal.fitting import factor_ss_about_mean, fit_factors
-
     d, kmax = len(fits.powers), max(settings)
     n_terms = 1 + d * kmax
     factors = fits.global_factors(fits.powers, fits.scaling())

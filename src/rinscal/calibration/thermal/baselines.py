@@ -238,6 +238,7 @@ def px4_median_filter(y: np.ndarray, kernel: int = PX4_MEDIAN_KERNEL) -> np.ndar
     y = np.asarray(y, dtype=np.float64)
     if y.size == 0:
         return y.copy()
+    # deferred: scipy.ndimage loads in ~0.2 s; only PX4's median filter needs it
     from scipy import ndimage
 
     return ndimage.median_filter(y, size=kernel, mode="constant", cval=0.0)

@@ -14,13 +14,13 @@ from typing import Any
 
 import numpy as np
 
+from rinscal.calibration.thermal.baselines import ardupilot_fit, px4_fit
 from rinscal.calibration.thermal.fitting import (
     fit_poly_t,
     fit_regression,
     fit_sectional,
     sectional_edges,
 )
-from rinscal.calibration.thermal.baselines import ardupilot_fit, px4_fit
 
 __all__ = ["fit_params"]
 
@@ -74,7 +74,7 @@ def fit_params(
     if method == "ardupilot":
         return ardupilot_fit(X[:, 0], y, t, groups, **h)
     if method == "neural":
-        # scikit-learn (about 1 s to import) only when a network is fitted
+        # deferred: estimators imports scikit-learn (about 1 s); only a network needs it
         from rinscal.calibration.thermal.estimators import Neural
 
         est = Neural()

@@ -32,23 +32,27 @@ factorisation of ``[A | y]`` (TSQR; never the normal equations), so memory stays
 for millions of samples. Coefficients are also reportable in the paper's raw form
 (:meth:`Regression.raw_coefficients`).
 
-One idea, about 770 lines: the scikit-learn face of the paper's methods (and of the field's
-two baselines), each class a thin estimator over the numpy fits; they share one base and the
-conventions scikit-learn checks, so they stay together.
+Why one module: about 770 lines, one idea: the scikit-learn face of the paper's methods
+(and of the field's two baselines), each class a thin estimator over the numpy fits; they
+share one base and the conventions scikit-learn checks, so they stay together.
 """
 
 from __future__ import annotations
 
+import copy
 import warnings
 from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
+from scipy.optimize import least_squares
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.exceptions import ConvergenceWarning
 from sklearn.utils.validation import check_is_fitted, column_or_1d, validate_data
+from threadpoolctl import threadpool_limits
 
 from rinscal.calibration.inference import predict_params, raw_polynomial
+from rinscal.calibration.thermal.baselines import ARDUPILOT_WINDOW_S, ardupilot_fit, px4_fit
 from rinscal.calibration.thermal.fitting import (
     NEURAL_MAX_SAMPLES,
     fit_poly_t,
@@ -59,7 +63,6 @@ from rinscal.calibration.thermal.fitting import (
     solve_r,
     tsqr,
 )
-from rinscal.calibration.thermal.baselines import ARDUPILOT_WINDOW_S, ardupilot_fit, px4_fit
 
 __all__ = [
     "ALL_ESTIMATORS",
@@ -110,8 +113,6 @@ class _ThermalEstimator(RegressorMixin, BaseEstimator):
     def export_params(self) -> dict[str, Any]:
         """Plain JSON-able parameters (see :mod:`rinscal.calibration.inference`)."""
         check_is_fitted(self, "params_")
-        import copy
-
         return copy.deepcopy(self.params_)
 
 
@@ -448,8 +449,6 @@ class Neural(_ThermalEstimator):
         -------
         Neural
         """
-        from threadpoolctl import threadpool_limits
-
         X, y = self._validate_fit(X, y)
         # the matrices are tiny (rows x a few neurons): one BLAS thread is fastest, and
         # threads spinning on a busy machine made training 25 times slower
@@ -457,6 +456,8 @@ class Neural(_ThermalEstimator):
             return self._fit(X, y, groups)
 
     def _fit(self, X: np.ndarray, y: np.ndarray, groups: Any) -> Neural:
+        # deferred: sklearn.neural_network adds ~50 ms to this module's import; only a
+        # network fit needs it
         from sklearn.neural_network import MLPRegressor
 
         n_hidden = int(self.hidden)
@@ -564,8 +565,6 @@ def _levenberg_marquardt(
     theta: np.ndarray, z: np.ndarray, y: np.ndarray, n: int, alpha: float, max_nfev: int
 ) -> tuple[np.ndarray, int]:
     """Minimise ``½ Σ (f(z_i) − y_i)² + ½ α ‖W, v‖²`` from ``theta`` (standardised data)."""
-    from scipy.optimize import least_squares
-
     d = z.shape[1]
     m = z.shape[0]
     n_w = n * d + n  # W and v carry the penalty, as in MLPRegressor (not the biases)

@@ -297,7 +297,8 @@ def temperature_rate(t: np.ndarray, temp: np.ndarray, derivative: DerivativeConf
     -------
     ndarray, same shape as ``temp`` [°C/min]
     """
-    from rinscal.calibration.thermal.rate import causal_slope, centred_slope_run  # numba: on demand
+    # deferred: rate imports numba (~0.25 s) for its kernels; only a rate needs them
+    from rinscal.calibration.thermal.rate import causal_slope, centred_slope_run
 
     temp = np.asarray(temp, dtype=np.float64)
     x = temp.reshape(temp.shape[0], -1)
@@ -330,7 +331,7 @@ def _median_filter(y: np.ndarray, size: int) -> np.ndarray:
         half = size // 2
         padded = np.pad(y, (half, size - 1 - half), mode="edge")
         return np.median(np.lib.stride_tricks.sliding_window_view(padded, size), axis=1)
-    from scipy.ndimage import median_filter  # imported when needed
+    from scipy.ndimage import median_filter  # deferred: 0.2 s to import, long series only
 
     return median_filter(y, size=size, mode="nearest")
 

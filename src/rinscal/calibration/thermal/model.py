@@ -16,10 +16,11 @@ It builds the features run by run, masks outliers, fits each channel on its inli
 and produces a :class:`~rinscal.calibration.modelfile.ThermalModelFile` (units, static
 reference, training ranges and metrics included) with :meth:`ThermalModel.to_file`.
 
-One idea, about 800 lines: fitting a log into a model file. ``ThermalModel`` (the settings
-and the public ``fit``/``fit_runs``) and ``_Fitting`` (what each channel keeps of each run
-and the final fit of each channel) are two halves of one procedure that share their state;
-the unit and static-reference helpers at the top are the model file's side of that fit.
+Why one module: about 800 lines, one idea: fitting a log into a model file.
+``ThermalModel`` (the settings and the public ``fit``/``fit_runs``) and ``_Fitting`` (what
+each channel keeps of each run and the final fit of each channel) are two halves of one
+procedure that share their state; the unit and static-reference helpers at the top are the
+model file's side of that fit.
 """
 
 from __future__ import annotations
@@ -35,6 +36,7 @@ import pandas as pd
 from rinscal._version import __version__
 from rinscal.calibration.inference import METHODS, n_inputs, predict_params
 from rinscal.calibration.modelfile import AUTO, ChannelModel, ThermalModelFile
+from rinscal.calibration.selection import auto
 from rinscal.calibration.selection.auto import DEFAULT_TOLERANCE, Selection, select_thinned
 from rinscal.calibration.selection.candidates import (
     DEFAULT_FAMILIES,
@@ -45,8 +47,6 @@ from rinscal.calibration.selection.candidates import (
     used_inputs,
 )
 from rinscal.calibration.thermal.dispatch import fit_params
-from rinscal.calibration.thermal.fitting import NEURAL_MAX_SAMPLES, rms_about_run_mean
-from rinscal.calibration.thermal.runs import FACTOR_METHODS, FALLBACK_DEGREE, RowSample, RunFits
 from rinscal.calibration.thermal.features import (
     DerivativeConfig,
     Features,
@@ -56,6 +56,7 @@ from rinscal.calibration.thermal.features import (
     distinct_points,
     run_slices,
 )
+from rinscal.calibration.thermal.fitting import NEURAL_MAX_SAMPLES, rms_about_run_mean
 from rinscal.calibration.thermal.guards import (
     PLAUSIBLE_TEMP_C,
     DesignError,
@@ -63,6 +64,8 @@ from rinscal.calibration.thermal.guards import (
     check_temperatures,
     warn_resolution,
 )
+from rinscal.calibration.thermal.runs import FACTOR_METHODS, FALLBACK_DEGREE, RowSample, RunFits
+from rinscal.earth import static_outputs_r
 from rinscal.errors import ConfigError
 from rinscal.schema import (
     CHAMBER,
@@ -155,8 +158,6 @@ def site_reference(
     dict of str to float or None
         None for a channel whose unit, or the site, is unknown.
     """
-    from rinscal.earth import static_outputs_r
-
     meta = meta or {}
     lat, head = meta.get("latitude_deg"), meta.get("heading_deg")
     if not all(isinstance(v, (int, float)) and np.isfinite(v) for v in (lat, head)):
@@ -298,6 +299,8 @@ class ThermalModel:
         set_pts : ndarray, optional [°C]
             Soak set points (``sectional`` segment edges when ``edges`` is None).
         """
+        # deferred: estimators imports scikit-learn (about 1 s); only this accessor needs it,
+        # the fits themselves run on numpy (dispatch.fit_params)
         from rinscal.calibration.thermal.estimators import ALL_ESTIMATORS
 
         est = ALL_ESTIMATORS[self.method]()
@@ -347,8 +350,6 @@ class ThermalModel:
         if self.method == AUTO:
             # polynomial candidates are refitted from run factors; the held-out choice
             # scores every k-th row; a network (on request) keeps what `neural` keeps
-            from rinscal.calibration.selection import auto
-
             tools = [f for f in ("px4", "ardupilot") if f in self.candidates]
             return RunFits(
                 AUTO,

@@ -44,11 +44,17 @@ from rinscal.calibration._domain import (
     occupied_boxes,
 )
 from rinscal.calibration.selection.folds import MIN_RUNS, RunSpan, run_span
+from rinscal.calibration.thermal.baselines import (
+    ARDUPILOT_WINDOW_S,
+    PX4_MEDIAN_KERNEL,
+    ardupilot_window,
+    px4_median_filter,
+)
 from rinscal.calibration.thermal.fitting import (
-    center_scale,
-    power_basis,
     _split_coef,
+    center_scale,
     factor_ss_about_mean,
+    power_basis,
     solve_r,
     tsqr,
 )
@@ -201,8 +207,6 @@ def _median_at(y: np.ndarray, keep: np.ndarray) -> np.ndarray:
     """PX4's running median of one run's output (:func:`rinscal.calibration.thermal.baselines.
     px4_median_filter`: 31 samples, zeros beyond the ends) at rows ``keep``, the same numbers:
     the median of an odd window is one of its samples. Few rows: their windows alone."""
-    from rinscal.calibration.thermal.baselines import PX4_MEDIAN_KERNEL, px4_median_filter
-
     if 4 * keep.size > y.size:
         return px4_median_filter(y)[keep]
     h = PX4_MEDIAN_KERNEL // 2
@@ -222,8 +226,6 @@ def _moving_average_at(
     """ArduPilot's smoothed ``T`` and output at rows ``keep`` of one run (window centred on
     the row, as :func:`rinscal.calibration.thermal.baselines.ardupilot_smoothed` places it);
     NaN where no complete window is centred there."""
-    from rinscal.calibration.thermal.baselines import ARDUPILOT_WINDOW_S, ardupilot_window
-
     ts, ys = np.full(keep.size, np.nan), np.full(keep.size, np.nan)
     if temp.size < 2:
         return ts, ys

@@ -47,6 +47,7 @@ class CausalModelCompensator:
     """
 
     def __init__(self, model: Any, policy: str = "clamp", update_s: float = 1.0) -> None:
+        # deferred: rate imports numba (~0.25 s); only a model run causally needs it
         from rinscal.calibration.thermal.rate import CausalSlope
 
         if not (math.isfinite(update_s) and update_s > 0):
