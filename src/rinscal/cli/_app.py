@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+import warnings
 from collections.abc import Callable
 from typing import Any
 
@@ -80,6 +81,7 @@ def guard_os_errors(command: Callable[..., Any] | None) -> Callable[..., Any] | 
 
     @functools.wraps(command)
     def run(*args: Any, **kwargs: Any) -> Any:
+        # deferred: loaded when the command runs, so that `rinscal --help` starts fast
         import warnings
 
         from rinscal.errors import describe_os_error
@@ -106,7 +108,6 @@ def report_warnings(recorded: list[Any]) -> None:
     """What a reader did to the log (:class:`LogNoteWarning`), once each, as a ``note:``
     line; any other warning as Python shows it (call outside ``catch_warnings(record=True)``,
     where showing a warning would record it again)."""
-    import warnings
 
     seen: set[str] = set()
     for w in recorded:
@@ -150,6 +151,7 @@ def print_table(console: Console, table: Any) -> None:
     over several tables, each repeating the leading text columns (run, channel, ...). Rich
     would otherwise end a cut cell with "…", numbers included.
     """
+    # deferred: loaded when the command runs, so that `rinscal --help` starts fast
     from rich import box
     from rich.table import Table
 
@@ -188,6 +190,7 @@ def print_table(console: Console, table: Any) -> None:
 
 def _version(value: bool) -> None:
     if value:
+        # deferred: loaded when the command runs, so that `rinscal --help` starts fast
         from rinscal._version import __version__
 
         console.print(f"rinscal {__version__}")

@@ -150,6 +150,7 @@ def cluster_options(
     for a missing file, a certificate without a ``tls://`` scheduler, or a ``tls://``
     scheduler with no certificate in the options or Dask's configuration.
     """
+    # deferred: loaded when the command runs, so that `rinscal --help` starts fast
     from rinscal.cli._app import fail
     from rinscal.cluster import TLSFiles, cluster_security
     from rinscal.errors import ConfigError
@@ -183,6 +184,7 @@ def refuse_inputs(out: Path, inputs: list[Path], also: Sequence[Path] = ()) -> N
     file written beside it (``also``: a truth file, sidecar metadata) may be a folder: a
     command that is refused leaves nothing behind.
     """
+    # deferred: loaded when the command runs, so that `rinscal --help` starts fast
     from rinscal.cli._app import fail
 
     for src in inputs:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+import warnings
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
@@ -58,6 +59,7 @@ def _read(
     instance: str | None = None,
 ) -> tuple[pd.DataFrame, dict[str, Any]]:
     """Read a log and its metadata (units from the mapping when there is no sidecar)."""
+    # deferred: loaded when the command runs, so that `rinscal --help` starts fast
     from rinscal.io.foreign import read_foreign_source
 
     src, meta = read_foreign_source(
@@ -78,6 +80,7 @@ def _static_options(
     latitude: float | None, heading: float | None, static_ref: str | None
 ) -> dict[str, Any]:
     """Metadata for the static reference from ``--latitude/--heading`` and ``--static-ref``."""
+    # deferred: loaded when the command runs, so that `rinscal --help` starts fast
     from rinscal.cli._app import fail
     from rinscal.schema import CHANNELS
 
@@ -109,6 +112,7 @@ def _static_options(
 
 
 def _ints(text: str | None, option: str) -> tuple[int, ...] | None:
+    # deferred: loaded when the command runs, so that `rinscal --help` starts fast
     from rinscal.cli._app import fail
 
     if text is None:
@@ -120,6 +124,7 @@ def _ints(text: str | None, option: str) -> tuple[int, ...] | None:
 
 
 def _floats(text: str | None, option: str) -> tuple[float, ...] | None:
+    # deferred: loaded when the command runs, so that `rinscal --help` starts fast
     from rinscal.cli._app import fail
 
     if text is None:
@@ -390,7 +395,6 @@ def select(
     instance: InstanceOpt = None,
 ) -> None:
     """Held-out RMS per channel: of every auto candidate, or of orders 1-4 / 1-8 neurons."""
-    import warnings
 
     if method == "auto":
         _select_auto(
@@ -404,6 +408,7 @@ def select(
         )
         return
     tolerance = 0.02 if tolerance is None else tolerance
+    # deferred: loaded when the command runs, so that `rinscal --help` starts fast
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
     from rich.table import Table
 
@@ -519,8 +524,8 @@ def _select_auto(
     read_args: tuple[Any, ...],
 ) -> None:
     """``select --method auto``: every candidate's held-out RMS, the choice and the fallback."""
-    import warnings
 
+    # deferred: loaded when the command runs, so that `rinscal --help` starts fast
     from rich.table import Table
 
     from rinscal.calibration.thermal.features import DerivativeConfig

@@ -8,6 +8,7 @@ files atomically. Library errors become messages and exit code 2.
 from __future__ import annotations
 
 import json
+import warnings
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -237,6 +238,7 @@ def evaluate_cmd(
 
 def _write_allan_plot(path: Path, curves: Any, mf: Any, name: str) -> None:
     """The Allan figure of the longest run, written atomically."""
+    # deferred: loaded when the command runs, so that `rinscal --help` starts fast
     from rinscal.io.atomic import write_atomic
     from rinscal.report.allan_plot import allan_figure
 
@@ -287,8 +289,8 @@ def export_cmd(
     prefix: Annotated[str, typer.Option("--prefix", help="C identifier prefix.")] = "rinscal",
 ) -> None:
     """Export a model: PX4 .params, ArduPilot .parm (poly-t/px4/ardupilot) or a C header."""
-    import warnings
 
+    # deferred: loaded when the command runs, so that `rinscal --help` starts fast
     from rinscal.calibration.export import (
         SmallCoefficientWarning,
         to_ardupilot_parm,

@@ -69,6 +69,7 @@ def fleet_fit(
     distribution.csv (their spread across units). Units already fitted from the same log are
     not fitted again.
     """
+    # deferred: loaded when the command runs, so that `rinscal --help` starts fast
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
     from rich.table import Table
 

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import io
+import json
+import math
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -174,8 +177,8 @@ def navigate(
     prints per variant the maximum position error and the heading, pitch and roll error
     the alignment handed over.
     """
-    import math
 
+    # deferred: loaded when the command runs, so that `rinscal --help` starts fast
     from rinscal.calibration.modelfile import POLICIES
     from rinscal.cli._app import console, fail
     from rinscal.errors import RinscalError
@@ -285,8 +288,8 @@ def navigate(
 
 def _write_outputs(out: Path, result: object, summary: dict, temps: object) -> None:
     """errors.csv, truth.csv, summary.json and the figures, each written atomically."""
-    import json
 
+    # deferred: loaded when the command runs, so that `rinscal --help` starts fast
     import pandas as pd
 
     from rinscal.io.atomic import atomic_path
@@ -300,7 +303,6 @@ def _write_outputs(out: Path, result: object, summary: dict, temps: object) -> N
         frames.append(d)
     errors = pd.concat(frames, ignore_index=True)
     # everything is made before anything is written: a failure leaves the folder as it was
-    import io
 
     import pyarrow as pa
     import pyarrow.csv as pacsv
@@ -333,6 +335,7 @@ def _write_outputs(out: Path, result: object, summary: dict, temps: object) -> N
 
 
 def _print_variants(summary: dict) -> None:
+    # deferred: loaded when the command runs, so that `rinscal --help` starts fast
     from rinscal import units
     from rinscal.cli._app import console
 
@@ -354,6 +357,7 @@ def _print_variants(summary: dict) -> None:
 
 
 def _progress() -> object:
+    # deferred: loaded when the command runs, so that `rinscal --help` starts fast
     from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
     from rinscal.cli._app import console
@@ -370,6 +374,7 @@ def _progress() -> object:
 
 def _navigate_log(log: Path, out: Path, models: list[Path], policy: str, **kw: object) -> None:
     """``navigate --log``: read, align, navigate, write the same outputs as a scenario."""
+    # deferred: loaded when the command runs, so that `rinscal --help` starts fast
     from rinscal.cli._app import console, fail
     from rinscal.errors import RinscalError
     from rinscal.io.tables import is_flight_log

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+import time
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -75,9 +77,8 @@ def reproduce(
 
     The report and metrics.json name the plant that ran.
     """
-    import json
-    import time
 
+    # deferred: loaded when the command runs, so that `rinscal --help` starts fast
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     from rinscal.cli._app import console, err_console, fail, styled

@@ -33,6 +33,7 @@ _FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
 
 def _every_instance(log: Path, instance: str | None) -> str | None:
     """``--instance`` of a plot: a flight log shows every IMU unless one is chosen."""
+    # deferred: loaded when the command runs, so that `rinscal --help` starts fast
     from rinscal.io.tables import is_flight_log
 
     return "all" if instance is None and is_flight_log(log) else instance
@@ -66,6 +67,7 @@ def plot(
     dpi: Annotated[int, typer.Option("--dpi", min=30, max=1200, help="PNG resolution.")] = 120,
 ) -> None:
     """Draw outputs and temperatures against time per run (the paper's Figure 3)."""
+    # deferred: loaded when the command runs, so that `rinscal --help` starts fast
     from rich.progress import Progress
 
     from rinscal.cli._app import console, fail
@@ -157,6 +159,7 @@ def simulate(
     Beside LOG it writes LOG's stem + '.truth' + suffix (the true thermal bias of every
     sample, in the log's unit) and LOG + '.meta.json' (units, site, offsets, seed).
     """
+    # deferred: loaded when the command runs, so that `rinscal --help` starts fast
     from dataclasses import replace
 
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn

@@ -70,6 +70,7 @@ def study(
     an interrupted study resumes with the same command and computes only what is missing.
     Writes OUT/report.html, OUT/tables/*.csv and OUT/summary.json at the end.
     """
+    # deferred: loaded when the command runs, so that `rinscal --help` starts fast
     from rich.progress import (
         BarColumn,
         MofNCompleteColumn,
