@@ -22,13 +22,16 @@ data row 1 is the first sample (line 2 of a CSV/TSV file with a header line).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from rinscal.errors import LogError
+from rinscal.errors import ConfigError, LogError
+from rinscal.units import SENSOR_UNITS, check_sensor_unit
 
 #: The six sensor channels, in the order used everywhere (arrays of shape (n, 6)).
 CHANNELS: tuple[str, ...] = ("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z")
@@ -486,3 +489,44 @@ class NavSamples:
     def n(self) -> int:
         """Samples in the piece."""
         return int(self.t.shape[0])
+
+
+def unit_factors(
+    meta: Mapping[str, Any] | None, channels: Sequence[str] = CHANNELS
+) -> tuple[dict[str, str | None], dict[str, float | None]]:
+    """Units of the channels and their SI value, from a log's metadata.
+
+    ``meta["unit_to_si"][channel]`` wins; else ``meta["units"][channel]`` through
+    :data:`rinscal.units.SENSOR_UNITS`, or ``meta["pulse_scale"][channel]`` for ``"pulse"``.
+
+    Returns
+    -------
+    units : dict of str to str or None
+    unit_to_si : dict of str to float or None [SI per log unit]
+
+    Raises
+    ------
+    ConfigError
+        A unit that is not one of the channel's sensor type (:mod:`rinscal.units`), or
+        whose ``unit_to_si`` contradicts it.
+    """
+    meta = meta or {}
+    units_m = meta.get("units") or {}
+    to_si = meta.get("unit_to_si") or {}
+    pulse = meta.get("pulse_scale") or {}
+    units: dict[str, str | None] = {}
+    factors: dict[str, float | None] = {}
+    for c in channels:
+        u = units_m.get(c, units_m.get(sensor_type(c)))
+        units[c] = str(u) if u is not None else None
+        k = to_si.get(c)
+        if k is None and u is not None:
+            k = pulse.get(c) if u == "pulse" else SENSOR_UNITS.get(str(u))
+        ok = isinstance(k, (int, float)) and not isinstance(k, bool) and math.isfinite(k) and k > 0
+        factors[c] = float(k) if ok else None
+        if u is not None:
+            try:
+                check_sensor_unit(sensor_type(c), str(u), factors[c])
+            except ValueError as exc:
+                raise ConfigError(f"the log's units: {c}: {exc}") from None
+    return units, factors

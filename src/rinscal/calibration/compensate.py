@@ -38,10 +38,9 @@ from rinscal.calibration.thermal.features import (
     build_features,
     temperature_rate,
 )
-from rinscal.calibration.thermal.model import unit_factors
 from rinscal.calibration.thermal.rate import CausalSlope
 from rinscal.errors import ConfigError, LogError, RangeError
-from rinscal.schema import CHANNELS
+from rinscal.schema import CHANNELS, unit_factors
 from rinscal.units import MIN_TO_S
 
 __all__ = [

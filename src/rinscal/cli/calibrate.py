@@ -418,11 +418,11 @@ def select(
         select_regression_runs,
     )
     from rinscal.calibration.thermal.features import DerivativeConfig, MissingGradientWarning
-    from rinscal.calibration.thermal.model import unit_factors
     from rinscal.cli._app import console, err_console, fail, styled
     from rinscal.errors import RinscalError
     from rinscal.io.streaming import by_runs
     from rinscal.io.tables import read_log_source
+    from rinscal.schema import unit_factors
 
     if method not in DEFAULT_SETTINGS:
         raise fail(f"--method must be regression or neural, got {method!r}")

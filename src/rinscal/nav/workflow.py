@@ -21,14 +21,8 @@ import numpy as np
 import pandas as pd
 
 from rinscal.calibration.modelfile import POLICIES, ThermalModelFile
-from rinscal.calibration.workflow import load_model
 from rinscal.errors import ConfigError
-from rinscal.io.metadata import write_meta
-from rinscal.io.streaming import LogStreamWriter
-from rinscal.io.tables import FORMATS
 from rinscal.nav.config import ScenarioConfig
-from rinscal.nav.recorded.frame import recording_frame
-from rinscal.nav.recording import navigate_log
 from rinscal.nav.rotation import schedule_from_name
 from rinscal.nav.scenario import NavResult, align_for, preset, run_scenario
 from rinscal.nav.sensors import (
@@ -43,6 +37,8 @@ from rinscal.thermal.presets import DEFAULT_PRESET
 __all__ = ["Navigation", "model_compensator", "navigate", "navigate_scenario"]
 
 ModelLike = str | os.PathLike[str] | ThermalModelFile
+#: What ``record=`` may be named (the log formats of :data:`rinscal.io.tables.FORMATS`).
+RECORD_SUFFIXES = (".parquet", ".pq", ".csv", ".tsv")
 
 
 @dataclass(frozen=True)
@@ -85,7 +81,7 @@ def model_compensator(model: ModelLike, plant: ThermalPlant, policy: str = "clam
     policy : {"clamp", "extrapolate", "fallback", "raise"}
         Out-of-range handling of the model inputs.
     """
-    mf = model if isinstance(model, ThermalModelFile) else load_model(model)
+    mf = model if isinstance(model, ThermalModelFile) else ThermalModelFile.load(model)
     return ModelCompensator(mf, plant, policy=policy)
 
 
@@ -176,7 +172,7 @@ def navigate_scenario(
             raise ConfigError(f"{name} must be > 0, got {value}")
     if not (np.isfinite(align_start_s) and align_start_s >= 0):
         raise ConfigError(f"align_start_s must be >= 0 s, got {align_start_s}")
-    if record is not None and Path(record).suffix.lower() not in FORMATS:
+    if record is not None and Path(record).suffix.lower() not in RECORD_SUFFIXES:
         raise ConfigError(f"record {record}: give a .parquet, .csv or .tsv file name")
     plant_cfg = imu if isinstance(imu, ImuConfig) else load_imu(imu)
     if isinstance(scenario, ScenarioConfig):
@@ -230,6 +226,11 @@ def _record(
     seed: int,
 ) -> NavResult:
     """Run the scenario and stream the raw IMU output it navigated into ``record``."""
+    # deferred: the writers (pyarrow) and the recording's columns only when recording
+    from rinscal.io.metadata import write_meta
+    from rinscal.io.streaming import LogStreamWriter
+    from rinscal.nav.recorded.frame import recording_frame
+
     grid = np.arange(0.0, float(plant.field.t[-1]) + 1e-9, 1.0)
     inner, outer = plant.measured_temperatures(grid)
     tr = cfg.trajectory
@@ -308,5 +309,8 @@ def navigate(
     if (scenario is None) == (log is None):
         raise ConfigError("give a scenario (a simulated run) or log= (a recording), not both")
     if log is not None:
+        # deferred: the recording reader and its window finder are not needed by a scenario
+        from rinscal.nav.recording import navigate_log
+
         return navigate_log(log, **options)
     return navigate_scenario(scenario, **options)  # type: ignore[arg-type]

@@ -74,10 +74,11 @@ from rinscal.schema import (
     TEMP_OUT,
     sensor_type,
     temperature_column,
+    unit_factors,
 )
-from rinscal.units import DEG_TO_RAD, SENSOR_UNITS, check_sensor_unit
+from rinscal.units import DEG_TO_RAD
 
-__all__ = ["DEFAULTS", "FIT_METHODS", "ThermalModel", "site_reference", "unit_factors"]
+__all__ = ["DEFAULTS", "FIT_METHODS", "ThermalModel", "site_reference"]
 
 #: Methods ``ThermalModel`` fits: the paper's and the baseline, the field's own fits, and
 #: ``auto`` (each channel's model chosen by held-out error).
@@ -100,47 +101,6 @@ DEFAULTS: dict[str, dict[str, dict[str, Any]]] = {
     "px4": {"gyro": {"sensor": "gyro"}, "accel": {"sensor": "accel"}},
     "ardupilot": {"gyro": {"sensor": "gyro"}, "accel": {"sensor": "accel"}},
 }
-
-
-def unit_factors(
-    meta: Mapping[str, Any] | None, channels: Sequence[str] = CHANNELS
-) -> tuple[dict[str, str | None], dict[str, float | None]]:
-    """Units of the channels and their SI value, from a log's metadata.
-
-    ``meta["unit_to_si"][channel]`` wins; else ``meta["units"][channel]`` through
-    :data:`rinscal.units.SENSOR_UNITS`, or ``meta["pulse_scale"][channel]`` for ``"pulse"``.
-
-    Returns
-    -------
-    units : dict of str to str or None
-    unit_to_si : dict of str to float or None [SI per log unit]
-
-    Raises
-    ------
-    ConfigError
-        A unit that is not one of the channel's sensor type (:mod:`rinscal.units`), or
-        whose ``unit_to_si`` contradicts it.
-    """
-    meta = meta or {}
-    units_m = meta.get("units") or {}
-    to_si = meta.get("unit_to_si") or {}
-    pulse = meta.get("pulse_scale") or {}
-    units: dict[str, str | None] = {}
-    factors: dict[str, float | None] = {}
-    for c in channels:
-        u = units_m.get(c, units_m.get(sensor_type(c)))
-        units[c] = str(u) if u is not None else None
-        k = to_si.get(c)
-        if k is None and u is not None:
-            k = pulse.get(c) if u == "pulse" else SENSOR_UNITS.get(str(u))
-        ok = isinstance(k, (int, float)) and not isinstance(k, bool) and np.isfinite(k) and k > 0
-        factors[c] = float(k) if ok else None
-        if u is not None:
-            try:
-                check_sensor_unit(sensor_type(c), str(u), factors[c])
-            except ValueError as exc:
-                raise ConfigError(f"the log's units: {c}: {exc}") from None
-    return units, factors
 
 
 def site_reference(
