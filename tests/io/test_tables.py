@@ -22,7 +22,7 @@ from rinscal.io.tables import read_log, read_log_source, write_log
 from rinscal.schema import CHANNELS
 from tests._shared import real_log_path
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 EXAMPLE_MAPPING = REPO / "examples" / "tofupilot_mapping.toml"
 
 

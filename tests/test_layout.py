@@ -1,0 +1,422 @@
+"""The layout's rules, read from the source with :mod:`ast` (nothing is imported).
+
+* No upward import between layers (deferred imports inside functions included).
+* No import cycle between files, including cycles through a package ``__init__`` (the top
+  package's lazy API table counts as imports of the modules it names).
+* No private name (a ``_module`` or a ``_name``) imported from another package.
+* No module over 900 lines (the numba kernels excepted); one over 700 says in its docstring
+  why it is one idea ("Why one module").
+* Imports sit at module top; one inside a function says why on its line or the line above
+  (a comment containing "deferred").
+
+Each rule is a function of the source tree, so the tests below also run it on a copy of the
+package with one bad import added, and check that it fails naming that import.
+"""
+
+from __future__ import annotations
+
+import ast
+import shutil
+from collections import defaultdict
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+SRC = Path(__file__).resolve().parents[1] / "src"
+
+#: Layers, bottom to top; a module may import from its own layer or a lower one. Modules of
+#: one layer that must not import each other are listed in :data:`APART`.
+LAYERS: tuple[tuple[str, ...], ...] = (
+    (
+        "rinscal._version",
+        "rinscal.units",
+        "rinscal.errors",
+        "rinscal.schema",
+        "rinscal.earth",
+        "rinscal.firmware",
+        "rinscal._resources",
+        "rinscal.cluster",
+    ),
+    ("rinscal.io",),
+    ("rinscal.thermal",),
+    ("rinscal.calibration",),
+    ("rinscal.nav",),
+    ("rinscal.experiments", "rinscal.production"),
+    ("rinscal.report",),
+    ("rinscal.cli",),
+)
+APART = (("rinscal.experiments", "rinscal.production"),)
+MAX_LINES = 900
+EXPLAIN_LINES = 700
+EXEMPT_SIZE = {"rinscal.nav._kernels"}
+
+
+@dataclass(frozen=True)
+class Import:
+    """One import statement's target, as a module of the package."""
+
+    source: str  # importing module
+    target: str  # imported module (a package's __init__ is the package's name)
+    name: str | None  # the name taken from it (``from m import name``), if any
+    line: int
+    deferred: bool  # inside a function or method
+    text: str
+    lazy: bool = False  # a package's PEP 562 ``__getattr__``: runs on attribute access only
+
+    def where(self, root: Path) -> str:
+        return f"{_path(self.source, root)}:{self.line}: {self.text}"
+
+
+def _modules(root: Path) -> dict[str, Path]:
+    mods = {}
+    for p in sorted(root.rglob("*.py")):
+        parts = list(p.relative_to(root).with_suffix("").parts)
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
+        mods[".".join(parts)] = p
+    return mods
+
+
+def _path(module: str, root: Path) -> str:
+    return str(_modules(root)[module].relative_to(root))
+
+
+def _resolve(name: str, mods: dict[str, Path]) -> str:
+    while name and name not in mods:
+        name = name.rpartition(".")[0]
+    return name
+
+
+def _lazy_table(tree: ast.Module) -> dict[str, str]:
+    """The top package's lazy API: ``_API = {"name": "module[:attribute]", ...}``."""
+    for node in tree.body:
+        if (
+            isinstance(node, ast.AnnAssign | ast.Assign)
+            and isinstance(node.value, ast.Dict)
+            and any(isinstance(t, ast.Name) and t.id == "_API" for t in _targets(node))
+        ):
+            return {
+                ast.literal_eval(k): ast.literal_eval(v)
+                for k, v in zip(node.value.keys, node.value.values, strict=True)
+            }
+    return {}
+
+
+def _targets(node: ast.AnnAssign | ast.Assign) -> list[ast.expr]:
+    return [node.target] if isinstance(node, ast.AnnAssign) else list(node.targets)
+
+
+def imports(root: Path = SRC) -> list[Import]:
+    """Every import of a ``rinscal`` module by a ``rinscal`` module under ``root``."""
+    mods = _modules(root)
+    found: list[Import] = []
+    for mod, path in mods.items():
+        text = path.read_text()
+        lines = text.splitlines()
+        tree = ast.parse(text)
+        package = mod if path.name == "__init__.py" else mod.rpartition(".")[0]
+        if mod == "rinscal":
+            for name, target in _lazy_table(tree).items():
+                module = target.partition(":")[0]
+                found.append(Import(mod, module, name, 0, True, f"_API[{name!r}]"))
+        nested = _nested_imports(tree)
+        lazy = _lazy_imports(tree) if path.name == "__init__.py" else set()
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Import):
+                for alias in node.names:
+                    if alias.name.split(".")[0] == "rinscal":
+                        found.append(
+                            Import(
+                                mod,
+                                _resolve(alias.name, mods),
+                                None,
+                                node.lineno,
+                                id(node) in nested,
+                                lines[node.lineno - 1].strip(),
+                                id(node) in lazy,
+                            )
+                        )
+            elif isinstance(node, ast.ImportFrom):
+                base = node.module or ""
+                if node.level:
+                    up = package.split(".")[: len(package.split(".")) - node.level + 1]
+                    base = ".".join(up + ([base] if base else []))
+                if base.split(".")[0] != "rinscal":
+                    continue
+                for alias in node.names:
+                    full = f"{base}.{alias.name}"
+                    sub = full in mods
+                    found.append(
+                        Import(
+                            mod,
+                            full if sub else _resolve(base, mods),
+                            None if sub else alias.name,
+                            node.lineno,
+                            id(node) in nested,
+                            lines[node.lineno - 1].strip(),
+                            id(node) in lazy,
+                        )
+                    )
+    return found
+
+
+def _nested_imports(tree: ast.Module) -> set[int]:
+    nested: set[int] = set()
+    for fn in ast.walk(tree):
+        if isinstance(fn, ast.FunctionDef | ast.AsyncFunctionDef):
+            for node in ast.walk(fn):
+                if isinstance(node, ast.Import | ast.ImportFrom):
+                    nested.add(id(node))
+    return nested
+
+
+def _lazy_imports(tree: ast.Module) -> set[int]:
+    """Imports inside a package's module-level ``__getattr__`` (PEP 562 lazy attributes)."""
+    return {
+        id(node)
+        for fn in tree.body
+        if isinstance(fn, ast.FunctionDef) and fn.name == "__getattr__"
+        for node in ast.walk(fn)
+        if isinstance(node, ast.Import | ast.ImportFrom)
+    }
+
+
+def _layer(module: str) -> int | None:
+    for k, layer in enumerate(LAYERS):
+        for top in layer:
+            if module == top or module.startswith(top + "."):
+                return k
+    return None
+
+
+def upward_imports(root: Path = SRC) -> list[str]:
+    """Imports of a higher layer, of the top package, or across modules kept apart."""
+    bad = []
+    for imp in imports(root):
+        if imp.source == "rinscal":
+            continue  # the lazy API sits above every layer
+        if imp.target == "rinscal":
+            bad.append(f"{imp.where(root)}  (imports the top package, which sits above all)")
+            continue
+        a, b = _layer(imp.source), _layer(imp.target)
+        if a is None or b is None:
+            bad.append(f"{imp.where(root)}  (module outside every layer)")
+        elif b > a:
+            bad.append(f"{imp.where(root)}  (layer {LAYERS[a][0]} imports {LAYERS[b][0]})")
+        for pair in APART:
+            tops = [
+                next((t for t in pair if m == t or m.startswith(t + ".")), None)
+                for m in (imp.source, imp.target)
+            ]
+            if None not in tops and tops[0] != tops[1]:
+                bad.append(f"{imp.where(root)}  ({tops[0]} and {tops[1]} are kept apart)")
+    return bad
+
+
+def import_cycles(root: Path = SRC) -> list[str]:
+    """Each cycle between files, as its chain of imports (Tarjan's strongly connected parts)."""
+    graph: dict[str, dict[str, Import]] = defaultdict(dict)
+    for imp in imports(root):
+        if imp.target != imp.source and not imp.lazy:
+            graph[imp.source].setdefault(imp.target, imp)
+    for mod in _modules(root):  # importing a.b.c runs a/b/__init__ first (the top's API is lazy)
+        parts = mod.split(".")
+        for k in range(2, len(parts)):
+            parent = ".".join(parts[:k])
+            graph[mod].setdefault(parent, Import(mod, parent, None, 0, False, f"(runs {parent})"))
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on: set[str] = set()
+    parts: list[list[str]] = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on.add(v)
+        for w in graph.get(v, {}):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            part = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                part.append(w)
+                if w == v:
+                    break
+            if len(part) > 1:
+                parts.append(part)
+
+    for v in list(graph):
+        if v not in index:
+            visit(v)
+    found = []
+    for part in parts:
+        members = set(part)
+        chain = [
+            imp.where(root) for v in sorted(members) for w, imp in graph[v].items() if w in members
+        ]
+        found.append("cycle " + " -> ".join(sorted(members)) + ":\n    " + "\n    ".join(chain))
+    return found
+
+
+def private_imports(root: Path = SRC) -> list[str]:
+    """Private modules or names taken from outside the package that owns them."""
+    bad = []
+    for imp in imports(root):
+        if imp.source == "rinscal":
+            continue
+        parts = imp.target.split(".")
+        owner = None
+        for k, part in enumerate(parts):
+            if part.startswith("_"):
+                owner = ".".join(parts[:k])
+                break
+        if owner is None and imp.name is not None and imp.name.startswith("_"):
+            owner = imp.target.rpartition(".")[0] if _is_module(imp.target, root) else imp.target
+        if owner is None:
+            continue
+        if not (imp.source == owner or imp.source.startswith(owner + ".")):
+            bad.append(f"{imp.where(root)}  (private to {owner})")
+    return bad
+
+
+def _is_module(name: str, root: Path) -> bool:
+    path = _modules(root)[name]
+    return path.name != "__init__.py"
+
+
+def module_sizes(root: Path = SRC) -> list[str]:
+    """Modules over the limit, and long ones that do not say why they are one idea."""
+    bad = []
+    for mod, path in _modules(root).items():
+        text = path.read_text()
+        n = len(text.splitlines())
+        if mod in EXEMPT_SIZE:
+            continue
+        if n > MAX_LINES:
+            bad.append(f"{path.relative_to(root)}: {n} lines (at most {MAX_LINES})")
+        elif n > EXPLAIN_LINES:
+            doc = ast.get_docstring(ast.parse(text)) or ""
+            if "Why one module" not in doc:
+                bad.append(
+                    f"{path.relative_to(root)}: {n} lines and no 'Why one module' paragraph "
+                    "in its docstring"
+                )
+    return bad
+
+
+def undeclared_deferred(root: Path = SRC) -> list[str]:
+    """Imports inside a function with no comment saying why they are deferred.
+
+    The comment (containing "deferred") may sit on the import's line or anywhere above it
+    in the same function: one comment serves a block of imports.
+    """
+    bad = []
+    for path in _modules(root).values():
+        text = path.read_text()
+        lines = text.splitlines()
+        tree = ast.parse(text)
+        seen: set[int] = set()
+        for fn in ast.walk(tree):
+            if not isinstance(fn, ast.FunctionDef | ast.AsyncFunctionDef):
+                continue
+            for node in ast.walk(fn):
+                if not isinstance(node, ast.Import | ast.ImportFrom) or id(node) in seen:
+                    continue
+                seen.add(id(node))
+                above = lines[fn.lineno - 1 : node.end_lineno or node.lineno]
+                if not any("#" in ln and "deferred" in ln.split("#", 1)[1] for ln in above):
+                    bad.append(
+                        f"{path.relative_to(root)}:{node.lineno}: {lines[node.lineno - 1].strip()}"
+                    )
+    return bad
+
+
+RULES = {
+    "upward imports": upward_imports,
+    "import cycles": import_cycles,
+    "private names across packages": private_imports,
+    "module sizes": module_sizes,
+    "undeclared deferred imports": undeclared_deferred,
+}
+
+
+@pytest.mark.parametrize("rule", list(RULES))
+def test_layout_rule_holds(rule: str) -> None:
+    bad = RULES[rule](SRC)
+    assert not bad, f"{rule}:\n" + "\n".join(bad)
+
+
+def test_every_module_has_a_layer() -> None:
+    outside = [m for m in _modules(SRC) if m != "rinscal" and _layer(m) is None]
+    assert not outside, f"modules outside every layer (add them to LAYERS): {outside}"
+
+
+def _copy(tmp_path: Path) -> Path:
+    root = tmp_path / "src"
+    shutil.copytree(SRC / "rinscal", root / "rinscal", ignore=shutil.ignore_patterns("__pycache__"))
+    return root
+
+
+def _new(rule, root: Path) -> list[str]:
+    """What ``rule`` finds in the altered copy and not in the package itself."""
+    before = set(rule(SRC))
+    return [b for b in rule(root) if b not in before]
+
+
+def _append(root: Path, rel: str, text: str) -> None:
+    p = root / "rinscal" / rel
+    p.write_text(p.read_text() + text)
+
+
+def test_an_upward_import_is_named(tmp_path: Path) -> None:
+    root = _copy(tmp_path)
+    _append(
+        root, "thermal/field.py", "\n\ndef _f():\n    import rinscal.nav.strapdown  # deferred\n"
+    )
+    bad = _new(upward_imports, root)
+    assert len(bad) == 1 and "thermal/field.py" in bad[0] and "rinscal.nav.strapdown" in bad[0]
+
+
+def test_a_cycle_is_named(tmp_path: Path) -> None:
+    root = _copy(tmp_path)
+    # earth <- units is fine; units -> earth and earth -> units closes a cycle
+    _append(root, "units.py", "\n\ndef _f():\n    from rinscal import earth  # deferred\n")
+    _append(root, "earth.py", "\n\ndef _g():\n    from rinscal import units  # deferred\n")
+    bad = _new(import_cycles, root)
+    assert len(bad) == 1 and "rinscal.earth" in bad[0] and "rinscal.units" in bad[0]
+    assert "units.py" in bad[0] and "earth.py" in bad[0]
+
+
+def test_a_cycle_through_a_package_reexport_is_named(tmp_path: Path) -> None:
+    root = _copy(tmp_path)
+    _append(root, "io/__init__.py", "\nfrom rinscal.io.tables import read_log  # noqa\n")
+    bad = _new(import_cycles, root)
+    assert len(bad) == 1 and "rinscal.io.tables" in bad[0] and "read_log" in bad[0]
+
+
+def test_importing_the_lazy_api_from_inside_is_named(tmp_path: Path) -> None:
+    root = _copy(tmp_path)
+    _append(root, "report/html.py", "\nfrom rinscal import read_log  # noqa\n")
+    bad = _new(upward_imports, root)
+    assert len(bad) == 1 and "report/html.py" in bad[0] and "top package" in bad[0]
+
+
+def test_a_private_name_across_packages_is_named(tmp_path: Path) -> None:
+    root = _copy(tmp_path)
+    _append(root, "report/html.py", "\nfrom rinscal.nav import _kernels  # noqa\n")
+    bad = _new(private_imports, root)
+    assert len(bad) == 1 and "report/html.py" in bad[0] and "private to rinscal.nav" in bad[0]
+
+
+def test_a_long_module_is_named(tmp_path: Path) -> None:
+    root = _copy(tmp_path)
+    _append(root, "units.py", "\n" + "\n".join(f"X{k} = {k}" for k in range(950)) + "\n")
+    bad = _new(module_sizes, root)
+    assert len(bad) == 1 and "units.py" in bad[0]
