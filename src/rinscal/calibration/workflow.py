@@ -357,7 +357,7 @@ def compensate(
         The thermal model (a model file's path, or loaded).
     policy : str
         Outside the training data: ``clamp`` (hold the model at its domain's edge),
-        ``extrapolate``, ``fallback`` (the model of T alone) or ``raise``.
+        ``extrapolate``, ``fallback`` (the model of T alone) or ``error`` (refuse).
     causal : bool
         Use the causal temperature rate (as in real time).
     mapping : ColumnMapping, optional
@@ -460,7 +460,7 @@ def compensate_file(
     UnitsError
         The log's units differ from the model's (unless ``ignore_units``).
     RangeError
-        A row outside the training data under ``policy="raise"``.
+        A row outside the training data under ``policy="error"``.
     """
     _policy(policy)
     mf = _model(model)

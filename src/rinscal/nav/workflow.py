@@ -78,7 +78,7 @@ def model_compensator(model: ModelLike, plant: ThermalPlant, policy: str = "clam
         The thermal model.
     plant : ThermalPlant
         The plant whose thermometers feed the model.
-    policy : {"clamp", "extrapolate", "fallback", "raise"}
+    policy : {"clamp", "fallback", "extrapolate", "error"}
         Out-of-range handling of the model inputs.
     """
     mf = model if isinstance(model, ThermalModelFile) else ThermalModelFile.load(model)
@@ -306,7 +306,9 @@ def navigate(
     >>> sim = rinscal.navigate("quasi-static", hours=1, models=["m.json"])  # doctest: +SKIP
     >>> rec = rinscal.navigate(log="run.parquet", models=["m.json"])  # doctest: +SKIP
     """
-    if (scenario is None) == (log is None):
+    if scenario is None and log is None:
+        raise ConfigError("give a scenario (a simulated run) or log= (a recording)")
+    if scenario is not None and log is not None:
         raise ConfigError("give a scenario (a simulated run) or log= (a recording), not both")
     if log is not None:
         # deferred: the recording reader and its window finder are not needed by a scenario
