@@ -30,7 +30,7 @@ import numpy as np
 import pandas as pd
 
 from rinscal.calibration.inference import predict_params
-from rinscal.calibration.modelfile import POLICIES, Policy, ThermalModelFile
+from rinscal.calibration.modelfile import Policy, ThermalModelFile, check_policy
 from rinscal.calibration.thermal.features import (
     DerivativeConfig,
     Features,
@@ -221,8 +221,7 @@ def compensated_channels(
     flagged : ndarray of bool, shape (n,)
         The ``out_of_range`` column: some channel's inputs outside its training data.
     """
-    if policy not in POLICIES:
-        raise ValueError(f"policy must be one of {', '.join(POLICIES)}, got {policy!r}")
+    check_policy(policy)
     missing = [c for c in model.channels if c not in log.columns]
     if missing:
         raise LogError(f"log has no column(s) {missing} that the model compensates")
@@ -257,8 +256,7 @@ class StreamingCompensator:
     """
 
     def __init__(self, model: ThermalModelFile, policy: Policy = "clamp") -> None:
-        if policy not in POLICIES:
-            raise ValueError(f"policy must be one of {', '.join(POLICIES)}, got {policy!r}")
+        check_policy(policy)
         self.model = model
         self.policy = policy
         self._m = len(model.channels)

@@ -84,7 +84,7 @@ import numpy as np
 from rinscal._version import __version__
 from rinscal.calibration._domain import inside_domain, validate_domain
 from rinscal.calibration.inference import METHODS, n_inputs, predict_params, validate_params
-from rinscal.errors import ModelFileError, RangeError
+from rinscal.errors import ConfigError, ModelFileError, RangeError
 from rinscal.units import G0, check_sensor_unit
 
 __all__ = [
@@ -93,6 +93,7 @@ __all__ = [
     "SCHEMA_VERSION",
     "ChannelModel",
     "ThermalModelFile",
+    "check_policy",
     "payload_sha256",
 ]
 
@@ -108,6 +109,20 @@ AUTO = "auto"
 #: ``fallback`` to the channel's T-only model outside the joint domain, ``extrapolate``,
 #: ``error``.
 POLICIES: tuple[str, ...] = ("clamp", "fallback", "extrapolate", "error")
+
+
+def check_policy(policy: str) -> None:
+    """Refuse an out-of-range policy that is not one of :data:`POLICIES`.
+
+    Raises
+    ------
+    ConfigError
+        Naming the policies (a :class:`ValueError` too).
+    """
+    if policy not in POLICIES:
+        raise ConfigError(f"policy must be one of {', '.join(POLICIES)}, got {policy!r}")
+
+
 #: Input names, in feature-matrix column order.
 INPUT_NAMES: tuple[str, str, str] = ("T", "Tdot", "dT")
 #: Input units, in :data:`INPUT_NAMES` order.
@@ -554,8 +569,7 @@ class ThermalModelFile:
         flagged : ndarray of bool, shape (n,)
             True where the sample lies outside the training data.
         """
-        if policy not in POLICIES:
-            raise ValueError(f"policy must be one of {', '.join(POLICIES)}, got {policy!r}")
+        check_policy(policy)
         cm = self.models[channel]
         k = cm.n_inputs
         lo, hi = cm.train_range[:k, 0], cm.train_range[:k, 1]

@@ -32,7 +32,7 @@ from rinscal.calibration.compensate import (
 )
 from rinscal.calibration.compensate import compensate as _compensate_frame
 from rinscal.calibration.evaluate import StepConfig, evaluate_runs
-from rinscal.calibration.modelfile import POLICIES, ThermalModelFile
+from rinscal.calibration.modelfile import ThermalModelFile, check_policy
 from rinscal.calibration.thermal.features import DerivativeConfig, MissingGradientWarning
 from rinscal.calibration.thermal.guards import TrainingDataWarning
 from rinscal.calibration.thermal.model import ThermalModel
@@ -117,11 +117,6 @@ def load_model(path: str | os.PathLike[str]) -> ThermalModelFile:
 
 def _model(model: ModelLike) -> ThermalModelFile:
     return model if isinstance(model, ThermalModelFile) else load_model(model)
-
-
-def _policy(policy: str) -> None:
-    if policy not in POLICIES:
-        raise ConfigError(f"policy must be one of {', '.join(POLICIES)}, got {policy!r}")
 
 
 def _frame_runs(log: pd.DataFrame) -> Iterator[tuple[pd.DataFrame, int]]:
@@ -377,7 +372,7 @@ def compensate(
     # deferred: reading a file needs the table readers only here
     from rinscal.io.tables import read_log
 
-    _policy(policy)
+    check_policy(policy)
     frame = log if isinstance(log, pd.DataFrame) else read_log(log, mapping)
     return _compensate_frame(frame, _model(model), policy, "causal" if causal else None)  # type: ignore[arg-type]
 
@@ -462,7 +457,7 @@ def compensate_file(
     RangeError
         A row outside the training data under ``policy="error"``.
     """
-    _policy(policy)
+    check_policy(policy)
     mf = _model(model)
     log_path, out_path = Path(log), Path(out)
     meta = dict(foreign_meta(log_path, mapping) if meta is None else meta)
@@ -588,7 +583,7 @@ def evaluate(
     >>> ev = rinscal.evaluate("soak.parquet", "regression.json")  # doctest: +SKIP
     >>> ev.table[["run", "channel", "rms_before", "rms_after"]]  # doctest: +SKIP
     """
-    _policy(policy)
+    check_policy(policy)
     mf = _model(model)
     deriv = "causal" if causal else None
     step = StepConfig(window_s=step_window_s)

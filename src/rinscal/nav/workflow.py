@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from rinscal.calibration.modelfile import POLICIES, ThermalModelFile
+from rinscal.calibration.modelfile import ThermalModelFile, check_policy
 from rinscal.errors import ConfigError
 from rinscal.nav.config import ScenarioConfig
 from rinscal.nav.rotation import schedule_from_name
@@ -165,8 +165,7 @@ def navigate_scenario(
     >>> nav = rinscal.navigate("quasi-static", hours=1, models=["m.json"])  # doctest: +SKIP
     >>> nav.summary["variants"]["regression"]["max_error_nmi"]  # doctest: +SKIP
     """
-    if policy not in POLICIES:
-        raise ConfigError(f"policy must be one of {', '.join(POLICIES)}, got {policy!r}")
+    check_policy(policy)
     for name, value, low in (("rate_hz", rate_hz, 0.0), ("align_s", align_s, 0.0)):
         if not (np.isfinite(value) and value > low):
             raise ConfigError(f"{name} must be > 0, got {value}")
