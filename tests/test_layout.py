@@ -37,6 +37,8 @@ LAYERS: tuple[tuple[str, ...], ...] = (
         "rinscal.firmware",
         "rinscal._resources",
         "rinscal.cluster",
+        "rinscal.sensormodel",
+        "rinscal.turntable",
     ),
     ("rinscal.io",),
     ("rinscal.thermal",),
