@@ -302,6 +302,30 @@ class ImuCalibration:
             out = out + _poly((0.0, *rate), r)
         return np.asarray(out, dtype=float)
 
+    def select(self, kinds: tuple[str, ...]) -> ImuCalibration:
+        """The same calibration restricted to the parameters of the given kinds (``bias``,
+        ``sf``, ``sf_asym``, ``sf_quad``, ``mis``); the others become zero."""
+        keep = {p.name for p in PARAMETERS if p.kind in kinds}
+        return ImuCalibration(
+            self.t0_c,
+            self.t_range_c,
+            {n: c for n, c in self.t_coefs.items() if n in keep},
+            {n: c for n, c in self.rate_coefs.items() if n in keep},
+            self.source,
+        )
+
+    def relative_to(self, t_cal_c: float) -> ImuCalibration:
+        """The thermal part of this calibration: every law minus its value at ``t_cal_c``
+        [°C] (zero there), what remains for a unit whose computer already applies a
+        calibration made at ``t_cal_c``."""
+        t_coefs = {}
+        for name, coefs in self.t_coefs.items():
+            c = list(coefs) or [0.0]
+            c[0] -= float(self.value(name, t_cal_c))
+            t_coefs[name] = tuple(c)
+        source = f"{self.source} (relative to {t_cal_c:g} °C)".strip()
+        return ImuCalibration(self.t0_c, self.t_range_c, t_coefs, dict(self.rate_coefs), source)
+
     def triads(
         self, temp_c: ArrayLike, tdot_c_per_min: ArrayLike | None = None
     ) -> tuple[TriadErrors, TriadErrors]:
