@@ -121,3 +121,43 @@ def test_every_compensator_reads_the_same_thermometers(cold_start, regression_mo
     assert 0 < np.std(a - true) < 0.1
     other = _plant(cold_start, seed=3).measured_temperatures(grid)[0]
     assert not np.array_equal(a, other)
+
+
+def _drift_law(imu: ImuConfig):  # type: ignore[no-untyped-def]
+    """The plant's scale-factor and axis drift as an IMU calibration, written here from the
+    configuration's per-°C coefficients (zero at t_cal, linear in T)."""
+    from rinscal.sensormodel import AXES, ImuCalibration
+
+    coefs: dict[str, tuple[float, ...]] = {}
+    for j, ch in enumerate(imu.thermal):
+        sensor, ax = ("gyro" if j < 3 else "accel"), AXES[j % 3]
+        coefs[f"{sensor}_sf_{ax}"] = (0.0, ch.scale_factor_ppm_per_c)
+        for k, other in enumerate(AXES):
+            if k != j % 3:
+                coefs[f"{sensor}_mis_{ax}{other}"] = (0.0, ch.misalignment_arcsec_per_c[k])
+    return ImuCalibration(imu.t_cal_c, (-60.0, 100.0), coefs)
+
+
+def test_imu_calibration_in_the_compensator_removes_the_signal_errors(  # type: ignore[no-untyped-def]
+    cold_start, regression_model
+) -> None:
+    """With the plant's own scale-factor and axis drift as its IMU calibration, the model
+    compensator's signal part equals the plant's signal errors on the raw signal, to the
+    thermometers' noise (0.01 °C × 100 ppm/°C × g ≈ 1 µg)."""
+    from rinscal.calibration.modelfile import ThermalModelFile
+
+    plant = _plant(cold_start)
+    model = ThermalModelFile.load(regression_model)
+    comp = ModelCompensator(model, plant, imu_calibration=_drift_law(IMU))
+    bias_only = ModelCompensator(model, plant)
+    rng = np.random.default_rng(0)
+    t = np.arange(700.0, 9000.0, 7.3)
+    omega = rng.normal(0, 0.3, (t.size, 3))  # rad/s, a turning table
+    f = rng.normal(0, 9.8, (t.size, 3)) * 0.6
+    true = plant.thermal_errors(t, omega, f) - plant.thermal_bias(t)
+    assert np.abs(true[:, 3:]).max() > 50e-6 * 9.8  # the drift is there: > 50 µg
+    raw_w, raw_f = omega + true[:, :3], f + true[:, 3:]
+    est = comp(t, raw_w, raw_f) - bias_only(t)
+    np.testing.assert_allclose(est[:, 3:], true[:, 3:], rtol=0, atol=3e-6 * 9.8)
+    # gyros: the same reading noise is 1 % of a 3 ppm/°C drift over ~1 °C of self-heating
+    assert np.abs(est[:, :3] - true[:, :3]).max() < 0.02 * np.abs(true[:, :3]).max()

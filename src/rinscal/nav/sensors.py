@@ -33,6 +33,7 @@ from rinscal.errors import ConfigError
 from rinscal.nav.config import ScenarioConfig
 from rinscal.nav.rotation import RotationSchedule
 from rinscal.schema import CHANNELS
+from rinscal.sensormodel import ImuCalibration, TriadErrors, triad_inverse
 from rinscal.thermal.config import ImuConfig
 from rinscal.thermal.field import ChamberProfile, ThermalField, measure, simulate_field
 from rinscal.thermal.plant import (
@@ -50,6 +51,8 @@ ErrorSource = Callable[
 ]
 #: Same signature, called with the raw signal: what the navigation computer subtracts.
 Compensator = ErrorSource
+#: The kinds of parameter of an IMU calibration applied to the signal (not the biases).
+SIGNAL_KINDS = ("sf", "sf_asym", "sf_quad", "mis")
 
 
 def constant_errors(bias_r: NDArray[np.float64]) -> ErrorSource:
@@ -313,6 +316,14 @@ class ModelCompensator:
         Out-of-range handling of the model inputs (a model file given).
     update_s : float [s]
         Thermometer reading and model update interval.
+    imu_calibration : ImuCalibration, optional
+        Scale factors, nonlinear terms and misalignments as functions of temperature to
+        remove from the raw signal before the thermal bias (the order of
+        :mod:`rinscal.sensormodel`), evaluated at the same held thermometer readings; default:
+        the model file's own (``imu_calibration`` attribute), if it has one. Its biases are
+        not applied (the thermal model holds the bias). In a simulated run the plant's
+        signal errors are those left by a calibration at ``t_cal``, so pass
+        :meth:`ImuCalibration.relative_to` ``(t_cal)`` of an absolute calibration.
     """
 
     def __init__(
@@ -321,6 +332,7 @@ class ModelCompensator:
         plant: ThermalPlant,
         policy: str = "clamp",
         update_s: float = 1.0,
+        imu_calibration: ImuCalibration | None = None,
     ) -> None:
         if not (math.isfinite(update_s) and update_s > 0):
             raise ConfigError(f"model compensator: update_s must be > 0, got {update_s}")
@@ -336,6 +348,28 @@ class ModelCompensator:
         self.model = comp.model
         self.grid = grid
         self.channels = tuple(comp.model.channels)
+        cal = imu_calibration or getattr(comp.model, "imu_calibration", None)
+        self.imu_calibration: ImuCalibration | None = cal
+        # the calibration's errors on the thermometer grid, without its biases
+        self._triads = None if cal is None else cal.select(SIGNAL_KINDS).triads(temp)
+
+    def signal_errors(
+        self, k: NDArray[np.intp], omega_r: NDArray[np.float64], f_r: NDArray[np.float64]
+    ) -> NDArray[np.float64]:
+        """What the IMU calibration says the raw signal holds beyond the true one,
+        ``y − inverse(y)`` at the readings ``k`` of the grid, (n, 6) [rad/s, m/s²]."""
+        assert self._triads is not None
+        out = np.empty((k.shape[0], 6))
+        for sl, y, e in (
+            (slice(0, 3), omega_r, self._triads[0]),
+            (slice(3, 6), f_r, self._triads[1]),
+        ):
+            at = TriadErrors(
+                bias=e.bias[k], sf=e.sf[k], asym=e.asym[k], quad=e.quad[k], mis=e.mis[k]
+            )
+            y = np.asarray(y, dtype=float)
+            out[:, sl] = y - triad_inverse(y, at)
+        return out
 
     def __call__(
         self,
@@ -343,12 +377,21 @@ class ModelCompensator:
         omega_r: NDArray | None = None,
         f_r: NDArray | None = None,
     ) -> NDArray[np.float64]:
-        """Bias estimate held from the last thermometer reading at ``t`` [s], (n, 6) SI."""
+        """Bias estimate held from the last thermometer reading at ``t`` [s], (n, 6) SI,
+        plus the IMU calibration's signal errors of the raw ``omega_r`` [rad/s] and ``f_r``
+        [m/s²] (n, 3) when it has one."""
         k = np.searchsorted(self.grid, np.asarray(t, dtype=float), side="right") - 1
-        return self.bias[np.clip(k, 0, self.grid.size - 1)]
+        k = np.clip(k, 0, self.grid.size - 1)
+        out = self.bias[k]
+        if self._triads is not None:
+            if omega_r is None or f_r is None:
+                raise ConfigError("model compensator: an IMU calibration needs the raw signal")
+            out = out + self.signal_errors(k, omega_r, f_r)
+        return out
 
 
 __all__ = [
+    "SIGNAL_KINDS",
     "Compensator",
     "ErrorSource",
     "ModelCompensator",
