@@ -4,13 +4,17 @@ bias) by every compensator, and fitted behind it (``fit(imu_calibration=...)``).
 
 from __future__ import annotations
 
+import dataclasses
 import json
+import shutil
+import subprocess
 
 import numpy as np
 import pandas as pd
 import pytest
 
 from rinscal.calibration.compensate import StreamingCompensator, compensate
+from rinscal.calibration.export import to_c_header
 from rinscal.calibration.imustage import ImuStage
 from rinscal.calibration.modelfile import SCHEMA_VERSION, ChannelModel, ThermalModelFile
 from rinscal.calibration.workflow import compensate_file, fit
@@ -217,3 +221,54 @@ def test_fit_behind_the_imu_calibration_gives_the_error_free_thermal_model(soak_
             assert np.abs(off - want).max() > 50.0
     with pytest.raises(ConfigError, match=r"unit_to_si.*gyro_x"):
         fit(bad, "poly-t", meta={}, imu_calibration=calibration())
+
+
+@pytest.mark.skipif(shutil.which("cc") is None, reason="no C compiler")
+def test_c_export_applies_the_imu_calibration_as_python_does(tmp_path) -> None:
+    log, _, meta = _signal_log(n=40, runs=1)
+    rate_cal = dataclasses.replace(  # a ramp law too, so that Tdot reaches the C
+        calibration(), rate_coefs={"gyro_sf_x": (3.0, 0.5), "accel_mis_yz": (-2.0,)}
+    )
+    mf = _model(ImuStage(rate_cal, meta["units"], meta["unit_to_si"]))
+    raw = log[list(CHANNELS)].to_numpy()
+    rng = np.random.default_rng(5)
+    temp = rng.uniform(-10.0, 55.0, raw.shape)  # beyond the range too: clamped
+    tdot = rng.uniform(-1.0, 1.0, raw.shape)
+    (tmp_path / "model.h").write_text(to_c_header(mf, prefix="imu"))
+    rows = ",\n".join(
+        "{" + ", ".join(repr(float(v)) for v in np.concatenate([a, b, c])) + "}"
+        for a, b, c in zip(raw, temp, tdot, strict=True)
+    )
+    (tmp_path / "main.c").write_text(
+        '#include <stdio.h>\n#include "model.h"\n'
+        f"static const double X[][18] = {{{rows}}};\n"
+        "int main(void) {\n"
+        f"  for (int i = 0; i < {len(raw)}; i++) {{\n"
+        "    double a[6], b[6], dT[6] = {0};\n"
+        "    imu_imu_correct(X[i], X[i] + 6, X[i] + 12, a);\n"
+        "    imu_compensate(X[i], X[i] + 6, X[i] + 12, dT, b);\n"
+        '    for (int j = 0; j < 6; j++) printf("%.17g %.17g\\n", a[j], b[j]);\n'
+        "  }\n  return 0;\n}\n"
+    )
+    exe = tmp_path / "main"
+    subprocess.run(
+        ["cc", "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-o", str(exe),
+         str(tmp_path / "main.c"), "-lm"],
+        check=True, capture_output=True,
+    )  # fmt: skip
+    out = subprocess.run([str(exe)], check=True, capture_output=True, text=True).stdout
+    got = np.array(out.split(), dtype=float).reshape(len(raw), 6, 2)
+    want = mf.imu_stage.physical(raw, temp, tdot)
+    np.testing.assert_allclose(got[:, :, 0], want, rtol=1e-12, atol=0)
+    thermal = np.column_stack(
+        [
+            mf.predict_channel(c, np.column_stack([temp[:, j], tdot[:, j]]))[0]
+            - mf.models[c].static_reference
+            for j, c in enumerate(CHANNELS)
+        ]
+    )
+    np.testing.assert_allclose(got[:, :, 1], want - thermal, rtol=1e-12, atol=0)
+    assert (
+        np.abs(want - raw * np.array([meta["unit_to_si"][c] for c in CHANNELS]) / PHYSICAL).max()
+        > 1.0
+    )
