@@ -88,8 +88,25 @@ class ImuStage:
         ndarray, shape (n, 6) [rad/s, m/s²]
         """
         k = np.array([self.input_unit_to_si[c] for c in CHANNELS])
-        y = np.asarray(raw, dtype=np.float64) * k
-        return self.calibration.correct(y, temp_c, tdot_c_per_min, with_bias=False)
+        return self.inverse_si(np.asarray(raw, dtype=np.float64) * k, temp_c, tdot_c_per_min)
+
+    def inverse_si(self, y_si: Any, temp_c: Any, tdot_c_per_min: Any = None) -> np.ndarray:
+        """Step 2 of :data:`IMU_ORDER` alone, on output already in SI (a recording read in
+        SI increments): :meth:`ImuCalibration.correct
+        <rinscal.sensormodel.ImuCalibration.correct>` with ``with_bias=False``.
+
+        Parameters
+        ----------
+        y_si : array_like, shape (n, 6) [rad/s, m/s²]
+            Output of gyro x..z and accel x..z.
+        temp_c, tdot_c_per_min
+            As :meth:`correct_si`.
+
+        Returns
+        -------
+        ndarray, shape (n, 6) [rad/s, m/s²]
+        """
+        return self.calibration.correct(y_si, temp_c, tdot_c_per_min, with_bias=False)
 
     def physical(self, raw: Any, temp_c: Any, tdot_c_per_min: Any = None) -> np.ndarray:
         """Steps 1-3 of :data:`IMU_ORDER`: the thermal model's input, in deg/h and µg.
