@@ -62,6 +62,10 @@ C header (every method)
     solve of ``I + M`` per triad; → deg/h and µg) and ``void <prefix>_compensate(raw, T, Tdot,
     dT, out)``: ``<prefix>_imu_correct`` then ``out − (f − STATIC_REF)`` per channel. Channel
     order gyro x..z, accel x..z; ``Tdot`` is used only by a calibration with rate laws.
+
+Why one module: about 720 lines, one idea: a model file written out as another program's
+input. The three targets share the clamp range, the re-expansion of the cubics and the
+number formatting, and the C header's IMU step is the same evaluation as its channels'.
 """
 
 from __future__ import annotations
