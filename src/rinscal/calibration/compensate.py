@@ -15,6 +15,15 @@ what happens there: ``clamp`` (inputs clipped to the training range), ``fallback
 channel's T-only fallback model on the flagged rows), ``extrapolate`` (the model as is) or
 ``error`` (:class:`~rinscal.errors.RangeError`). A dropped sample (NaN) stays NaN.
 
+With an IMU calibration in the model file (``fit --imu-cal``), compensation runs in the
+file's one order (:data:`rinscal.calibration.imustage.IMU_ORDER`): raw × ``unit_to_si`` →
+SI → the inverse sensor model at each channel's inner temperature (scale factor, nonlinear
+terms, misalignment; :func:`imu_calibrated_channels`) → deg/h and µg → ``N − (f − r)``. All
+six sensor channels are then replaced, and the output is in deg/h and µg whatever the raw
+unit. The calibration needs the six raw channels and each channel's inner temperature
+(``temp_<channel>``, or the shared ``temp_in``); a NaN temperature gives NaN outputs for
+its whole triad (the misalignment couples the axes).
+
 :class:`StreamingCompensator` does the same one sample at a time with the causal rate; it
 equals :func:`compensate` with ``derivative_kind="causal"`` (same compiled rate kernel). Its
 :meth:`StreamingCompensator.bias_si` gives the modelled bias of a whole thermometer record in
@@ -29,6 +38,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from rinscal.calibration.imustage import PHYSICAL_TO_SI, PHYSICAL_UNITS, ImuStage
 from rinscal.calibration.inference import predict_params
 from rinscal.calibration.modelfile import Policy, ThermalModelFile, check_policy
 from rinscal.calibration.thermal.features import (
@@ -40,19 +50,100 @@ from rinscal.calibration.thermal.features import (
 )
 from rinscal.calibration.thermal.rate import CausalSlope
 from rinscal.errors import ConfigError, LogError, RangeError
-from rinscal.schema import CHANNELS, unit_factors
+from rinscal.schema import CHANNELS, temperature_column, unit_factors
 from rinscal.units import MIN_TO_S
 
 __all__ = [
     "FLAG_COLUMN",
     "StreamingCompensator",
     "compensate",
+    "imu_calibrated_channels",
+    "imu_calibrated_frame",
     "model_features",
+    "physical_meta",
     "predict_log",
 ]
 
 #: Name of the flag column added by :func:`compensate`.
 FLAG_COLUMN = "out_of_range"
+
+
+def imu_calibrated_channels(
+    log: pd.DataFrame, stage: ImuStage, derivative: DerivativeConfig | None = None
+) -> dict[str, np.ndarray]:
+    """Steps 1-3 of the order of application: a log's raw channels through the IMU calibration.
+
+    Parameters
+    ----------
+    log : DataFrame
+        Calibration log (several runs allowed) with the six sensor channels in the units the
+        calibration's stage expects, and each channel's inner temperature.
+    stage : ImuStage
+        The IMU calibration and the raw units (:attr:`ThermalModelFile.imu_stage`).
+    derivative : DerivativeConfig, optional
+        The temperature-rate estimator, used only by a calibration with laws in the rate
+        (a ramp calibration); default 60 s centred.
+
+    Returns
+    -------
+    dict of str to ndarray, shape (n,)
+        Each of the six channels, IMU-calibrated, in deg/h (gyros) and µg (accelerometers);
+        the calibration's biases are left in (the thermal model removes them).
+
+    Raises
+    ------
+    LogError
+        A sensor channel or a channel's temperature missing from the log, naming the column.
+    """
+    missing = [c for c in CHANNELS if c not in log.columns]
+    if missing:
+        raise LogError(
+            f"the IMU calibration needs all six sensor channels; the log has no column(s) "
+            f"{', '.join(missing)}"
+        )
+    temp_cols = []
+    for c in CHANNELS:
+        try:
+            temp_cols.append(temperature_column(log, c))
+        except LogError as exc:
+            raise LogError(
+                f"the IMU calibration is applied at each channel's inner temperature: {exc}"
+            ) from None
+    raw = log[list(CHANNELS)].to_numpy(dtype=np.float64)
+    temp = log[temp_cols].to_numpy(dtype=np.float64)
+    tdot = None
+    if stage.needs_rate:
+        deriv = derivative or DerivativeConfig()
+        tdot = np.empty_like(temp)
+        time = log["time_s"].to_numpy(dtype=np.float64)
+        for rows in log.groupby("run", sort=False).indices.values():  # the rate is per run
+            tdot[rows] = temperature_rate(time[rows], temp[rows], deriv)
+    y = stage.physical(raw, temp, tdot)
+    return {c: y[:, j] for j, c in enumerate(CHANNELS)}
+
+
+def imu_calibrated_frame(
+    log: pd.DataFrame, stage: ImuStage, derivative: DerivativeConfig | None = None
+) -> pd.DataFrame:
+    """A copy of ``log`` whose six sensor channels went through :func:`imu_calibrated_channels`
+    (deg/h and µg)."""
+    out = log.copy()
+    for c, v in imu_calibrated_channels(log, stage, derivative).items():
+        out[c] = v
+    return out
+
+
+def physical_meta(meta: Mapping[str, Any] | None) -> dict[str, Any]:
+    """A log's metadata with the sensor units of IMU-calibrated output (deg/h and µg).
+
+    ``units`` and ``unit_to_si`` become :data:`~rinscal.calibration.imustage.PHYSICAL_UNITS`
+    for every channel; ``pulse_scale`` (of the raw pulses) is dropped; the rest is kept.
+    """
+    out = dict(meta or {})
+    out.pop("pulse_scale", None)
+    out["units"] = {c: PHYSICAL_UNITS[c.partition("_")[0]] for c in CHANNELS}
+    out["unit_to_si"] = {c: float(k) for c, k in zip(CHANNELS, PHYSICAL_TO_SI, strict=True)}
+    return out
 
 
 def model_features(
@@ -183,7 +274,8 @@ def compensate(
     -------
     DataFrame
         Same rows (order and index) and columns as ``log``, each modelled channel replaced by
-        ``N − (f − r)``, plus the boolean column ``out_of_range``.
+        ``N − (f − r)``, plus the boolean column ``out_of_range``. With an IMU calibration in
+        the model, all six channels, in deg/h and µg (see the module docstring).
 
     Raises
     ------
@@ -217,7 +309,8 @@ def compensated_channels(
     Returns
     -------
     values : dict of str to ndarray, shape (n,)
-        Each modelled channel, compensated [log units].
+        Each modelled channel, compensated [log units]; with an IMU calibration in the model,
+        all six channels, IMU-calibrated and compensated [deg/h, µg].
     flagged : ndarray of bool, shape (n,)
         The ``out_of_range`` column: some channel's inputs outside its training data.
     """
@@ -225,12 +318,18 @@ def compensated_channels(
     missing = [c for c in model.channels if c not in log.columns]
     if missing:
         raise LogError(f"log has no column(s) {missing} that the model compensates")
-    values = {}
+    values: dict[str, np.ndarray] = {}
+    if model.imu_stage is not None:  # steps 1-3: raw → SI → inverse sensor model → deg/h, µg
+        deriv = DerivativeConfig(
+            window_s=model.derivative_window_s, kind=derivative_kind or model.derivative_kind
+        )
+        values = imu_calibrated_channels(log, model.imu_stage, deriv)
     any_flag = np.zeros(len(log), dtype=bool)
     for j, fj, flagged in _predicted(log, model, policy, derivative_kind, None, first_row):
         c = model.channels[j]
         ref = model.models[c].static_reference or 0.0
-        values[c] = log[c].to_numpy(dtype=np.float64) - (fj - ref)  # a channel at a time
+        y = values[c] if c in values else log[c].to_numpy(dtype=np.float64)
+        values[c] = y - (fj - ref)  # a channel at a time
         any_flag |= flagged
     return values, any_flag
 
@@ -239,7 +338,11 @@ class StreamingCompensator:
     """Sample-by-sample compensation with the causal temperature rate.
 
     Equals :func:`compensate` run with ``derivative_kind="causal"`` on the same samples
-    (to rounding: the rate comes from the same compiled kernel).
+    (to rounding: the rate comes from the same compiled kernel). With an IMU calibration in
+    the model, each sample goes through the same order (raw → SI → inverse sensor model →
+    deg/h, µg → thermal bias): ``raw`` and ``temp`` are then the six channels in
+    :data:`~rinscal.schema.CHANNELS` order and the output is the six channels in deg/h
+    and µg.
 
     Parameters
     ----------
@@ -261,6 +364,9 @@ class StreamingCompensator:
         self.policy = policy
         self._m = len(model.channels)
         self._ref = np.array([model.models[c].static_reference or 0.0 for c in model.channels])
+        # the channels a sample holds: the model's, or all six behind an IMU calibration
+        self._io = CHANNELS if model.imu_stage is not None else tuple(model.channels)
+        self._pos = [self._io.index(c) for c in model.channels]
         self.reset()
 
     def reset(self) -> None:
@@ -282,7 +388,7 @@ class StreamingCompensator:
         time_s : float [s]
             Time since power-on, increasing.
         raw : array_like, shape (m,) [log units]
-            Raw output of the model's channels.
+            Raw output of the model's channels (of all six behind an IMU calibration).
         temp : float or array_like, shape (m,) [°C]
             Inner temperature, shared or per channel (keep the same form within a run).
         temp_out : float, optional [°C]
@@ -290,9 +396,10 @@ class StreamingCompensator:
 
         Returns
         -------
-        compensated : ndarray, shape (m,) [log units]
+        compensated : ndarray, shape (m,) [log units, or deg/h and µg behind an IMU calibration]
         out_of_range : bool
         """
+        m = len(self._io)
         temps = np.atleast_1d(np.asarray(temp, dtype=np.float64))
         shared = temps.size == 1
         if self._slope is None:
@@ -300,21 +407,26 @@ class StreamingCompensator:
             self._slope = CausalSlope(self.model.derivative_window_s, temps.size)
         elif shared != self._shared:
             raise ValueError("give the temperature in the same form (shared or per channel)")
-        if not shared and temps.size != self._m:
-            raise ValueError(f"temp must be a scalar or have {self._m} entries")
+        if not shared and temps.size != m:
+            raise ValueError(f"temp must be a scalar or have {m} entries")
         slope = self._slope.update(np.array([float(time_s)]), temps[None, :])[0]
         rate = slope * MIN_TO_S
         if shared:
-            temps = np.repeat(temps, self._m)
-            rate = np.repeat(rate, self._m)
-        raw = np.asarray(raw, dtype=np.float64).reshape(self._m)
-        out = np.empty(self._m)
+            temps = np.repeat(temps, m)
+            rate = np.repeat(rate, m)
+        raw = np.asarray(raw, dtype=np.float64).reshape(m)
+        stage = self.model.imu_stage
+        if stage is not None:  # steps 1-3 of the order of application
+            tdot = rate[None, :] if stage.needs_rate else None
+            raw = stage.physical(raw[None, :], temps[None, :], tdot)[0]
+        out = raw.copy()
         flag = False
         for j, c in enumerate(self.model.channels):
-            x = self.model.feature_matrix(c, temps[j : j + 1], rate[j : j + 1], temp_out)
+            i = self._pos[j]
+            x = self.model.feature_matrix(c, temps[i : i + 1], rate[i : i + 1], temp_out)
             x, fl = self.model.apply_policy(c, x, self.policy)
             f = predict_params(self.model.models[c].params, x)[0]
-            out[j] = raw[j] - (f - self._ref[j])
+            out[i] = raw[i] - (f - self._ref[j])
             flag = flag or bool(fl[0])
         return out, flag
 
@@ -327,7 +439,9 @@ class StreamingCompensator:
     ) -> np.ndarray:
         """The modelled thermal bias of a thermometer record, causal, in SI units.
 
-        ``(f(T, Ṫ, ΔT) − r) · unit_to_si`` per channel
+        ``(f(T, Ṫ, ΔT) − r) · unit_to_si`` per channel (the thermal step alone: behind an
+        IMU calibration, subtract it from :meth:`ImuStage.correct_si
+        <rinscal.calibration.imustage.ImuStage.correct_si>` of the raw output)
         (:meth:`~rinscal.calibration.modelfile.ThermalModelFile.predict_bias_si`), ``Ṫ`` the
         causal windowed slope of the record: what a navigation computer reading its
         thermometers at ``time_s`` subtracts from each channel.
@@ -377,7 +491,8 @@ def check_units(
     Parameters
     ----------
     model : ThermalModelFile
-        The model (its channels' ``unit``).
+        The model (its channels' ``unit``; behind an IMU calibration, the calibration's
+        input units).
     meta : mapping, optional
         The log's metadata (``units``: per channel or per sensor type, as written by
         ``rinscal simulate`` or a mapping's ``[units]``); a channel without a unit on either
@@ -390,11 +505,17 @@ def check_units(
     ConfigError
         Naming every channel whose units differ, with both units.
     """
-    units, _ = unit_factors(meta, model.channels)
+    stage = model.imu_stage
+    if stage is not None:  # the raw log goes into the IMU calibration, in its input units
+        want = dict(stage.input_units)
+    else:
+        want = {c: model.models[c].unit for c in model.channels}
+    units, _ = unit_factors(meta, tuple(want))
+    what = "model's IMU calibration" if stage is not None else "model"
     bad = [
-        f"{c}: model in {model.models[c].unit!r}, log in {units[c]!r}"
-        for c in model.channels
-        if model.models[c].unit and units.get(c) and units[c] != model.models[c].unit
+        f"{c}: {what} in {want[c]!r}, log in {units[c]!r}"
+        for c in want
+        if want[c] and units.get(c) and units[c] != want[c]
     ]
     if bad:
         raise ConfigError(

@@ -28,9 +28,9 @@ import numpy as np
 import pandas as pd
 
 from rinscal.calibration.allan import AllanCurve, allan_deviation, noise_parameters
-from rinscal.calibration.compensate import model_features, predict_log
+from rinscal.calibration.compensate import imu_calibrated_frame, model_features, predict_log
 from rinscal.calibration.modelfile import Policy, ThermalModelFile
-from rinscal.calibration.thermal.features import Features, OutlierConfig
+from rinscal.calibration.thermal.features import DerivativeConfig, Features, OutlierConfig
 from rinscal.errors import ConfigError
 
 __all__ = [
@@ -217,8 +217,10 @@ def evaluate_runs(
     """:func:`evaluate` and :func:`allan_table` of a log given a run at a time.
 
     Both are per run and channel, so each run is prepared, measured and let go a channel at
-    a time; the rows are those of the whole log, in the same order (evaluation: channel by
-    channel, runs in file order; Allan deviation: run by run).
+    a time. Behind an IMU calibration each run first goes through it (:data:`IMU_ORDER
+    <rinscal.calibration.imustage.IMU_ORDER>`): "before" is then the IMU-calibrated output
+    and every figure is in deg/h and µg. The rows are those of the whole log, in the same
+    order (evaluation: channel by channel, runs in file order; Allan deviation: run by run).
 
     Parameters
     ----------
@@ -239,9 +241,16 @@ def evaluate_runs(
     """
     parts, allans = [], []
     curves: dict[str, dict[str, dict[str, AllanCurve]]] = {}
+    stage = model.imu_stage
+    thermal = model.with_imu(None)
+    deriv = DerivativeConfig(
+        window_s=model.derivative_window_s, kind=derivative_kind or model.derivative_kind
+    )
     for log, first_row in runs:
+        if stage is not None:  # "before" is the IMU-calibrated output, in deg/h and µg
+            log = imu_calibrated_frame(log, stage, deriv)
         for c in model.channels:  # a channel at a time: memory of one channel's features
-            one = model.subset((c,))
+            one = thermal.subset((c,))
             prepared = prepare(log, one, policy, derivative_kind, first_row=first_row)
             parts.append(evaluate(log, one, policy, derivative_kind, step, prepared=prepared))
             table, curve = allan_table(log, one, policy, derivative_kind, prepared=prepared)

@@ -53,7 +53,19 @@ C header (every method)
     reference function per channel, ``double <prefix>_<channel>(double T, double Tdot,
     double dT)`` returning ``f`` in log units (no clamping, except the clamp that is part of
     a ``px4``/``ardupilot`` model; the training ranges are given as macros), evaluated
-    exactly as :func:`rinscal.calibration.inference.predict_params`.
+    exactly as :func:`rinscal.calibration.inference.predict_params`. A model file that holds
+    an IMU calibration adds, in the file's order of application
+    (:data:`rinscal.calibration.imustage.IMU_ORDER`), ``void <prefix>_imu_correct(const
+    double raw[6], const double T[6], const double Tdot[6], double out[6])`` (raw output in
+    the log's units × ``unit_to_si`` → SI; at each channel's clamped inner temperature, the
+    fixed-point iteration of the nonlinear scale-factor terms, three times, then the 3×3
+    solve of ``I + M`` per triad; → deg/h and µg) and ``void <prefix>_compensate(raw, T, Tdot,
+    dT, out)``: ``<prefix>_imu_correct`` then ``out − (f − STATIC_REF)`` per channel. Channel
+    order gyro x..z, accel x..z; ``Tdot`` is used only by a calibration with rate laws.
+
+Why one module: about 720 lines, one idea: a model file written out as another program's
+input. The three targets share the clamp range, the re-expansion of the cubics and the
+number formatting, and the C header's IMU step is the same evaluation as its channels'.
 """
 
 from __future__ import annotations
@@ -66,10 +78,12 @@ from decimal import ROUND_CEILING, ROUND_FLOOR, Decimal
 
 import numpy as np
 
+from rinscal.calibration.imustage import PHYSICAL_TO_SI, ImuStage
 from rinscal.calibration.inference import poly_shift, segment_params
 from rinscal.calibration.modelfile import INPUT_NAMES, ThermalModelFile
 from rinscal.errors import ConfigError
 from rinscal.firmware import ARDUPILOT_SCALE, ARDUPILOT_TREF_C, ardupilot_tcal_prefix
+from rinscal.sensormodel import PARAMETERS
 
 __all__ = [
     "ARDUPILOT_SCALE",
@@ -85,6 +99,7 @@ __all__ = [
 ]
 
 _AXES = ("x", "y", "z")
+_CHANNELS = ("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z")
 #: Channel methods that PX4 and ArduPilot can represent (a clamped cubic in T).
 FLIGHT_METHODS: tuple[str, ...] = ("poly-t", "px4", "ardupilot")
 #: Decimals of the written TMIN/TMAX [°C] (rounded inwards at this precision).
@@ -588,5 +603,109 @@ def to_c_header(model: ThermalModelFile, prefix: str = "rinscal") -> str:
         lines += body
         lines.append("}")
         lines.append("")
+    if model.imu_stage is not None:
+        lines += _imu_c(model, model.imu_stage, prefix)
     lines.append(f"#endif /* {guard} */")
     return "\n".join(lines) + "\n"
+
+
+_KIND_ARRAY = {"sf": "sf", "sf_asym": "asym", "sf_quad": "quad"}
+
+
+def _imu_c(model: ThermalModelFile, stage: ImuStage, prefix: str) -> list[str]:
+    """C of the IMU calibration's step and of the whole compensation (see the module
+    docstring), evaluated as :meth:`ImuStage.physical` and
+    :meth:`rinscal.sensormodel.ImuCalibration.value` (same Horner order)."""
+    cal = stage.calibration
+    lo, hi = cal.t_range_c
+    fn = f"{prefix}_imu_correct"
+    k_in = np.array([stage.input_unit_to_si[c] for c in _CHANNELS])
+    lines = [
+        "/* IMU calibration, applied before the thermal model: raw (log units) x UNIT_TO_SI",
+        " * -> SI -> inverse sensor model at each channel's inner temperature T (clamped to",
+        f" * [{lo:g}, {hi:g}] degC; laws in T - {cal.t0_c:g}): scale factor and nonlinear terms",
+        " * (fixed-point iteration), then misalignment (solve I + M) -> deg/h and ug. */",
+        _carr(f"{fn}_unit_to_si", k_in),
+        _carr(f"{fn}_physical_to_si", PHYSICAL_TO_SI),
+        f"static inline void {fn}(const double raw[6], const double T[6], const double Tdot[6],",
+        "                         double out[6]) {",
+        "  (void)Tdot;",
+        "  double sf[6] = {0}, asym[6] = {0}, quad[6] = {0}, mis[6][3] = {{0}};",
+        "  double x[6], r[6];",
+        "  for (int i = 0; i < 6; i++) {",
+        f"    const double Tc = T[i] < {_c(lo)} ? {_c(lo)} : (T[i] > {_c(hi)} ? {_c(hi)} : T[i]);",
+        f"    x[i] = Tc - {_c(cal.t0_c)};",
+        "    r[i] = Tdot[i];",
+        "  }",
+    ]
+    for p in PARAMETERS:
+        t = list(cal.t_coefs.get(p.name, ()))
+        rate = list(cal.rate_coefs.get(p.name, ()))
+        if not t and not rate:
+            continue
+        ch = p.channel
+        expr = "0.0"
+        for c in reversed(t):  # ImuCalibration._poly: out = out * x + c
+            expr = f"({expr} * x[{ch}] + {_c(c)})"
+        if rate:
+            rexpr = "0.0"
+            for c in reversed([0.0, *rate]):
+                rexpr = f"({rexpr} * r[{ch}] + {_c(c)})"
+            expr = f"({expr} + {rexpr})"
+        value = f"{expr} * {_c(p.to_si)}"
+        if p.kind == "bias":
+            continue  # the thermal model holds the bias
+        if p.kind == "mis":
+            base = 3 if p.sensor == "accel" else 0
+            lines.append(f"  mis[{base + p.axis}][{p.towards}] = {value};  /* {p.name} */")
+        else:
+            lines.append(f"  {_KIND_ARRAY[p.kind]}[{ch}] = {value};  /* {p.name} */")
+    lines += [
+        "  for (int b = 0; b < 6; b += 3) {",
+        "    double u[3];",
+        "    for (int j = 0; j < 3; j++) {",
+        "      const int i = b + j;",
+        f"      const double y = raw[i] * {fn}_unit_to_si[i];",
+        "      const double gain = 1.0 + sf[i];",
+        "      u[j] = y / gain;",
+        "      for (int it = 0; it < 3; it++)",
+        "        u[j] = (y - asym[i] * fabs(u[j]) - quad[i] * u[j] * u[j]) / gain;",
+        "    }",
+        "    /* s = (I + M)^-1 u by Gaussian elimination with partial pivoting */",
+        "    double a[3][4];",
+        "    for (int j = 0; j < 3; j++) {",
+        "      for (int k = 0; k < 3; k++) a[j][k] = (j == k ? 1.0 : 0.0) + mis[b + j][k];",
+        "      a[j][3] = u[j];",
+        "    }",
+        "    for (int c = 0; c < 3; c++) {",
+        "      int piv = c;",
+        "      for (int j = c + 1; j < 3; j++) if (fabs(a[j][c]) > fabs(a[piv][c])) piv = j;",
+        "      for (int k = 0; k < 4; k++) { double t = a[c][k]; a[c][k] = a[piv][k]; "
+        "a[piv][k] = t; }",
+        "      for (int j = c + 1; j < 3; j++) {",
+        "        const double f = a[j][c] / a[c][c];",
+        "        for (int k = c; k < 4; k++) a[j][k] -= f * a[c][k];",
+        "      }",
+        "    }",
+        "    for (int j = 2; j >= 0; j--) {",
+        "      double v = a[j][3];",
+        "      for (int k = j + 1; k < 3; k++) v -= a[j][k] * out[b + k];",
+        "      out[b + j] = v / a[j][j];",
+        "    }",
+        f"    for (int j = 0; j < 3; j++) out[b + j] /= {fn}_physical_to_si[b + j];",
+        "  }",
+        "}",
+        "",
+        "/* The whole compensation in the model file's order: the IMU calibration, then the",
+        " * thermal bias, out = y - (f(T, Tdot, dT) - STATIC_REF), in deg/h and ug. */",
+        f"static inline void {prefix}_compensate(const double raw[6], const double T[6],",
+        "    const double Tdot[6], const double dT[6], double out[6]) {",
+        f"  {fn}(raw, T, Tdot, out);",
+    ]
+    for c in model.channels:
+        i = _CHANNELS.index(c)
+        ref = model.models[c].static_reference
+        ref_text = f" - {prefix.upper()}_{c.upper()}_STATIC_REF" if ref is not None else ""
+        lines.append(f"  out[{i}] -= {prefix}_{c}(T[{i}], Tdot[{i}], dT[{i}]){ref_text};")
+    lines += ["}", ""]
+    return lines

@@ -1,11 +1,11 @@
 """The thermal model file: JSON, checksummed, validated on load, evaluated with numpy alone.
 
-Layout (``schema_version`` 2; version 1 files, without ``domain``, ``fallback`` and
-``selection``, are still read)::
+Layout (``schema_version`` 3; version 2 files, without ``imu_calibration``, and version 1
+files, without ``domain``, ``fallback`` and ``selection`` too, are still read)::
 
     {
       "format": "rinscal-thermal-model",
-      "schema_version": 1,
+      "schema_version": 3,
       "sha256": "<hex digest of the canonical JSON of payload>",
       "payload": {
         "method": "regression",                 # poly-t | sectional | regression | neural
@@ -34,9 +34,20 @@ Layout (``schema_version`` 2; version 1 files, without ``domain``, ``fallback`` 
                                                 # the domain (policy "fallback"), or null
             "selection": {...}                  # method auto: held-out table and choice
           }, ...
-        }
+        },
+        "imu_calibration": null                 # or the IMU calibration applied first:
+        # {"order": [...],                      # the order of application, in words
+        #  "input": {"units": {"gyro_x": "pulse", ...}, "unit_to_si": {"gyro_x": ..., ...}},
+        #  "output_units": {"gyro": "deg/h", "accel": "ug"},   # the channel models' unit
+        #  "calibration": {"schema": "rinscal.imu-calibration/1", ...}}
       }
     }
+
+With an IMU calibration (``rinscal fit --imu-cal``) the file is applied in one order
+(:data:`rinscal.calibration.imustage.IMU_ORDER`): raw output × ``unit_to_si`` → SI; the
+inverse sensor model (scale factor, nonlinear terms, misalignment at each channel's inner
+temperature; biases left in) → deg/h and µg; then the thermal bias model, fitted on that
+output. :attr:`ThermalModelFile.imu_stage` holds it.
 
 The checksum is the SHA-256 of ``json.dumps(payload, sort_keys=True, separators=(",", ":"),
 ensure_ascii=True, allow_nan=False)``; floats are written in Python's shortest round-trip
@@ -60,11 +71,12 @@ unit_to_si``, i.e. the modelled output minus the Earth rate and gravity the IMU 
 the calibration table. The intercept also holds the mean turn-on offset of the
 calibration runs.
 
-Why one module: about 870 lines, one idea: the model file as a validated value. Its
-layout, its validation on load (most of the module: every key, type, shape and consistency
-check names the file and the problem) and its numpy-only evaluation (input policies, the
-joint domain, ``predict_bias_si``) are one contract; the numerics of each method live in
-:mod:`rinscal.calibration.inference`.
+Why one module: about 800 lines, one idea: the model file as a validated value. Its
+layout, its validation on load (every key, type, shape and consistency check names the file
+and the problem; a channel's entry is checked in :mod:`rinscal.calibration._modelcheck`) and
+its numpy-only evaluation (input policies, the joint domain, ``predict_bias_si``) are one
+contract; the numerics of each method live in :mod:`rinscal.calibration.inference`, the IMU
+calibration's step in :mod:`rinscal.calibration.imustage`.
 """
 
 from __future__ import annotations
@@ -82,16 +94,31 @@ from typing import Any, Literal
 import numpy as np
 
 from rinscal._version import __version__
-from rinscal.calibration._domain import inside_domain, validate_domain
-from rinscal.calibration.inference import METHODS, n_inputs, predict_params, validate_params
+from rinscal.calibration._domain import inside_domain
+from rinscal.calibration._modelcheck import (
+    AUTO,
+    CHANNELS,
+    INPUT_NAMES,
+    INPUT_UNITS,
+    PAYLOAD_KEYS,
+    PAYLOAD_KEYS_V2,
+    RATE_ESTIMATOR,
+    channel_fields,
+    exact,
+)
+from rinscal.calibration.imustage import IMU_ORDER, PHYSICAL_UNITS, ImuStage
+from rinscal.calibration.inference import METHODS, n_inputs, predict_params
 from rinscal.errors import ConfigError, ModelFileError, RangeError
-from rinscal.units import G0, check_sensor_unit
+from rinscal.sensormodel import ImuCalibration
 
 __all__ = [
     "FORMAT",
+    "IMU_ORDER",
+    "PHYSICAL_UNITS",
     "POLICIES",
     "SCHEMA_VERSION",
     "ChannelModel",
+    "ImuStage",
     "ThermalModelFile",
     "check_policy",
     "payload_sha256",
@@ -100,11 +127,9 @@ __all__ = [
 #: Value of the ``format`` key.
 FORMAT = "rinscal-thermal-model"
 #: Schema version written and read by this rinscal.
-SCHEMA_VERSION = 2
+SCHEMA_VERSION = 3
 #: Schema versions this rinscal reads.
-READABLE_VERSIONS: tuple[int, ...] = (1, 2)
-#: Top-level method of a file whose channels were chosen one by one (``fit --method auto``).
-AUTO = "auto"
+READABLE_VERSIONS: tuple[int, ...] = (1, 2, 3)
 #: What to do with inputs outside the training data: ``clamp`` each input to its range,
 #: ``fallback`` to the channel's T-only model outside the joint domain, ``extrapolate``,
 #: ``error``.
@@ -123,33 +148,8 @@ def check_policy(policy: str) -> None:
         raise ConfigError(f"policy must be one of {', '.join(POLICIES)}, got {policy!r}")
 
 
-#: Input names, in feature-matrix column order.
-INPUT_NAMES: tuple[str, str, str] = ("T", "Tdot", "dT")
-#: Input units, in :data:`INPUT_NAMES` order.
-INPUT_UNITS: tuple[str, str, str] = ("degC", "degC/min", "degC")
-#: Name of the temperature-rate estimator (see :mod:`rinscal.calibration.thermal.rate`).
-RATE_ESTIMATOR = "windowed least-squares slope"
-#: Keys of the payload, of a channel's entry and of its metrics (exactly these).
-PAYLOAD_KEYS = ("method", "created_by", "channels", "features", "source", "channel_models")
-CHANNEL_KEYS = (
-    "params",
-    "unit",
-    "unit_to_si",
-    "static_reference",
-    "train_range",
-    "segment_edges",
-    "metrics",
-    "domain",
-    "fallback",
-    "selection",
-)
-#: Keys of a channel's entry in schema version 1.
-CHANNEL_KEYS_V1 = CHANNEL_KEYS[:7]
-#: Keys of a channel's ``selection`` entry (method ``auto``).
-SELECTION_KEYS = ("scheme", "folds", "tolerance", "chosen", "fallback", "table")
-METRIC_KEYS = ("rms_train", "rms_train_about_run_mean", "n_train", "n_outliers", "n_runs")
-_CHANNELS = ("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z")
 _HEX64 = re.compile(r"[0-9a-f]{64}")
+
 
 Policy = Literal["clamp", "fallback", "extrapolate", "error"]
 
@@ -260,6 +260,9 @@ class ThermalModelFile:
         Training runs, latitude and heading of the calibration table, log name.
     created_by : str
         Producer.
+    imu_stage : ImuStage or None
+        The IMU calibration applied before the thermal model (:data:`IMU_ORDER`); the
+        channel models are then in deg/h and µg.
     """
 
     method: str
@@ -270,6 +273,30 @@ class ThermalModelFile:
     use_gradient: bool = True
     source: dict[str, Any] = field(default_factory=dict)
     created_by: str = f"rinscal {__version__}"
+    imu_stage: ImuStage | None = None
+
+    @property
+    def imu_calibration(self) -> ImuCalibration | None:
+        """The IMU calibration applied before the thermal bias model, or None."""
+        return None if self.imu_stage is None else self.imu_stage.calibration
+
+    def with_imu(self, stage: ImuStage | None) -> ThermalModelFile:
+        """A copy with ``stage`` as its IMU calibration (None: the thermal model alone).
+
+        Raises
+        ------
+        ModelFileError
+            A channel model not in deg/h or µg (the unit behind an IMU calibration).
+        """
+        if stage is not None:
+            for c in self.channels:
+                unit = self.models[c].unit
+                if unit != PHYSICAL_UNITS[c.partition("_")[0]]:
+                    raise ModelFileError(
+                        f"the thermal model of {c} is in {unit!r}: behind an IMU calibration it "
+                        f"must be fitted in {PHYSICAL_UNITS} (fit --imu-cal does so)"
+                    )
+        return dataclasses.replace(self, imu_stage=stage)
 
     # ------------------------------------------------------------------ serialisation
 
@@ -292,6 +319,7 @@ class ThermalModelFile:
             },
             "source": self.source,
             "channel_models": {c: self.models[c].to_dict() for c in self.channels},
+            "imu_calibration": None if self.imu_stage is None else self.imu_stage.to_dict(),
         }
 
     def to_dict(self) -> dict[str, Any]:
@@ -436,7 +464,7 @@ class ThermalModelFile:
                 raise ValueError(f"missing key {where}.{key}")
             return d[key]
 
-        _exact(p, PAYLOAD_KEYS, "payload")
+        exact(p, PAYLOAD_KEYS if version >= 3 else PAYLOAD_KEYS_V2, "payload")
         method = req(p, "method", "payload")
         if method not in (*METHODS, AUTO):
             raise ValueError(
@@ -446,15 +474,15 @@ class ThermalModelFile:
         if (
             not isinstance(channels, list)
             or not channels
-            or not all(isinstance(c, str) and c in _CHANNELS for c in channels)
+            or not all(isinstance(c, str) and c in CHANNELS for c in channels)
             or len(set(channels)) != len(channels)
         ):
-            raise ValueError(f"channels must be distinct names among {_CHANNELS}, got {channels!r}")
+            raise ValueError(f"channels must be distinct names among {CHANNELS}, got {channels!r}")
         created_by = p["created_by"]
         if not isinstance(created_by, str):
             raise ValueError("created_by must be text")
         feats = req(p, "features", "payload")
-        _exact(feats, ("names", "units", "use_gradient", "derivative"), "features")
+        exact(feats, ("names", "units", "use_gradient", "derivative"), "features")
         use_gradient = req(feats, "use_gradient", "features")
         if not isinstance(use_gradient, bool):
             raise ValueError("features.use_gradient must be true or false")
@@ -464,7 +492,7 @@ class ThermalModelFile:
         if req(feats, "units", "features") != list(INPUT_UNITS[:k]):
             raise ValueError(f"features.units must be {list(INPUT_UNITS[:k])}")
         deriv = req(feats, "derivative", "features")
-        _exact(deriv, ("kind", "window_s", "estimator"), "features.derivative")
+        exact(deriv, ("kind", "window_s", "estimator"), "features.derivative")
         if deriv["estimator"] != RATE_ESTIMATOR:
             raise ValueError(f"features.derivative.estimator must be {RATE_ESTIMATOR!r}")
         kind = req(deriv, "kind", "features.derivative")
@@ -487,7 +515,9 @@ class ThermalModelFile:
             raise ValueError("channel_models must hold exactly one entry per channel")
         models = {}
         for c in channels:
-            models[c] = _channel_from_dict(cms[c], c, method, k, version)
+            models[c] = ChannelModel(**channel_fields(cms[c], c, method, k, version))
+        imu = p.get("imu_calibration")
+        stage = None if imu is None else ImuStage.from_dict(imu)
         return cls(
             method=method,
             channels=tuple(channels),
@@ -497,7 +527,7 @@ class ThermalModelFile:
             use_gradient=use_gradient,
             source=source,
             created_by=created_by,
-        )
+        ).with_imu(stage)
 
     # ------------------------------------------------------------------ inference
 
@@ -766,126 +796,5 @@ class ThermalModelFile:
             use_gradient=self.use_gradient,
             source=self.source,
             created_by=self.created_by,
+            imu_stage=self.imu_stage,
         )
-
-
-def _exact(d: Any, keys: tuple[str, ...], where: str) -> None:
-    """``d`` must be an object with exactly ``keys``."""
-    if not isinstance(d, dict):
-        raise ValueError(f"{where} must be a JSON object")
-    missing = [k for k in keys if k not in d]
-    if missing:
-        raise ValueError(f"missing key(s) {', '.join(f'{where}.{k}' for k in missing)}")
-    extra = sorted(set(d) - set(keys))
-    if extra:
-        raise ValueError(f"unexpected key(s) {', '.join(f'{where}.{k}' for k in extra)}")
-
-
-def _finite(v: Any, what: str, positive: bool = False, allow_none: bool = True) -> float | None:
-    if v is None and allow_none:
-        return None
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v):
-        raise ValueError(
-            f"{what} must be a finite number{' or null' if allow_none else ''}, got {v!r}"
-        )
-    if positive and v <= 0:
-        raise ValueError(f"{what} must be positive, got {v!r}")
-    return float(v)
-
-
-def _channel_from_dict(
-    d: Any, c: str, method: str, k: int, version: int = SCHEMA_VERSION
-) -> ChannelModel:
-    _exact(d, CHANNEL_KEYS if version >= 2 else CHANNEL_KEYS_V1, f"channel_models.{c}")
-    params = d["params"]
-    try:
-        validate_params(params)
-    except ValueError as exc:
-        raise ValueError(f"channel_models.{c}.params: {exc}") from None
-    if method != AUTO and params["method"] != method:
-        raise ValueError(f"channel_models.{c} is a {params['method']} model in a {method} file")
-    need = n_inputs(params)
-    if need > k:
-        raise ValueError(f"channel_models.{c} uses {need} inputs but the file's features have {k}")
-    tr = d["train_range"]
-    if not isinstance(tr, dict) or set(tr) != set(INPUT_NAMES[:need]):
-        raise ValueError(f"channel_models.{c}.train_range must give {list(INPUT_NAMES[:need])}")
-    rng = np.zeros((need, 2))
-    for j, name in enumerate(INPUT_NAMES[:need]):
-        pair = tr[name]
-        if not isinstance(pair, list) or len(pair) != 2:
-            raise ValueError(f"channel_models.{c}.train_range.{name} must be [min, max]")
-        lo = _finite(pair[0], f"channel_models.{c}.train_range.{name}", allow_none=False)
-        hi = _finite(pair[1], f"channel_models.{c}.train_range.{name}", allow_none=False)
-        assert lo is not None and hi is not None
-        if lo > hi:
-            raise ValueError(f"channel_models.{c}.train_range.{name} has min > max")
-        rng[j] = (lo, hi)
-    unit = d["unit"]
-    if unit is not None and not isinstance(unit, str):
-        raise ValueError(f"channel_models.{c}.unit must be text or null")
-    k_si = _finite(d["unit_to_si"], f"channel_models.{c}.unit_to_si", positive=True)
-    if unit is not None:
-        try:
-            check_sensor_unit(c.partition("_")[0], unit, k_si)  # gyro_x -> gyro
-        except ValueError as exc:
-            raise ValueError(f"channel_models.{c}: {exc}") from None
-    ref = _finite(d["static_reference"], f"channel_models.{c}.static_reference")
-    if params["method"] == "px4" and ref is not None and k_si is not None:
-        # before issue 21 a px4 accelerometer's coef[0] held no gravity (PX4's median removed)
-        # while its static reference did: compensation would add 1 g. No sensor is 0.5 g off.
-        if abs(float(params["coef"][0]) - ref) * k_si > 0.5 * G0:
-            raise ValueError(
-                f"channel_models.{c}: the px4 model's level at TREF, {params['coef'][0]:.6g}, is "
-                f"more than 0.5 g from its static reference {ref:.6g}: a model written before "
-                "rinscal kept the training level in px4 fits would remove gravity twice; refit it"
-            )
-    edges = d["segment_edges"]
-    e_arr = None
-    if edges is not None:
-        if not isinstance(edges, list) or not all(
-            isinstance(e, (int, float)) and not isinstance(e, bool) and np.isfinite(e)
-            for e in edges
-        ):
-            raise ValueError(f"channel_models.{c}.segment_edges must be a list of numbers or null")
-        e_arr = np.asarray(edges, dtype=np.float64)
-        if np.any(np.diff(e_arr) <= 0):
-            raise ValueError(f"channel_models.{c}.segment_edges must be strictly increasing")
-    metrics = d["metrics"]
-    _exact(metrics, METRIC_KEYS, f"channel_models.{c}.metrics")
-    mvals = {}
-    for key, v in metrics.items():
-        fv = _finite(v, f"channel_models.{c}.metrics.{key}", allow_none=False)
-        assert fv is not None
-        mvals[str(key)] = fv
-    domain = d.get("domain")
-    if domain is not None:
-        try:
-            validate_domain(domain, need)
-        except ValueError as exc:
-            raise ValueError(f"channel_models.{c}.{exc}") from None
-    fallback = d.get("fallback")
-    if fallback is not None:
-        try:
-            validate_params(fallback)
-        except ValueError as exc:
-            raise ValueError(f"channel_models.{c}.fallback: {exc}") from None
-        if n_inputs(fallback) != 1:
-            raise ValueError(f"channel_models.{c}.fallback must be a model of T alone")
-    selection = d.get("selection")
-    if selection is not None:
-        _exact(selection, SELECTION_KEYS, f"channel_models.{c}.selection")
-        if not isinstance(selection["table"], list):
-            raise ValueError(f"channel_models.{c}.selection.table must be a list")
-    return ChannelModel(
-        params=params,
-        train_range=rng,
-        unit=unit,
-        unit_to_si=k_si,
-        static_reference=ref,
-        segment_edges=e_arr,
-        metrics=mvals,
-        domain=domain,
-        fallback=fallback,
-        selection=selection,
-    )

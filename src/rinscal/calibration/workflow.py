@@ -29,18 +29,24 @@ from rinscal.calibration.compensate import (
     check_units,
     compensated_channels,
     describe_reference,
+    imu_calibrated_frame,
+    physical_meta,
 )
 from rinscal.calibration.compensate import compensate as _compensate_frame
 from rinscal.calibration.evaluate import StepConfig, evaluate_runs
+from rinscal.calibration.imustage import ImuStage
 from rinscal.calibration.modelfile import ThermalModelFile, check_policy
 from rinscal.calibration.thermal.features import DerivativeConfig, MissingGradientWarning
 from rinscal.calibration.thermal.guards import TrainingDataWarning
 from rinscal.calibration.thermal.model import ThermalModel
 from rinscal.errors import ConfigError
 from rinscal.io.foreign import foreign_meta
+from rinscal.io.imucal import read_imu_calibration
 from rinscal.io.mapping import ColumnMapping
 from rinscal.io.streaming import LogStreamWriter, by_runs
 from rinscal.io.tables import SourceLog, format_of
+from rinscal.schema import CHANNELS, unit_factors
+from rinscal.sensormodel import ImuCalibration
 
 __all__ = [
     "CompensationSummary",
@@ -50,6 +56,7 @@ __all__ = [
     "compensate_file",
     "evaluate",
     "fit",
+    "imu_stage",
     "load_model",
     "model_label",
     "run_counts",
@@ -57,6 +64,12 @@ __all__ = [
 
 LogLike = str | os.PathLike[str] | pd.DataFrame
 ModelLike = str | os.PathLike[str] | ThermalModelFile
+ImuCalLike = str | os.PathLike[str] | ImuCalibration
+#: What the metadata of a log compensated behind an IMU calibration says of its units.
+OUTPUT_UNITS_IMU = (
+    "deg/h (gyros) and ug (accelerometers): the IMU calibration (scale factor, nonlinear "
+    "terms, misalignment) was applied to the raw output, then the thermal bias removed"
+)
 
 
 @dataclass(frozen=True)
@@ -144,6 +157,7 @@ def fit(
     max_samples: int | None = None,
     on_run: Callable[[int], None] | None = None,
     on_channel: Callable[[str, int], None] | None = None,
+    imu_calibration: ImuCalLike | None = None,
 ) -> FitResult:
     """Fit a thermal bias model per channel on a calibration log.
 
@@ -187,6 +201,14 @@ def fit(
     on_run, on_channel : callable, optional
         Progress: called with the number of runs read so far, and with each fitted
         channel's name and the number of channels.
+    imu_calibration : ImuCalibration or path-like, optional
+        An IMU calibration (or a file holding one, :func:`rinscal.io.imucal.read_imu_calibration`)
+        applied to the log before the thermal model is fitted: raw × the metadata's
+        ``unit_to_si`` → SI → the inverse sensor model at each channel's temperature (scale
+        factors, nonlinear terms, misalignments; its biases are left for the thermal model)
+        → deg/h and µg. The thermal model is fitted on that output, in deg/h and µg
+        (``--static-ref`` values too), and the model file holds the calibration, applied in
+        the same order by every compensator.
 
     Returns
     -------
@@ -213,12 +235,13 @@ def fit(
     if candidates is not None and method != "auto":
         raise ConfigError("candidates apply to method 'auto' only")
     params = {"max_samples": max_samples} if max_samples is not None else None
+    deriv = DerivativeConfig(window_s, "causal" if causal else "centred")
     model = ThermalModel(
         method,
         orders=None if orders is None else tuple(int(v) for v in orders),
         hidden=hidden,
         edges=None if edges is None else tuple(float(v) for v in edges),
-        derivative=DerivativeConfig(window_s, "causal" if causal else "centred"),
+        derivative=deriv,
         use_gradient=gradient,
         random_state=seed,
         estimator_params=params,
@@ -231,19 +254,30 @@ def fit(
         if on_channel is not None:
             on_channel(channel, len(model.channels))
 
+    if not isinstance(log, pd.DataFrame) and meta is None:
+        meta = foreign_meta(Path(log), mapping)
+    stage = None
+    if imu_calibration is not None:
+        stage = imu_stage(
+            imu_calibration, meta, "the log" if isinstance(log, pd.DataFrame) else str(log)
+        )
+        meta = physical_meta(meta)
+
+    def calibrated(frame: pd.DataFrame) -> pd.DataFrame:
+        return frame if stage is None else imu_calibrated_frame(frame, stage, deriv)
+
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", TrainingDataWarning)
         warnings.simplefilter("always", MissingGradientWarning)
         if isinstance(log, pd.DataFrame):
-            model.fit(log, meta, on_channel=step)
+            model.fit(calibrated(log), meta, on_channel=step)
             source = None
         else:
             path = Path(log)
-            meta = foreign_meta(path, mapping) if meta is None else meta
 
             def runs(sources: Iterator[SourceLog]) -> Iterator[tuple[pd.DataFrame, int]]:
                 for src in sources:  # no enumerate: it would hold the last run while the
-                    yield src.log, src.first_row  # next is read (two runs in memory)
+                    yield calibrated(src.log), src.first_row  # next is read (two runs in memory)
                     del src
 
             by_runs(  # run by run: memory bounded by the longest run
@@ -254,11 +288,39 @@ def fit(
                 ),
             )
             source = {"log": path.name}
-    mf = model.to_file(source=source)
+    mf = model.to_file(source=source).with_imu(stage)
     told = [f"{w.message}" for w in caught if issubclass(w.category, MissingGradientWarning)]
     where = "" if isinstance(log, pd.DataFrame) else f"{log}: "
     told += [f"{where}{w.message}" for w in caught if issubclass(w.category, TrainingDataWarning)]
     return FitResult(mf, fit_table(mf), tuple(told), fit_note(mf, method))
+
+
+def imu_stage(
+    calibration: ImuCalLike, meta: Mapping[str, Any] | None, source: str = "the log"
+) -> ImuStage:
+    """An IMU calibration and the raw units of a log (from its metadata), as a model file's
+    first step.
+
+    Raises
+    ------
+    ConfigError
+        A channel whose unit or SI factor the metadata does not give (naming it), or a
+        calibration file that cannot be read.
+    """
+    cal = (
+        calibration
+        if isinstance(calibration, ImuCalibration)
+        else read_imu_calibration(calibration)
+    )
+    units, factors = unit_factors(meta, CHANNELS)
+    missing = [c for c in CHANNELS if factors[c] is None]
+    if missing:
+        raise ConfigError(
+            f"{source}: the IMU calibration turns raw output into SI with each channel's "
+            f"unit_to_si, and the log's metadata gives none for {', '.join(missing)} (units "
+            "and unit_to_si in its .meta.json, or a mapping's [units])"
+        )
+    return ImuStage(cal, units, {c: float(factors[c] or 0.0) for c in CHANNELS})
 
 
 def _counted(
@@ -430,7 +492,9 @@ def compensate_file(
 
     Memory stays bounded by the longest run. The output is written as it is computed, in
     the input's format where ``out`` has the same kind (CSV/TSV), else Parquet by suffix;
-    the caller writes the metadata sidecar (``summary.meta``) if it wants one.
+    the caller writes the metadata sidecar (``summary.meta``) if it wants one. Behind an IMU
+    calibration all six channels are written in deg/h and µg, and ``summary.meta`` says so
+    (``units``, ``unit_to_si``, ``compensated.output_units``).
 
     Parameters
     ----------
@@ -467,6 +531,8 @@ def compensate_file(
     rows, flagged = by_runs(  # run by run: memory bounded by the longest run
         log_path, mapping, lambda s: _write_runs(s, mf, policy, kind, out_path)
     )
+    if mf.imu_stage is not None:  # the output is in deg/h and µg whatever the input's unit
+        meta = physical_meta(meta)
     if meta:
         meta["compensated"] = {
             "model": Path(model).name if not isinstance(model, ThermalModelFile) else None,
@@ -474,6 +540,8 @@ def compensate_file(
             "method": mf.method,
             "policy": policy,
             "derivative": "causal" if causal else mf.derivative_kind,
+            "imu_calibration": mf.imu_stage is not None,
+            "output_units": OUTPUT_UNITS_IMU if mf.imu_stage is not None else "the input's",
         }
     reference, missing = describe_reference(mf)
     return CompensationSummary(rows, mf, policy, flagged, reference, missing, meta or None)

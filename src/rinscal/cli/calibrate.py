@@ -250,6 +250,16 @@ def fit(
             "training mean) or CHANNEL=VALUE pairs, e.g. accel_z=-9.7949,gyro_z=0.",
         ),
     ] = None,
+    imu_cal: Annotated[
+        Path | None,
+        typer.Option(
+            "--imu-cal",
+            help="IMU calibration (calibrate-imu's JSON, or a model file holding one) applied "
+            "first: raw x unit_to_si -> SI -> scale factor, nonlinear terms and misalignment "
+            "removed at each channel's temperature -> deg/h and ug, on which the thermal model "
+            "is fitted; the model file holds it and every compensator applies it.",
+        ),
+    ] = None,
 ) -> None:
     """Fit a thermal model per channel and write it as a JSON model file.
 
@@ -274,6 +284,7 @@ def fit(
     if fams is not None and method != "auto":
         raise fail("--candidates applies to --method auto only")
     inputs = [log] + ([map_file] if map_file is not None else [])
+    inputs += [imu_cal] if imu_cal is not None else []
     refuse_inputs(out, inputs)
     try:
         with Progress(
@@ -312,6 +323,7 @@ def fit(
                 max_samples=max_samples,
                 on_run=lambda k: progress.update(task, description=f"features of run {k}"),
                 on_channel=step,
+                imu_calibration=imu_cal,
             )
             result.save(out)
     except RinscalError as exc:
@@ -338,6 +350,14 @@ def fit(
             row += [_fmt(r["heldout_rms"]), _fmt(r["none_heldout_rms"])]
         table.add_row(*row)
     print_table(console, table)
+    if imu_cal is not None:
+        console.print(
+            f"IMU calibration {imu_cal.name} applied first (scale factor, nonlinear terms and "
+            "misalignment at each channel's temperature); the thermal model is in deg/h and ug, "
+            "and the model file holds both",
+            highlight=False,
+            soft_wrap=True,
+        )
     console.print(f"{result.note} wrote {out}", highlight=False, soft_wrap=True)
 
 

@@ -84,6 +84,15 @@ def compensate_cmd(
         highlight=False,
         soft_wrap=True,
     )
+    if mf.imu_stage is not None:
+        console.print(
+            "the model's IMU calibration was applied first (raw x unit_to_si -> SI -> scale "
+            "factor, nonlinear terms and misalignment at each channel's temperature): all six "
+            f"channels of {out.name} are in deg/h (gyros) and ug (accelerometers), as its "
+            "metadata says",
+            highlight=False,
+            soft_wrap=True,
+        )
     for run, (k, n) in done.flagged.items():
         console.print(f"  {run}: {k / n:.1%} of rows flagged", highlight=False)
     console.print(done.reference, highlight=False, soft_wrap=True)

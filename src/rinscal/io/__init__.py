@@ -13,6 +13,11 @@ Modules
     (``LogStreamWriter``): memory bounded by the longest run.
 :mod:`~rinscal.io.metadata`
     Sidecar metadata ``<log>.meta.json``.
+:mod:`~rinscal.io.params`
+    The IMU parameter table (truth and estimate of an IMU calibration).
+:mod:`~rinscal.io.imucal`
+    ``read_imu_calibration``: an IMU calibration from a calibrate-imu file, a bare one, or
+    a thermal model file that holds one.
 :mod:`~rinscal.io.foreign`
     Open a log as the command line names it: mapping or flight-log options, and metadata.
 :mod:`~rinscal.io.flightinfo`

@@ -123,7 +123,8 @@ def navigate_log(
     run : str, optional
         Which run of a log with several.
     models : sequence of path-like
-        Thermal model files; each gives a variant.
+        Thermal model files; each gives a variant (one that holds an IMU calibration applies
+        it first, as every compensator does).
     policy : {"clamp", "fallback", "extrapolate", "error"}
         Model inputs outside the training data.
     site : (lat [rad], lon [rad], height [m]), optional
@@ -335,6 +336,11 @@ def navigate_log(
         },
         "heading_deg": heading_deg,
         "models": {name: str(m) for name, m in zip(list(comps)[1:], models, strict=True)},
+        # a model file holding an IMU calibration is applied in its order: the inverse sensor
+        # model at the thermometer readings, then the thermal bias
+        "imu_calibration": {
+            name: c.stage is not None for name, c in comps.items() if c is not None
+        },
         "policy": policy,
         "warnings": warnings,
     }

@@ -1,5 +1,7 @@
 """Causal compensation of a recording piece by piece, as the navigation computer runs a
-thermal model (:class:`CausalModelCompensator`)."""
+thermal model (:class:`CausalModelCompensator`), behind the model file's IMU calibration when
+it holds one (the file's one order: the inverse sensor model at the channel temperatures,
+then the thermal bias)."""
 
 from __future__ import annotations
 
@@ -38,6 +40,13 @@ class CausalModelCompensator:
     the bias ``(f(T, Ṫ, ΔT) − r)`` in SI is held until the next reading. A reading with a
     NaN temperature keeps the last one. Channels the model lacks are not compensated.
 
+    A model file that holds an IMU calibration (:attr:`ThermalModelFile.imu_stage`) is
+    applied in its one order: each sample's rates (increments over their interval) go
+    through the inverse sensor model at the last thermometer reading
+    (:meth:`~rinscal.calibration.imustage.ImuStage.inverse_si`, the step every compensator
+    shares), then lose the thermal bias. What is returned stays "what to subtract": ``y −
+    inverse(y) + bias``. Samples before the first complete reading are left as they are.
+
     Parameters
     ----------
     model : ThermalModelFile
@@ -74,6 +83,15 @@ class CausalModelCompensator:
         self.needs_outer = bool(getattr(model, "use_gradient", False)) and any(
             getattr(model.models[c], "n_inputs", 3) >= 3 for c in model.channels
         )
+        #: the model file's IMU calibration, applied first (None: the thermal model alone)
+        self.stage = getattr(model, "imu_stage", None)
+        if self.stage is not None and self.stage.needs_rate and len(idx) != 6:
+            raise ConfigError(
+                "a model whose IMU calibration has laws in the temperature rate needs all six "
+                f"channels' thermal models to follow their temperatures; it has {self.channels}"
+            )
+        self._held_t = np.full(6, np.nan)  # last complete reading of all six thermometers
+        self._held_r = np.zeros(6)  # and its rate [°C/min]
 
     def __call__(self, s: NavSamples) -> NDArray[np.float64]:
         if s.temps is None:
@@ -84,8 +102,11 @@ class CausalModelCompensator:
         tick = np.floor((s.t - 0.5 * s.dt) / self.update_s + 1e-9).astype(np.int64)
         new = np.flatnonzero(np.diff(tick, prepend=self._tick) != 0)
         out = np.empty((s.n, 6))
+        seg = np.zeros(s.n, dtype=np.int64)
+        held_t = held_r = None
         if new.size:
             temp = s.temps[new][:, self._idx].copy()
+            all6 = s.temps[new].copy()
             t_out = None if s.temp_out is None else s.temp_out[new].copy()
             self._hold(temp, t_out)
             # no reading yet (a thermometer empty from the start): the model waits for one
@@ -100,7 +121,7 @@ class CausalModelCompensator:
                 ok &= np.isfinite(t_out)
             if not ok.all():
                 self.skipped += int((~ok).sum())
-                new, temp = new[ok], temp[ok]
+                new, temp, all6 = new[ok], temp[ok], all6[ok]
                 t_out = None if t_out is None else t_out[ok]
         if new.size:
             times = tick[new] * self.update_s
@@ -108,16 +129,37 @@ class CausalModelCompensator:
             bias = np.zeros((new.size, 6))
             bias[:, self._idx] = self.model.predict_bias_si(temp, rate, t_out, policy=self.policy)
             # each sample takes the last reading at or before it (row 0: the one held before)
-            seg = np.zeros(s.n, dtype=np.int64)
             seg[new] = 1
             np.cumsum(seg, out=seg)
             np.take(np.vstack([self._bias, bias]), seg, axis=0, out=out)
             self._bias = bias[-1]
             self.readings += new.size
+            if self.stage is not None:
+                all6[:, self._idx] = temp  # the held (forward-filled) readings
+                rate6 = np.zeros_like(all6)
+                rate6[:, self._idx] = rate
+                held_t = np.vstack([self._held_t, all6])
+                held_r = np.vstack([self._held_r, rate6])
+                self._held_t, self._held_r = all6[-1].copy(), rate6[-1].copy()
         else:
             out[:] = self._bias
+        if self.stage is not None:
+            if held_t is None:
+                held_t, held_r = self._held_t[None, :], self._held_r[None, :]
+            out += self._imu_step(s, held_t[seg], held_r[seg])
         self._tick = int(tick[-1])
         return out
+
+    def _imu_step(self, s: NavSamples, temp: NDArray, rate: NDArray) -> NDArray[np.float64]:
+        """``y − inverse(y)`` per sample [SI]: what the IMU calibration takes away."""
+        assert self.stage is not None
+        y = np.column_stack([s.dtheta, s.dv]) / s.dt[:, None]
+        ok = np.isfinite(temp).all(axis=1)  # before the first reading: nothing
+        step = np.zeros_like(y)
+        if ok.any():
+            tdot = rate[ok] if self.stage.needs_rate else None
+            step[ok] = y[ok] - self.stage.inverse_si(y[ok], temp[ok], tdot)
+        return step
 
     def _hold(self, temp: NDArray, t_out: NDArray | None) -> None:
         """Replace NaN readings by the last finite one (forward fill across pieces)."""
