@@ -69,14 +69,14 @@ def _commands(d: Design) -> list[tuple[str, float, float, float, float, int]]:
     dt = 1.0 / d.rate_hz
     for o, i in d.positions:
         out.append(("move", o, i, 0.0, 0.0, d.transition_rows))
-        out.append(("static", o, i, 0.0, 0.0, int(round(d.dwell_s * d.rate_hz))))
+        out.append(("static", o, i, 0.0, 0.0, round(d.dwell_s * d.rate_hz)))
     for axis, other in d.rate_axes:
         for r in d.rates_dps:
             for sign in (1.0, -1.0):
                 rate = sign * r
                 per_turn = 360.0 / (r * dt)
                 settle = int(np.ceil(d.settle_s * d.rate_hz)) + 1
-                rows = settle + int(round(d.turns * per_turn))
+                rows = settle + round(d.turns * per_turn)
                 o, i = (0.0, other) if axis == "outer" else (other, 0.0)
                 out.append(("move", o, i, 0.0, 0.0, d.transition_rows))
                 ro, ri = (rate, 0.0) if axis == "outer" else (0.0, rate)

@@ -25,8 +25,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from rinscal.calibration.imu.segments import Segment, segment_references
 from rinscal import turntable
+from rinscal.calibration.imu.segments import Segment, segment_references
 from rinscal.errors import DesignError
 from rinscal.sensormodel import AXES
 

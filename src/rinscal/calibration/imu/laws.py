@@ -2,13 +2,21 @@
 
 At each set point (or each repetition of the sequence along a ramp) a parameter has an
 estimate ``v_i ± sd_i`` at the mean inner temperature ``T_i`` of its own channel. The law is a
-polynomial in ``T − t0_c`` of degree ``0 .. min(max_degree, n − 2)`` (so that a held-out fit
-keeps at least one degree of freedom), plus, on a ramp, a term linear in the temperature rate
+polynomial in ``T − t0_c`` of degree ``0 .. min(max_degree, n − 3)`` (``0 .. 1`` for three or
+four temperatures, ``0`` for two), plus, on a ramp, a term linear in the temperature rate
 ``Ṫ`` [°C/min] where the repetitions' rates differ. Each candidate is scored by
 leave-one-temperature-out prediction: fitted (weighted by ``1/sd²``) on the other
 temperatures, it predicts the one left out; the score is the RMS of the prediction errors in
-units of that estimate's sd (about 1 for a law that predicts within the noise). The candidate
-of least score wins; among equal scores, the simpler.
+units of that estimate's sd (about 1 for a law that predicts within the noise).
+
+Why not up to ``n − 2``: a law of degree ``n − 2`` fitted on ``n − 1`` points passes through
+them, and its ``n`` held-out errors are all multiples of one number (the ``(n−1)``-th finite
+difference of the estimates), which is near zero by chance about one time in ten: a cubic
+through five noisy temperatures would then score best with no evidence for it. From three
+temperatures a straight line is still allowed (its errors are one number too, but the
+alternative, a constant, is the only other choice). The candidate
+of least score wins, or the simplest candidate whose score is within ``tolerance`` (20 %)
+of it: with five temperatures a higher degree often scores a little better by chance alone.
 """
 
 from __future__ import annotations
@@ -53,6 +61,11 @@ class Law:
     scores: dict[str, float]
 
 
+def _top_degree(n: int) -> int:
+    """Highest degree worth scoring with ``n`` temperatures: ``n − 3`` (at least 1 from 3)."""
+    return 0 if n < 3 else max(1, n - 3)
+
+
 def _design(x: NDArray[np.float64], r: NDArray[np.float64] | None, d: int) -> NDArray[np.float64]:
     cols = [x**k for k in range(d + 1)]
     if r is not None:
@@ -72,6 +85,7 @@ def fit_law(
     t0_c: float,
     max_degree: int = 3,
     tdot_c_per_min: NDArray[np.float64] | None = None,
+    tolerance: float = 0.2,
 ) -> Law:
     """Choose and fit the law of one parameter.
 
@@ -84,9 +98,11 @@ def fit_law(
     t0_c : float [°C]
         Centre of the polynomial.
     max_degree : int
-        Highest degree tried (capped at ``n − 2``).
+        Highest degree tried (capped at ``n − 3``, at least 1 from three temperatures).
     tdot_c_per_min : ndarray, shape (n,), optional [°C/min]
         Temperature rate of each estimate (ramp); a rate term is tried where it varies.
+    tolerance : float
+        A simpler candidate whose score is within this relative tolerance of the least wins.
 
     Returns
     -------
@@ -105,10 +121,10 @@ def fit_law(
         r = np.asarray(tdot_c_per_min, dtype=float)
         if np.ptp(r) >= _MIN_RATE_SPREAD:
             rates.append(r)
-    best: tuple[float, int, int] | None = None
+    cands: list[tuple[float, int, int]] = []
     scores: dict[str, float] = {}
     for ri, r in enumerate(rates):
-        for d in range(0, min(max_degree, n - 2 - ri) + 1):
+        for d in range(0, min(max_degree, _top_degree(n) - ri) + 1):
             err = np.empty(n)
             for i in range(n):
                 keep = np.arange(n) != i
@@ -117,11 +133,13 @@ def fit_law(
                 err[i] = (v[i] - a[i] @ coef) / sd[i]
             score = float(np.sqrt(np.mean(err**2)))
             scores[f"T{d}" + ("+rate" if ri else "")] = score
-            if best is None or score < best[0]:
-                best = (score, d, ri)
-    if best is None:  # n == 2 with a rate term asked for: only the constant is possible
+            cands.append((score, d, ri))
+    if not cands:  # n == 2 with a rate term asked for: only the constant is possible
         return Law(0, 0, (float(np.average(v, weights=sd**-2)),), (), float("nan"), scores)
-    score, d, ri = best
+    least = min(c[0] for c in cands)
+    # the simplest candidate within the tolerance of the least score (candidates are in
+    # order of complexity): five held-out points favour a wiggly law by chance alone
+    score, d, ri = next(c for c in cands if c[0] <= least * (1.0 + tolerance))
     coef = _wls(_design(x, rates[ri], d), v, sd)
     t_coefs = tuple(float(c) for c in coef[: d + 1])
     rate_coefs = (float(coef[d + 1]),) if ri else ()

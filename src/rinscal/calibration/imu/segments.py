@@ -117,7 +117,8 @@ class Segment:
             if self.axis == "outer"
             else f"outer at {self.outer_deg % 360:g}°"
         )
-        return f"rate segment {self.number} ({self.axis} axis at {self.rate_dps:+g} °/s, {other}, {span})"
+        rate = f"{self.axis} axis at {self.rate_dps:+g} °/s"
+        return f"rate segment {self.number} ({rate}, {other}, {span})"
 
 
 @dataclass(frozen=True)
@@ -217,7 +218,7 @@ def find_segments(
                     0,
                     float(t[k0]),
                     float(t[k_end]),
-                )  # fmt: skip
+                )
             )
             continue
         axis = "outer" if ro[g0] != 0 else "inner"
@@ -246,7 +247,7 @@ def find_segments(
                 turns,
                 float(t[k0]),
                 float(t[k1]),
-            )  # fmt: skip
+            )
         )
     return Split(tuple(segments), slews, short)
 
