@@ -14,6 +14,7 @@ from rinscal.cli import (  # noqa: F401  (registers)
     calibrate,
     compensate,
     fleet,
+    imucal,
     navigate,
     reproduce,
     simulate,
@@ -25,6 +26,7 @@ from rinscal.cli._app import PlainUsageCommand, app, guard_os_errors
 #: columns (click would cut a docstring's first sentence at "Eq." or after 45 characters).
 SUMMARIES: dict[str, str] = {
     "simulate": "Simulate a chamber protocol: calibration log, truth, metadata.",
+    "calibrate-imu": "Scale factor, misalignment, biases over temperature on a turntable.",
     "fit": "Fit a thermal model per channel; write it as a JSON model file.",
     "select": "Held-out RMS of every candidate model per channel (Tables 5, 7).",
     "evaluate": "RMS before and after a model (Eq. 16), steps, Allan deviation.",
