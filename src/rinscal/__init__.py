@@ -44,7 +44,9 @@ Data
     preset or TOML file).
 Calibration
     :func:`fit` (→ :class:`FitResult`: the model and its report), :class:`ThermalModel`
-    (the estimator itself), :func:`load_model` (a JSON model file → :class:`ThermalModelFile`),
+    (the estimator itself), :func:`calibrate_imu` (a multi-position turntable log → scale
+    factors, misalignments and biases over temperature, :class:`ImuCalibrationResult`),
+    :func:`load_model` (a JSON model file → :class:`ThermalModelFile`),
     :func:`compensate` (in memory), :func:`compensate_file` (streamed, file to file),
     :func:`evaluate` (RMS before/after, steps, Allan), :func:`select` (held-out RMS per
     setting, Tables 5 and 7).
@@ -76,6 +78,8 @@ _API: dict[str, str] = {
     "load_imu": "rinscal.thermal.config",
     "ImuConfig": "rinscal.thermal.config",
     "fit": "rinscal.calibration.workflow",
+    "calibrate_imu": "rinscal.calibration.imu.workflow",
+    "ImuCalibrationResult": "rinscal.calibration.imu.workflow",
     "FitResult": "rinscal.calibration.workflow",
     "ThermalModel": "rinscal.calibration.thermal.model",
     "load_model": "rinscal.calibration.workflow",

@@ -29,6 +29,12 @@ class RangeError(RinscalError, ValueError):
     """An input lies outside the range a model was trained on and the policy is ``error``."""
 
 
+class DesignError(RinscalError, ValueError):
+    """A calibration design cannot give what is asked of it: a parameter the positions and
+    rates do not observe, a position that was not static, a missing temperature point, mixed
+    units. The message names the run, segment, parameter or column, and what is lacking."""
+
+
 class OutputError(RinscalError, OSError):
     """An output file or folder cannot be written: the message names the path and the cause."""
 

@@ -75,8 +75,8 @@ def test_config_errors_keep_their_section_names(tmp_path) -> None:
 # ------------------------------------------------------------------ issue 21, items 8 and 9
 
 WORKFLOW = [
-    "simulate", "fit", "select", "evaluate", "compensate", "export", "plot", "navigate",
-    "reproduce", "study", "fleet",
+    "simulate", "calibrate-imu", "fit", "select", "evaluate", "compensate", "export", "plot",
+    "navigate", "reproduce", "study", "fleet",
 ]  # fmt: skip
 
 

@@ -14,6 +14,7 @@ from rinscal.cli import (  # noqa: F401  (registers)
     calibrate,
     compensate,
     fleet,
+    imucal,
     navigate,
     reproduce,
     simulate,
@@ -22,16 +23,18 @@ from rinscal.cli import (  # noqa: F401  (registers)
 from rinscal.cli._app import PlainUsageCommand, app, guard_os_errors
 
 #: ``rinscal --help``: every command in workflow order, with a summary that reads whole at 80
-#: columns (click would cut a docstring's first sentence at "Eq." or after 45 characters).
+#: columns (click would cut a docstring's first sentence at "Eq." or after 45 characters):
+#: 62 characters at most, beside the longest command name (calibrate-imu).
 SUMMARIES: dict[str, str] = {
     "simulate": "Simulate a chamber protocol: calibration log, truth, metadata.",
-    "fit": "Fit a thermal model per channel; write it as a JSON model file.",
-    "select": "Held-out RMS of every candidate model per channel (Tables 5, 7).",
+    "calibrate-imu": "Scale factor, misalignment, bias over temperature (turntable).",
+    "fit": "Fit a thermal model per channel; write a JSON model file.",
+    "select": "Held-out RMS of every candidate per channel (Tables 5, 7).",
     "evaluate": "RMS before and after a model (Eq. 16), steps, Allan deviation.",
     "compensate": "Subtract the modelled thermal bias from every row (Eq. 10).",
     "export": "Write a model for PX4, ArduPilot or as a C header.",
     "plot": "Draw outputs and temperatures per run against time (Figure 3).",
-    "navigate": "Navigate a single-axis RINS through a cold start; error in nmi.",
+    "navigate": "Navigate a single-axis RINS from a cold start; error in nmi.",
     "reproduce": "Re-run the paper's Section 5 on a simulated IMU: one report.",
     "study": "Monte Carlo study over many units and cold starts, on Dask.",
     "fleet": "Calibrate a fleet of IMUs, one log per unit, on Dask.",
