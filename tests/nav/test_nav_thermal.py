@@ -157,6 +157,7 @@ def test_imu_calibration_in_the_compensator_removes_the_signal_errors(  # type: 
     true = plant.thermal_errors(t, omega, f) - plant.thermal_bias(t)
     assert np.abs(true[:, 3:]).max() > 50e-6 * 9.8  # the drift is there: > 50 µg
     raw_w, raw_f = omega + true[:, :3], f + true[:, 3:]
+    np.testing.assert_array_equal(comp(t), bias_only(t))  # without the signal: the bias
     est = comp(t, raw_w, raw_f) - bias_only(t)
     np.testing.assert_allclose(est[:, 3:], true[:, 3:], rtol=0, atol=3e-6 * 9.8)
     # gyros: the same reading noise is 1 % of a 3 ppm/°C drift over ~1 °C of self-heating

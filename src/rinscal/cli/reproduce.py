@@ -144,13 +144,13 @@ def reproduce(
     try:
         with Progress(*columns, console=console) as progress:
             t0 = time.perf_counter()
-            cal_task = progress.add_task("calibration", total=9, what="")
+            cal_task = progress.add_task("calibration", total=10, what="")
 
             def cal_step(what: str) -> None:
                 progress.update(cal_task, advance=1, what=what)
 
             cal = calibration_stage(cfg, imu=plant, step=cal_step)
-            progress.update(cal_task, completed=9, what="done")
+            progress.update(cal_task, completed=10, what="done")
             timings["calibration (simulate, fit, select, held-out)"] = time.perf_counter() - t0
 
             t0 = time.perf_counter()
@@ -160,7 +160,9 @@ def reproduce(
                 job = r.job  # type: ignore[attr-defined]
                 progress.update(nav_task, advance=1, what=f"{job.scenario} {job.index}")
 
-            nav = navigation_stage(cfg, cal.models, done=nav_done, imu=plant)
+            nav = navigation_stage(
+                cfg, cal.models, done=nav_done, imu=plant, extra=cal.extra_models
+            )
             timings["navigation (all runs)"] = time.perf_counter() - t0
 
             study_tables, study_lines = None, []

@@ -379,13 +379,11 @@ class ModelCompensator:
     ) -> NDArray[np.float64]:
         """Bias estimate held from the last thermometer reading at ``t`` [s], (n, 6) SI,
         plus the IMU calibration's signal errors of the raw ``omega_r`` [rad/s] and ``f_r``
-        [m/s²] (n, 3) when it has one."""
+        [m/s²] (n, 3) when it has one (without the signal: the thermal bias alone)."""
         k = np.searchsorted(self.grid, np.asarray(t, dtype=float), side="right") - 1
         k = np.clip(k, 0, self.grid.size - 1)
         out = self.bias[k]
-        if self._triads is not None:
-            if omega_r is None or f_r is None:
-                raise ConfigError("model compensator: an IMU calibration needs the raw signal")
+        if self._triads is not None and omega_r is not None and f_r is not None:
             out = out + self.signal_errors(k, omega_r, f_r)
         return out
 

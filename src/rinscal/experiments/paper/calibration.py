@@ -36,6 +36,7 @@ from rinscal.calibration.selection.heldout import SelectionResult, select_model
 from rinscal.calibration.thermal.features import MissingGradientWarning
 from rinscal.calibration.thermal.model import ThermalModel
 from rinscal.experiments.paper.config import METHODS, ReproConfig, load_plant
+from rinscal.experiments.paper.imucal import IMU_VARIANT, imu_calibration_stage, imu_thermal_model
 from rinscal.io.mapping import ColumnMapping
 from rinscal.io.tables import read_log
 from rinscal.schema import CHANNELS, RUN
@@ -330,6 +331,12 @@ class CalibrationResult:
     allan_curves : dict or None
         Allan deviation of the repeat run per channel: ``{channel: {"raw": AllanCurve,
         "compensated": AllanCurve}}`` (method 2, policy clamp).
+    imu_cal : ImuCalStage or None
+        The multi-position calibration of scale factors and misalignments over temperature
+        (:mod:`rinscal.experiments.paper.imucal`).
+    extra_models : dict of str to ThermalModelFile
+        Models navigated beside :data:`METHODS` (``regression+sf``: method 2 behind the IMU
+        calibration's thermal part).
     """
 
     logs: dict[str, pd.DataFrame]
@@ -341,6 +348,8 @@ class CalibrationResult:
     repeat_curves: pd.DataFrame | None = None
     imu: ImuConfig | None = None
     allan_curves: dict[str, Any] | None = None
+    imu_cal: Any = None
+    extra_models: dict[str, ThermalModelFile] = field(default_factory=dict)
 
 
 def _fit(
@@ -534,6 +543,11 @@ def calibration_stage(
     allan, curves = allan_table(logs["repeat"], models["regression"], "clamp")
     res.tables["allan_repeat"] = allan.drop(columns=["rate_hz"])
     res.allan_curves = next(iter(curves.values()), None)
+    note("IMU calibration (19 positions and rate tests at 5 set points)")
+    res.imu_cal = imu_calibration_stage(cfg, imu)
+    res.tables["imu_recovery"] = res.imu_cal.recovery
+    res.tables["imu_laws"] = res.imu_cal.result.laws
+    res.extra_models[IMU_VARIANT] = imu_thermal_model(logs["soak"], metas["soak"], res.imu_cal, cfg)
     return res
 
 

@@ -33,6 +33,7 @@ LABELS = {
     "regression": "method 2 (regression)",
     "neural": "method 3 (BP network)",
     "true": "true bias (oracle)",
+    "regression+sf": "method 2 + scale factor/axes over T",
 }
 #: Navigation variants: uncompensated, each model, and the oracle (the best a model can do).
 VARIANTS = ("none", *METHODS, "true")

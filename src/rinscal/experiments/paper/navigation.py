@@ -46,6 +46,7 @@ __all__ = [
     "thermal_part_m",
     "thermal_part_table",
     "thermal_residual",
+    "variant_table",
 ]
 
 
@@ -225,15 +226,18 @@ def navigation_stage(
     models: Mapping[str, ThermalModelFile],
     done: Callable[[NavRunResult], None] | None = None,
     imu: ImuConfig | None = None,
+    extra: Mapping[str, ThermalModelFile] | None = None,
 ) -> list[NavRunResult]:
     """Run every navigation job; with ``cfg.jobs > 1`` on a Dask ``LocalCluster`` of that many
     worker processes (:func:`rinscal.cluster.dask_client`), in job order.
 
     ``imu`` is the plant (default: :func:`load_plant` of ``cfg.imu``); pass the one the
-    calibration stage simulated so that both stages run the same IMU.
+    calibration stage simulated so that both stages run the same IMU. ``extra`` models are
+    navigated beside :data:`METHODS` on the same raw output (e.g. ``regression+sf``).
     """
     imu = imu or load_plant(cfg.imu)
     texts = {m: json.dumps(models[m].to_dict()) for m in METHODS}
+    texts.update({m: json.dumps(mf.to_dict()) for m, mf in (extra or {}).items()})
     jobs = navigation_jobs(cfg)
     alignment_config(imu, cfg.align_s, cfg.align_start_s)  # refuse bad settings before forking
     args = (texts, imu, cfg.align_s, cfg.align_start_s)
@@ -301,6 +305,22 @@ def max_error_table(results: Sequence[NavRunResult]) -> pd.DataFrame:
         row["hours"] = r.summary["duration_s"] / units.HOUR_TO_S
         for v in VARIANTS:
             row[v] = r.summary["variants"][v]["max_error_nmi"]
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def variant_table(results: Sequence[NavRunResult], variants: Sequence[str]) -> pd.DataFrame:
+    """Maximum horizontal position error [nmi] and heading error at the start of free
+    navigation [arcsec] per run of the given variants (those a run navigated)."""
+    rows = []
+    for r in results:
+        row = _run_key(r)
+        got = r.summary.get("variants", {})
+        for v in variants:
+            s = got.get(v, {})
+            att = s.get("attitude_error_at_nav_start") or {}
+            row[v] = s.get("max_error_nmi", float("nan"))
+            row[f"{v} heading [arcsec]"] = float(att.get("heading_arcsec", float("nan")))
         rows.append(row)
     return pd.DataFrame(rows)
 
