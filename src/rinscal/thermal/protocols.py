@@ -30,7 +30,6 @@ from rinscal.errors import ConfigError
 from rinscal.schema import CHANNELS
 from rinscal.thermal.config import ImuConfig
 from rinscal.thermal.field import ChamberProfile, measure, simulate_field
-from rinscal.thermal.sensor import nonlinear_drift_r, raw_output_r, sensor_law
 from rinscal.thermal.plant import (
     SensorNoise,
     hysteresis_play,
@@ -41,6 +40,7 @@ from rinscal.thermal.plant import (
     to_log_units,
     turn_on_offsets,
 )
+from rinscal.thermal.sensor import nonlinear_drift_r, raw_output_r, sensor_law
 
 #: Chamber set points of the soak protocol (Table 3) [°C].
 SOAK_SET_POINTS_C = (0.0, 7.0, 14.0, 21.0, 28.0, 35.0, 42.0)

@@ -121,9 +121,7 @@ def raw_output_r(
     ndarray, shape (n, 6) or (6,) [rad/s, m/s²]
     """
     gyro, accel = law.triads(temp_c)
-    out = np.concatenate(
-        [triad_forward(omega_r, gyro), triad_forward(f_r, accel)], axis=-1
-    )
+    out = np.concatenate([triad_forward(omega_r, gyro), triad_forward(f_r, accel)], axis=-1)
     if bias_r is not None:
         out = out + np.asarray(bias_r, dtype=float)
     return out
