@@ -34,6 +34,7 @@ from rinscal.thermal.config import ImuConfig
 
 __all__ = [
     "SENSOR_LAW_RANGE_C",
+    "drift_law",
     "nonlinear_drift_r",
     "raw_output_r",
     "sensor_law",
@@ -92,6 +93,18 @@ def sensor_law(config: ImuConfig) -> ImuCalibration:
         t_range_c=SENSOR_LAW_RANGE_C,
         t_coefs=coefs,
         source=f"rinscal plant {config.name!r}",
+    )
+
+
+def drift_law(config: ImuConfig) -> ImuCalibration:
+    """The laws of a physical-unit output: :func:`sensor_law` less its values at ``t_cal``
+    (each parameter its change since the factory calibration, ``p(T) − p(t_cal)``)."""
+    law = sensor_law(config)
+    return ImuCalibration(
+        t0_c=law.t0_c,
+        t_range_c=law.t_range_c,
+        t_coefs={k: (0.0, *v[1:]) for k, v in law.t_coefs.items()},
+        source=law.source + ", change since t_cal",
     )
 
 
