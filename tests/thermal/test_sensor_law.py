@@ -137,9 +137,10 @@ def test_raw_output_is_the_forward_model() -> None:
     f = np.array([0.0, 0.0, units.G0])
     y = raw_output_r(law, np.full(6, cfg.t_cal_c), omega, f)
     gx = cfg.thermal[0]
-    expected_x = w * (1 + 1e-6 * (gx.scale_factor_ppm + gx.sf_asym_ppm)) + (
-        gx.sf_quad * 1e-6 / np.radians(1.0)
-    ) * w**2
+    expected_x = (
+        w * (1 + 1e-6 * (gx.scale_factor_ppm + gx.sf_asym_ppm))
+        + (gx.sf_quad * 1e-6 / np.radians(1.0)) * w**2
+    )
     assert y[0] == pytest.approx(expected_x, rel=1e-12)
     gy = cfg.thermal[1]  # gyro y tilted towards x sees the x rate
     u = w * gy.misalignment_arcsec[0] * units.ARCSEC_TO_RAD

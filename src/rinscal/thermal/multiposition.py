@@ -32,9 +32,9 @@ over its ``n`` samples (each sample is the mean over its interval), at least
 :data:`RATE_SEGMENT_S`, so Earth rate and gravity perpendicular to the axis average to zero.
 Two rates or more separate the asymmetry (∝ |u|) from the quadratic term (∝ u²).
 
-The table moves between positions at up to :data:`SLEW_RATE_DPS` with an acceleration
-phase (a trapezoid in rate, both axes together, the move lasting a whole number of
-samples), and accelerates into a rate segment at :data:`RATE_ACCEL_DPS2`; those rows are
+The table moves between positions at up to :data:`SLEW_RATE_DPS` and
+:data:`SLEW_ACCEL_DPS2` (a triangle in rate, both axes together, lasting an odd number of
+samples so that no two neighbouring rows of a move share a commanded rate), and accelerates into a rate segment at :data:`RATE_ACCEL_DPS2`; those rows are
 transitions. Each set point is one power-on: the unit soaked at the chamber temperature
 is switched on at ``time_s = 0``, parked at the first position for ``warmup_s`` (not
 logged: the unit soaks powered), then the sequence, then the rate tests. A cold start
@@ -155,6 +155,9 @@ DEFAULT_WARMUP_S = 10 * 3600.0
 DEFAULT_RAMP_RATE_C_PER_MIN = 0.1
 #: Shortest steady part of a rate segment [s]; it is then rounded up to whole revolutions.
 RATE_SEGMENT_S = 36.0
+#: Longest steady part of a rate segment [s] (a rate too slow for a whole revolution in it,
+#: or whose revolutions never fill whole samples, is refused).
+RATE_SEGMENT_MAX_S = 3600.0
 #: Highest slew rate between positions [deg/s] and its acceleration [deg/s²].
 SLEW_RATE_DPS, SLEW_ACCEL_DPS2 = 20.0, 10.0
 #: Acceleration into and out of a rate segment [deg/s²].
@@ -292,33 +295,29 @@ class _Builder:
         self._rows(n, STATIC)
 
     def move(self, target: NDArray, err_target: NDArray) -> None:
-        """Slew both axes to ``target`` [deg] (the nearest equivalent angle) in a trapezoid
-        with accel/decel phases of a quarter of the move, the move a whole number of samples."""
+        """Slew both axes to ``target`` [deg] (the nearest equivalent angle) with a triangle
+        in rate (accelerate, then decelerate, both axes together), lasting an odd number of
+        samples: no two neighbouring rows share a rate, so no slew looks like a rate
+        segment, and the move never depends on the turntable's errors."""
         d = target - self.ang
         d = d - 360.0 * np.round(d / 360.0)
         dist = float(np.max(np.abs(d)))
-        if dist < 1e-9 and np.allclose(err_target, self.err):
+        if dist < 1e-9:
+            self.err = err_target.astype(float).copy()
             return
-        need = max(
-            dist / (0.75 * SLEW_RATE_DPS), math.sqrt(16.0 * dist / (3.0 * SLEW_ACCEL_DPS2)), 0.0
-        )
-        n = max(1, math.ceil(need / self.dt - 1e-9))
+        need = max(2.0 * dist / SLEW_RATE_DPS, 2.0 * math.sqrt(dist / SLEW_ACCEL_DPS2))
+        n = max(3, math.ceil(need / self.dt - 1e-9))
+        n += 1 - n % 2
         big_t = n * self.dt
-        tau = big_t / 4.0
-        v = d / (big_t - tau)
-        a = v / tau
+        half = big_t / 2.0
+        a = d / (half * half)
         edot = (err_target - self.err) / big_t
         t0 = self.n * self.dt
         z = np.zeros(2)
-        for start, dur, rate, acc in (
-            (0.0, tau, z, a),
-            (tau, big_t - 2 * tau, v, z),
-            (big_t - tau, tau, v, -a),
-        ):
+        for start, rate, acc in ((0.0, z, a), (half, a * half, -a)):
             self._knot(t0 + start, rate, acc, z, edot)
-            self._advance(dur, rate, acc, z, edot)
-        self.ang = self.ang.copy()
-        self.ang[:] = target + np.round((self.ang - target) / 360.0) * 360.0  # exact
+            self._advance(half, rate, acc, z, edot)
+        self.ang = target + np.round((self.ang - target) / 360.0) * 360.0  # exact
         self.err = err_target.astype(float).copy()
         self._rows(n, TRANSITION)
 
@@ -347,13 +346,16 @@ def _whole_revolutions(rate_dps: float, dt: float) -> tuple[int, int]:
     sample), ``n·dt >=`` :data:`RATE_SEGMENT_S`."""
     per_rev = 360.0 / (rate_dps * dt)  # samples per revolution
     first = max(1, math.ceil(RATE_SEGMENT_S * rate_dps / 360.0 - 1e-9))
-    for revs in range(first, first + 10000):
+    revs = first
+    while revs * per_rev * dt <= RATE_SEGMENT_MAX_S:
         n = revs * per_rev
         if abs(n - round(n)) < 1e-6:
             return int(round(n)), revs
+        revs += 1
     raise ConfigError(
         f"rate {rate_dps:g} deg/s at {1 / dt:g} Hz: no whole number of revolutions fills a "
-        "whole number of samples; choose a rate that divides 360·rate_hz"
+        f"whole number of samples within {RATE_SEGMENT_MAX_S:g} s; choose a rate such that "
+        "360·rate_hz/rate is a whole number or a simple fraction"
     )
 
 
@@ -481,18 +483,19 @@ def _simulate_run(
     kind = np.concatenate(b.kind)
     n = kind.size
     t_rel = (np.arange(n) + 1.0) * dt  # ends of the intervals, from the log's start
+    t_begin = np.arange(n) * dt  # their starts, as the knots' times are written
     t = warmup_s + t_rel
     motion = b.motion
     # commanded: angles at the interval's end; rates: the interval's mean
     ang_end, _ = motion.evaluate(t_rel, actual=False)
-    ang_start, _ = motion.evaluate(t_rel - dt, actual=False)
+    ang_start, _ = motion.evaluate(t_begin, actual=False)
     rate_cmd = (ang_end - ang_start) / dt
     rate_cmd[kind == STATIC] = 0.0
     ang_end[kind == STATIC] = ang_start[kind == STATIC]
     steady = kind == RATE
     if np.any(steady):
         tk = np.asarray(motion.t)
-        k = np.searchsorted(tk, t_rel[steady] - 0.5 * dt, side="right") - 1
+        k = np.searchsorted(tk, t_begin[steady] + 0.5 * dt, side="right") - 1
         rate_cmd[steady] = np.asarray(motion.cmd)[k][:, :, 1]
     # sub-steps: the actual motion through each interval
     step = np.max(np.abs(ang_end - ang_start), axis=1)
@@ -500,7 +503,7 @@ def _simulate_run(
     first = np.concatenate([[0], np.cumsum(m)[:-1]])
     owner = np.repeat(np.arange(n), m)
     frac = (np.arange(owner.size) - first[owner] + 0.5) / m[owner]
-    t_sub = t_rel[owner] - dt + frac * dt
+    t_sub = t_begin[owner] + frac * dt
     ang_act, rate_act = motion.evaluate(t_sub, actual=True)
     omega_r, f_r = turntable.reference_r(
         ang_act[:, 0],
@@ -529,9 +532,7 @@ def _simulate_run(
         axis=1,
     )
     y = np.add.reduceat(y_sub, first, axis=0) / m[:, None] + bias
-    quiet = replace(
-        config.noise, gyro_bias_rw_dph_rth=0.0, accel_bias_rw_ug_rth=0.0
-    )
+    quiet = replace(config.noise, gyro_bias_rw_dph_rth=0.0, accel_bias_rw_ug_rth=0.0)
     walk_only = replace(
         config.noise, gyro_arw_deg_rth=0.0, accel_vrw_ug_rthz=0.0, outlier_rate_hz=0.0
     )
@@ -574,9 +575,7 @@ def _simulate_run(
         else:
             temp_c = float(set_point_c)
         blocks.append(
-            truth_table(
-                law, temp_mid[sel].mean(axis=0), actual_bias[sel].mean(axis=0), temp_c
-            )
+            truth_table(law, temp_mid[sel].mean(axis=0), actual_bias[sel].mean(axis=0), temp_c)
         )
     return MultipositionRun(
         name=name,
