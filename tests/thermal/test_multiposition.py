@@ -281,7 +281,8 @@ def test_truth_table_format_and_laws() -> None:
             temp = rows[f"temp_{ch}"].to_numpy()[sel].mean()  # thermometer: ±0.01 °C
             th = cfg.thermal[j]
             name = f"{ch.split('_')[0]}_sf_{ch[-1]}"
-            got = truth.query("temperature_c == @c and parameter == @name")["value"].item()
+            pick = (truth["temperature_c"] == c) & (truth["parameter"] == name)
+            got = truth.loc[pick, "value"].item()
             law = th.scale_factor_ppm + th.scale_factor_ppm_per_c * (temp - cfg.t_cal_c)
             assert got == pytest.approx(law, abs=abs(th.scale_factor_ppm_per_c) * 0.01)
     # the unit warms ~10 °C above the chamber: the 40 °C run's scale factors differ
@@ -293,11 +294,14 @@ def test_bias_truth_is_the_mean_bias_of_the_calibration_samples() -> None:
     """navigation_grade, noise off but turn-on offsets on: at each static position the
     output less the textbook signal through the truth's own terms is the truth's bias."""
     base = ImuConfig.navigation_grade()
-    cfg = _quiet(base)
-    cfg = replace(cfg, thermal=tuple(replace(q, **{k: getattr(b, k) for k in
-                  ("b0", "t", "rate", "grad")}) for q, b in zip(cfg.thermal, base.thermal,
-                  strict=True)),
-                  noise=replace(cfg.noise, gyro_turn_on_dph=0.01, accel_turn_on_ug=20.0))  # fmt: skip
+    quiet = _quiet(base)
+    bias_keys = ("b0", "t", "rate", "grad")
+    thermal = tuple(
+        replace(q, **{k: getattr(b, k) for k in bias_keys})
+        for q, b in zip(quiet.thermal, base.thermal, strict=True)
+    )
+    noise = replace(quiet.noise, gyro_turn_on_dph=0.01, accel_turn_on_ug=20.0)
+    cfg = replace(quiet, thermal=thermal, noise=noise)
     log, truth, meta = simulate_multiposition(cfg, sequence="12", rates_dps=(50.0,), dwell_s=5.0,
                                               warmup_s=36000.0, set_points_c=(20.0,))  # fmt: skip
     w = np.asarray(list(meta["unit_to_si"].values()))

@@ -34,17 +34,19 @@ Two rates or more separate the asymmetry (∝ |u|) from the quadratic term (∝ 
 
 The table moves between positions at up to :data:`SLEW_RATE_DPS` and
 :data:`SLEW_ACCEL_DPS2` (a triangle in rate, both axes together, lasting an odd number of
-samples so that no two neighbouring rows of a move share a commanded rate), and accelerates into a rate segment at :data:`RATE_ACCEL_DPS2`; those rows are
-transitions. Each set point is one power-on: the unit soaked at the chamber temperature
-is switched on at ``time_s = 0``, parked at the first position for ``warmup_s`` (not
-logged: the unit soaks powered), then the sequence, then the rate tests. A cold start
-warms the unit for hours (the housing's time constant is 2.5 h); after the default 10 h
-warm-up the true thermal bias changes over the logged 34 min (19 positions of 60 s, rate
-tests at 10, 50, 200 deg/s, 10 Hz) by at most 1e-5 deg/h and 1.4 µg on the ``paper`` unit
-(its accelerometers' large temperature and gradient terms) and 9e-5 deg/h and 0.12 µg on
-``navigation_grade`` (peak to peak over the logged part, worst channel and set point of
-0, 12, 24, 36, 48 °C), against the issue's tolerances of 0.005 deg/h and 10 µg; after 6 h
-it would still be 6.4 µg on ``paper`` (see ``docs/plant.md``). The turntable's
+samples so that no two neighbouring rows of a move share a commanded rate), and
+accelerates into a rate segment at :data:`RATE_ACCEL_DPS2`; those rows are transitions.
+
+Each set point is one power-on: the unit soaked at the chamber temperature is switched on at
+``time_s = 0``, parked at the first position for ``warmup_s`` (not logged: the unit soaks
+powered), then the sequence, then the rate tests. A cold start warms the unit for hours (the
+housing's time constant is 2.5 h); after the default 10 h warm-up the true thermal bias
+changes over the logged 34 min (19 positions of 60 s, rate tests at 10, 50, 200 deg/s, 10
+Hz) by at most 1e-5 deg/h and 1.4 µg on the ``paper`` unit (its accelerometers' large
+temperature and gradient terms) and 9e-5 deg/h and 0.12 µg on ``navigation_grade`` (peak to
+peak over the logged part, worst channel and set point of 0, 12, 24, 36, 48 °C), against the
+issue's tolerances of 0.005 deg/h and 10 µg; after 6 h it would still be 6.4 µg on ``paper``
+(see ``docs/plant.md``). The turntable's
 motors are not the unit's: the unit's thermal field is that of a powered, resting unit
 (no encoder heat, no torque motor).
 
@@ -350,7 +352,7 @@ def _whole_revolutions(rate_dps: float, dt: float) -> tuple[int, int]:
     while revs * per_rev * dt <= RATE_SEGMENT_MAX_S:
         n = revs * per_rev
         if abs(n - round(n)) < 1e-6:
-            return int(round(n)), revs
+            return round(n), revs
         revs += 1
     raise ConfigError(
         f"rate {rate_dps:g} deg/s at {1 / dt:g} Hz: no whole number of revolutions fills a "
@@ -660,8 +662,9 @@ def iter_multiposition(
         lo, hi = float(set_points_c[0]), float(set_points_c[-1])
         profile = ChamberProfile.ramp(lo, hi, ramp_rate_c_per_min, hold_before_s=warmup_s)
         ss = np.random.SeedSequence([int(seed), _TAG, 0])
+        until = profile.times_s[-1]
         yield _simulate_run("cal_ramp", profile, config, law, positions, rates_dps, dwell_s,
-                            warmup_s, rate_hz, ss, profile.times_s[-1], pe, re, None, None)  # fmt: skip
+                            warmup_s, rate_hz, ss, until, pe, re, None, None)  # fmt: skip
         return
     for k, c in enumerate(set_points_c):
         ss = np.random.SeedSequence([int(seed), _TAG, k])
