@@ -211,6 +211,8 @@ def load_sequence(spec: str | Path | Sequence[Sequence[float]]) -> tuple[str, ND
         if "positions" not in data:
             raise ConfigError(f"{path}: missing 'positions = [[outer_deg, inner_deg], ...]'")
         return str(path), _check_positions(data["positions"], str(path))
+    if isinstance(spec, np.ndarray):
+        spec = spec.tolist()
     return "custom", _check_positions(spec, "sequence")
 
 
