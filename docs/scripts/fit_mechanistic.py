@@ -256,7 +256,8 @@ def mechanistic_config(base: ImuConfig, laws: tuple[MechanisticThermal, ...]) ->
     """The base preset with the mechanistic law and the given coefficients (polynomial keys
     cleared; Shupe, hysteresis, signal errors, lever arm, noise and network kept)."""
     keep = ("shupe", "hysteresis", "hysteresis_play_c", "scale_factor_ppm_per_c")
-    keep += ("misalignment_arcsec_per_c", "lever_arm_m")
+    keep += ("misalignment_arcsec_per_c", "lever_arm_m", "scale_factor_ppm", "misalignment_arcsec")
+    keep += ("sf_asym_ppm", "sf_asym_ppm_per_c", "sf_quad", "sf_quad_per_c")
     thermal = tuple(type(c)(**{k: getattr(c, k) for k in keep}) for c in base.thermal)
     return dataclasses.replace(
         base,

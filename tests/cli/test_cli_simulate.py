@@ -9,6 +9,7 @@ import pandas as pd
 from typer.testing import CliRunner
 
 from rinscal.cli import app
+from rinscal.io.params import read_params
 from rinscal.io.tables import read_log
 from rinscal.schema import CHANNELS
 from rinscal.thermal.config import ImuConfig
@@ -110,3 +111,46 @@ def test_compensate_onto_a_folder_leaves_nothing(tmp_path) -> None:
     )
     assert res.exit_code == 2 and "a folder is in the way" in res.output, res.output
     assert not (tmp_path / "c.csv").exists()
+
+
+def test_simulate_multiposition_writes_log_truth_table_and_meta(tmp_path) -> None:
+    seq = tmp_path / "four.toml"
+    seq.write_text("positions = [[0, 0], [180, 0], [-90, 0], [90, 0]]\n")
+    out, res = _sim(
+        tmp_path, "cal.parquet", "multiposition", "--sequence", str(seq), "--set-points",
+        "10,30", "--dwell", "3", "--rates", "50", "--rate", "10", "--seed", "2",
+        "--turntable-error",
+    )  # fmt: skip
+    assert res.exit_code == 0, res.output
+    log = read_log(out)
+    meta = json.loads((tmp_path / "cal.parquet.meta.json").read_text())
+    truth = read_params(tmp_path / "cal.params.truth.csv")
+    assert list(log["run"].unique()) == ["cal_+10C", "cal_+30C"]
+    for col in ("table_outer_deg", "table_inner_deg", "table_outer_rate_dps",
+                "table_inner_rate_dps", "temp_out", "chamber_temp"):  # fmt: skip
+        assert col in log.columns
+    assert meta["protocol"] == "multiposition" and meta["units"]["gyro_x"] == "pulse"
+    assert meta["set_points_c"] == {"cal_+10C": 10.0, "cal_+30C": 30.0}
+    assert meta["turntable"] == {"position_error_arcmin": 5.0, "rate_error_ppm": 10.0,
+                                 "ideal": False}  # fmt: skip
+    assert meta["truth_file"] == "cal.params.truth.csv" and meta["sequence"] == str(seq)
+    assert len(truth) == 2 * 33 and set(truth["temperature_c"]) == {10.0, 30.0}
+    # pulses: whole counts; static rows at the first position hold still
+    assert np.all(log[list(CHANNELS)].to_numpy() % 1 == 0)
+    # refuses to overwrite its input (the sequence file), leaving it whole
+    text = seq.read_text()
+    res = runner.invoke(app, ["simulate", "multiposition", "--sequence", str(seq),
+                              "--out", str(seq)])  # fmt: skip
+    assert res.exit_code != 0 and seq.read_text() == text
+    # --hours is the soak protocols' option
+    _, res = _sim(tmp_path, "x.parquet", "multiposition", "--hours", "1")
+    assert res.exit_code != 0 and "--hours" in res.output
+
+
+def test_simulate_multiposition_bad_options_are_named(tmp_path) -> None:
+    for extra, word in ((("--sequence", "7"), "neither built in"),
+                        (("--rates", "ten"), "--rates"),
+                        (("--units", "volts"), "output.mode")):  # fmt: skip
+        _, res = _sim(tmp_path, "y.parquet", "multiposition", *extra)
+        assert res.exit_code != 0 and word in res.output, res.output
+        assert not (tmp_path / "y.parquet").exists()

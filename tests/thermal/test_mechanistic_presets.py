@@ -60,7 +60,18 @@ def test_presets_are_listed_load_and_simulate(base: str) -> None:
     ref = load_imu(base)
     assert cfg.network == ref.network and cfg.noise == ref.noise and cfg.effects == ref.effects
     for a, b in zip(cfg.thermal, ref.thermal, strict=True):
-        for k in ("shupe", "hysteresis", "scale_factor_ppm_per_c", "misalignment_arcsec_per_c"):
+        for k in (
+            "shupe",
+            "hysteresis",
+            "scale_factor_ppm_per_c",
+            "misalignment_arcsec_per_c",
+            "scale_factor_ppm",
+            "misalignment_arcsec",
+            "sf_asym_ppm",
+            "sf_asym_ppm_per_c",
+            "sf_quad",
+            "sf_quad_per_c",
+        ):
             assert getattr(a, k) == getattr(b, k)
     log, truth, _ = simulate_protocol("repeat", hours=0.2, rate_hz=1.0, seed=0, config=cfg)
     bias = truth[[f"bias_{c}" for c in CHANNELS]].to_numpy()

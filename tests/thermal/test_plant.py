@@ -121,7 +121,12 @@ def test_pulse_output_conserves_the_integral() -> None:
     # the accumulator loses less than one pulse, however long the run
     np.testing.assert_array_less(np.abs(counts.sum(axis=0) - true_pulses.sum(axis=0)), 1.0)
     g = earth.gravity(PRESET.latitude, PRESET.altitude_m)
-    assert run.static[5] == pytest.approx(g * 0.1 / 1e-6, rel=1e-12)  # g·dt / weight
+    # pulses are the raw output: level, accel z reads g through its scale-factor error and
+    # quadratic term at t_cal (its misalignment sees no horizontal force)
+    z = PRESET.thermal[5]
+    raw = g * (1 + z.scale_factor_ppm * 1e-6) + z.sf_quad * units.UG_TO_MPS2 * (g / units.G0) ** 2
+    assert z.scale_factor_ppm != 0 and z.sf_quad != 0
+    assert run.static[5] == pytest.approx(raw * 0.1 / 1e-6, rel=1e-12)  # g·dt / weight
 
 
 def _preset_text() -> str:

@@ -131,7 +131,8 @@ def simulate(
         str,
         typer.Argument(
             metavar="PROTOCOL",
-            help="Protocol: soak (Table 3), ramp (-2 -> 50 °C) or repeat (25 °C).",
+            help="Protocol: soak (Table 3), ramp (-2 -> 50 °C), repeat (25 °C) or "
+            "multiposition (two-axis turntable: positions and rate tests at set points).",
         ),
     ],
     out: Annotated[Path, typer.Option("--out", "-o", help="Log to write (.parquet, .csv, .tsv).")],
@@ -151,14 +152,68 @@ def simulate(
     imu: ImuOpt = DEFAULT_PRESET,
     units: Annotated[
         str | None,
-        typer.Option("--units", help="physical (deg/h, µg) or pulses; overrides the config."),
+        typer.Option(
+            "--units",
+            help="physical (deg/h, µg) or pulses; overrides the config (multiposition: "
+            "pulses unless given).",
+        ),
     ] = None,
+    sequence: Annotated[
+        str,
+        typer.Option(
+            "--sequence",
+            help="multiposition: 12, 18, 19 positions or a TOML file (positions = [[o, i]]).",
+        ),
+    ] = "19",
+    set_points: Annotated[
+        str | None,
+        typer.Option(
+            "--set-points",
+            help="multiposition: chamber set points [°C], comma separated (default "
+            "0,12,24,36,48; with --ramp the ramp's start and end).",
+        ),
+    ] = None,
+    ramp: Annotated[
+        bool, typer.Option("--ramp", help="multiposition: one run along a slow chamber ramp.")
+    ] = False,
+    dwell: Annotated[
+        float,
+        typer.Option("--dwell", min=0.1, help="multiposition: dwell per position [s]."),
+    ] = 60.0,
+    rates: Annotated[
+        str | None,
+        typer.Option(
+            "--rates",
+            help="multiposition: rate-test rates [deg/s], comma separated (default 10,50,200).",
+        ),
+    ] = None,
+    turntable_error: Annotated[
+        bool,
+        typer.Option(
+            "--turntable-error",
+            help="multiposition: the turntable's errors (±5′ position, ±10 ppm rate).",
+        ),
+    ] = False,
 ) -> None:
     """Simulate a thermal-chamber protocol into a calibration log, a truth file and metadata.
 
     Beside LOG it writes LOG's stem + '.truth' + suffix (the true thermal bias of every
-    sample, in the log's unit) and LOG + '.meta.json' (units, site, offsets, seed).
+    sample, in the log's unit) and LOG + '.meta.json' (units, site, offsets, seed). The
+    multiposition protocol writes, instead of the first, LOG's stem + '.params.truth.csv':
+    the true sensor-error parameters (biases, scale factors, nonlinear terms,
+    misalignments) at each set point.
     """
+    if protocol == "multiposition":
+        if hours is not None:
+            # deferred: loaded when the command runs, so that `rinscal --help` starts fast
+            from rinscal.cli._app import fail
+
+            raise fail("--hours does not apply to multiposition (use --dwell, --rates)")
+        _simulate_multiposition(
+            out, rate, seed, imu, units, sequence, set_points, ramp, dwell, rates,
+            turntable_error,
+        )  # fmt: skip
+        return
     # deferred: loaded when the command runs, so that `rinscal --help` starts fast
     from dataclasses import replace
 
@@ -175,7 +230,9 @@ def simulate(
     from rinscal.thermal.protocols import PROTOCOLS, iter_protocol, log_meta, protocol_runs
 
     if protocol not in PROTOCOLS:
-        raise fail(f"protocol must be one of {', '.join(PROTOCOLS)}; got {protocol!r}")
+        raise fail(
+            f"protocol must be one of {', '.join(PROTOCOLS)}, multiposition; got {protocol!r}"
+        )
     if not rate > 0:
         raise fail(f"--rate must be > 0 Hz, got {rate}")
     try:
@@ -228,6 +285,122 @@ def simulate(
                 progress.advance(task)
         rows = log_writer.rows
         meta = log_meta(protocol, config, rate, seed, runs)
+        meta["truth_file"] = truth_path.name
+        meta_file = write_meta(meta, out)
+    except RinscalError as exc:
+        raise fail(str(exc)) from None
+    console.print(f"wrote {out} ({rows:,} rows), {truth_path.name}, {meta_file.name}")
+
+
+def _floats(text: str | None, option: str) -> tuple[float, ...] | None:
+    """A comma-separated list of numbers of an option; None if not given."""
+    # deferred: loaded when the command runs, so that `rinscal --help` starts fast
+    from rinscal.cli._app import fail
+
+    if text is None:
+        return None
+    try:
+        out = tuple(float(v) for v in text.split(",") if v.strip())
+    except ValueError:
+        raise fail(f"{option} must be numbers separated by commas, got {text!r}") from None
+    if not out:
+        raise fail(f"{option}: give at least one number")
+    return out
+
+
+def _simulate_multiposition(
+    out: Path,
+    rate: float,
+    seed: int,
+    imu: str,
+    units: str | None,
+    sequence: str,
+    set_points: str | None,
+    ramp: bool,
+    dwell: float,
+    rates: str | None,
+    turntable_error: bool,
+) -> None:
+    """`rinscal simulate multiposition`: log, truth parameter table, metadata."""
+    # deferred: loaded when the command runs, so that `rinscal --help` starts fast
+    from dataclasses import replace
+
+    import pandas as pd
+
+    from rinscal.cli._app import console, fail
+    from rinscal.errors import RinscalError
+    from rinscal.io.metadata import meta_path, write_meta
+    from rinscal.io.params import params_path, write_params
+    from rinscal.io.streaming import LogStreamWriter
+    from rinscal.io.tables import format_of
+    from rinscal.thermal.config import OutputConfig, load_imu
+    from rinscal.thermal.multiposition import (
+        DEFAULT_RATES_DPS,
+        DEFAULT_SET_POINTS_C,
+        DEFAULT_WARMUP_S,
+        SEQUENCES,
+        iter_multiposition,
+        load_sequence,
+        multiposition_meta,
+    )
+    from rinscal.thermal.presets import PRESETS
+
+    points = _floats(set_points, "--set-points") or DEFAULT_SET_POINTS_C
+    rate_list = _floats(rates, "--rates") or DEFAULT_RATES_DPS
+    try:
+        format_of(out)
+        config = load_imu(imu)
+        mode = units or "pulses"
+        config = replace(config, output=OutputConfig(**{**vars(config.output), "mode": mode}))
+        seq_name, positions = load_sequence(sequence)
+    except RinscalError as exc:
+        raise fail(str(exc)) from None
+    out.parent.mkdir(parents=True, exist_ok=True)
+    truth_path = params_path(out, ".params.truth.csv")
+    inputs = [] if imu in PRESETS else [Path(imu)]
+    inputs += [] if sequence in SEQUENCES else [Path(sequence)]
+    refuse_inputs(out, inputs, also=[truth_path, meta_path(out)])
+    kw = {
+        "sequence": positions,
+        "set_points_c": points,
+        "rates_dps": rate_list,
+        "dwell_s": dwell,
+        "ramp": ramp,
+        "turntable_error": turntable_error,
+        "rate_hz": rate,
+        "seed": seed,
+    }
+    console.print(
+        f"simulating multiposition: {len(positions)} positions + rate tests at "
+        f"{', '.join(f'{w:g}' for w in rate_list)} deg/s, "
+        + ("a ramp" if ramp else f"{len(points)} set point(s)")
+        + f", {'turntable errors' if turntable_error else 'ideal turntable'}, seed {seed}",
+        highlight=False,
+    )
+    runs, truths = [], []
+    try:
+        with LogStreamWriter(out, validate=False) as writer:
+            for run in iter_multiposition(config, **kw):  # type: ignore[arg-type]
+                writer.write(run.log)
+                truths.append(run.truth)
+                runs.append(replace(run, log=run.log.iloc[:0]))
+        rows = writer.rows
+        write_params(pd.concat(truths, ignore_index=True), truth_path)
+        meta = multiposition_meta(
+            config,
+            sequence=seq_name,
+            positions=positions,
+            set_points_c=() if ramp else points,
+            rates_dps=rate_list,
+            dwell_s=dwell,
+            warmup_s=DEFAULT_WARMUP_S,
+            turntable_error=turntable_error,
+            position_error_arcmin=5.0,
+            rate_error_ppm=10.0,
+            rate_hz=rate,
+            seed=seed,
+            runs=runs,
+        )
         meta["truth_file"] = truth_path.name
         meta_file = write_meta(meta, out)
     except RinscalError as exc:

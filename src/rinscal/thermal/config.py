@@ -62,9 +62,10 @@ class EffectsConfig:
     hysteresis : bool
         Quartz accelerometer thermal hysteresis with persistent memory.
     scale_factor : bool
-        Scale factor against temperature.
+        Scale factor, its asymmetry and its quadratic term against temperature (off: each
+        held at its value at ``t_cal_c``).
     misalignment : bool
-        Non-orthogonality against temperature.
+        Non-orthogonality against temperature (off: held at its value at ``t_cal_c``).
     lever_arm : bool
         The accelerometers' lever arm from the turntable axis (size effect), navigation.
     rotation_heat : bool
@@ -251,12 +252,20 @@ class ImuConfig:
         if len(self.thermal) != len(CHANNELS):
             raise ConfigError(f"thermal: need one table per channel {CHANNELS}")
         for j, (ch, coef) in enumerate(zip(CHANNELS, self.thermal, strict=True)):
-            own = coef.misalignment_arcsec_per_c[j % 3]
-            if own != 0.0:
-                raise ConfigError(
-                    f"[thermal.{ch}] misalignment_arcsec_per_c[{j % 3}] must be 0 (the tilt "
-                    f"of an axis towards itself is its scale factor), got {own}"
-                )
+            for key in ("misalignment_arcsec_per_c", "misalignment_arcsec"):
+                own = getattr(coef, key)[j % 3]
+                if own != 0.0:
+                    raise ConfigError(
+                        f"[thermal.{ch}] {key}[{j % 3}] must be 0 (the tilt "
+                        f"of an axis towards itself is its scale factor), got {own}"
+                    )
+            if j >= N_GYROS:
+                for key in ("sf_asym_ppm", "sf_asym_ppm_per_c"):
+                    if getattr(coef, key) != 0.0:
+                        raise ConfigError(
+                            f"[thermal.{ch}] {key} must be 0: an accelerometer has no "
+                            "scale-factor asymmetry in the model (rinscal.sensormodel)"
+                        )
             if j < 3 and any(coef.lever_arm_m):
                 raise ConfigError(f"[thermal.{ch}] lever_arm_m: a gyro has no size effect")
         if self.thermal_law not in THERMAL_LAWS:

@@ -1,6 +1,8 @@
 """The polynomial thermal law: each channel's bias as a polynomial in its own inner
 temperature ``T``, the rate ``dT/dt``, the gradient ``ΔT``, their couplings and the hidden
-package-stress state (:class:`ChannelThermal`, engineering units)."""
+package-stress state (:class:`ChannelThermal`, engineering units), and the channel's
+signal errors (scale factor, its nonlinear terms and misalignment) as straight lines in
+temperature."""
 
 from __future__ import annotations
 
@@ -61,10 +63,18 @@ class ChannelThermal:
     radial gradient across a gyro's fibre coil [°C/min] (Shupe effect) and ``h`` the
     hysteresis of a quartz accelerometer (a play operator of half-width
     ``hysteresis_play_c`` on ``T``, ``h = ±hysteresis/2`` on a heating / cooling leg).
-    Signal errors: ``(T − t_cal)·(scale_factor_ppm_per_c·1e-6·s_j + Σ_k
-    misalignment_arcsec_per_c[k]·(π/648000)·s_k)`` for the true signal ``s`` (rate or
-    specific force) along the ``r`` axes, ``t_cal`` the temperature of the unit's
-    scale/axis calibration.
+
+    Signal errors (the terms of :mod:`rinscal.sensormodel`, each a straight line in ``T``
+    about ``t_cal``, the temperature of the unit's factory scale/axis calibration): scale
+    factor ``scale_factor_ppm + scale_factor_ppm_per_c·(T − t_cal)``, asymmetry
+    ``sf_asym_ppm + sf_asym_ppm_per_c·(T − t_cal)`` (gyros), quadratic term ``sf_quad +
+    sf_quad_per_c·(T − t_cal)`` and the tilt towards each ``r`` axis ``misalignment_arcsec +
+    misalignment_arcsec_per_c·(T − t_cal)``; :func:`rinscal.thermal.sensor.sensor_law`
+    collects them into an :class:`rinscal.sensormodel.ImuCalibration`. A raw (pulse) output
+    carries them whole; a physical output, after the factory calibration at ``t_cal``, only
+    their change since ``t_cal`` (to first order: ``(T − t_cal)·(scale_factor_ppm_per_c·1e-6
+    ·s_j + Σ_k misalignment_arcsec_per_c[k]·(π/648000)·s_k)`` plus the drift of the
+    nonlinear terms, for the true signal ``s`` along the ``r`` axes).
 
     Parameters
     ----------
@@ -95,12 +105,25 @@ class ChannelThermal:
     hysteresis_play_c : float [°C]
         Half-width ``w`` of the play: a temperature reversal of ``2w`` takes the output from
         one leg to the other.
+    scale_factor_ppm : float [ppm]
+        Scale-factor error at ``t_cal`` (relative to the nominal pulse weight).
     scale_factor_ppm_per_c : float [ppm/°C]
         Scale-factor change with temperature.
+    misalignment_arcsec : tuple of 3 float [arcsec]
+        This axis's tilt towards the IMU axes x, y, z of the ``r`` frame at ``t_cal``
+        (non-orthogonality and alignment to the case; its own entry must be 0).
     misalignment_arcsec_per_c : tuple of 3 float [arcsec/°C]
-        Change with temperature of this axis's tilt towards the IMU axes x, y, z of the
-        ``r`` frame (its own entry must be 0: that is the scale factor; checked by
-        :class:`ImuConfig`).
+        Change with temperature of that tilt (its own entry must be 0: that is the scale
+        factor; both checked by :class:`ImuConfig`).
+    sf_asym_ppm : float [ppm]
+        Scale-factor asymmetry at ``t_cal``: the scale factor is ``1 + k + a`` for positive
+        and ``1 + k − a`` for negative input (gyros only; 0 for accelerometers).
+    sf_asym_ppm_per_c : float [ppm/°C]
+        Its change with temperature (gyros only).
+    sf_quad : float [ppm/(deg/s) for gyros, µg/g² for accelerometers]
+        Quadratic scale-factor term at ``t_cal``: the error ``q·u²`` of an input ``u``.
+    sf_quad_per_c : float [ppm/(deg/s)/°C or µg/g²/°C]
+        Its change with temperature.
     lever_arm_m : tuple of 3 float [m]
         Lever arm of an accelerometer's proof mass from the turntable axis, in ``r``, that
         the navigation computer's size-effect compensation leaves (the error of its lever-arm
@@ -122,6 +145,12 @@ class ChannelThermal:
     hysteresis_play_c: float = 1.0
     scale_factor_ppm_per_c: float = 0.0
     misalignment_arcsec_per_c: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    scale_factor_ppm: float = 0.0
+    misalignment_arcsec: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    sf_asym_ppm: float = 0.0
+    sf_asym_ppm_per_c: float = 0.0
+    sf_quad: float = 0.0
+    sf_quad_per_c: float = 0.0
     lever_arm_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
     def __post_init__(self) -> None:
@@ -137,7 +166,7 @@ class ChannelThermal:
             w = getattr(self, name)
             if w is not None and (len(w) != 2 or not w[0] < w[1]):
                 raise ConfigError(f"thermal.{name} must be [low, high] with low < high")
-        for name in ("misalignment_arcsec_per_c", "lever_arm_m"):
+        for name in ("misalignment_arcsec_per_c", "misalignment_arcsec", "lever_arm_m"):
             if len(getattr(self, name)) != 3:
                 raise ConfigError(f"thermal.{name} must have 3 values (x, y, z)")
         if self.hysteresis_play_c <= 0:

@@ -8,7 +8,11 @@
   with its own turn-on offset, at a temperature that is not a soak set point.
 
 The IMU sits level on the turntable at encoder zero, so its static output is Earth rate and
-gravity for the configured latitude and heading, plus the sensor errors.
+gravity for the configured latitude and heading, plus the sensor errors: in pulses (the raw
+output) through the whole forward model of :mod:`rinscal.thermal.sensor`, in physical units
+(after the factory calibration at ``t_cal_c``) with each term's change since ``t_cal_c``.
+The multi-position and rate-table protocol on a two-axis turntable is
+:mod:`rinscal.thermal.multiposition`.
 """
 
 from __future__ import annotations
@@ -36,6 +40,7 @@ from rinscal.thermal.plant import (
     to_log_units,
     turn_on_offsets,
 )
+from rinscal.thermal.sensor import nonlinear_drift_r, raw_output_r, sensor_law
 
 #: Chamber set points of the soak protocol (Table 3) [°C].
 SOAK_SET_POINTS_C = (0.0, 7.0, 14.0, 21.0, 28.0, 35.0, 42.0)
@@ -117,11 +122,16 @@ class SimulatedRun:
         Canonical calibration-log rows of this run.
     truth : pandas.DataFrame
         ``time_s``, ``run`` and ``bias_<channel>``: the true thermal bias of every sample in
-        the log's unit (turn-on offset and static Earth rate/gravity excluded).
+        the log's unit (turn-on offset and static output excluded), the change of the
+        signal errors with temperature included (the signal is static).
     offset : ndarray, shape (6,)
         Turn-on offset of this power-on, in the log's unit.
     static : ndarray, shape (6,)
-        Static output (Earth rate and gravity) in the log's unit.
+        Static output in the log's unit. Physical units: Earth rate and gravity. Pulses (the
+        raw output): Earth rate and gravity through the unit's forward model at ``t_cal``
+        (scale factor, nonlinear terms and misalignment of :func:`~rinscal.thermal.sensor.
+        sensor_law` at ``t_cal_c``), so that ``static + offset + truth`` is the noiseless
+        output in both units.
     memory : ndarray, shape (6,) [°C]
         Hysteresis (play) state at the end of the run: what the next run remembers.
     """
@@ -187,9 +197,20 @@ def simulate_run(
     omega_r, f_r = static_outputs_r(config.latitude, config.heading, config.altitude_m)
     static_si = np.concatenate([omega_r, f_r])
     bias_coarse = thermal_bias_r(coarse, config, play)
-    bias_coarse += signal_errors_r(
-        coarse.sensor - config.t_cal_c, signal_error_coefs(config), omega_r, f_r
-    )
+    if config.output.mode == "physical":
+        # after the factory calibration at t_cal: each term's change since t_cal
+        bias_coarse += signal_errors_r(
+            coarse.sensor - config.t_cal_c, signal_error_coefs(config), omega_r, f_r
+        )
+        drift = nonlinear_drift_r(config, coarse.sensor - config.t_cal_c, omega_r, f_r)
+        if drift is not None:
+            bias_coarse += drift
+    else:
+        # raw: the whole forward model; its value at t_cal is part of the static output
+        law = sensor_law(config)
+        raw_cal = raw_output_r(law, np.full(6, config.t_cal_c), omega_r, f_r)
+        bias_coarse += raw_output_r(law, coarse.sensor, omega_r, f_r) - raw_cal
+        static_si = raw_cal
     offset = turn_on_offsets(config, rng)
     noise, _ = SensorNoise(config, rng, dt).draw(n)
     scale = log_units_to_si(config, dt)
