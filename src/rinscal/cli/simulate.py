@@ -179,7 +179,7 @@ def simulate(
     dwell: Annotated[
         float,
         typer.Option("--dwell", min=0.1, help="multiposition: dwell per position [s]."),
-    ] = 60.0,
+    ] = 120.0,
     rates: Annotated[
         str | None,
         typer.Option(

@@ -83,12 +83,19 @@ class SegmentStats:
 
 
 def _block_var(resid: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Per-sample noise variance from the scatter of block means, per column."""
+    """Per-sample noise variance from the scatter of block means, per column.
+
+    The scatter is the normal-consistent median absolute deviation (1.4826·MAD) of the
+    block means, not their variance: one block holding a vibration outlier (a real unit's,
+    and the plant's) must not make a static position look as if it moved."""
     n = resid.shape[0]
     m = max(2, min(_BLOCKS, n // 5))
     size = n // m
     blocks = resid[: m * size].reshape(m, size, -1).mean(axis=1)
-    return blocks.var(axis=0, ddof=1) * size
+    if m < 5:
+        return blocks.var(axis=0, ddof=1) * size
+    mad = np.median(np.abs(blocks - np.median(blocks, axis=0)), axis=0) * 1.4826
+    return mad**2 * size
 
 
 def segment_stats(

@@ -37,6 +37,7 @@ __all__ = [
     "ImuCalStage",
     "imu_calibration_stage",
     "imu_thermal_model",
+    "imu_variant_model",
     "paired_saving_table",
     "recovery_table",
 ]
@@ -118,11 +119,25 @@ def imu_calibration_stage(cfg: ReproConfig, imu: ImuConfig) -> ImuCalStage:
     """Simulate the plant's multi-position calibration (19 positions and rate tests about
     each axis at 5 set points, ideal turntable; shorter dwells in the quick preset) and fit
     it with :func:`rinscal.calibration.imu.workflow.calibrate_imu`."""
-    dwell = 30.0 if cfg.quick else 60.0
-    log, truth, meta = simulate_multiposition(imu, dwell_s=dwell, seed=cfg.seed + 500)
+    return _calibrate(imu, cfg.seed + 500, quick=cfg.quick)
+
+
+def _calibrate(imu: ImuConfig, seed: int, quick: bool) -> ImuCalStage:
+    dwell = 60.0 if quick else 120.0
+    log, truth, meta = simulate_multiposition(imu, dwell_s=dwell, seed=seed)
     result = calibrate_imu(log, meta)
     thermal = result.calibration.select(SIGNAL_KINDS).relative_to(imu.t_cal_c)
     return ImuCalStage(result, truth, recovery_table(truth, result.estimates), thermal, len(log))
+
+
+def imu_variant_model(
+    imu: ImuConfig, soak: pd.DataFrame, meta: Mapping[str, Any], seed: int, quick: bool = False
+) -> ThermalModelFile:
+    """The ``regression+sf`` model of one unit (a study's task): its own multi-position
+    calibration (seeded by ``seed``), then method 2 on its soak log behind the calibration's
+    thermal part."""
+    stage = _calibrate(imu, seed, quick)
+    return fit(soak, "regression", meta=meta, imu_calibration=stage.thermal_part, seed=seed).model
 
 
 def imu_thermal_model(

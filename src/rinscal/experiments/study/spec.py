@@ -41,6 +41,7 @@ import pandas as pd
 from rinscal import units
 from rinscal.errors import ConfigError
 from rinscal.experiments.paper.config import METHODS, ReproConfig, load_plant
+from rinscal.experiments.paper.imucal import IMU_VARIANT
 from rinscal.thermal.presets import PRESETS
 
 __all__ = [
@@ -63,10 +64,12 @@ __all__ = [
 
 #: Studies shipped with rinscal (``src/rinscal/data/studies/<name>.toml``).
 BUILTIN_STUDIES = ("paper", "sensitivity")
-#: Variants a spec may list: uncompensated, the models, the true-bias oracle. ``none`` and
+#: Variants a spec may list: uncompensated, the models (``regression+sf``: method 2 behind the
+#: thermal part of the unit's own multi-position calibration, see
+#: :mod:`rinscal.experiments.paper.imucal`), the true-bias oracle. ``none`` and
 #: ``true`` are navigated in every task whether listed or not (the thermal part needs the
 #: oracle); the list decides which models are fitted.
-STUDY_VARIANTS = ("none", *METHODS, "true")
+STUDY_VARIANTS = ("none", *METHODS, IMU_VARIANT, "true")
 #: Scenario kinds (:data:`rinscal.nav.scenario.SCENARIOS`).
 SCENARIO_KINDS = ("quasi-static", "swing", "vehicle", "ramp")
 
@@ -84,6 +87,13 @@ _SWEEP_GROUPS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
     "grad": (("grad", "t_grad"), ("k_path", "k_coil", "k_stress")),
     "dynamic": (("rate", "t_rate", "grad", "t_grad"), ("k_elec", "k_path", "k_coil", "k_stress")),
 }
+#: The ``ChannelThermal`` fields of the scale-factor and axis drift with temperature.
+_SIGNAL_DRIFT = (
+    "scale_factor_ppm_per_c",
+    "misalignment_arcsec_per_c",
+    "sf_asym_ppm_per_c",
+    "sf_quad_per_c",
+)
 SWEEP_PARAMETERS: dict[str, tuple[str, tuple[str, ...], tuple[str, ...]]] = {
     **{
         f"{sensors}_{group}_scale": (sensors, poly, mech)
@@ -91,6 +101,12 @@ SWEEP_PARAMETERS: dict[str, tuple[str, tuple[str, ...], tuple[str, ...]]] = {
         for group, (poly, mech) in _SWEEP_GROUPS.items()
     },
     "gyro_shupe_scale": ("gyro", ("shupe",), ()),
+    # the temperature dependence of scale factor, its nonlinear terms and the axes (issue
+    # 25): 0 switches it off in the plant, 1 keeps it (the values at t_cal are not thermal)
+    **{
+        f"{sensors}_signal_drift_scale": (sensors, _SIGNAL_DRIFT, ())
+        for sensors in ("accel", "gyro")
+    },
 }
 #: Coefficients scattered from unit to unit by ``coefficient_spread`` (relative, 1σ): of the
 #: polynomial law and Shupe/hysteresis (``ChannelThermal``), and of the mechanistic law
@@ -199,7 +215,7 @@ class StudySpec:
     @property
     def models(self) -> tuple[str, ...]:
         """The methods that are fitted (the spec's methods without ``none``/``true``)."""
-        return tuple(m for m in self.methods if m in METHODS)
+        return tuple(m for m in self.methods if m in (*METHODS, IMU_VARIANT))
 
     def to_dict(self) -> dict[str, Any]:
         """Plain JSON-able form (what the results folder records)."""

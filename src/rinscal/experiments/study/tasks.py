@@ -25,6 +25,7 @@ import pandas as pd
 from rinscal import units
 from rinscal.calibration.thermal.model import ThermalModel
 from rinscal.experiments.paper.config import load_plant
+from rinscal.experiments.paper.imucal import IMU_VARIANT, imu_variant_model
 from rinscal.experiments.paper.navigation import (
     RESIDUAL_COLUMNS,
     NavJob,
@@ -210,8 +211,13 @@ def calibrate_unit(spec: StudySpec, plant: ImuConfig, task: CalTask) -> dict[str
         params = {"max_samples": spec.calibration.neural_max_samples} if m == "neural" else {}
         with warnings.catch_warnings(record=True) as w:
             warnings.simplefilter("always")
-            fitted = ThermalModel(m, random_state=seed, estimator_params=params).fit(log, meta)
-        mf = fitted.to_file(source={"log": f"study {spec.name}, unit {task.unit}, soak"})
+            if m == IMU_VARIANT:  # the unit's own multi-position calibration, then method 2
+                mf = imu_variant_model(imu, log, meta, seed, quick=spec.quick)
+            else:
+                fitted = ThermalModel(m, random_state=seed, estimator_params=params)
+                mf = fitted.fit(log, meta).to_file(
+                    source={"log": f"study {spec.name}, unit {task.unit}, soak"}
+                )
         models[m] = json.dumps(mf.to_dict())
         msgs = sorted({str(x.message) for x in w if not issubclass(x.category, RuntimeWarning)})
         if msgs:
