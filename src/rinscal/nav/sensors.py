@@ -44,6 +44,7 @@ from rinscal.thermal.plant import (
     thermal_bias_r,
     turn_on_offsets,
 )
+from rinscal.thermal.sensor import nonlinear_drift_r
 
 #: ``errors(t, omega_r, f_r) -> (n, 6)`` SI in ``r`` (see the module docstring).
 ErrorSource = Callable[
@@ -76,7 +77,9 @@ class ThermalPlant:
 
     Errors of a sample, resolved in ``r``: thermal bias (polynomial, Shupe, hysteresis with
     the memory of a unit coming from the lab), scale factor and non-orthogonality against
-    temperature times the true signal, the accelerometers' size effect
+    temperature times the true signal (and the drift of the scale factor's asymmetry and
+    quadratic term, :func:`rinscal.thermal.sensor.nonlinear_drift_r`: the computer holds the
+    calibration made at ``t_cal``), the accelerometers' size effect
     ``e_j · (ω×(ω×ρ_j) + ω̇×ρ_j)`` from their lever arms ``ρ_j``, the turn-on offsets and the
     noise. Every effect follows the switches of ``config.effects``.
 
@@ -138,6 +141,8 @@ class ThermalPlant:
         # turntable's of a minute)
         coefs = signal_error_coefs(config)
         self._signal_coefs = coefs if thermal and np.any(coefs) else None
+        self._nonlinear = nonlinear_drift_r(config, np.zeros((1, 6)), np.zeros(3), np.zeros(3))
+        self._nonlinear = self._nonlinear is not None
         self._grid: NDArray[np.float64] | None = None
         if thermal:
             bias = thermal_bias_r(self.field, config, hysteresis_play(self.field, config))
@@ -213,6 +218,10 @@ class ThermalPlant:
         out = g[:, :6]
         if self._signal_coefs is not None:
             out += signal_errors_r(g[:, 6:], self._signal_coefs, omega_r, f_r)
+            if self._nonlinear:  # the asymmetry's and quadratic term's drift since t_cal
+                drift = nonlinear_drift_r(self.config, g[:, 6:], omega_r, f_r)
+                if drift is not None:
+                    out += drift
         return out
 
     def size_effect(self, omega_r: NDArray[np.float64]) -> NDArray[np.float64]:
