@@ -51,10 +51,7 @@ def main(seeds: int = 20) -> pd.DataFrame:
     worst.to_csv(OUT / "worst.csv", index=False)
     kinds = [c for c in worst.columns if c not in ("seed", "table")]
     summary = (
-        worst.groupby("table")[kinds]
-        .quantile([0.5, 0.95])
-        .rename_axis(["table", "quantile"])
-        .T
+        worst.groupby("table")[kinds].quantile([0.5, 0.95]).rename_axis(["table", "quantile"]).T
     )
     summary.to_csv(OUT / "summary.csv")
     return summary
