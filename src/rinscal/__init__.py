@@ -40,12 +40,14 @@ imported on first use (PEP 562), so ``import rinscal`` stays as light as the CLI
 Data
     :func:`read_log` (a calibration log file → validated table), :func:`write_log` and
     :func:`write_meta` (a table and its ``.meta.json`` sidecar, atomically),
-    :func:`simulate` (a chamber protocol → log, truth, metadata), :func:`load_imu` (an IMU
-    preset or TOML file).
+    :func:`simulate` (a chamber protocol → log, truth, metadata),
+    :func:`simulate_multiposition` (the IMU on a two-axis turntable in the chamber → log,
+    truth parameter table, metadata), :func:`load_imu` (an IMU preset or TOML file).
 Calibration
     :func:`fit` (→ :class:`FitResult`: the model and its report), :class:`ThermalModel`
     (the estimator itself), :func:`calibrate_imu` (a multi-position turntable log → scale
-    factors, misalignments and biases over temperature, :class:`ImuCalibrationResult`),
+    factors, misalignments and biases over temperature, :class:`ImuCalibrationResult`;
+    its laws an :class:`ImuCalibration`, whose ``correct`` applies the inverse model),
     :func:`load_model` (a JSON model file → :class:`ThermalModelFile`),
     :func:`compensate` (in memory), :func:`compensate_file` (streamed, file to file),
     :func:`evaluate` (RMS before/after, steps, Allan), :func:`select` (held-out RMS per
@@ -75,6 +77,8 @@ _API: dict[str, str] = {
     "write_log": "rinscal.io.tables",
     "write_meta": "rinscal.io.metadata",
     "simulate": "rinscal.thermal.protocols:simulate_protocol",
+    "simulate_multiposition": "rinscal.thermal.multiposition",
+    "ImuCalibration": "rinscal.sensormodel",
     "load_imu": "rinscal.thermal.config",
     "ImuConfig": "rinscal.thermal.config",
     "fit": "rinscal.calibration.workflow",
