@@ -104,12 +104,11 @@ from rinscal.thermal.field import ChamberProfile, measure, simulate_field
 from rinscal.thermal.plant import (
     SensorNoise,
     hysteresis_play,
-    log_units_to_si,
     thermal_bias_r,
     to_log_units,
     turn_on_offsets,
 )
-from rinscal.thermal.protocols import THERMAL_DT_S, run_name
+from rinscal.thermal.protocols import THERMAL_DT_S, base_meta, run_name
 from rinscal.thermal.sensor import drift_law, sensor_law
 
 __all__ = [
@@ -828,18 +827,8 @@ def multiposition_meta(
 ) -> dict[str, object]:
     """The sidecar metadata of a multi-position log (see the log contract in the module
     docstring of :mod:`rinscal.thermal.multiposition`)."""
-    scale = log_units_to_si(config, 1.0 / rate_hz)
     meta: dict[str, object] = {
-        "generator": "rinscal simulate",
-        "protocol": "multiposition",
-        "imu": config.name,
-        "units": dict(zip(CHANNELS, config.log_units(), strict=True)),
-        "unit_to_si": dict(zip(CHANNELS, scale.tolist(), strict=True)),
-        "latitude_deg": config.latitude_deg,
-        "heading_deg": config.heading_deg,
-        "altitude_m": config.altitude_m,
-        "rate_hz": rate_hz,
-        "seed": seed,
+        **base_meta("multiposition", config, rate_hz, seed),
         "set_points_c": {run_name("cal", c): float(c) for c in set_points_c},
         "sequence": sequence,
         "positions_deg": positions.tolist(),

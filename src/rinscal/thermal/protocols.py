@@ -276,14 +276,9 @@ def iter_protocol(
         yield run
 
 
-def log_meta(
-    protocol: str,
-    config: ImuConfig,
-    rate_hz: float,
-    seed: int,
-    runs: list[SimulatedRun],
-) -> dict[str, object]:
-    """The sidecar metadata of a simulated log (units, site, offsets, static outputs)."""
+def base_meta(protocol: str, config: ImuConfig, rate_hz: float, seed: int) -> dict[str, object]:
+    """The sidecar keys every simulated log has: generator, protocol, IMU, units and their
+    SI factors, the site, the sample rate [Hz] and the seed."""
     scale = log_units_to_si(config, 1.0 / rate_hz)
     return {
         "generator": "rinscal simulate",
@@ -296,6 +291,19 @@ def log_meta(
         "altitude_m": config.altitude_m,
         "rate_hz": rate_hz,
         "seed": seed,
+    }
+
+
+def log_meta(
+    protocol: str,
+    config: ImuConfig,
+    rate_hz: float,
+    seed: int,
+    runs: list[SimulatedRun],
+) -> dict[str, object]:
+    """The sidecar metadata of a simulated log (units, site, offsets, static outputs)."""
+    return {
+        **base_meta(protocol, config, rate_hz, seed),
         "static_output": dict(zip(CHANNELS, runs[0].static.tolist(), strict=True)) if runs else {},
         "turn_on_offset": {
             r.name: dict(zip(CHANNELS, r.offset.tolist(), strict=True)) for r in runs
@@ -349,6 +357,7 @@ __all__ = [
     "SOAK_SET_POINTS_C",
     "RunSpec",
     "SimulatedRun",
+    "base_meta",
     "iter_protocol",
     "log_meta",
     "protocol_runs",
