@@ -44,7 +44,7 @@ from rinscal.thermal.plant import (
     thermal_bias_r,
     turn_on_offsets,
 )
-from rinscal.thermal.sensor import nonlinear_drift_r
+from rinscal.thermal.sensor import nonlinear_drift_coefs, nonlinear_drift_r
 
 #: ``errors(t, omega_r, f_r) -> (n, 6)`` SI in ``r`` (see the module docstring).
 ErrorSource = Callable[
@@ -141,8 +141,7 @@ class ThermalPlant:
         # turntable's of a minute)
         coefs = signal_error_coefs(config)
         self._signal_coefs = coefs if thermal and np.any(coefs) else None
-        self._nonlinear = nonlinear_drift_r(config, np.zeros((1, 6)), np.zeros(3), np.zeros(3))
-        self._nonlinear = self._nonlinear is not None
+        self._nonlinear = nonlinear_drift_coefs(config)
         self._grid: NDArray[np.float64] | None = None
         if thermal:
             bias = thermal_bias_r(self.field, config, hysteresis_play(self.field, config))
@@ -218,10 +217,8 @@ class ThermalPlant:
         out = g[:, :6]
         if self._signal_coefs is not None:
             out += signal_errors_r(g[:, 6:], self._signal_coefs, omega_r, f_r)
-            if self._nonlinear:  # the asymmetry's and quadratic term's drift since t_cal
-                drift = nonlinear_drift_r(self.config, g[:, 6:], omega_r, f_r)
-                if drift is not None:
-                    out += drift
+            if self._nonlinear is not None:  # the asymmetry's and quadratic term's drift
+                out += nonlinear_drift_r(self._nonlinear, g[:, 6:], omega_r, f_r)
         return out
 
     def size_effect(self, omega_r: NDArray[np.float64]) -> NDArray[np.float64]:

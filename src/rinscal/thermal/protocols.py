@@ -40,7 +40,12 @@ from rinscal.thermal.plant import (
     to_log_units,
     turn_on_offsets,
 )
-from rinscal.thermal.sensor import nonlinear_drift_r, raw_output_r, sensor_law
+from rinscal.thermal.sensor import (
+    nonlinear_drift_coefs,
+    nonlinear_drift_r,
+    raw_output_r,
+    sensor_law,
+)
 
 #: Chamber set points of the soak protocol (Table 3) [°C].
 SOAK_SET_POINTS_C = (0.0, 7.0, 14.0, 21.0, 28.0, 35.0, 42.0)
@@ -202,9 +207,9 @@ def simulate_run(
         bias_coarse += signal_errors_r(
             coarse.sensor - config.t_cal_c, signal_error_coefs(config), omega_r, f_r
         )
-        drift = nonlinear_drift_r(config, coarse.sensor - config.t_cal_c, omega_r, f_r)
+        drift = nonlinear_drift_coefs(config)
         if drift is not None:
-            bias_coarse += drift
+            bias_coarse += nonlinear_drift_r(drift, coarse.sensor - config.t_cal_c, omega_r, f_r)
     else:
         # raw: the whole forward model; its value at t_cal is part of the static output
         law = sensor_law(config)

@@ -35,6 +35,7 @@ from rinscal.thermal.config import ImuConfig
 __all__ = [
     "SENSOR_LAW_RANGE_C",
     "drift_law",
+    "nonlinear_drift_coefs",
     "nonlinear_drift_r",
     "raw_output_r",
     "sensor_law",
@@ -140,18 +141,43 @@ def raw_output_r(
     return out
 
 
+def nonlinear_drift_coefs(config: ImuConfig) -> NDArray[np.float64] | None:
+    """Slopes of the asymmetry and quadratic terms, as one row per channel.
+
+    Returns
+    -------
+    ndarray, shape (2, 6) or None
+        Row 0: the asymmetry's slope ``a'_j`` [1/°C] (gyros; 0 for accelerometers), row 1:
+        the quadratic term's ``q'_j`` [1/((rad/s)·°C) or 1/((m/s²)·°C)]; None when every
+        slope is zero or the scale-factor effect is off (nothing to add).
+    """
+    if not config.effects.scale_factor:
+        return None
+    law = sensor_law(config)
+    out = np.zeros((2, 6))
+    for j in range(6):
+        sensor = "gyro" if j < 3 else "accel"
+        ax = AXES[j % 3]
+        if sensor == "gyro":
+            name = f"gyro_sf_asym_{ax}"
+            out[0, j] = law.t_coefs[name][1] * parameter_spec(name).to_si
+        name = f"{sensor}_sf_quad_{ax}"
+        out[1, j] = law.t_coefs[name][1] * parameter_spec(name).to_si
+    return out if np.any(out) else None
+
+
 def nonlinear_drift_r(
-    config: ImuConfig,
+    coefs: NDArray[np.float64],
     temp_offset: NDArray[np.float64],
     omega_r: ArrayLike,
     f_r: ArrayLike,
-) -> NDArray[np.float64] | None:
+) -> NDArray[np.float64]:
     """The change since ``t_cal`` of the asymmetry and quadratic terms (physical output).
 
     Parameters
     ----------
-    config : ImuConfig
-        The plant.
+    coefs : ndarray, shape (2, 6)
+        From :func:`nonlinear_drift_coefs`.
     temp_offset : ndarray, shape (n, 6) [°C]
         ``T_j − t_cal`` of each channel.
     omega_r, f_r : array_like, shape (n, 3) or (3,) [rad/s, m/s²]
@@ -159,27 +185,11 @@ def nonlinear_drift_r(
 
     Returns
     -------
-    ndarray, shape (n, 6) [rad/s, m/s²] or None
-        ``(T_j − t_cal)·(a'_j·|s_j| + q'_j·s_j²)`` with ``a'``, ``q'`` the slopes; None when
-        every slope is zero or the scale-factor effect is off (nothing to add).
+    ndarray, shape (n, 6) [rad/s, m/s²]
+        ``(T_j − t_cal)·(a'_j·|s_j| + q'_j·s_j²)`` with ``a'``, ``q'`` the slopes.
     """
-    if not config.effects.scale_factor:
-        return None
-    law = sensor_law(config)
-    a_si = np.zeros(6)
-    q_si = np.zeros(6)
-    for j in range(6):
-        sensor = "gyro" if j < 3 else "accel"
-        ax = AXES[j % 3]
-        if sensor == "gyro":
-            name = f"gyro_sf_asym_{ax}"
-            a_si[j] = law.t_coefs[name][1] * parameter_spec(name).to_si
-        name = f"{sensor}_sf_quad_{ax}"
-        q_si[j] = law.t_coefs[name][1] * parameter_spec(name).to_si
-    if not (np.any(a_si) or np.any(q_si)):
-        return None
     s = np.concatenate(
         [np.atleast_2d(np.asarray(omega_r, float)), np.atleast_2d(np.asarray(f_r, float))],
         axis=1,
     )
-    return temp_offset * (a_si * np.abs(s) + q_si * s * s)
+    return temp_offset * (coefs[0] * np.abs(s) + coefs[1] * s * s)
