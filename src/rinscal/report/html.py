@@ -10,9 +10,12 @@ from __future__ import annotations
 import base64
 import html
 import io
+import re
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
+import numpy as np
 import pandas as pd
 
 if TYPE_CHECKING:
@@ -38,9 +41,10 @@ table { border-collapse: collapse; font-size: .88rem; font-variant-numeric: tabu
 caption { text-align: left; font-weight: 600; padding: .3rem 0; }
 th, td { border: 1px solid var(--line); padding: .25rem .5rem; text-align: right;
          white-space: nowrap; }
-th { background: #f6f8fa; }
+th { background: #f6f8fa; white-space: normal; vertical-align: bottom; min-width: 6ch;
+     max-width: 16ch; }
 td:first-child, th:first-child { text-align: left; }
-td.wrap { white-space: normal; text-align: left; min-width: 18ch; max-width: 44ch; }
+td.wrap { white-space: normal; text-align: left; min-width: 14ch; max-width: 36ch; }
 .verdict-pass { color: #1a7f37; font-weight: 600; }
 .verdict-fail { color: #cf222e; font-weight: 600; }
 nav ol { columns: 2; font-size: .92rem; }
@@ -101,23 +105,37 @@ class Section:
         )
 
     def table(
-        self, ident: str, df: pd.DataFrame, caption: str, float_format: str = "{:.4g}"
+        self,
+        ident: str,
+        df: pd.DataFrame,
+        caption: str,
+        float_format: str = "{:.4g}",
+        formats: Mapping[str, str] | None = None,
     ) -> None:
-        """Add a table; ``ident`` names it for tests and for its CSV file."""
+        """Add a table; ``ident`` names it for tests and for its CSV file.
 
-        def fmt(v: object) -> str:
-            if isinstance(v, float):
-                return "" if pd.isna(v) else float_format.format(v)
+        Every numeric column gets one format (:func:`column_format`: the significant digits
+        of ``float_format`` at the column's largest value), so the decimals line up down a
+        column; ``formats`` overrides it per column (``{"ambient [°C]": "{:.0f}"}``).
+        Headers and long text wrap, so a table is as wide as its numbers, not its words.
+        """
+        digits = _digits(float_format)
+        fmts = {c: column_format(df[c], digits) for c in df.columns}
+        fmts.update(formats or {})
+
+        def fmt(col: object, v: object) -> str:
+            if isinstance(v, float | np.floating):
+                return "" if pd.isna(v) else fmts[col].format(v)
             return str(v)
 
         head = "".join(f"<th>{html.escape(str(c))}</th>" for c in df.columns)
         rows = []
-        for _, row in df.iterrows():
+        for row in df.itertuples(index=False):
             cells = "".join(
-                f'<td class="wrap">{html.escape(fmt(v))}</td>'
-                if isinstance(v, str) and len(v) > 28
-                else f"<td>{html.escape(fmt(v))}</td>"
-                for v in row.to_numpy()
+                f'<td class="wrap">{html.escape(fmt(c, v))}</td>'
+                if isinstance(v, str) and len(v) > 24
+                else f"<td>{html.escape(fmt(c, v))}</td>"
+                for c, v in zip(df.columns, row, strict=True)
             )
             rows.append(f"<tr>{cells}</tr>")
         self.blocks.append(
@@ -129,6 +147,32 @@ class Section:
                 ident,
             )
         )
+
+
+def _digits(float_format: str) -> int:
+    """Significant digits of a ``"{:.4g}"``-style format (4 if it names none)."""
+    m = re.search(r"\.(\d+)[gGeEf]", float_format)
+    return int(m.group(1)) if m else 4
+
+
+def column_format(col: pd.Series, digits: int = 4) -> str:
+    """One format for a whole column: fixed decimals giving ``digits`` significant digits
+    at the column's largest magnitude (integers without decimals; scientific notation for
+    a column whose values span more than 5 decades or exceed 1e6)."""
+    if not pd.api.types.is_numeric_dtype(col) or pd.api.types.is_bool_dtype(col):
+        return "{}"
+    x = pd.to_numeric(col, errors="coerce").to_numpy(dtype=float)
+    x = np.abs(x[np.isfinite(x)])
+    if x.size == 0:
+        return "{}"
+    if np.all(x == np.round(x)) and x.max() < 1e6:
+        return "{:.0f}"
+    top = float(x.max())
+    nz = x[x > 0]
+    if top >= 1e6 or (nz.size and top / float(nz.min()) > 1e5 and top < 1e-2):
+        return f"{{:.{max(digits - 1, 1)}e}}"
+    decimals = max(0, digits - 1 - int(np.floor(np.log10(top))))
+    return f"{{:.{min(decimals, 6)}f}}"
 
 
 @dataclass
@@ -173,4 +217,4 @@ class Report:
         )
 
 
-__all__ = ["Report", "Section", "figure_to_png"]
+__all__ = ["Report", "Section", "column_format", "figure_to_png"]

@@ -12,6 +12,7 @@ import pandas as pd
 
 from rinscal.experiments.paper.calibration import CalibrationResult
 from rinscal.experiments.paper.config import LABELS, METHODS, PAPER, VARIANTS
+from rinscal.experiments.paper.paired import CONFIDENCE, interval_text, paired_difference
 from rinscal.schema import ACCEL_CHANNELS, CHANNELS
 
 __all__ = [
@@ -325,3 +326,54 @@ def claims(
         "what": "method 3 ≤ method 2 (mean max position error) [nmi]",
     }
     return out
+
+
+def paired_table(
+    maxerr: pd.DataFrame,
+    reference: str,
+    variants: Sequence[str],
+    confidence: float = CONFIDENCE,
+) -> pd.DataFrame:
+    """Each variant against ``reference`` per group of runs (:data:`NAV_GROUPS`).
+
+    Parameters
+    ----------
+    maxerr : DataFrame
+        One row per run with ``experiment, scenario`` and one column per variant [nmi]
+        (:func:`rinscal.experiments.paper.navigation.max_error_table`).
+    reference : str
+        The variant every other is compared with (e.g. ``"none"``, ``"poly-t"``).
+    variants : sequence of str
+        The variants compared (those missing from ``maxerr`` are skipped).
+
+    Returns
+    -------
+    DataFrame
+        ``runs, variant, method, n runs, Δ mean [nmi]`` (reference − variant: positive =
+        the variant better), ``95 % interval [nmi]`` (text, empty without one),
+        ``better in`` ("k of n" runs), ``median ratio`` (variant / reference) and
+        ``verdict``.
+    """
+    rows = []
+    for group, exps, scen in NAV_GROUPS:
+        g = nav_group(maxerr, exps, scen)
+        if g.empty or reference not in g:
+            continue
+        for v in variants:
+            if v == reference or v not in g:
+                continue
+            p = paired_difference(g[reference], g[v], confidence)
+            rows.append(
+                {
+                    "runs": group,
+                    "variant": v,
+                    "method": LABELS.get(v, v),
+                    "n runs": p.n,
+                    "Δ mean [nmi]": p.mean,
+                    f"{confidence:.0%} interval [nmi]": interval_text(p.lo, p.hi, p.mean),
+                    "better in": f"{p.better} of {p.n}",
+                    "median ratio": p.median_ratio,
+                    "verdict": p.verdict,
+                }
+            )
+    return pd.DataFrame(rows)

@@ -21,12 +21,12 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-from scipy import stats
 
 from rinscal.calibration.imu.workflow import ImuCalibrationResult, calibrate_imu
 from rinscal.calibration.modelfile import ThermalModelFile
 from rinscal.calibration.workflow import fit
 from rinscal.experiments.paper.config import ReproConfig
+from rinscal.experiments.paper.paired import CONFIDENCE, interval_text, paired_difference
 from rinscal.nav.sensors import SIGNAL_KINDS
 from rinscal.sensormodel import ImuCalibration
 from rinscal.thermal.config import ImuConfig
@@ -44,8 +44,6 @@ __all__ = [
 
 #: The navigation variant with the IMU calibration's thermal part (method 2 behind it).
 IMU_VARIANT = "regression+sf"
-#: Confidence of the paired intervals.
-CONFIDENCE = 0.95
 
 
 @dataclass(frozen=True)
@@ -171,17 +169,12 @@ def paired_saving_table(
     """
     rows = []
     for (exp, scen), g in maxerr.groupby(["experiment", "scenario"], sort=False):
-        d = (g[without] - g[with_]).to_numpy(dtype=float)
-        n = len(d)
-        lo = hi = np.nan
-        if n >= 2 and np.std(d, ddof=1) > 0:
-            half = stats.t.ppf(0.5 + CONFIDENCE / 2, n - 1) * np.std(d, ddof=1) / np.sqrt(n)
-            lo, hi = d.mean() - half, d.mean() + half
-        if n < 2:
+        p = paired_difference(g[without], g[with_], CONFIDENCE)
+        if p.n < 2:
             note = "one run: no interval"
-        elif lo > 0:
+        elif p.lo > 0:
             note = "the thermal model of scale factor and axes pays"
-        elif hi < 0:
+        elif p.hi < 0:
             note = "it costs: without it the error is smaller"
         else:
             note = "not resolved: the interval contains zero"
@@ -189,12 +182,12 @@ def paired_saving_table(
             {
                 "experiment": exp,
                 "scenario": scen,
-                "runs": n,
+                "runs": p.n,
                 "without [nmi]": float(g[without].mean()),
                 "with [nmi]": float(g[with_].mean()),
-                "saved: mean [nmi]": float(d.mean()),
-                "saved: 95 % interval [nmi]": "" if np.isnan(lo) else f"[{lo:.4f}, {hi:.4f}]",
-                "runs where it helps": f"{int((d > 0).sum())} of {n}",
+                "saved: mean [nmi]": p.mean,
+                "saved: 95 % interval [nmi]": interval_text(p.lo, p.hi, p.mean),
+                "runs where it helps": f"{p.better} of {p.n}",
                 "note": note,
             }
         )
