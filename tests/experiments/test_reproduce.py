@@ -243,7 +243,9 @@ def test_report_opens_in_a_browser_with_every_table_and_figure(quick: Path) -> N
     body = text.split("<body>")[1]
     links = re.findall(r"""(?:src|href)\s*=\s*["']?([^"' >]*)""", body)
     assert links and all(u.startswith(("data:", "#")) for u in links), links[:5]
-    inv = rendered_inventory(page)
+    inv = rendered_inventory(page, width=1280)
+    # at 1 280 px nothing hides behind a scrollbar: no element's content wider than its box
+    assert inv["overflow"] == [], inv["overflow"]
     assert [f["id"] for f in inv["figures"]] == metrics["figures"]
     assert all(f["width"] > 100 for f in inv["figures"])  # every PNG decoded
     assert [t["id"] for t in inv["tables"]] == metrics["tables"]

@@ -22,7 +22,8 @@ CHROMIUM_FLAGS = [
 ]
 
 # Injected into a copy of the page: after load, list every figure (and whether its image
-# decoded) and every table (and its row count) into a <pre id="browser-check">.
+# decoded), every table (and its row count) and every element whose content is wider than
+# its box into a <pre id="browser-check">.
 _CHECK_SCRIPT = """
 <script>
 window.addEventListener('load', () => {
@@ -33,9 +34,23 @@ window.addEventListener('load', () => {
   });
   const tabs = [...document.querySelectorAll('table[data-table]')].map(t => ({
     id: t.dataset.table, rows: t.querySelectorAll('tbody tr').length}));
+  // every element whose content is wider than its box (a table scrolling inside its
+  // wrapper, a cell's text running out of it), named by the table or figure it belongs to
+  const over = [];
+  for (const el of document.querySelectorAll('body *')) {
+    if (el.id === 'browser-check' || el.clientWidth === 0) continue;
+    if (el.scrollWidth > el.clientWidth + 1) {
+      const t = el.closest('.table-wrap') ? el.closest('.table-wrap').querySelector('table')
+                                          : el.closest('table');
+      const f = el.closest('figure');
+      over.push({tag: el.tagName, content: el.scrollWidth, box: el.clientWidth,
+                 table: t ? t.dataset.table : null, figure: f ? f.dataset.figure : null,
+                 text: (el.textContent || '').slice(0, 60)});
+    }
+  }
   const pre = document.createElement('pre');
   pre.id = 'browser-check';
-  pre.textContent = JSON.stringify({figures: figs, tables: tabs,
+  pre.textContent = JSON.stringify({figures: figs, tables: tabs, overflow: over,
                                     scrollWidth: document.documentElement.scrollWidth});
   document.body.appendChild(pre);
 });
@@ -49,7 +64,9 @@ def chromium() -> str | None:
 
 
 def rendered_inventory(page: Path, width: int = 1200) -> dict:
-    """Figures (decoded pixel width) and tables (row counts) as Chromium rendered them."""
+    """Figures (decoded pixel width), tables (row counts) and ``overflow`` (elements whose
+    content is wider than their box, with the table or figure they belong to) as Chromium
+    rendered the page in a window ``width`` px wide."""
     exe = chromium()
     assert exe is not None
     html = page.read_text(encoding="utf-8")
