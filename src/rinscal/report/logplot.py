@@ -17,6 +17,7 @@ import pandas as pd
 from matplotlib import colormaps
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
+from matplotlib.ticker import FuncFormatter
 
 from rinscal.io.mapping import channel_unit
 from rinscal.schema import (
@@ -180,6 +181,26 @@ def _temperature_panels(df: pd.DataFrame) -> list[tuple[str, list[tuple[str, str
     return panels[:3]
 
 
+def _relative_ticks(ax: Any, what: str, unit: str) -> None:
+    """Where the values sit far from zero compared with their span (an accelerometer's 1 g
+    beside a drift of a few hundred µg), label the ticks as differences from a round
+    reference named in the axis label, instead of matplotlib's detached "1e6" offset."""
+    lo, hi = ax.get_ylim()
+    span = hi - lo
+    mid = 0.5 * (lo + hi)
+    if span <= 0 or abs(mid) < 100 * span:
+        ax.set_ylabel(f"{what} [{unit}]")
+        return
+    step = 10.0 ** np.floor(np.log10(span))
+    ref = float(np.round(mid / step) * step)
+    ax.yaxis.set_major_formatter(
+        FuncFormatter(lambda y, _pos: f"{y - ref:+.4g}" if y != ref else "0")
+    )
+    ax.set_ylabel(
+        f"{what} − {ref:,.0f} [{unit}]" if abs(ref) >= 1 else f"{what} − {ref:g} [{unit}]"
+    )
+
+
 def plot_log(
     df: pd.DataFrame,
     *,
@@ -266,6 +287,7 @@ def plot_log(
         if max_step > 1 and np.isfinite(mean_lo[j]) and mean_hi[j] >= mean_lo[j]:
             pad = 0.15 * (mean_hi[j] - mean_lo[j]) or 1e-9 * max(1.0, abs(mean_hi[j]))
             ax.set_ylim(mean_lo[j] - pad, mean_hi[j] + pad)
+        _relative_ticks(ax, f"{ch} output", unit)
         ax.grid(True, alpha=0.3)
     for p, (ptitle, lines) in enumerate(temp_panels):
         ax = axes[2, p]

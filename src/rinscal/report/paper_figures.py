@@ -8,6 +8,7 @@ from collections.abc import Sequence
 
 import numpy as np
 import pandas as pd
+from matplotlib import colormaps
 from matplotlib.figure import Figure
 
 from rinscal import units
@@ -187,11 +188,19 @@ def fig_temperatures(results: Sequence[NavRunResult]) -> Figure:
     """The thermal scenario of each navigation experiment (sensor and ambient temperature)."""
     fig = Figure(figsize=(11, 4.2), layout="constrained")
     ax = fig.subplots()
+    # one colour family per kind of run, a shade per run: 14 runs, no colour used twice
+    family = {"ramp": "Greys", "quasi-static": "Blues", "swing": "Oranges", "vehicle": "Greens"}
+    count = {k: sum(r.job.scenario == k for r in results) for k in family}
+    seen = dict.fromkeys(family, 0)
     for r in results:
         t = r.temperatures["time_s"] / units.HOUR_TO_S
         lab = f"{r.job.scenario} {r.job.index}"
-        (line,) = ax.plot(t, r.temperatures["sensor_gyro_z"], lw=1.0, label=lab)
-        ax.plot(t, r.temperatures["chamber"], lw=0.7, ls=":", color=line.get_color())
+        kind = r.job.scenario if r.job.scenario in family else "ramp"
+        shade = 0.45 + 0.5 * seen[kind] / max(count[kind] - 1, 1)
+        seen[kind] += 1
+        color = colormaps[family[kind]](shade)
+        ax.plot(t, r.temperatures["sensor_gyro_z"], lw=1.1, label=lab, color=color)
+        ax.plot(t, r.temperatures["chamber"], lw=0.7, ls=":", color=color)
     ax.set_xlabel("time since power-on [h]")
     ax.set_ylabel("temperature [°C]")
     ax.set_title("Navigation runs: gyro z inner temperature (solid), ambient (dotted)", fontsize=10)

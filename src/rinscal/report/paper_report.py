@@ -538,12 +538,14 @@ def build_report(
         _imu_section(rep, cal, tables)
 
     s = rep.section("How this was made", "method")
-    rows = "".join(f"<li>{k}: {v:.1f} s</li>" for k, v in timings.items())
+    rows = "".join(f"<li>{_esc(k)}: {v:.1f} s</li>" for k, v in timings.items())
     s.raw(
         f"<p>Command: <code>{_esc(command_line(cfg))}</code>. {_plant_html(plant)} "
         "Settings:</p><ul>"
         + "".join(f"<li><code>{_esc(f'{k} = {v}')}</code></li>" for k, v in vars(cfg).items())
-        + f"</ul><p>Stage times:</p><ul>{rows}</ul>"
+        + "</ul><p>Stage times (wall clock of each stage, as the progress bar counted "
+        f"them; the report's own stage and the total are in metrics.json, timings_s):</p>"
+        f"<ul>{rows}</ul>"
     )
     _ = PAPER
     return rep
