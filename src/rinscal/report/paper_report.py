@@ -110,6 +110,7 @@ def words_uncompensated_nav(maxerr: pd.DataFrame) -> str:
             "In navigation, every method has a smaller mean maximum position error than no "
             "compensation, in every group of runs."
         )
+    paired = paired_table(maxerr, "none", list(METHODS)).set_index(["runs", "variant"])
     out = []
     for group, exps, scen in NAV_GROUPS:
         if group not in wins:
@@ -117,9 +118,23 @@ def words_uncompensated_nav(maxerr: pd.DataFrame) -> str:
         n = len(nav_group(maxerr, exps, scen))
         base = next(iter(wins[group].values()))[0]
         beaten = [f"{LABELS[m]} at {mm:.3f} nmi" for m, (_b, mm) in wins[group].items()]
+        resolved = [
+            LABELS[m] for m in wins[group] if paired.loc[(group, m), "verdict"].startswith("worse")
+        ]
+        verdicts = [str(paired.loc[(group, m), "verdict"]) for m in wins[group]]
+        how = (
+            "; too few runs for a paired interval"
+            if any(v.endswith("no interval") for v in verdicts)
+            else f"; paired run by run, the difference is resolved for {_join(resolved)} and "
+            "not resolved for the rest (their intervals contain zero)"
+            if resolved and len(resolved) < len(wins[group])
+            else "; paired run by run, the difference is resolved (its interval excludes zero)"
+            if resolved
+            else "; paired run by run, the difference is not resolved (its interval contains zero)"
+        )
         out.append(
             f"In navigation over the {group} runs (n = {n}), no compensation has a smaller "
-            f"mean maximum position error ({base:.3f} nmi) than {_join(beaten)}."
+            f"mean maximum position error ({base:.3f} nmi) than {_join(beaten)}{how}."
         )
     return " ".join(out)
 
