@@ -21,7 +21,7 @@ gyrocompass heading error
     accelerometer bias, ``φ_E = −∇_N/g``, ``φ_N = ∇_E/g``; a bias that changes makes the
     tilt change, ``φ̇_E = −∇̇_N/g``, which the gyrocompass cannot tell from a horizontal
     angular rate; it balances ``φ̇_E = Ω sin L φ_N − Ω cos L φ_U − ε_E`` at zero and so
-    hands over ``φ_U = (−ε_E + ∇̇_N/g + tan L ∇_E/g) / (Ω cos L)``. In this package's
+    hands over ``φ_U = (−ε_E + ∇̇_N/g) / (Ω cos L) + tan L ∇_E/g``. In this package's
     convention (ENU, ``C̃_nr = (I − [φ×]) C_nr``) the heading error INS minus truth,
     clockwise from north, equals ``φ_U`` (checked in ``tests/nav/test_metrics.py`` against
     the alignment filter of :mod:`rinscal.nav.align`).
@@ -130,14 +130,14 @@ def gyrocompass_heading_error(
     Returns
     -------
     float [rad]
-        ``(−ε_E + ∇̇_N/g + tan L ∇_E/g) / (Ω cos L)``: heading INS minus truth, clockwise
+        ``(−ε_E + ∇̇_N/g) / (Ω cos L) + tan L ∇_E/g``: heading INS minus truth, clockwise
         from north.
     """
     if not math.isfinite(lat) or abs(lat) >= math.pi / 2:
         raise ConfigError(f"gyrocompass: latitude must be inside (−90°, 90°), got {lat} rad")
     g = float(earth.gravity(lat, 0.0)) if g is None else float(g)
     om_n = earth.RATE * math.cos(lat)
-    return (-gyro_e + accel_rate_n / g + math.tan(lat) * accel_e / g) / om_n
+    return (-gyro_e + accel_rate_n / g) / om_n + math.tan(lat) * accel_e / g
 
 
 def max_change_within(t: ArrayLike, y: ArrayLike, window_s: float) -> NDArray[np.float64]:
