@@ -19,6 +19,8 @@ from rinscal.experiments.paper.navigation import NavRunResult
 __all__ = [
     "COLORS",
     "STYLES",
+    "VARIANT_STYLE",
+    "fig_heading_velocity",
     "fig_lab_bars",
     "fig_nav_errors",
     "fig_repeat",
@@ -206,4 +208,52 @@ def fig_temperatures(results: Sequence[NavRunResult]) -> Figure:
     ax.set_title("Navigation runs: gyro z inner temperature (solid), ambient (dotted)", fontsize=10)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, ncol=4)
+    return fig
+
+
+#: Colour and line style of every navigation variant in the mechanism figure (the oracle
+#: without turn-on offsets included); each variant has its own pair.
+VARIANT_STYLE = {
+    "none": ("#7f7f7f", "--"),
+    "poly-t": ("#9467bd", "-."),
+    "sectional": ("#d62728", (0, (5, 1))),
+    "regression": ("#1f77b4", "-"),
+    "neural": ("#2ca02c", (0, (3, 1, 1, 1))),
+    "true": ("#000000", ":"),
+    "true-no-offsets": ("#e377c2", (0, (1, 1))),
+}
+
+
+def fig_heading_velocity(results: Sequence[NavRunResult], labels: dict[str, str]) -> Figure:
+    """Heading error and horizontal velocity error against time per variant, one row per
+    run given (the report passes the first quasi-static and the first vehicle run)."""
+    fig = Figure(figsize=(10.5, 3.3 * max(1, len(results)) + 0.6), layout="constrained")
+    axes = np.atleast_2d(fig.subplots(max(1, len(results)), 2, squeeze=False))
+    handles = {}
+    for row, r in enumerate(results):
+        e = r.errors
+        t = e["time_s"].to_numpy() / units.HOUR_TO_S
+        for v, (color, ls) in VARIANT_STYLE.items():
+            if f"{v}_heading" not in e:
+                continue
+            kw = {"color": color, "ls": ls, "lw": 1.1}
+            (h,) = axes[row, 0].plot(t, e[f"{v}_heading"] / units.ARCSEC_TO_RAD, **kw)
+            axes[row, 1].plot(t, np.hypot(e[f"{v}_ve"], e[f"{v}_vn"]), **kw)
+            handles[v] = h
+        name = f"{r.job.scenario} {r.job.index}"
+        axes[row, 0].set_ylabel("heading error [″]")
+        axes[row, 0].set_title(f"{name}: heading error (INS − truth)", fontsize=10)
+        axes[row, 1].set_ylabel("horizontal velocity error [m/s]")
+        axes[row, 1].set_title(f"{name}: |velocity error|", fontsize=10)
+        for a in axes[row]:
+            a.grid(alpha=0.3)
+    for a in axes[-1]:
+        a.set_xlabel("time since power-on [h]")
+    fig.legend(
+        list(handles.values()),
+        [labels.get(v, v) for v in handles],
+        loc="outside lower center",
+        ncol=4,
+        fontsize=8,
+    )
     return fig

@@ -43,6 +43,12 @@ from rinscal.experiments.paper.config import (
     plant_info,
 )
 from rinscal.experiments.paper.imucal import IMU_VARIANT, paired_saving_table
+from rinscal.experiments.paper.mechanism import (
+    ORACLE_NO_OFFSETS,
+    ORACLE_NO_OFFSETS_LABEL,
+    mechanism_summary,
+    mechanism_tables,
+)
 from rinscal.experiments.paper.navigation import (
     NavRunResult,
     heading_error_table,
@@ -55,6 +61,7 @@ from rinscal.report.allan_plot import allan_figure
 from rinscal.report.html import Report, figure_to_png
 from rinscal.report.logplot import plot_log
 from rinscal.report.paper_figures import (
+    fig_heading_velocity,
     fig_lab_bars,
     fig_nav_errors,
     fig_repeat,
@@ -62,6 +69,7 @@ from rinscal.report.paper_figures import (
     fig_temperatures,
     fig_vehicle_track,
 )
+from rinscal.report.paper_nav_sections import MECHANISM_TABLES, nav_sections
 
 
 def _verdict(ok: bool) -> str:
@@ -528,26 +536,7 @@ def build_report(
     s.text(_temperature_words(nav, t_lo, t_hi))
     s.figure("temperatures", figures["temperatures"], "Thermal scenarios of the navigation runs")
 
-    s = rep.section("What the thermal models alone cost in navigation", "thermal-part")
-    s.text(
-        "The maximum position error mixes the thermal-model error with what no thermal model "
-        "can remove: sensor noise, the turn-on offsets and the alignment's own errors, common "
-        "to every variant of a run. Because every variant navigates on the same raw output "
-        "and the errors are linear, a variant's position error minus the oracle's (compensated "
-        "with the true thermal bias) is the error its thermal model alone causes. Its maximum "
-        "over each run, in nautical miles:"
-    )
-    s.table(
-        "thermal_part",
-        tables["thermal_part"],
-        "Maximum position error caused by the thermal-model error alone [nmi]",
-    )
-    s.table(
-        "heading_at_nav_start",
-        tables["heading_at_nav_start"],
-        "Heading error at the start of free navigation per run and variant [arcsec] "
-        "(signed; blank where the navigation summary does not report it)",
-    )
+    nav_sections(rep, tables, figures, _mechanism_summary(tables), _nav_labels())
 
     if cal.imu_cal is not None:
         _imu_section(rep, cal, tables)
@@ -612,6 +601,19 @@ def _imu_section(rep: Any, cal: CalibrationResult, tables: Mapping[str, pd.DataF
     for r in tables["imu_saving"].itertuples(index=False):
         verdicts.append(f"{r.scenario}: {r.note}")
     s.text("In words: " + "; ".join(verdicts) + ".")
+
+
+def _nav_labels() -> dict[str, str]:
+    return {**LABELS, ORACLE_NO_OFFSETS: ORACLE_NO_OFFSETS_LABEL}
+
+
+def _mechanism_summary(tables: Mapping[str, pd.DataFrame]) -> dict[str, Any] | None:
+    """:func:`mechanism_summary` of the report's tables (None without them)."""
+    if not all(t in tables for t in MECHANISM_TABLES):
+        return None
+    return mechanism_summary(
+        tables["mechanism"], tables["oracle_decomposition"], tables["modulation"]
+    )
 
 
 def command_line(cfg: ReproConfig) -> str:
@@ -734,6 +736,10 @@ def render_figures(
         ),
         "temperatures": fig_temperatures(nav),
     }
+    if nav and all(f"{v}_heading" in r.errors for r in nav for v in ("none",)):
+        figs["heading_velocity"] = fig_heading_velocity(
+            [first("lab", "quasi-static"), first("vehicle", "vehicle")], _nav_labels()
+        )
     if cal.allan_curves:
         units = {c: cal.metas["repeat"]["units"].get(c, "?") for c in cal.allan_curves}
         figs["allan"] = allan_figure(cal.allan_curves, units, title="Repeat run at 25 °C")
@@ -787,6 +793,8 @@ def reproduction_tables(
     compared = [v for v in (*VARIANTS, IMU_VARIANT) if v in maxerr]
     tables["paired_vs_none"] = paired_table(maxerr, "none", compared)
     tables["paired_vs_poly_t"] = paired_table(maxerr, "poly-t", compared)
+    if nav and all(r.mechanism for r in nav):
+        tables.update(mechanism_tables(nav))
     if cal.imu_cal is not None and nav and IMU_VARIANT in nav[0].summary.get("variants", {}):
         both = variant_table(nav, ["regression", IMU_VARIANT])
         tables["imu_nav"] = both
@@ -872,6 +880,7 @@ def write_reproduction(
         "nav_by_method": _records(tables["nav_by_method"]),
         "heading_at_nav_start_arcsec": _records(tables["heading_at_nav_start"]),
         "findings": findings(tables),
+        "mechanism": _mechanism_summary(tables),
         "selection": {m: s.to_dict() for m, s in cal.selection.items()},
     }
     if "imu_recovery" in tables:

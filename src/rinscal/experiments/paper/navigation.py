@@ -18,6 +18,7 @@ from rinscal import earth, units
 from rinscal.calibration.modelfile import ThermalModelFile
 from rinscal.cluster import dask_client
 from rinscal.experiments.paper.config import METHODS, VARIANTS, ReproConfig, load_plant
+from rinscal.experiments.paper.mechanism import ORACLE_NO_OFFSETS, alignment_mechanism
 from rinscal.nav.scenario import (
     LAB_C,
     VEHICLE_CABIN_C,
@@ -88,11 +89,15 @@ class NavRunResult:
 
     job: NavJob
     summary: dict[str, Any]
-    errors: pd.DataFrame  # time_s and horizontal_m per variant, every out_dt
+    # time_s; per variant v: v (horizontal [m]), v_east, v_north [m], v_heading [rad]
+    # (INS minus truth, clockwise), v_ve, v_vn [m/s] (velocity error), every out_dt
+    errors: pd.DataFrame
     track: pd.DataFrame | None  # vehicle: true and INS east/north per variant [m]
     temperatures: pd.DataFrame  # time_s, chamber, outer, sensor_gyro_z ... [°C]
     # per variant: the thermal model's held-out residual on this cold start (thermal_residual)
     residual: dict[str, dict[str, float]] | None = None
+    # per variant: the mechanism numbers (experiments.paper.mechanism.alignment_mechanism)
+    mechanism: dict[str, dict[str, float]] | None = None
 
 
 def alignment_config(imu: ImuConfig, total_s: float, start_s: float = 0.0) -> Any:
@@ -109,6 +114,7 @@ def run_navigation_job(
     align_s: float = 600.0,
     align_start_s: float = 0.0,
     out_dt_s: float = 10.0,
+    counterfactual: bool = False,
 ) -> NavRunResult:
     """Run one navigation job with every variant on the same raw IMU output.
 
@@ -117,6 +123,11 @@ def run_navigation_job(
     the oracle ``true`` are always navigated too. ``imu`` is the plant the
     calibration data came from; the navigation plant is built from it for the scenario
     (its chamber, duration, rate and turntable schedule) with the job's seed.
+
+    ``counterfactual`` adds the variant ``true-no-offsets``
+    (:data:`rinscal.experiments.paper.mechanism.ORACLE_NO_OFFSETS`): the true thermal
+    errors and the power-on's constant turn-on offsets removed, what noise and the
+    alignment alone give (one more navigation of the same raw output).
     """
     align = alignment_config(imu, align_s, align_start_s)
     cfg = preset(job.scenario, hours=job.hours, rate_hz=job.rate_hz, align=align)
@@ -133,12 +144,17 @@ def run_navigation_job(
     for m, text in model_texts.items():
         comps[m] = ModelCompensator(ThermalModelFile.loads(text, m), plant)
     comps["true"] = oracle_compensator(plant)
+    if counterfactual:
+        comps[ORACLE_NO_OFFSETS] = _without_offsets(plant)
     res = run_scenario(cfg, plant, comps)
     errors = pd.DataFrame({"time_s": res.errors["none"]["time_s"].to_numpy()})
     for v in comps:
         errors[v] = res.errors[v]["horizontal_m"].to_numpy()
         errors[f"{v}_east"] = res.errors[v]["east_m"].to_numpy()
         errors[f"{v}_north"] = res.errors[v]["north_m"].to_numpy()
+        errors[f"{v}_heading"] = res.errors[v]["heading_err"].to_numpy()
+        errors[f"{v}_ve"] = res.errors[v]["v_e_err"].to_numpy()
+        errors[f"{v}_vn"] = res.errors[v]["v_n_err"].to_numpy()
     track = None
     if job.scenario == "vehicle":
         lat0 = np.deg2rad(res.truth["lat_deg"].iloc[0])
@@ -160,8 +176,22 @@ def run_navigation_job(
     temps = temperature_frame(plant, step_s=60.0)
     grid = np.arange(cfg.align_start_s, float(plant.field.t[-1]) - 1.0, 1.0)
     truth = plant.thermal_bias(grid)
-    residual = {v: thermal_residual(_estimate_on(c, grid, truth), truth) for v, c in comps.items()}
-    return NavRunResult(job, res.summary(), errors, track, temps, residual)
+    estimates = {v: _estimate_on(c, grid, truth) for v, c in comps.items()}
+    residual = {v: thermal_residual(est, truth) for v, est in estimates.items()}
+    mech = alignment_mechanism(
+        cfg, grid, {v: truth - est for v, est in estimates.items()}, plant.offsets
+    )
+    return NavRunResult(job, res.summary(), errors, track, temps, residual, mech)
+
+
+def _without_offsets(plant: ThermalPlant) -> Any:
+    """The oracle plus the run's turn-on offsets, as a compensator (see
+    :func:`run_navigation_job`'s ``counterfactual``)."""
+
+    def comp(t: np.ndarray, omega_r: np.ndarray, f_r: np.ndarray) -> np.ndarray:
+        return plant.oracle(t, omega_r, f_r) + plant.offsets
+
+    return comp
 
 
 def _estimate_on(comp: Any, grid: np.ndarray, truth: np.ndarray) -> np.ndarray:
@@ -240,7 +270,7 @@ def navigation_stage(
     texts.update({m: json.dumps(mf.to_dict()) for m, mf in (extra or {}).items()})
     jobs = navigation_jobs(cfg)
     alignment_config(imu, cfg.align_s, cfg.align_start_s)  # refuse bad settings before forking
-    args = (texts, imu, cfg.align_s, cfg.align_start_s)
+    args = (texts, imu, cfg.align_s, cfg.align_start_s, 10.0, True)
     results: list[NavRunResult] = []
     if cfg.jobs == 1:
         for job in jobs:
