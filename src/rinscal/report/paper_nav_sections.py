@@ -39,7 +39,12 @@ def _shown(df: pd.DataFrame, labels: Mapping[str, str]) -> pd.DataFrame:
 
 
 def _f(x: float, spec: str = ".3g") -> str:
-    return "n/a" if x is None or not math.isfinite(x) else format(x, spec)
+    """3 significant digits, never in exponent notation (1310, not 1.31e+03)."""
+    if x is None or not math.isfinite(x):
+        return "n/a"
+    if spec == ".3g" and abs(x) >= 1000:
+        return f"{x:,.0f}"
+    return format(x, spec)
 
 
 def oracle_loss_words(loss: Mapping[str, Any]) -> str:
