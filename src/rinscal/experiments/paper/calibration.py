@@ -36,6 +36,15 @@ from rinscal.calibration.selection.heldout import SelectionResult, select_model
 from rinscal.calibration.thermal.features import MissingGradientWarning
 from rinscal.calibration.thermal.model import ThermalModel
 from rinscal.experiments.paper.config import METHODS, ReproConfig, load_plant
+from rinscal.experiments.paper.paper_tables import (
+    ramp_outside_training,
+    regression_recovery,
+    selection_vs_paper,
+    table4_vs_paper,
+    table6_vs_paper,
+    table8_vs_paper,
+    table9_vs_paper,
+)
 from rinscal.experiments.paper.imucal import IMU_VARIANT, imu_calibration_stage, imu_thermal_model
 from rinscal.io.mapping import ColumnMapping
 from rinscal.io.tables import read_log
@@ -51,6 +60,7 @@ __all__ = [
     "fit_all",
     "heldout_table",
     "heldout_tables",
+    "paper_comparison_tables",
     "real_log_legs",
     "real_log_table",
     "repeat_curves",
@@ -486,6 +496,44 @@ def selection_table(sel: SelectionResult, paper_key: str | None = None) -> pd.Da
     return df
 
 
+def paper_comparison_tables(res: CalibrationResult, cfg: ReproConfig) -> dict[str, pd.DataFrame]:
+    """Tables 4-9 beside the paper's values and the true plant's, in physical units
+    (:mod:`rinscal.experiments.paper.paper_tables`), the coefficient recovery of method 2
+    and the share of the ramp outside the training range.
+
+    Returns
+    -------
+    dict of str to DataFrame
+        ``table4_accel_x``, ``table4_gyro_x`` (the paper's grid, paper and ours),
+        ``table5_accel``, ``table5_gyro``, ``table7_accel``, ``table7_gyro`` (RMS against
+        the paper's and the noise floor), ``table6_accel``, ``table6_gyro`` (paper, true
+        plant, ours), ``table8_accel_x``, ``table8_gyro_x`` (network weights),
+        ``table9`` (turntable conditions), ``coefficient_recovery`` (method 2 against the
+        plant, with bootstrap intervals) and ``ramp_outside_training`` (one row: fractions
+        of the ramp's samples outside the soak range per input and for any input).
+    """
+    imu = res.imu
+    out: dict[str, pd.DataFrame] = {}
+    for c, df in table4_vs_paper(res.models).items():
+        out[f"table4_{c}"] = df
+    for key, method in (("table5", "regression"), ("table7", "neural")):
+        t = selection_vs_paper(res.selection[method], imu, cfg.cal_rate_hz, key)
+        for sensor in ("accel", "gyro"):
+            out[f"{key}_{sensor}"] = t[t["sensor"] == sensor].drop(columns="sensor")
+    t6 = table6_vs_paper(res.models, imu)
+    for sensor in ("accel", "gyro"):
+        out[f"table6_{sensor}"] = t6[t6["sensor"] == sensor].drop(columns="sensor")
+    for c, df in table8_vs_paper(res.models).items():
+        out[f"table8_{c}"] = df
+    out["table9"] = table9_vs_paper()
+    out["coefficient_recovery"] = regression_recovery(
+        res.logs["soak"], res.truths["soak"], res.models["regression"], imu, seed=cfg.seed
+    )
+    frac = ramp_outside_training(res.logs["soak"], res.logs["ramp"], res.models["regression"])
+    out["ramp_outside_training"] = pd.DataFrame([frac])
+    return out
+
+
 def calibration_stage(
     cfg: ReproConfig,
     imu: ImuConfig | None = None,
@@ -530,6 +578,8 @@ def calibration_stage(
     res.tables.update(coefficient_tables(models))
     res.tables["table5"] = selection_table(sel_reg)
     res.tables["table7"] = selection_table(sel_nn)
+    note("the paper's tables beside ours; coefficient recovery")
+    res.tables.update(paper_comparison_tables(res, cfg))
     residual, steps = heldout_tables(
         models,
         {"repeat": logs["repeat"], "ramp": logs["ramp"]},
