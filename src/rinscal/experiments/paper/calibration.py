@@ -36,16 +36,19 @@ from rinscal.calibration.selection.heldout import SelectionResult, select_model
 from rinscal.calibration.thermal.features import MissingGradientWarning
 from rinscal.calibration.thermal.model import ThermalModel
 from rinscal.experiments.paper.config import METHODS, ReproConfig, load_plant
+from rinscal.experiments.paper.imucal import IMU_VARIANT, imu_calibration_stage, imu_thermal_model
 from rinscal.experiments.paper.paper_tables import (
+    allan_by_sensor,
+    noise_floor,
     ramp_outside_training,
     regression_recovery,
     selection_vs_paper,
+    step_noise_sd,
     table4_vs_paper,
     table6_vs_paper,
     table8_vs_paper,
     table9_vs_paper,
 )
-from rinscal.experiments.paper.imucal import IMU_VARIANT, imu_calibration_stage, imu_thermal_model
 from rinscal.io.mapping import ColumnMapping
 from rinscal.io.tables import read_log
 from rinscal.schema import CHANNELS, RUN
@@ -586,12 +589,25 @@ def calibration_stage(
         {"repeat": truths["repeat"], "ramp": truths["ramp"]},
     )
     res.tables["heldout_residual"] = residual
+    floor = noise_floor(imu, cfg.cal_rate_hz)
+    window = StepConfig().window_s
+    steps["output step noise sd"] = [
+        step_noise_sd(floor[c], cfg.cal_rate_hz, window) for c in steps["channel"]
+    ]
     res.tables["repeat_steps"] = steps[steps["log"] == "repeat"].drop(columns="log")
     res.tables["ramp_steps"] = steps[steps["log"] == "ramp"].drop(columns="log")
-    res.repeat_curves = repeat_curves(models, logs["repeat"])
+    for sensor in ("accel", "gyro"):
+        chans = [c for c in CHANNELS if c.startswith(sensor)]
+        res.tables[f"heldout_residual_{sensor}"] = residual[["log", "method", *chans]]
+        for name in ("repeat_steps", "ramp_steps"):
+            t = res.tables[name]
+            res.tables[f"{name}_{sensor}"] = t[t["channel"].isin(chans)]
+    res.repeat_curves = repeat_curves(models, logs["repeat"], truth=truths["repeat"])
     note("Allan deviation of the repeat run")
     allan, curves = allan_table(logs["repeat"], models["regression"], "clamp")
     res.tables["allan_repeat"] = allan.drop(columns=["rate_hz"])
+    for sensor, t in allan_by_sensor(res.tables["allan_repeat"]).items():
+        res.tables[f"allan_repeat_{sensor}"] = t
     res.allan_curves = next(iter(curves.values()), None)
     note("IMU calibration (19 positions and rate tests at 5 set points)")
     res.imu_cal = imu_calibration_stage(cfg, imu)
@@ -602,10 +618,16 @@ def calibration_stage(
 
 
 def repeat_curves(
-    models: Mapping[str, ThermalModelFile], log: pd.DataFrame, bin_s: float = 60.0
+    models: Mapping[str, ThermalModelFile],
+    log: pd.DataFrame,
+    bin_s: float = 60.0,
+    truth: pd.DataFrame | None = None,
 ) -> pd.DataFrame:
     """x-axis outputs of the repeat run before and after each compensation, in bins of
-    ``bin_s`` [s] (Figures 7 and 8): ``time_s, temp_<ch>, raw_<ch>, <method>_<ch>``."""
+    ``bin_s`` [s] (Figures 7 and 8): ``time_s, temp_<ch>, raw_<ch>, <method>_<ch>``; with
+    ``truth`` (the run's true thermal bias, row for row) also ``resid_<method>_<ch>``, the
+    noise-free thermal residual (model's bias − true bias, log units) that a segment
+    edge's step shows in without the sensor noise."""
     t = log["time_s"].to_numpy()
     # time stamps end their sample interval: (t − ε) keeps the last sample in the last bin
     bins = np.floor((t - 1e-9) / bin_s).astype(int)
@@ -627,4 +649,7 @@ def repeat_curves(
             j = model.channels.index(c)
             ref = model.models[c].static_reference or 0.0
             cols[f"{m}_{c}"] = binned(y - (f[:, j] - ref))
+            if truth is not None:
+                tb = truth[f"bias_{c}"].to_numpy(dtype=float)
+                cols[f"resid_{m}_{c}"] = binned(f[:, j] - ref - tb)
     return pd.DataFrame(cols)

@@ -35,7 +35,7 @@ import numpy as np
 import pandas as pd
 
 from rinscal import earth, units
-from rinscal.calibration.compensate import model_features
+from rinscal.calibration.compensate import model_features, predict_log
 from rinscal.calibration.inference import raw_polynomial
 from rinscal.calibration.modelfile import ThermalModelFile
 from rinscal.calibration.selection.heldout import SelectionResult
@@ -51,6 +51,7 @@ from rinscal.thermal.config import ImuConfig
 
 __all__ = [
     "INPUTS",
+    "allan_by_sensor",
     "coefficient_unit",
     "noise_floor",
     "paper_pulse_scales",
@@ -59,6 +60,7 @@ __all__ = [
     "regression_recovery",
     "selection_vs_paper",
     "sensor_unit",
+    "step_noise_sd",
     "table4_vs_paper",
     "table6_vs_paper",
     "table8_vs_paper",
@@ -123,6 +125,50 @@ def noise_floor(imu: ImuConfig, rate_hz: float) -> dict[str, float]:
     return {c: float(d / s) for c, d, s in zip(CHANNELS, dens, scale, strict=True)}
 
 
+def step_noise_sd(floor: float, rate_hz: float, window_s: float) -> float:
+    """Standard deviation of a step measured on white noise alone [unit of ``floor``].
+
+    A step at a crossing is the difference of two straight lines, fitted on ``window_s``
+    before and after it and each extrapolated to the crossing: a line fitted to ``n``
+    evenly spaced samples of noise ``σ`` has variance ``σ²(1/n + 3/n) = 4σ²/n`` at the end
+    of its window, so the difference has ``σ √(8/n)`` with ``n = window_s · rate_hz``.
+    """
+    n = window_s * rate_hz
+    return float(floor * math.sqrt(8.0 / n))
+
+
+def allan_by_sensor(allan: pd.DataFrame) -> dict[str, pd.DataFrame]:
+    """The Allan noise parameters of :func:`rinscal.calibration.evaluate.allan_table` (log
+    units deg/h and ug) per sensor, each in the unit its data sheet uses.
+
+    Gyros: N, the angle random walk [°/√h] (= N [(°/h)·√s] / 60), B [°/h], K, the rate
+    random walk [°/h/√h] (= K [(°/h)/√s] · 60). Accelerometers: N, the velocity random walk
+    [µg/√Hz] (= µg·√s), B [µg], K [µg/√s].
+
+    Returns
+    -------
+    dict of str to DataFrame
+        ``gyro`` and ``accel``: ``axis, output, N [...], B [...], τ(B) [s], K [...]``.
+    """
+    out = {}
+    for sensor, n_name, n_k, b_name, k_name, k_k in (
+        ("gyro", "N [°/√h]", 1.0 / 60.0, "B [°/h]", "K [°/h/√h]", 60.0),
+        ("accel", "N [µg/√Hz]", 1.0, "B [µg]", "K [µg/√s]", 1.0),
+    ):
+        t = allan[allan["channel"].str.startswith(sensor)]
+        out[sensor] = pd.DataFrame(
+            {
+                "axis": t["channel"].str.split("_").str[1].to_numpy(),
+                "output": t["output"].to_numpy(),
+                n_name: t["n"].to_numpy(dtype=float) * n_k,
+                b_name: t["b"].to_numpy(dtype=float),
+                "τ(B) [s]": t["b_tau_s"].to_numpy(dtype=float),
+                k_name: t["k"].to_numpy(dtype=float) * k_k,
+            }
+        )
+    return out
+
+
 # --------------------------------------------------------------------------- the plant's law
 def plant_coefficients(imu: ImuConfig, channel: str) -> dict[str, float] | None:
     """The plant's thermal-bias polynomial of a channel in the paper's raw form.
@@ -183,11 +229,20 @@ def table4_vs_paper(models: Mapping[str, ThermalModelFile]) -> dict[str, pd.Data
         segs = [_flat(s) for s in raw["segments"]]
         n = len(segs)
         cols = [f"S{k + 1}" for k in range(max(n, 7))]
-        rows = []
+        rows: list[dict[str, Any]] = []
 
-        def row(term: str, unit: str, source: str, vals: Any, cols: list[str] = cols) -> None:
+        def row(
+            term: str,
+            unit: str,
+            source: str,
+            vals: Any,
+            cols: list[str] = cols,
+            rows: list[dict[str, Any]] = rows,
+        ) -> None:
             v = list(vals) + [float("nan")] * (len(cols) - len(vals))
-            rows.append({"term": term, "unit": unit, "source": source, **dict(zip(cols, v))})
+            rows.append(
+                {"term": term, "unit": unit, "source": source, **dict(zip(cols, v, strict=True))}
+            )
 
         row("upper edge", "°C", "paper", [*paper["edges"], float("nan")])
         row("upper edge", "°C", "ours", [*map(float, raw["edges"]), float("nan")])
@@ -249,9 +304,7 @@ def selection_vs_paper(
 
 
 # --------------------------------------------------------------------------- Table 6
-def table6_vs_paper(
-    models: Mapping[str, ThermalModelFile], imu: ImuConfig | None
-) -> pd.DataFrame:
+def table6_vs_paper(models: Mapping[str, ThermalModelFile], imu: ImuConfig | None) -> pd.DataFrame:
     """Table 6 as a grid per sensor: one row per coefficient and source (paper, true
     plant, ours), one column per axis (x, y, z), physical units.
 
@@ -511,7 +564,7 @@ def regression_recovery(
             f"{level:.0%} percentile interval of {n_boot} bootstrap refits, the soak runs' "
             "residual series resampled whole"
         ),
-        n_runs=int(len(np.unique(runs))),
+        n_runs=len(np.unique(runs)),
         corr_rate_grad=corr,
         cond=cond,
     )
@@ -521,22 +574,23 @@ def regression_recovery(
 def ramp_outside_training(
     train_log: pd.DataFrame, ramp_log: pd.DataFrame, model: ThermalModelFile
 ) -> dict[str, float]:
-    """Fraction of the ramp's samples whose inputs leave the training range.
+    """Fraction of the ramp's samples whose inputs leave the training data.
 
-    Per input (``T``, ``Ṫ``, ``ΔT``) and for any of them (``any``), the share of the ramp
-    log's rows, over every channel of ``model``, outside the [min, max] of the same input
-    on the training log: there a clamped model holds its edge value, so Figure 9 tests the
-    clamp more than the model.
+    Per input (``T``, ``Ṫ``, ``ΔT``): the share of the ramp's samples, over every channel
+    of ``model``, outside that input's [min, max] on the training log. ``flagged``: the
+    share of the ramp's rows the model itself flags (:func:`rinscal.calibration.compensate.
+    predict_log`'s ``out_of_range``, any channel): an input outside its range or the
+    combination (T, Ṫ, ΔT) outside the joint domain of the training data. There a clamped
+    model does not model, it holds its edge, so Figure 9 tests the clamp more than the model.
 
     Returns
     -------
     dict of str to float
-        ``T``, ``Ṫ``, ``ΔT`` (absent without a gradient) and ``any``, each in [0, 1].
+        ``T``, ``Ṫ``, ``ΔT`` (absent without a gradient) and ``flagged``, each in [0, 1].
     """
     tr = model_features(train_log, model)
     te = model_features(ramp_log, model)
     out: dict[str, float] = {}
-    any_out = np.zeros(te.temp.shape, dtype=bool)
     for name, a, b in (
         ("T", tr.temp, te.temp),
         ("Ṫ", tr.rate, te.rate),
@@ -545,8 +599,7 @@ def ramp_outside_training(
         if a is None or b is None:
             continue
         lo, hi = np.nanmin(a, axis=0), np.nanmax(a, axis=0)
-        outside = (b < lo) | (b > hi)
-        any_out |= outside
-        out[name] = float(outside.mean())
-    out["any"] = float(any_out.mean())
+        out[name] = float(((b < lo) | (b > hi)).mean())
+    _, flag = predict_log(ramp_log, model, policy="clamp")
+    out["flagged"] = float(np.asarray(flag).reshape(len(ramp_log), -1).any(axis=1).mean())
     return out
