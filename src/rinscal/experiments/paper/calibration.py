@@ -549,7 +549,13 @@ def calibration_stage(
     ``table7`` (training and held-out RMS per setting), ``heldout_residual`` (thermal
     residual on the repeat and ramp runs, per method), ``repeat_steps`` (steps at the
     segment edges on the repeat run), ``allan_repeat`` (IEEE Std 952 noise parameters of the
-    repeat run's raw and method-2-compensated output).
+    repeat run's raw and method-2-compensated output; ``allan_repeat_gyro`` and
+    ``allan_repeat_accel`` in each sensor's data-sheet units), the per-sensor splits
+    ``heldout_residual_<sensor>``, ``repeat_steps_<sensor>``, ``ramp_steps_<sensor>`` (the
+    steps with ``output step noise sd``, the white-noise scatter of the step measurement),
+    and everything of :func:`paper_comparison_tables` (Tables 4-9 beside the paper and the
+    true plant, ``coefficient_recovery``, ``ramp_outside_training``), which replaces
+    ``table4_*`` and ``table8_*`` with the side-by-side grids.
     """
     imu = imu or load_plant(cfg.imu)
     note = step or (lambda _msg: None)
