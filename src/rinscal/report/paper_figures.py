@@ -63,11 +63,20 @@ def fig_repeat(cal: CalibrationResult) -> Figure:
         marks = [ax]
         if has_resid:
             axr = axes[row, 1]
+            late = t > 10.0  # the first minutes' transient would hide a step of a few µg
+            span = []
             for m in METHODS:
                 y = df[f"resid_{m}_{c}"]
-                axr.plot(t, y - y.mean(), color=COLORS[m], label=LABELS[m], lw=1.2)
+                y = (y - y.mean()).to_numpy()
+                axr.plot(t, y, color=COLORS[m], label=LABELS[m], lw=1.2)
+                span.append(y[late & np.isfinite(y)])
+            both = np.concatenate(span) if span else np.zeros(0)
+            if both.size:
+                lo, hi = float(both.min()), float(both.max())
+                pad = 0.1 * (hi - lo) or 1.0
+                axr.set_ylim(lo - pad, hi + pad)
             axr.set_ylabel(f"model − true bias, run mean removed [{unit}]")
-            axr.set_title(f"{c}: thermal residual, noise-free", fontsize=10)
+            axr.set_title(f"{c}: thermal residual, noise-free (y range from 10 min)", fontsize=10)
             axr.grid(alpha=0.3)
             marks.append(axr)
         ax2 = axes[row, ncol - 1]
