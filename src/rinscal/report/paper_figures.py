@@ -41,12 +41,16 @@ STYLES = {"true": ":", "none": "--"}
 
 
 def fig_repeat(cal: CalibrationResult) -> Figure:
-    """Figures 7 and 8: x-axis outputs of the repeat run before and after compensation."""
+    """Figures 7 and 8: x-axis outputs of the repeat run before and after compensation
+    (60 s means), the noise-free thermal residual of each model (where a segment edge's
+    step shows without the sensor noise) and the inner temperature."""
     df = cal.repeat_curves
     assert df is not None
     edges = np.asarray(cal.models["sectional"].models["accel_x"].segment_edges, dtype=float)
-    fig = Figure(figsize=(11, 6.5), layout="constrained")
-    axes = fig.subplots(2, 2, sharex=True)
+    has_resid = any(k.startswith("resid_") for k in df.columns)
+    ncol = 3 if has_resid else 2
+    fig = Figure(figsize=(13 if has_resid else 11, 6.5), layout="constrained")
+    axes = fig.subplots(2, ncol, sharex=True)
     t = df["time_s"].to_numpy() / 60.0
     for row, (c, unit) in enumerate((("accel_x", "µg"), ("gyro_x", "°/h"))):
         ax = axes[row, 0]
@@ -56,19 +60,39 @@ def fig_repeat(cal: CalibrationResult) -> Figure:
         for m in METHODS:
             y = df[f"{m}_{c}"]
             ax.plot(t, y - y.mean(), color=COLORS[m], label=LABELS[m], lw=1.0)
-        ax.set_ylabel(f"{c} output − run mean [{unit}]")
-        ax.set_title(f"{c}: output of the repeat cold start at 25 °C (60 s means)", fontsize=10)
+        ax.set_ylabel(f"output − run mean [{unit}]")
+        ax.set_title(f"{c}: output, 60 s means (noisy)", fontsize=10)
         ax.grid(alpha=0.3)
-        ax2 = axes[row, 1]
+        marks = [ax]
+        if has_resid:
+            axr = axes[row, 1]
+            late = t > 10.0  # the first minutes' transient would hide a step of a few µg
+            span = []
+            for m in METHODS:
+                y = df[f"resid_{m}_{c}"]
+                y = (y - y.mean()).to_numpy()
+                axr.plot(t, y, color=COLORS[m], label=LABELS[m], lw=1.2)
+                span.append(y[late & np.isfinite(y)])
+            both = np.concatenate(span) if span else np.zeros(0)
+            if both.size:
+                lo, hi = float(both.min()), float(both.max())
+                pad = 0.1 * (hi - lo) or 1.0
+                axr.set_ylim(lo - pad, hi + pad)
+            axr.set_ylabel(f"model − true bias, run mean removed [{unit}]")
+            axr.set_title(f"{c}: thermal residual, noise-free (y range from 10 min)", fontsize=10)
+            axr.grid(alpha=0.3)
+            marks.append(axr)
+        ax2 = axes[row, ncol - 1]
         ax2.plot(t, df[f"temp_{c}"], color="#444")
+        marks.append(ax2)
         for e in edges:
             if df[f"temp_{c}"].min() < e < df[f"temp_{c}"].max():
                 ax2.axhline(e, color=COLORS["sectional"], ls="--", lw=0.8)
                 k = int(np.argmax(df[f"temp_{c}"].to_numpy() > e))
-                for a in (ax, ax2):
+                for a in marks:
                     a.axvline(t[k], color=COLORS["sectional"], ls="--", lw=0.8)
-        ax2.set_ylabel(f"temp_{c} [°C]")
-        ax2.set_title("inner temperature; dashed: a sectional segment edge", fontsize=10)
+        ax2.set_ylabel(f"inner temperature, {c} [°C]")
+        ax2.set_title("dashed: a sectional segment edge", fontsize=10)
         ax2.grid(alpha=0.3)
     axes[0, 0].legend(fontsize=8, ncol=2)
     for a in axes[1]:
@@ -96,6 +120,18 @@ def fig_selection(cal: CalibrationResult) -> Figure:
                     v = s.loc[s["setting"] == rec, "rms_heldout"]
                     if len(v):
                         ax.plot([rec], [float(v.iloc[0])], "*", ms=14, color=color)
+            key = ("table5_" if method == "regression" else "table7_") + (
+                "accel" if row == 0 else "gyro"
+            )
+            floor = cal.tables.get(key)
+            if floor is not None and len(floor):
+                ax.axhline(
+                    float(floor["noise floor"].iloc[0]),
+                    color="#444",
+                    ls=":",
+                    lw=1.2,
+                    label="noise floor",
+                )
             what = "order p = q = s" if method == "regression" else "hidden neurons n"
             unit = "µg" if row == 0 else "°/h"
             ax.set_xlabel(what)

@@ -60,6 +60,7 @@ from rinscal.io.atomic import write_atomic
 from rinscal.report.allan_plot import allan_figure
 from rinscal.report.html import Report, figure_to_png
 from rinscal.report.logplot import plot_log
+from rinscal.report.paper_cal_sections import add_calibration_sections
 from rinscal.report.paper_figures import (
     fig_heading_velocity,
     fig_lab_bars,
@@ -376,86 +377,7 @@ def build_report(
     )
     s.figure("soak", figures["soak"], "Figure 3: outputs and temperatures of the soak runs")
 
-    s = rep.section("Method 1: sectional polynomial (Table 4)", "method1")
-    for c in ("accel_x", "gyro_x"):
-        s.table(
-            f"table4_{c}",
-            tables[f"table4_{c}"],
-            f"Table 4 ({c}): coefficients per temperature segment, raw powers of T [°C] "
-            "and Ṫ [°C/min], log units (µg or °/h)",
-        )
-
-    s = rep.section("Method 2: multiple regression (Tables 5, 6)", "method2")
-    s.text(
-        "Table 5 with an honest twist: besides the RMS on the training runs (the paper's "
-        "number) we give the RMS on each run when that run was left out of the fit. RMS is "
-        "Eq. 16 about each run's mean, in µg and °/h."
-    )
-    s.table("table5", tables["table5"], "Table 5: training and held-out RMS, orders 1-4")
-    s.table("table6", tables["table6"], "Table 6: regression coefficients, raw powers, log units")
-
-    s = rep.section("Method 3: BP neural network (Tables 7, 8)", "method3")
-    s.table("table7", tables["table7"], "Table 7: training and held-out RMS, 1-8 hidden neurons")
-    for c in ("accel_x", "gyro_x"):
-        s.table(
-            f"table8_{c}",
-            tables[f"table8_{c}"],
-            f"Table 8 ({c}): weights on standardised inputs and output",
-        )
-    rec = {
-        m: ", ".join(f"{c} {v}" for c, v in cal.selection[m].recommended.items())
-        for m in ("regression", "neural")
-    }
-    s.text(
-        "The figure below draws Tables 5 and 7 as curves, to show whether a larger model "
-        "generalises: training RMS (solid) can only fall as the model grows, the "
-        "leave-one-run-out RMS (dashed) is what a new run would see; the star marks the "
-        f"setting recommended on held-out RMS (regression order: {rec['regression']}; "
-        f"hidden neurons: {rec['neural']})."
-    )
-    s.figure("selection", figures["selection"], "Tables 5 and 7 as curves")
-
-    s = rep.section("Held-out runs: repeat start and chamber ramp (Figures 7, 8)", "heldout")
-    s.text(
-        "Thermal residual: the model's prediction minus the plant's true thermal bias, each "
-        "run's mean removed (a turn-on offset is not a thermal effect). The 'none' row is the "
-        "true thermal bias itself. Units µg and °/h."
-    )
-    s.table(
-        "heldout_residual", tables["heldout_residual"], "Held-out thermal residual RMS per channel"
-    )
-    for w in words[:-1]:
-        s.text(w)
-    s.table(
-        "repeat_steps",
-        tables["repeat_steps"],
-        "Steps at the sectional segment edges on the repeat run: the model's own jump "
-        "(noise-free) and the compensated output's (line fits, noisy)",
-    )
-    s.table(
-        "ramp_steps",
-        tables["ramp_steps"],
-        "The same on the chamber ramp (every ramp sample lies outside the soak training range "
-        "in ΔT; inputs are clamped to it)",
-    )
-    s.text(_repeat_words(tables["repeat_steps"]))
-    s.figure("repeat", figures["repeat"], "Figures 7 and 8: repeat cold start at 25 °C")
-    if "allan" in figures:
-        s.text(
-            "Noise parameters of the repeat run before and after method 2, read from its "
-            "overlapping Allan deviation by the IEEE Std 952 slopes: N, the angle or velocity "
-            "random walk (σ at τ = 1 s on the −½ line, unit·√s), B, the bias instability (the "
-            "flat minimum ÷ 0.664, at τ(B)), K, the rate random walk (σ at τ = 3 s on the +½ "
-            "line, unit/√s); empty where the curve has no region of that slope."
-        )
-        s.table("allan_repeat", tables["allan_repeat"], "Allan deviation noise parameters")
-        s.text(
-            "The figure below draws those Allan deviations, raw and compensated, per channel. "
-            "Compensation acts at long averaging times: the thermal drift that bends a raw "
-            "curve upwards there is what it removes; the white noise (the −½ slope at short "
-            "times) is untouched."
-        )
-        s.figure("allan", figures["allan"], "Allan deviation of the repeat run, raw and method 2")
+    add_calibration_sections(rep, cal, tables, figures, words[:-1])
 
     ramp = [r for r in nav if r.job.experiment == "ramp"]
     s = rep.section("Navigation in the chamber ramp (Figure 9)", "ramp")
@@ -638,19 +560,6 @@ def _maxerr_from(tables: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
         if key in tables:
             parts.append(tables[key].assign(experiment=exp))
     return pd.concat(parts, ignore_index=True)
-
-
-def _repeat_words(steps: pd.DataFrame) -> str:
-    acc = steps[steps["channel"].str.startswith("accel")]
-    big = acc.groupby("method")["model_step"].max()
-    parts = [f"{LABELS[m]} {big[m]:.2g} µg" for m in METHODS if m in big and np.isfinite(big[m])]
-    return (
-        "The figure below shows the x outputs of the held-out repeat cold start at 25 °C "
-        "before and after each compensation, with the inner temperature beside them and the "
-        "sectional model's segment edges dashed, to show the step the paper's Figure 7 "
-        "points at: the largest model step where the temperature crosses an edge, on the "
-        f"accelerometers, is {_join(parts)}."
-    )
 
 
 def _lab_bars_words(lab: pd.DataFrame) -> str:

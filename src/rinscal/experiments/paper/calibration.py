@@ -37,6 +37,18 @@ from rinscal.calibration.thermal.features import MissingGradientWarning
 from rinscal.calibration.thermal.model import ThermalModel
 from rinscal.experiments.paper.config import METHODS, ReproConfig, load_plant
 from rinscal.experiments.paper.imucal import IMU_VARIANT, imu_calibration_stage, imu_thermal_model
+from rinscal.experiments.paper.paper_tables import (
+    allan_by_sensor,
+    noise_floor,
+    ramp_outside_training,
+    regression_recovery,
+    selection_vs_paper,
+    step_noise_sd,
+    table4_vs_paper,
+    table6_vs_paper,
+    table8_vs_paper,
+    table9_vs_paper,
+)
 from rinscal.io.mapping import ColumnMapping
 from rinscal.io.tables import read_log
 from rinscal.schema import CHANNELS, RUN
@@ -51,6 +63,7 @@ __all__ = [
     "fit_all",
     "heldout_table",
     "heldout_tables",
+    "paper_comparison_tables",
     "real_log_legs",
     "real_log_table",
     "repeat_curves",
@@ -486,6 +499,44 @@ def selection_table(sel: SelectionResult, paper_key: str | None = None) -> pd.Da
     return df
 
 
+def paper_comparison_tables(res: CalibrationResult, cfg: ReproConfig) -> dict[str, pd.DataFrame]:
+    """Tables 4-9 beside the paper's values and the true plant's, in physical units
+    (:mod:`rinscal.experiments.paper.paper_tables`), the coefficient recovery of method 2
+    and the share of the ramp outside the training range.
+
+    Returns
+    -------
+    dict of str to DataFrame
+        ``table4_accel_x``, ``table4_gyro_x`` (the paper's grid, paper and ours),
+        ``table5_accel``, ``table5_gyro``, ``table7_accel``, ``table7_gyro`` (RMS against
+        the paper's and the noise floor), ``table6_accel``, ``table6_gyro`` (paper, true
+        plant, ours), ``table8_accel_x``, ``table8_gyro_x`` (network weights),
+        ``table9`` (turntable conditions), ``coefficient_recovery`` (method 2 against the
+        plant, with bootstrap intervals) and ``ramp_outside_training`` (one row: fractions
+        of the ramp's samples outside the soak range per input and for any input).
+    """
+    imu = res.imu
+    out: dict[str, pd.DataFrame] = {}
+    for c, df in table4_vs_paper(res.models).items():
+        out[f"table4_{c}"] = df
+    for key, method in (("table5", "regression"), ("table7", "neural")):
+        t = selection_vs_paper(res.selection[method], imu, cfg.cal_rate_hz, key)
+        for sensor in ("accel", "gyro"):
+            out[f"{key}_{sensor}"] = t[t["sensor"] == sensor].drop(columns="sensor")
+    t6 = table6_vs_paper(res.models, imu)
+    for sensor in ("accel", "gyro"):
+        out[f"table6_{sensor}"] = t6[t6["sensor"] == sensor].drop(columns="sensor")
+    for c, df in table8_vs_paper(res.models).items():
+        out[f"table8_{c}"] = df
+    out["table9"] = table9_vs_paper()
+    out["coefficient_recovery"] = regression_recovery(
+        res.logs["soak"], res.truths["soak"], res.models["regression"], imu, seed=cfg.seed
+    )
+    frac = ramp_outside_training(res.logs["soak"], res.logs["ramp"], res.models["regression"])
+    out["ramp_outside_training"] = pd.DataFrame([frac])
+    return out
+
+
 def calibration_stage(
     cfg: ReproConfig,
     imu: ImuConfig | None = None,
@@ -498,7 +549,13 @@ def calibration_stage(
     ``table7`` (training and held-out RMS per setting), ``heldout_residual`` (thermal
     residual on the repeat and ramp runs, per method), ``repeat_steps`` (steps at the
     segment edges on the repeat run), ``allan_repeat`` (IEEE Std 952 noise parameters of the
-    repeat run's raw and method-2-compensated output).
+    repeat run's raw and method-2-compensated output; ``allan_repeat_gyro`` and
+    ``allan_repeat_accel`` in each sensor's data-sheet units), the per-sensor splits
+    ``heldout_residual_<sensor>``, ``repeat_steps_<sensor>``, ``ramp_steps_<sensor>`` (the
+    steps with ``output step noise sd``, the white-noise scatter of the step measurement),
+    and everything of :func:`paper_comparison_tables` (Tables 4-9 beside the paper and the
+    true plant, ``coefficient_recovery``, ``ramp_outside_training``), which replaces
+    ``table4_*`` and ``table8_*`` with the side-by-side grids.
     """
     imu = imu or load_plant(cfg.imu)
     note = step or (lambda _msg: None)
@@ -530,18 +587,33 @@ def calibration_stage(
     res.tables.update(coefficient_tables(models))
     res.tables["table5"] = selection_table(sel_reg)
     res.tables["table7"] = selection_table(sel_nn)
+    note("the paper's tables beside ours; coefficient recovery")
+    res.tables.update(paper_comparison_tables(res, cfg))
     residual, steps = heldout_tables(
         models,
         {"repeat": logs["repeat"], "ramp": logs["ramp"]},
         {"repeat": truths["repeat"], "ramp": truths["ramp"]},
     )
     res.tables["heldout_residual"] = residual
+    floor = noise_floor(imu, cfg.cal_rate_hz)
+    window = StepConfig().window_s
+    steps["output step noise sd"] = [
+        step_noise_sd(floor[c], cfg.cal_rate_hz, window) for c in steps["channel"]
+    ]
     res.tables["repeat_steps"] = steps[steps["log"] == "repeat"].drop(columns="log")
     res.tables["ramp_steps"] = steps[steps["log"] == "ramp"].drop(columns="log")
-    res.repeat_curves = repeat_curves(models, logs["repeat"])
+    for sensor in ("accel", "gyro"):
+        chans = [c for c in CHANNELS if c.startswith(sensor)]
+        res.tables[f"heldout_residual_{sensor}"] = residual[["log", "method", *chans]]
+        for name in ("repeat_steps", "ramp_steps"):
+            t = res.tables[name]
+            res.tables[f"{name}_{sensor}"] = t[t["channel"].isin(chans)]
+    res.repeat_curves = repeat_curves(models, logs["repeat"], truth=truths["repeat"])
     note("Allan deviation of the repeat run")
     allan, curves = allan_table(logs["repeat"], models["regression"], "clamp")
     res.tables["allan_repeat"] = allan.drop(columns=["rate_hz"])
+    for sensor, t in allan_by_sensor(res.tables["allan_repeat"]).items():
+        res.tables[f"allan_repeat_{sensor}"] = t
     res.allan_curves = next(iter(curves.values()), None)
     note("IMU calibration (19 positions and rate tests at 5 set points)")
     res.imu_cal = imu_calibration_stage(cfg, imu)
@@ -552,10 +624,16 @@ def calibration_stage(
 
 
 def repeat_curves(
-    models: Mapping[str, ThermalModelFile], log: pd.DataFrame, bin_s: float = 60.0
+    models: Mapping[str, ThermalModelFile],
+    log: pd.DataFrame,
+    bin_s: float = 60.0,
+    truth: pd.DataFrame | None = None,
 ) -> pd.DataFrame:
     """x-axis outputs of the repeat run before and after each compensation, in bins of
-    ``bin_s`` [s] (Figures 7 and 8): ``time_s, temp_<ch>, raw_<ch>, <method>_<ch>``."""
+    ``bin_s`` [s] (Figures 7 and 8): ``time_s, temp_<ch>, raw_<ch>, <method>_<ch>``; with
+    ``truth`` (the run's true thermal bias, row for row) also ``resid_<method>_<ch>``, the
+    noise-free thermal residual (model's bias − true bias, log units) that a segment
+    edge's step shows in without the sensor noise."""
     t = log["time_s"].to_numpy()
     # time stamps end their sample interval: (t − ε) keeps the last sample in the last bin
     bins = np.floor((t - 1e-9) / bin_s).astype(int)
@@ -577,4 +655,7 @@ def repeat_curves(
             j = model.channels.index(c)
             ref = model.models[c].static_reference or 0.0
             cols[f"{m}_{c}"] = binned(y - (f[:, j] - ref))
+            if truth is not None:
+                tb = truth[f"bias_{c}"].to_numpy(dtype=float)
+                cols[f"resid_{m}_{c}"] = binned(f[:, j] - ref - tb)
     return pd.DataFrame(cols)

@@ -11,8 +11,9 @@ import numpy as np
 import pandas as pd
 
 from rinscal.experiments.paper.calibration import CalibrationResult
-from rinscal.experiments.paper.config import LABELS, METHODS, PAPER, VARIANTS
+from rinscal.experiments.paper.config import LABELS, METHODS, PAPER, PAPER_TABLES, VARIANTS
 from rinscal.experiments.paper.paired import CONFIDENCE, interval_text, paired_difference
+from rinscal.experiments.paper.paper_tables import paper_pulse_scales
 from rinscal.schema import ACCEL_CHANNELS, CHANNELS
 
 __all__ = [
@@ -134,30 +135,50 @@ def summary_table(maxerr: pd.DataFrame) -> pd.DataFrame:
 
 
 def selection_summary_table(cal: CalibrationResult) -> pd.DataFrame:
-    """Training RMS of Tables 5 and 7, the paper's (pulses) beside ours (µg, °/h)."""
+    """Training RMS of Tables 5 and 7 for the x axis, the paper's beside ours, both in µg
+    and °/h (the paper's pulses times :func:`paper_tables.paper_pulse_scales`), with the
+    noise floor of our log (:func:`paper_tables.noise_floor`) the RMS sits on."""
+    scales = paper_pulse_scales()
     rows: list[dict[str, Any]] = []
 
     def add(what: str, paper: str, ours: str, note: str) -> None:
         rows.append({"quantity": what, "paper": paper, "rinscal (simulation)": ours, "note": note})
 
+    floor: dict[str, float] = {}
+    for key in ("table5_accel", "table5_gyro"):
+        t = cal.tables.get(key)
+        if t is not None and len(t):
+            for axis, f in zip(t["axis"], t["noise floor"], strict=True):
+                floor[f"{key.split('_')[1]}_{axis}"] = float(f)
+
+    def note(c: str, unit: str, dec: int) -> str:
+        f = floor.get(c)
+        return (
+            "the paper's pulses converted"
+            + ("" if f is None else f"; white-noise floor of our log {f:.{dec}f} {unit}")
+            + "; compare the trend and the distance to the floor"
+        )
+
     t5 = cal.selection["regression"].table
     t7 = cal.selection["neural"].table
-    for c, key, unit in (("accel_x", "table5_accel_x", "µg"), ("gyro_x", "table5_gyro_x", "°/h")):
+    for c, unit, dec in (("accel_x", "µg", 1), ("gyro_x", "°/h", 4)):
         ours = t5[t5["channel"] == c].sort_values("setting")["rms_train"].to_numpy()
+        paper = PAPER_TABLES["table5"][c]
         add(
-            f"Table 5, {c}: training RMS for p=q=s=1..4",
-            " / ".join(f"{x:.2f}" for x in PAPER[key]) + " pulses",
-            " / ".join(f"{x:.4g}" for x in ours) + f" {unit}",
-            "units differ (the paper's pulses have no published scale); compare the trend",
+            f"Table 5, {c}: training RMS for p=q=s=1..4 [{unit}]",
+            " / ".join(f"{x * scales[c]:.{dec}f}" for x in paper),
+            " / ".join(f"{x:.{dec}f}" for x in ours),
+            note(c, unit, dec),
         )
-    for c, key, unit in (("accel_x", "table7_accel_x", "µg"), ("gyro_x", "table7_gyro_x", "°/h")):
+    for c, unit, dec in (("accel_x", "µg", 1), ("gyro_x", "°/h", 4)):
         t = t7[t7["channel"] == c].set_index("setting")["rms_train"]
-        ks = sorted(PAPER[key])
+        paper = PAPER_TABLES["table7"][c]
+        ks = sorted(paper)
         add(
-            f"Table 7, {c}: training RMS for n={ks[0]}..{ks[-1]} neurons",
-            " / ".join(f"{PAPER[key][k]:.2f}" for k in ks) + " pulses",
-            " / ".join(f"{t.get(k, float('nan')):.4g}" for k in ks) + f" {unit}",
-            "units differ; compare the trend",
+            f"Table 7, {c}: training RMS for n={ks[0]}..{ks[-1]} neurons [{unit}]",
+            " / ".join(f"{paper[k] * scales[c]:.{dec}f}" for k in ks),
+            " / ".join(f"{t.get(k, float('nan')):.{dec}f}" for k in ks),
+            note(c, unit, dec),
         )
     return pd.DataFrame(rows)
 
