@@ -74,10 +74,10 @@ def t_interval(
     v = v[np.isfinite(v)]
     if v.size < MIN_SAMPLES:
         return (math.nan, math.nan)
+    if np.ptp(v) == 0.0:
+        return (float(v[0]), float(v[0]))
     m = float(v.mean())
     s = float(v.std(ddof=1))
-    if s == 0.0:
-        return (m, m)
     h = float(stats.t.ppf(0.5 + confidence / 2.0, v.size - 1)) * s / math.sqrt(v.size)
     return (m - h, m + h)
 
@@ -168,7 +168,8 @@ def paired_against(
         Reference variants (``none``, ``poly-t``, ``true``, ...).
     methods : sequence of str, optional
         Variants compared with each reference; default every variant in the results but the
-        references and the oracle.
+        oracle (a reference is compared with the references after it: the cubic in T
+        against no compensation, not the mirror).
     metric : str
         The per-run error compared [nmi].
 
@@ -180,6 +181,7 @@ def paired_against(
         (method − reference) [nmi] with ``delta ci low/high`` (Student-t over units),
         ``median ratio`` (median over units of the method's unit means over the reference's)
         with ``ratio ci low/high``, ``units method better`` (a count, of ``n units``),
+        ``runs method better`` (a count, of ``n runs``),
         ``verdict`` (:func:`decide`).
     """
     df = results[np.isfinite(results[metric].to_numpy(float))]
@@ -190,9 +192,10 @@ def paired_against(
         aggfunc="first",
         observed=True,
     )
-    have = list(runs.columns)
+    order = ["none", "poly-t", "sectional", "regression", NO_DT_VARIANT, "neural"]
+    have = sorted(runs.columns, key=lambda v: (order.index(v) if v in order else len(order), v))
     if methods is None:
-        methods = [v for v in have if v not in (*references, "true")]
+        methods = [v for v in have if v != "true"]
     align = (
         results.drop_duplicates(["plant", "scenario"]).set_index(["plant", "scenario"])[
             "align_start_s"
@@ -208,6 +211,8 @@ def paired_against(
             for m in methods:
                 if m not in have or m == ref:
                     continue
+                if m in references and references.index(m) < references.index(ref):
+                    continue  # the mirror of a comparison already made
                 pair = g[[ref, m]].dropna()
                 if pair.empty:
                     continue
@@ -239,6 +244,7 @@ def paired_against(
                         "ratio ci low": rlo,
                         "ratio ci high": rhi,
                         "units method better": int((d < 0).sum()),
+                        "runs method better": int((pair[m] < pair[ref]).sum()),
                         "verdict": decide(n, lo, hi, _label(ref), _label(m)),
                     }
                 )
