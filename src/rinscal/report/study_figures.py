@@ -169,9 +169,10 @@ def paired_figure(comp: pd.DataFrame, plant: int) -> Any:
         ax.set_xlabel("method − reference [nmi] (symlog)", fontsize=8)
         ax.tick_params(axis="x", labelsize=7)
         ax.grid(axis="x", alpha=0.3)
+    label = c["plant_label"].iloc[0] if not c.empty else ""
     fig.suptitle(
-        "paired difference of the max position error: ○ against no compensation, □ against "
-        "the cubic in T; filled green/red where the 95 % interval excludes zero (method "
+        f"{label}: paired difference of the max position error: ○ against no compensation, "
+        "□ against the cubic in T; filled green/red where the 95 % interval excludes zero (method "
         "better/worse), open grey where it does not or there is none",
         fontsize=8,
         wrap=True,

@@ -52,6 +52,7 @@ from rinscal.report.study_figures import (
     paired_figure,
 )
 from rinscal.report.study_words import (
+    CODES_LEGEND,
     ablation_lines,
     claims_view,
     comparison_lines,
@@ -221,12 +222,21 @@ def build_report(spec: StudySpec, t: StudyTables, run: RunSummary | None) -> Rep
                 figure_to_png(paired_figure(t.comparisons, p)),
                 "Paired difference method − reference of the maximum position error [nmi]",
             )
-        c.table(
-            "against",
-            comparison_view(t.comparisons),
-            "Every method against no compensation and the cubic in T (Δ = method − "
-            "reference; negative: the method has less error)",
-        )
+        if t.sensitivity.empty:
+            c.text(CODES_LEGEND, "note")
+            c.table(
+                "against",
+                comparison_view(t.comparisons),
+                "Every method against no compensation and the cubic in T (Δ = method − "
+                "reference; negative: the method has less error)",
+            )
+        else:
+            c.text(
+                f"The {len(t.comparisons)} comparisons of this sweep are in "
+                "tables/against_references.csv; the sensitivity map below shows those of "
+                "methods 2 and 3.",
+                "note",
+            )
     if not t.claims.empty:
         cl = rep.section("The paper's claims", "claims")
         cl.text(
@@ -277,7 +287,11 @@ def build_report(spec: StudySpec, t: StudyTables, run: RunSummary | None) -> Rep
         "units and of single runs where b is better. 'Best run' is the largest single-run "
         "decrease from a to b [%], the paper's 'up to' figure: a maximum, not an estimate."
     )
-    pr.table("pairs", pairs_view(t.pairs), "Paired differences of the maximum position error")
+    if t.sensitivity.empty:
+        pr.text(CODES_LEGEND, "note")
+        pr.table("pairs", pairs_view(t.pairs), "Paired differences of the maximum position error")
+    else:
+        pr.text(f"The {len(t.pairs)} pairs of this sweep are in tables/paired_differences.csv.")
     if not t.sensitivity.empty:
         _map_section(rep, t)
     if not t.failures.empty:

@@ -17,6 +17,7 @@ import pandas as pd
 
 from rinscal.experiments.study.compare import (
     MIN_SAMPLES,
+    decide,
     fmt_interval,
     not_enough,
 )
@@ -24,8 +25,11 @@ from rinscal.experiments.study.stats import CONFIDENCE
 from rinscal.report.study_figures import short_label
 
 __all__ = [
+    "CODES",
+    "CODES_LEGEND",
     "ablation_lines",
     "claims_view",
+    "code",
     "comparison_lines",
     "comparison_view",
     "design_view",
@@ -34,9 +38,15 @@ __all__ = [
     "oracle_lines",
     "pairs_view",
     "sensitivities_view",
+    "short_verdict",
     "summary_view",
     "ul",
 ]
+
+
+def _sg(x: float, nd: int = 2) -> str:
+    """``+0.12`` / ``−0.12`` (a true minus sign)."""
+    return f"{x:+.{nd}f}".replace("-", "−")
 
 
 def _n_of(k: int, n: int) -> str:
@@ -54,16 +64,16 @@ def _delta_words(r: pd.Series, nd: int = 3) -> str:
 
 def comparison_lines(comp: pd.DataFrame) -> list[str]:
     """Per plant and scenario, which methods beat no compensation and the cubic in T with
-    a resolved interval, which lose, and which are not resolved, in words."""
+    a resolved interval, which lose, and which are not resolved, in words; one sentence
+    for the groups with too few units for an interval."""
     out = []
+    few: list[str] = []
+    n_few = 0
     for (label, scen), g in comp.groupby(["plant_label", "scenario"], sort=False):
         n = int(g["n units"].max())
         if n < MIN_SAMPLES:
-            out.append(
-                f"{label}, {scen}: {not_enough(n)}; the paired differences are point "
-                "estimates only (table 'Every method against no compensation and the cubic "
-                "in T')."
-            )
+            few.append(f"{label} · {scen}")
+            n_few = n
             continue
         parts = []
         for ref in ("none", "poly-t"):
@@ -82,9 +92,14 @@ def comparison_lines(comp: pd.DataFrame) -> list[str]:
             if lose:
                 bits.append(f"{name} beats {', '.join(lose)}")
             if und:
-                bits.append(f"no resolved difference for {', '.join(und)}")
+                bits.append(f"no resolved difference from {name} for {', '.join(und)}")
             parts.append("; ".join(bits))
-        out.append(f"{label}, {scen} ({n} units): " + " — against the cubic: ".join(parts))
+        out.append(f"{label}, {scen} ({n} units): " + "; ".join(p for p in parts if p))
+    if few:
+        out.append(
+            f"{'; '.join(few)}: {not_enough(n_few)}. The differences in the table are point "
+            "estimates; no method is said to beat or lose to another."
+        )
     return out
 
 
@@ -117,7 +132,7 @@ def ablation_lines(abl: pd.DataFrame, design: pd.DataFrame) -> list[str]:
         c, k = design["soak_rate_grad_corr"], design["soak_design_cond"]
         out.append(
             f"The soak design of the {len(design)} calibrated unit(s): Ṫ and ΔT correlate at "
-            f"r = {c.median():+.2f} (median; {c.min():+.2f} to {c.max():+.2f}), and the "
+            f"r = {_sg(c.median())} (median; {_sg(c.min())} to {_sg(c.max())}), and the "
             f"standardised design [T, Ṫ, ΔT] has condition number {k.median():.1f} "
             f"({k.min():.1f} to {k.max():.1f}; 1 for independent columns). "
             + (
@@ -150,15 +165,51 @@ def _num(v: float, nd: int) -> str:
     return "" if not math.isfinite(v) else f"{v:.{nd}f}".replace("-", "−")
 
 
+#: Short names of the variants in the tables (the legend is :data:`CODES_LEGEND`).
+CODES = {
+    "none": "none",
+    "poly-t": "cubic",
+    "sectional": "m1",
+    "regression": "m2",
+    "regression-no-dT": "m2 w/o ΔT",
+    "regression+sf": "m2+sf",
+    "neural": "m3",
+    "true": "oracle",
+}
+#: What the short names mean.
+CODES_LEGEND = (
+    "none: no compensation; cubic: the cubic in T (baseline); m1, m2, m3: the paper's "
+    "methods 1 (sectional), 2 (regression), 3 (BP network); m2 w/o ΔT: method 2 without its "
+    "ΔT terms; m2+sf: method 2 behind the unit's scale-factor/axis calibration; oracle: the "
+    "true thermal bias."
+)
+
+
+def code(v: str) -> str:
+    """A variant's short name in tables (:data:`CODES`)."""
+    return CODES.get(v, v)
+
+
+def short_verdict(n: int, lo: float, hi: float, method: str, reference: str) -> str:
+    """The verdict of :func:`rinscal.experiments.study.compare.decide` with short names."""
+    return decide(n, lo, hi, code(reference), code(method))
+
+
+def _where(label: str, scen: str) -> str:
+    return f"{label} · {scen}"
+
+
 def summary_view(summary: pd.DataFrame, metric: str) -> pd.DataFrame:
+    """A metric's summary: mean with its interval (or why there is none), median, range."""
     s = summary[summary["metric"] == metric]
     nd = {"nmi": 3, "ug": 2, "dph": 5, "pct": 1}.get(metric.rsplit("_", 1)[-1], 0)
     unit = s["unit"].iloc[0] if not s.empty else ""
     return pd.DataFrame(
         {
-            "plant": s["plant_label"],
-            "scenario": s["scenario"],
-            "method": [short_label(v) for v in s["variant"]],
+            "plant · scenario": [
+                _where(p, c) for p, c in zip(s["plant_label"], s["scenario"], strict=True)
+            ],
+            "method": [code(v) for v in s["variant"]],
             "units (runs)": [f"{u} ({r})" for u, r in zip(s["n units"], s["n runs"], strict=True)],
             f"mean [{unit}]": [_num(m, nd) for m in s["mean"]],
             f"{CONFIDENCE:.0%} interval [{unit}]": [
@@ -166,7 +217,7 @@ def summary_view(summary: pd.DataFrame, metric: str) -> pd.DataFrame:
                 for lo, hi, n in zip(s["ci low"], s["ci high"], s["n units"], strict=True)
             ],
             f"median [{unit}]": [_num(m, nd) for m in s["median"]],
-            f"min – max [{unit}]": [
+            f"range [{unit}]": [
                 f"{_num(a, nd)} – {_num(b, nd)}" for a, b in zip(s["min"], s["max"], strict=True)
             ],
         }
@@ -176,13 +227,14 @@ def summary_view(summary: pd.DataFrame, metric: str) -> pd.DataFrame:
 def comparison_view(comp: pd.DataFrame, nd: int = 3) -> pd.DataFrame:
     """Each comparison as shown: Δ method − reference [nmi] with its interval in its own
     column, the ratio of medians, the count of units where the method is better, the
-    verdict."""
+    verdict (short names, :data:`CODES`)."""
     return pd.DataFrame(
         {
-            "plant": comp["plant_label"],
-            "scenario": comp["scenario"],
-            "method − reference": [
-                f"{short_label(m)} − {short_label(r)}"
+            "plant · scenario": [
+                _where(p, c) for p, c in zip(comp["plant_label"], comp["scenario"], strict=True)
+            ],
+            "method − ref.": [
+                f"{code(m)} − {code(r)}"
                 for m, r in zip(comp["method"], comp["reference"], strict=True)
             ],
             "Δ [nmi]": [_num(d, nd) for d in comp["delta"]],
@@ -190,35 +242,46 @@ def comparison_view(comp: pd.DataFrame, nd: int = 3) -> pd.DataFrame:
                 fmt_interval(lo, hi, nd)
                 for lo, hi in zip(comp["delta ci low"], comp["delta ci high"], strict=True)
             ],
-            "ratio of medians": [_num(x, 2) for x in comp["median ratio"]],
-            "units method better": [
+            "median ratio": [_num(x, 2) for x in comp["median ratio"]],
+            "units better": [
                 _n_of(int(k), int(n))
                 for k, n in zip(comp["units method better"], comp["n units"], strict=True)
             ],
-            "verdict": comp["verdict"],
+            "verdict": [
+                short_verdict(int(n), lo, hi, m, r)
+                for n, lo, hi, m, r in zip(
+                    comp["n units"],
+                    comp["delta ci low"],
+                    comp["delta ci high"],
+                    comp["method"],
+                    comp["reference"],
+                    strict=True,
+                )
+            ],
         }
     )
 
 
 def pairs_view(pairs: pd.DataFrame) -> pd.DataFrame:
+    """Every pair a → b: a − b [nmi] with its interval, counts of units and runs where b is
+    better, the best single run [%]."""
     p = pairs[pairs["metric"] == "max_error_nmi"]
     return pd.DataFrame(
         {
-            "plant": p["plant_label"],
-            "scenario": p["scenario"],
-            "a → b": [
-                f"{short_label(a)} → {short_label(b)}" for a, b in zip(p["a"], p["b"], strict=True)
+            "plant · scenario": [
+                _where(a, c) for a, c in zip(p["plant_label"], p["scenario"], strict=True)
             ],
+            "a → b": [f"{code(a)} → {code(b)}" for a, b in zip(p["a"], p["b"], strict=True)],
             "a − b [nmi]": [_num(d, 3) for d in p["difference"]],
             f"{CONFIDENCE:.0%} interval [nmi]": [
                 fmt_interval(lo, hi, 3)
                 for lo, hi in zip(p["diff ci low"], p["diff ci high"], strict=True)
             ],
-            "units b better": [
+            "b better: units": [
                 _n_of(int(k), int(n))
                 for k, n in zip(p["units b better"], p["n units"], strict=True)
             ],
-            "runs b better": [
+            "b better: runs": [
                 _n_of(int(k), int(n)) for k, n in zip(p["runs b better"], p["n runs"], strict=True)
             ],
             "best run [%]": [_num(x, 0) for x in p["best decrease over the runs %"]],
@@ -227,27 +290,29 @@ def pairs_view(pairs: pd.DataFrame) -> pd.DataFrame:
 
 
 def claims_view(claims: pd.DataFrame) -> pd.DataFrame:
-    """The claims table as shown (8 columns): the paper's figure, our mean decrease [%]
-    with its interval, the paired difference [nmi] with its interval, the count of units
-    where b is better, the verdict."""
+    """The claims table as shown (7 columns): the claim where it was tested, the paper's
+    figure, our mean decrease [%] with its interval, the paired difference a − b [nmi] with
+    its interval, the count of units where b is better, the verdict."""
     n = claims["n units"].astype(int)
     return pd.DataFrame(
         {
-            "plant · scenario": [
-                f"{p} · {s}" for p, s in zip(claims["plant"], claims["scenario"], strict=True)
+            "claim (plant · scenario)": [
+                f"{c} ({_where(p, s)})"
+                for c, p, s in zip(
+                    claims["claim"], claims["plant"], claims["scenario"], strict=True
+                )
             ],
-            "claim": claims["claim"],
             "paper [%]": [
                 f"{p:.1f} ({'best run' if w == 'its best run' else 'mean'})"
                 for p, w in zip(claims["paper %"], claims["paper's figure is"], strict=True)
             ],
-            "ours: mean decrease [%]": [_num(x, 0) for x in claims["ours: mean decrease %"]],
+            "ours [%]": [_num(x, 0) for x in claims["ours: mean decrease %"]],
             f"{CONFIDENCE:.0%} interval [%]": [
                 fmt_interval(lo, hi, 0)
                 for lo, hi in zip(claims["ci low"], claims["ci high"], strict=True)
             ],
             "a − b [nmi]": [
-                _num(d, 3) + (f" {fmt_interval(lo, hi, 3)}" if math.isfinite(lo) else "")
+                _num(d, 2) + (f" {fmt_interval(lo, hi, 2)}" if math.isfinite(lo) else "")
                 for d, lo, hi in zip(
                     claims["difference a − b [nmi]"],
                     claims["diff ci low"],
@@ -255,7 +320,7 @@ def claims_view(claims: pd.DataFrame) -> pd.DataFrame:
                     strict=True,
                 )
             ],
-            "units b better": [
+            "b better": [
                 _n_of(int(k), int(m)) for k, m in zip(claims["units b better"], n, strict=True)
             ],
             "verdict": claims["verdict"],
@@ -264,32 +329,32 @@ def claims_view(claims: pd.DataFrame) -> pd.DataFrame:
 
 
 def map_view(cells: pd.DataFrame) -> pd.DataFrame:
-    """The map's cells as a narrow table: a row per plant variant, warm-up time and method,
-    the difference against no compensation and against the cubic in T with intervals."""
+    """The map's cells as a narrow table: a row per plant variant (``#`` index of the
+    plants table), warm-up time and method, the difference against no compensation and
+    against the cubic in T [nmi] with their intervals, and the cells' verdicts."""
     rows = []
     key = ["plant", "warm-up [min]", "method"]
     for (plant, warm, m), g in cells.groupby(key, sort=False):
-        row: dict[str, Any] = {"plant": f"#{plant}", "warm-up [min]": f"{warm:g}"}
-        row["method"] = short_label(m)
+        row: list[Any] = [f"#{plant}", f"{warm:g}", code(m)]
         verdict = []
-        for ref, tag in (("none", "none"), ("poly-t", "cubic")):
+        for ref in ("none", "poly-t"):
             r = g[g["reference"] == ref]
             if r.empty:
-                row[f"Δ vs {tag} [nmi]"] = row[f"interval vs {tag} [nmi]"] = ""
+                row += ["", ""]
                 continue
             r = r.iloc[0]
-            row[f"Δ vs {tag} [nmi]"] = _num(r["delta"], 2)
-            row[f"interval vs {tag} [nmi]"] = fmt_interval(r["delta ci low"], r["delta ci high"], 2)
-            verdict.append(f"{r['cell']} vs {tag}")
+            row += [_num(r["delta"], 2), fmt_interval(r["delta ci low"], r["delta ci high"], 2)]
+            verdict.append(f"{r['cell']} vs {code(ref)}")
         n = int(g["n units"].max())
-        row["verdict"] = (
-            not_enough(n) if all("not enough" in v for v in verdict) else "; ".join(verdict)
-        )
+        row.append(not_enough(n) if all("not enough" in v for v in verdict) else "; ".join(verdict))
         rows.append(row)
-    return pd.DataFrame(rows)
+    interval = f"{CONFIDENCE:.0%} interval"
+    cols = ["plant", "warm-up [min]", "method", "− none [nmi]", interval, "− cubic [nmi]"]
+    return pd.DataFrame(rows, columns=[*cols, interval, "verdict"])
 
 
 def sensitivities_view(sens: pd.DataFrame) -> pd.DataFrame:
+    """The plant variants with their equivalent sensitivities and sweep factors."""
     return pd.DataFrame(
         {
             "plant": [f"#{p}" for p in sens["plant"]],
@@ -297,7 +362,7 @@ def sensitivities_view(sens: pd.DataFrame) -> pd.DataFrame:
             "accel Ṫ [µg per °C/min]": [f"{x:.3g}" for x in sens["accel_rate_ug_per_c_min"]],
             "accel ΔT [µg/°C]": [f"{x:.3g}" for x in sens["accel_grad_ug_per_c"]],
             "gyro Ṫ [°/h per °C/min]": [f"{x:.2g}" for x in sens["gyro_rate_dph_per_c_min"]],
-            "from": sens["source"],
+            "from": [x.replace(" on the soak protocol", " (soak)") for x in sens["source"]],
             "sweep": [
                 label.split(" ", 1)[1] if " " in label else "" for label in sens["plant_label"]
             ],
@@ -306,6 +371,7 @@ def sensitivities_view(sens: pd.DataFrame) -> pd.DataFrame:
 
 
 def design_view(design: pd.DataFrame) -> pd.DataFrame:
+    """Each unit's soak design: the correlation of Ṫ and ΔT, the condition number."""
     return pd.DataFrame(
         {
             "plant": design["plant_label"],
@@ -317,4 +383,5 @@ def design_view(design: pd.DataFrame) -> pd.DataFrame:
 
 
 def ul(items: list[str]) -> str:
+    """An HTML list of sentences (escaped)."""
     return "<ul>" + "".join(f"<li>{html.escape(x)}</li>" for x in items) + "</ul>"

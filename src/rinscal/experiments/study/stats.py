@@ -498,10 +498,10 @@ def _survival(ka: str, kb: str, unresolved: str = "not shown", n: int | None = N
 
 
 def _pct_ci(m: float, lo: float, hi: float) -> str:
-    """``m % [lo, hi]``, or ``m %, no interval`` where there is none (too few units)."""
+    """``m % [lo, hi]``, or ``m % (no interval)`` where there is none (too few units)."""
     if math.isfinite(lo) and math.isfinite(hi):
         return f"{m:.0f} % [{lo:.0f}, {hi:.0f}]"
-    return f"{m:.0f} %, no interval"
+    return f"{m:.0f} % (no interval)"
 
 
 __all__ = [
