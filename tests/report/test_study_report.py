@@ -4,6 +4,7 @@ coloured only where resolved, and no overlapping tick labels."""
 
 from __future__ import annotations
 
+import functools
 import math
 import re
 
@@ -62,6 +63,7 @@ def _results(n_units: int = 8) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+@functools.lru_cache(maxsize=4)
 def _tables(n_units: int):  # type: ignore[no-untyped-def]
     res = _results(n_units)
     return tables_from_results(res, plant_table(SPEC), sensitivities=_SENS)
@@ -122,9 +124,7 @@ def test_report_states_verdicts_map_oracle_and_ablation() -> None:
 
 def _tables_html(page: str) -> list[list[str]]:
     """Header cells of every table of the page."""
-    return [
-        re.findall(r"<th>(.*?)</th>", m) for m in re.findall(r"<thead>(.*?)</thead>", page)
-    ]
+    return [re.findall(r"<th>(.*?)</th>", m) for m in re.findall(r"<thead>(.*?)</thead>", page)]
 
 
 def test_three_units_never_claim_within_noise_and_say_why() -> None:
