@@ -12,7 +12,6 @@ import numpy as np
 import pandas as pd
 
 from rinscal.experiments.paper.config import ReproConfig
-from rinscal.experiments.study.compare import paired_against
 from rinscal.experiments.study.sensitivity import plant_sensitivities, sensitivity_map
 from rinscal.experiments.study.spec import PlantVariant, load_spec, plant_table, reproduction_spec
 from rinscal.report.study_figures import CELL_COLORS, label_overlaps, map_figure
@@ -28,7 +27,7 @@ def _results(n_units: int = 8) -> pd.DataFrame:
     rng = np.random.default_rng(0)
     rows = []
     for plant in (0, 1):
-        for s, align in enumerate((0.0, 1800.0)):
+        for align in (0.0, 1800.0):
             for u in range(n_units):
                 sec = 1.0 + 0.1 * u
                 reg = sec / 2 if plant == 0 else sec + rng.normal(0, 0.05)
