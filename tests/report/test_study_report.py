@@ -186,7 +186,7 @@ def test_map_is_coloured_only_where_resolved() -> None:
         for patch in ax.patches
     }
     # exactly the four fills, and the unresolved cell is grey, not green
-    import matplotlib.colors as mc
+    import matplotlib.colors as mc  # deferred: only this test reads colours
 
     want = {tuple(round(c, 3) for c in mc.to_rgb(v)) for v in CELL_COLORS.values()}
     assert fills == want
@@ -198,7 +198,7 @@ def test_full_map_has_no_overlapping_labels_and_the_checker_catches_overlaps() -
     fig = map_figure(t.sensitivity)
     assert label_overlaps(fig) == []
     # a figure whose long x labels run into each other is caught
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # deferred: only this test draws a figure of its own
 
     bad, ax = plt.subplots(figsize=(3, 2))
     ax.set_xticks(range(6), [f"accel_dynamic_scale={k}" for k in range(6)])

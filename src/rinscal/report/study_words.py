@@ -109,11 +109,13 @@ def oracle_lines(oracle: pd.DataFrame) -> list[str]:
     out = []
     for _, r in oracle.iterrows():
         lost = int(r["runs method better"])
+        verdict = r["verdict"].replace("true bias (oracle)", "the oracle")
         out.append(
             f"{r['plant_label']}, {r['scenario']}: no compensation − oracle = "
-            f"{_delta_words(r)} over {int(r['n units'])} units; "
-            f"{r['verdict'].replace('true bias (oracle)', 'the oracle')}; the oracle lost "
-            f"{_n_of(lost, int(r['n runs']))} single runs"
+            f"{_delta_words(r)} over {int(r['n units'])} units"
+            + ("" if verdict.startswith("not enough units") else f"; {verdict}")
+            + f"; the oracle lost {_n_of(lost, int(r['n runs']))} single runs to no "
+            "compensation"
         )
     return out
 
@@ -123,9 +125,12 @@ def ablation_lines(abl: pd.DataFrame, design: pd.DataFrame) -> list[str]:
     soak design separates Ṫ from ΔT."""
     out = []
     for _, r in abl.iterrows():
+        verdict = r["verdict"]
         out.append(
             f"{r['plant_label']}, {r['scenario']}: method 2 − method 2 without ΔT = "
-            f"{_delta_words(r)}; {r['verdict']}; units where the ΔT terms help: "
+            f"{_delta_words(r)}"
+            + ("" if verdict.startswith("not enough units") else f"; {verdict}")
+            + "; units where the ΔT terms help: "
             f"{_n_of(int(r['units method better']), int(r['n units']))}"
         )
     if not design.empty:
@@ -134,7 +139,13 @@ def ablation_lines(abl: pd.DataFrame, design: pd.DataFrame) -> list[str]:
             f"The soak design of the {len(design)} calibrated unit(s): Ṫ and ΔT correlate at "
             f"r = {_sg(c.median())} (median; {_sg(c.min())} to {_sg(c.max())}), and the "
             f"standardised design [T, Ṫ, ΔT] has condition number {k.median():.1f} "
-            f"({k.min():.1f} to {k.max():.1f}; 1 for independent columns). "
+            f"({k.min():.1f} to {k.max():.1f}; 1 for independent columns)"
+            + (
+                "; the units share one thermal network and soak protocol, so their designs "
+                "differ only by the thermometers' noise. "
+                if c.max() - c.min() < 0.02
+                else ". "
+            )
             + (
                 "The two move together closely: the data can hardly tell a Ṫ term from a "
                 "ΔT term, so what the ΔT terms add is weakly determined."
