@@ -168,16 +168,17 @@ def test_structure_findings_say_which_verdict_survives_and_why() -> None:
     summary = method_summary(res)
     assert set(pairs["metric"]) == {"max_error_nmi", "thermal_part_nmi", "abs_heading_error_arcsec"}
     lines = structure_findings(claims, summary, plants, pairs)
-    vs_none = {x.split(" against")[0]: x for x in lines if " against no compensation" in x}
-    # sectional: 2 → 1.35 on average on both plants (identical); regression: 66 % on the
-    # polynomial plant, nothing on the mechanistic one (1.5 × sectional's 1.35 ≈ none's 2)
+    vs_none = {x.split(" − no comp")[0]: x for x in lines if " − no compensation:" in x}
+    # sectional: 2 → 1.35 nmi on average on both plants (identical, −0.65 nmi); regression:
+    # −1.325 nmi on the polynomial plant, nothing on the mechanistic one (1.5 × sectional's
+    # 1.35 ≈ none's 2)
     assert vs_none["lab qs, method 1 (sectional)"].endswith(
-        "beats no compensation on paper_mechanistic (32 % [25, 40]) — survives the change of "
-        "thermal law"
+        "beats no compensation on paper_mechanistic (-0.650 nmi [-0.855, -0.445]) — survives "
+        "the change of thermal law"
     )
     reg = vs_none["lab qs, method 2 (regression)"]
-    assert re.search(r"beats no compensation on paper \(66 % \[6\d, 7\d\] less error\)", reg)
-    assert "not resolved on paper_mechanistic (-1 %" in reg
+    assert "beats no compensation on paper (-1.325 nmi [-1.4" in reg
+    assert "no resolved difference on paper_mechanistic (+0.025 nmi [-0." in reg
     assert reg.endswith("does NOT survive the change of thermal law")
     m12 = [x for x in lines if x.startswith("lab qs, method 1 (sectional) → method 2")]
     assert len(m12) == 1
@@ -199,4 +200,5 @@ def test_structure_findings_say_which_verdict_survives_and_why() -> None:
     fp = paired_differences(few)
     lines = structure_findings(claims_table(few, fp), method_summary(few), plants)
     m12 = [x for x in lines if x.startswith("lab qs, method 1 (sectional) → method 2")]
-    assert m12[0].endswith("not decided (too few units for an interval)")
+    assert m12[0].endswith("not decided: not enough units for an interval")
+    assert not any("within noise" in x for x in lines)

@@ -98,14 +98,14 @@ def test_paired_differences_recover_a_known_decrease() -> None:
     assert r["decrease %"] == pytest.approx(50.0)
     assert r["decrease ci low"] == pytest.approx(50.0)
     assert r["decrease ci high"] == pytest.approx(50.0)
-    assert r["b better: units"] == 1.0 and r["b better: runs"] == 1.0
+    assert r["units b better"] == 8 and r["runs b better"] == 16  # counts, of 8 and 16
     assert r["n units"] == 8 and r["n runs"] == 16
     assert r["best decrease over the runs %"] == pytest.approx(50.0)
     # regression → neural: neural is worse by exactly 0.01 nmi in every run
     r = pairs.loc[("max_error_nmi", "regression", "neural")]
     assert r["difference"] == pytest.approx(-0.01)
     assert r["diff ci low"] == pytest.approx(-0.01) and r["diff ci high"] == pytest.approx(-0.01)
-    assert r["b better: units"] == 0.0
+    assert r["units b better"] == 0
     # the |heading error| metric exists and is paired too
     r = pairs.loc[("abs_heading_error_arcsec", "none", "sectional")]
     assert r["decrease %"] == pytest.approx(50.0)
@@ -140,5 +140,9 @@ def test_claims_and_verdicts_in_words() -> None:
     assert "lies inside" in claim_verdict(56.0, "mean", 40.0, 60.0, pd.Series({"decrease %": 50.0}))
     assert "lies above" in claim_verdict(56.0, "mean", 10.0, 30.0, pd.Series({"decrease %": 20.0}))
     assert claim_verdict(56.0, "mean", math.nan, math.nan, r).startswith("undecided")
+    r4 = pd.Series({"n units": 4, "decrease %": 5.0})
+    assert claim_verdict(56.0, "mean", math.nan, math.nan, r4) == (
+        "undecided: not enough units for an interval (n = 4; needs 5)"
+    )
     # no compensation is worse than every model here: no sentence
     assert uncompensated_wins(pairs) == []

@@ -2,15 +2,16 @@
 ``summary.json``.
 
 Everything is computed from the results folder (:class:`rinscal.experiments.study.runner.
-StudyStore`) by :mod:`rinscal.experiments.study.stats`; the report can be rebuilt from the
-folder at any time, and a resumed study's report covers every task that ever finished.
+StudyStore`) by :mod:`rinscal.experiments.study.stats`, :mod:`~rinscal.experiments.study.
+compare` and :mod:`~rinscal.experiments.study.sensitivity`; this module only lays the numbers
+out and words them. The report can be rebuilt from the folder at any time, and a resumed
+study's report covers every task that ever finished. Figures are in
+:mod:`rinscal.report.study_figures`.
 """
 
 from __future__ import annotations
 
-import html
 import json
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -19,36 +20,82 @@ import numpy as np
 import pandas as pd
 
 from rinscal._version import __version__
-from rinscal.experiments.paper.config import LABELS
+from rinscal.experiments.study.compare import (
+    MIN_SAMPLES,
+    NO_DT_VARIANT,
+    design_table,
+    not_enough,
+    paired_against,
+)
 from rinscal.experiments.study.runner import RunSummary, StudyStore
+from rinscal.experiments.study.sensitivity import (
+    OPERATING_POINT_C,
+    plant_sensitivities,
+    sensitivity_map,
+)
 from rinscal.experiments.study.spec import StudySpec, plant_table, sweep_columns
 from rinscal.experiments.study.stats import (
     CONFIDENCE,
     claims_table,
     method_summary,
     paired_differences,
-    sensitivity_map,
     structure_findings,
     structure_pairs,
     uncompensated_wins,
 )
 from rinscal.io.atomic import write_atomic
 from rinscal.report.html import Report, figure_to_png
+from rinscal.report.study_figures import (
+    COLORS,
+    distribution_figure,
+    map_figure,
+    paired_figure,
+)
+from rinscal.report.study_words import (
+    CODES_LEGEND,
+    ablation_lines,
+    claims_view,
+    comparison_lines,
+    comparison_view,
+    design_view,
+    map_lines,
+    map_view,
+    oracle_lines,
+    pairs_view,
+    sensitivities_view,
+    summary_view,
+    ul,
+)
 
-#: Colours of the variants in every figure.
-COLORS = {
-    "none": "#6e7781",
-    "poly-t": "#8250df",
-    "sectional": "#cf222e",
-    "regression": "#0969da",
-    "neural": "#1a7f37",
-    "true": "#000000",
-}
+__all__ = [
+    "COLORS",
+    "StudyTables",
+    "WrittenStudy",
+    "build_report",
+    "claims_view",
+    "comparison_view",
+    "map_view",
+    "study_tables",
+    "tables_from_results",
+    "verdict_lines",
+    "write_study_report",
+]
+
+
+def _empty() -> pd.DataFrame:
+    return pd.DataFrame()
 
 
 @dataclass
 class StudyTables:
-    """Every table of a study's report."""
+    """Every table of a study's report.
+
+    ``comparisons``: each method against no compensation and the cubic in T
+    (:func:`rinscal.experiments.study.compare.paired_against`); ``oracle``: no compensation
+    against the oracle; ``ablation``: method 2 against method 2 without ``ΔT``; ``design``:
+    each unit's soak design; ``sensitivities``: each plant variant's equivalent sensitivities;
+    ``sensitivity``: the map's cells.
+    """
 
     results: pd.DataFrame
     plants: pd.DataFrame
@@ -59,6 +106,11 @@ class StudyTables:
     failures: pd.DataFrame
     uncompensated: list[str] = field(default_factory=list)
     structure: list[str] = field(default_factory=list)
+    comparisons: pd.DataFrame = field(default_factory=_empty)
+    oracle: pd.DataFrame = field(default_factory=_empty)
+    ablation: pd.DataFrame = field(default_factory=_empty)
+    design: pd.DataFrame = field(default_factory=_empty)
+    sensitivities: pd.DataFrame = field(default_factory=_empty)
 
 
 @dataclass
@@ -70,266 +122,71 @@ class WrittenStudy:
     verdicts: list[str]
 
 
-def study_tables(store: StudyStore, spec: StudySpec) -> StudyTables:
-    """The statistics of every finished task of ``spec`` in ``store``."""
-    results = store.read_results(spec)
-    plants = plant_table(spec)
+def tables_from_results(
+    results: pd.DataFrame,
+    plants: pd.DataFrame,
+    failures: pd.DataFrame | None = None,
+    sensitivities: pd.DataFrame | None = None,
+) -> StudyTables:
+    """Every statistic of a results frame (``sensitivities``: the plants'
+    :func:`rinscal.experiments.study.sensitivity.plant_sensitivities`, for a sweep)."""
+    failures = pd.DataFrame(columns=["task", "error"]) if failures is None else failures
     if results.empty:
-        empty = pd.DataFrame()
-        return StudyTables(results, plants, empty, empty, empty, empty, store.failures())
-    summary = method_summary(results)
+        e = _empty()
+        return StudyTables(results, plants, e, e, e, e, failures)
     pairs = paired_differences(results)
     claims = claims_table(results, pairs)
+    summary = method_summary(results)
+    comp = paired_against(results, ("none", "poly-t"))
+    sens = sensitivities if sensitivities is not None else _empty()
     return StudyTables(
         results=results,
         plants=plants,
         summary=summary,
         pairs=pairs,
         claims=claims,
-        sensitivity=sensitivity_map(pairs, plants) if sweep_columns(spec) else pd.DataFrame(),
-        failures=store.failures(),
+        sensitivity=sensitivity_map(comp, sens) if not sens.empty else _empty(),
+        failures=failures,
         uncompensated=uncompensated_wins(pairs),
         structure=structure_findings(claims, summary, plants, pairs),
+        comparisons=comp,
+        oracle=paired_against(results, ("true",), ("none",)),
+        ablation=paired_against(results, (NO_DT_VARIANT,), ("regression",)),
+        design=design_table(results),
+        sensitivities=sens,
     )
+
+
+def study_tables(store: StudyStore, spec: StudySpec) -> StudyTables:
+    """The statistics of every finished task of ``spec`` in ``store``."""
+    results = store.read_results(spec)
+    plants = plant_table(spec)
+    sens = plant_sensitivities(spec) if sweep_columns(spec) and not results.empty else None
+    return tables_from_results(results, plants, store.failures(), sens)
 
 
 def verdict_lines(t: StudyTables) -> list[str]:
-    """The findings in words: each claim's verdict, where no compensation wins, and the
-    sensitivity map's reading."""
-    out = []
-    for _, r in t.claims.iterrows():
-        out.append(f"{r['plant']}, {r['scenario']}: {r['claim']} — {r['verdict']}")
+    """The findings in words: each claim's verdict, every method against no compensation
+    and the cubic in T, where no compensation wins, the oracle, the ΔT ablation, the
+    structure findings and the sensitivity map's reading."""
+    out = [
+        f"{r['plant']}, {r['scenario']}: {r['claim']} — {r['verdict']}"
+        for _, r in t.claims.iterrows()
+    ]
+    if not t.comparisons.empty:
+        out += comparison_lines(t.comparisons)
     out.extend(t.uncompensated)
+    if not t.oracle.empty:
+        out += oracle_lines(t.oracle)
+    if not t.ablation.empty:
+        out += ablation_lines(t.ablation, t.design)
     out.extend(t.structure)
-    s = t.sensitivity
-    if not s.empty:
-        for tag, name in (("m2", "method 2"), ("m3", "method 3")):
-            col = f"{tag} verdict"
-            if col not in s:
-                continue
-            pays = s[s[col] == "pays"]
-            loses = s[s[col] == "loses"]
-            out.append(
-                f"sensitivity map: {name} beats method 1 by a margin whose 95 % interval "
-                f"excludes zero in {len(pays)} of {len(s)} cells"
-                + (f", loses in {len(loses)}" if len(loses) else "")
-                + (
-                    "; it pays at: "
-                    + "; ".join(
-                        f"{p} ({sc})"
-                        for p, sc in zip(pays["plant_label"], pays["scenario"], strict=True)
-                    )
-                    if 0 < len(pays) <= 8
-                    else ""
-                )
-            )
+    if not t.sensitivity.empty:
+        out += map_lines(t.sensitivity)
     return out
 
 
-# --------------------------------------------------------------------------- figures
-def _distribution_figure(results: pd.DataFrame, plant: int) -> bytes:
-    # deferred: matplotlib loads in ~0.3 s, for figures only; Agg is chosen before pyplot
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    df = results[results["plant"] == plant]
-    scens = list(dict.fromkeys(df["scenario"]))
-    variants = [v for v in COLORS if v in set(df["variant"])]
-    fig, axes = plt.subplots(1, len(scens), figsize=(4.2 * len(scens), 3.8), squeeze=False)
-    rng = np.random.default_rng(0)
-    for ax, scen in zip(axes[0], scens, strict=True):
-        g = df[df["scenario"] == scen]
-        data = [g.loc[g["variant"] == v, "max_error_nmi"].to_numpy(float) for v in variants]
-        ax.boxplot(data, showfliers=False, widths=0.6)
-        for i, (v, y) in enumerate(zip(variants, data, strict=True)):
-            x = i + 1 + rng.uniform(-0.18, 0.18, y.size)
-            ax.plot(x, y, ".", color=COLORS[v], alpha=0.5, ms=4)
-            ax.plot(i + 1, np.mean(y), "D", color="k", ms=4)
-        ax.set_xticks(
-            range(1, len(variants) + 1),
-            [LABELS[v].split(" (")[0] for v in variants],
-            rotation=35,
-            ha="right",
-            fontsize=8,
-        )
-        ax.set_title(scen, fontsize=10)
-        ax.set_ylabel("max horizontal position error [nmi]")
-        ax.grid(axis="y", alpha=0.3)
-    fig.suptitle(
-        f"{df['plant_label'].iloc[0]}: every run (dots), mean (◆), box = quartiles", fontsize=10
-    )
-    fig.tight_layout()
-    return figure_to_png(fig)
-
-
-_FOREST = (
-    ("sectional", "regression"),
-    ("sectional", "neural"),
-    ("regression", "neural"),
-    ("poly-t", "regression"),
-    ("none", "regression"),
-)
-
-
-def _forest_figure(pairs: pd.DataFrame, plant: int) -> bytes:
-    # deferred: matplotlib loads in ~0.3 s, for figures only; Agg is chosen before pyplot
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    p = pairs[(pairs["plant"] == plant) & (pairs["metric"] == "max_error_nmi")]
-    scens = list(dict.fromkeys(p["scenario"]))
-    fig, axes = plt.subplots(
-        1, len(scens), figsize=(4.2 * len(scens), 3.2), squeeze=False, sharey=True
-    )
-    for ax, scen in zip(axes[0], scens, strict=True):
-        g = p[p["scenario"] == scen]
-        labels = []
-        for i, (a, b) in enumerate(_FOREST):
-            r = g[(g["a"] == a) & (g["b"] == b)]
-            labels.append(f"{a} → {b}")
-            if r.empty:
-                continue
-            r = r.iloc[0]
-            lo, hi, m = r["decrease ci low"], r["decrease ci high"], r["decrease %"]
-            color = "#1a7f37" if lo > 0 else "#cf222e" if hi < 0 else "#6e7781"
-            err = [[max(0.0, m - lo)], [max(0.0, hi - m)]] if np.isfinite([lo, hi]).all() else None
-            ax.errorbar(m, i, xerr=err, fmt="o", color=color, capsize=3)
-        ax.axvline(0, color="k", lw=0.8)
-        ax.set_yticks(range(len(_FOREST)), labels, fontsize=8)
-        ax.invert_yaxis()
-        ax.set_title(scen, fontsize=10)
-        ax.set_xlabel("decrease of mean max error [%]")
-        ax.grid(axis="x", alpha=0.3)
-    fig.suptitle(
-        f"paired decrease a → b with its {CONFIDENCE:.0%} interval (green: b better, "
-        "red: b worse, grey: not resolved)",
-        fontsize=9,
-    )
-    fig.tight_layout()
-    return figure_to_png(fig)
-
-
-def _map_figure(sens: pd.DataFrame) -> bytes:
-    # deferred: matplotlib loads in ~0.3 s, for figures only; Agg is chosen before pyplot
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    scens = list(dict.fromkeys(sens["scenario"]))
-    tags = [t for t in ("m2", "m3") if f"{t} decrease %" in sens]
-    cols = [(s, t) for s in scens for t in tags]
-    labels = list(dict.fromkeys(sens["plant_label"]))
-    z = np.full((len(labels), len(cols)), np.nan)
-    txt = [["" for _ in cols] for _ in labels]
-    for j, (s, t) in enumerate(cols):
-        for i, lab in enumerate(labels):
-            r = sens[(sens["scenario"] == s) & (sens["plant_label"] == lab)]
-            if r.empty:
-                continue
-            r = r.iloc[0]
-            z[i, j] = r[f"{t} decrease %"]
-            mark = {"pays": "✓", "loses": "✗"}.get(r[f"{t} verdict"], "~")
-            txt[i][j] = f"{mark} {z[i, j]:.0f}%\n[{r[f'{t} ci low']:.0f}, {r[f'{t} ci high']:.0f}]"
-    lim = float(np.nanmax(np.abs(z))) if np.isfinite(z).any() else 1.0
-    fig, ax = plt.subplots(figsize=(2.0 + 1.9 * len(cols), 0.9 + 0.55 * len(labels)))
-    im = ax.imshow(z, cmap="RdYlGn", vmin=-lim, vmax=lim, aspect="auto")
-    for i in range(len(labels)):
-        for j in range(len(cols)):
-            ax.text(j, i, txt[i][j], ha="center", va="center", fontsize=7)
-    names = {"m2": "method 1 → 2", "m3": "method 1 → 3"}
-    ax.set_xticks(range(len(cols)), [f"{s}\n{names[t]}" for s, t in cols], fontsize=8)
-    ax.set_yticks(range(len(labels)), labels, fontsize=8)
-    fig.colorbar(im, ax=ax, label="decrease of mean max error [%]")
-    ax.set_title("✓ pays (interval above 0) · ✗ loses (below 0) · ~ not resolved", fontsize=9)
-    fig.tight_layout()
-    return figure_to_png(fig)
-
-
 # --------------------------------------------------------------------------- the report
-def _fmt_ci(m: float, lo: float, hi: float, nd: int = 3) -> str:
-    if not math.isfinite(m):
-        return ""
-    if not (math.isfinite(lo) and math.isfinite(hi)):
-        return f"{m:.{nd}f}"
-    return f"{m:.{nd}f} [{lo:.{nd}f}, {hi:.{nd}f}]"
-
-
-def _summary_view(summary: pd.DataFrame, metric: str) -> pd.DataFrame:
-    s = summary[summary["metric"] == metric]
-    nd = {"nmi": 3, "ug": 2, "dph": 5, "pct": 1}.get(metric.rsplit("_", 1)[-1], 0)
-    return pd.DataFrame(
-        {
-            "plant": s["plant_label"],
-            "scenario": s["scenario"],
-            "method": s["method"],
-            "units": s["n units"],
-            "runs": s["n runs"],
-            f"mean [{CONFIDENCE:.0%} CI]": [
-                _fmt_ci(m, lo, hi, nd)
-                for m, lo, hi in zip(s["mean"], s["ci low"], s["ci high"], strict=True)
-            ],
-            "median": s["median"],
-            "sd": s["sd"],
-            "min": s["min"],
-            "max": s["max"],
-        }
-    )
-
-
-def _pairs_view(pairs: pd.DataFrame) -> pd.DataFrame:
-    p = pairs[pairs["metric"] == "max_error_nmi"]
-    return pd.DataFrame(
-        {
-            "plant": p["plant_label"],
-            "scenario": p["scenario"],
-            "a → b": p["comparison"],
-            "mean a − b [nmi]": [
-                _fmt_ci(m, lo, hi)
-                for m, lo, hi in zip(
-                    p["difference"], p["diff ci low"], p["diff ci high"], strict=True
-                )
-            ],
-            "decrease [%]": [
-                _fmt_ci(m, lo, hi, 1)
-                for m, lo, hi in zip(
-                    p["decrease %"], p["decrease ci low"], p["decrease ci high"], strict=True
-                )
-            ],
-            "b better: units": p["b better: units"],
-            "b better: runs": p["b better: runs"],
-            "best run (a maximum) [%]": p["best decrease over the runs %"],
-        }
-    )
-
-
-def claims_view(claims: pd.DataFrame) -> pd.DataFrame:
-    """The claims table as shown: our mean decrease with its interval in one column."""
-    view = claims.copy()
-    view["ours: mean [CI] %"] = [
-        _fmt_ci(m, lo, hi, 1)
-        for m, lo, hi in zip(
-            view["ours: mean decrease %"], view["ci low"], view["ci high"], strict=True
-        )
-    ]
-    cols = [
-        "plant",
-        "scenario",
-        "claim",
-        "paper %",
-        "paper's figure is",
-        "ours: mean [CI] %",
-        "ours: best run %",
-        "b better: units",
-        "verdict",
-    ]
-    return view[cols]
-
-
 def build_report(spec: StudySpec, t: StudyTables, run: RunSummary | None) -> Report:
     """The HTML report of a study from its tables."""
     rep = Report(
@@ -338,6 +195,122 @@ def build_report(spec: StudySpec, t: StudyTables, run: RunSummary | None) -> Rep
         + (" · quick sizes" if spec.quick else "")
         + " · every figure a simulation",
     )
+    _what_ran(rep, spec, t, run)
+    if t.results.empty:
+        return rep
+    n_units = int(t.results["unit"].nunique())
+    if not t.comparisons.empty:
+        c = rep.section("Every method against no compensation and the cubic in T", "against")
+        c.text(
+            "Each method's maximum position error minus that of the reference, paired on the "
+            "same raw output of each cold start, averaged over a unit's starts, then over "
+            f"units (Δ < 0: the method has less error), with a {CONFIDENCE:.0%} Student-t "
+            "interval over units. The ratio of medians is the median over units of the "
+            "method's error over the median of the reference's. A verdict is 'resolved' only "
+            "where the interval excludes zero."
+            + (
+                f" This study has {n_units} unit(s): {not_enough(n_units)}, so the interval "
+                "column is empty and no difference is decided."
+                if n_units < MIN_SAMPLES
+                else ""
+            )
+        )
+        c.raw(ul(comparison_lines(t.comparisons)))
+        for p in _shown(t):
+            c.figure(
+                f"paired-p{p}",
+                figure_to_png(paired_figure(t.comparisons, p)),
+                "Paired difference method − reference of the maximum position error [nmi]",
+            )
+        if t.sensitivity.empty:
+            c.text(CODES_LEGEND, "note")
+            c.table(
+                "against",
+                comparison_view(t.comparisons),
+                "Every method against no compensation and the cubic in T (Δ = method − "
+                "reference; negative: the method has less error)",
+            )
+        else:
+            c.text(
+                f"The {len(t.comparisons)} comparisons of this sweep are in "
+                "tables/against_references.csv; the sensitivity map below shows those of "
+                "methods 2 and 3.",
+                "note",
+            )
+    if not t.claims.empty:
+        cl = rep.section("The paper's claims", "claims")
+        cl.text(
+            "Each claim of the paper's Section 5 with our mean decrease of the maximum position "
+            "error and its interval (the paper's measure), the paired difference a − b in nmi "
+            "(> 0: b has less error) and a verdict. The paper's lab figures are its best run "
+            "('up to'); our mean is the figure to adopt a method on. Percent decreases of "
+            "means are unstable where a method's errors are heavy-tailed; the difference in "
+            "nmi is not."
+        )
+        cl.table(
+            "claims", claims_view(t.claims), "The paper's claims with our interval and verdict"
+        )
+    if not t.oracle.empty:
+        _oracle_section(rep, t)
+    if not t.ablation.empty:
+        _ablation_section(rep, t)
+    if t.structure:
+        st = rep.section("Does the verdict survive a change of thermal law?", "structure")
+        st.text(
+            "The study ran plants that differ only in their thermal law: "
+            + "; ".join(
+                f"{a['plant_label']} (polynomial) and {b['plant_label']} (mechanistic)"
+                for a, b in structure_pairs(t.plants)
+            )
+            + ". The polynomial law is, term for term, the paper's method-2 regression, so a "
+            "verdict for method 2 on it partly measures the plant's own shape; the mechanistic "
+            "law drives each bias by nodes of the thermal network that no thermometer sees "
+            "(the electronics box through a lag, the box-to-mount gradient, the package "
+            "stress, a saturating own temperature), which no model class here represents. "
+            "A finding that holds on both is one the plant's shape did not decide."
+        )
+        st.raw(ul(t.structure))
+    if "accel_residual_pct" in set(t.summary.get("metric", [])):
+        _residual_section(rep, t)
+    if t.uncompensated:
+        u = rep.section("Where no compensation wins", "uncompensated")
+        u.text(
+            "Plants, scenarios and methods whose mean error is above no compensation's, with "
+            "the paired difference and its verdict: only a resolved verdict says that "
+            "compensating with the method makes navigation worse."
+        )
+        u.raw(ul(t.uncompensated))
+    _distributions_section(rep, t)
+    pr = rep.section("Every pair of methods", "paired")
+    pr.text(
+        "Every pair a → b, paired as above (a − b > 0: b has less error), with the count of "
+        "units and of single runs where b is better. 'Best run' is the largest single-run "
+        "decrease from a to b [%], the paper's 'up to' figure: a maximum, not an estimate."
+    )
+    if t.sensitivity.empty:
+        pr.text(CODES_LEGEND, "note")
+        pr.table("pairs", pairs_view(t.pairs), "Paired differences of the maximum position error")
+    else:
+        pr.text(f"The {len(t.pairs)} pairs of this sweep are in tables/paired_differences.csv.")
+    if not t.sensitivity.empty:
+        _map_section(rep, t)
+    if not t.failures.empty:
+        f = rep.section("Failed tasks", "failures")
+        f.text(
+            f"{len(t.failures)} task(s) raised; the statistics leave them out. Run the "
+            "study again with --retry-failed to retry them.",
+            "banner",
+        )
+        f.table("failures", t.failures, "Tasks that raised and their errors")
+    return rep
+
+
+def _shown(t: StudyTables) -> list[Any]:
+    plants = list(dict.fromkeys(t.results["plant"]))
+    return plants if len(plants) <= 2 else plants[:1]
+
+
+def _what_ran(rep: Report, spec: StudySpec, t: StudyTables, run: RunSummary | None) -> None:
     s = rep.section("What ran", "what")
     s.text(spec.description or spec.name)
     n_runs = t.results.drop_duplicates(["plant", "unit", "scenario", "start"]).shape[0]
@@ -361,134 +334,146 @@ def build_report(spec: StudySpec, t: StudyTables, run: RunSummary | None) -> Rep
             "note",
         )
     s.text(
-        f"Intervals are {CONFIDENCE:.0%} BCa bootstrap intervals over units (a unit's starts "
-        "are averaged first; they share its calibration). Comparisons are paired: both methods "
-        "on the same unit and cold start. 'Best run' columns are maxima over single runs, the "
-        "paper's 'up to' figures; they are not estimates.",
+        "The units are the independent draws: a comparison is paired within a run (both "
+        "methods on the same raw output), averaged over a unit's starts (they share its "
+        f"calibration), and given a {CONFIDENCE:.0%} interval over units: Student-t for "
+        "differences in nmi, BCa bootstrap for means and percent decreases. Below "
+        f"{MIN_SAMPLES} units no interval is computed and every verdict says so. Counts are "
+        "counts ('2 of 3'). 'Best run' columns are maxima over single runs, the paper's 'up "
+        "to' figures; they are not estimates.",
         "note",
     )
     if t.results.empty:
         s.text("No navigation task has finished yet.", "banner")
-        return rep
-    if not t.claims.empty:
-        c = rep.section("The paper's claims", "claims")
-        c.text(
-            "Each claim of the paper's Section 5 with our mean decrease of the maximum position "
-            "error, its interval and a verdict. The paper's lab figures are its best run "
-            "('up to'); our mean is the figure to adopt a method on."
-        )
-        c.table(
-            "claims",
-            claims_view(t.claims),
-            "The paper's claims with our interval and verdict",
-            "{:.3g}",
-        )
-    if t.structure:
-        st = rep.section("Does the verdict survive a change of thermal law?", "structure")
-        pairs_ = structure_pairs(t.plants)
-        st.text(
-            "The study ran plants that differ only in their thermal law: "
-            + "; ".join(
-                f"{a['plant_label']} (polynomial) and {b['plant_label']} (mechanistic)"
-                for a, b in pairs_
-            )
-            + ". The polynomial law is, term for term, the paper's method-2 regression, so a "
-            "verdict for method 2 on it partly measures the plant's own shape; the mechanistic "
-            "law drives each bias by nodes of the thermal network that no thermometer sees "
-            "(the electronics box through a lag, the box-to-mount gradient, the package "
-            "stress, a saturating own temperature), which no model class here represents. "
-            "A finding that holds on both is one the plant's shape did not decide."
-        )
-        st.raw("<ul>" + "".join(f"<li>{html.escape(x)}</li>" for x in t.structure) + "</ul>")
-    if "accel_residual_pct" in set(t.summary.get("metric", [])):
-        h = rep.section("How much of each result is model error", "residual")
-        h.text(
-            "Each model's held-out thermal residual on the cold starts themselves (not the "
-            "soak runs it was fitted to): the RMS of (model − true thermal bias) about its "
-            "mean over the run, from the alignment start, as a share of the true bias's own "
-            "swing (the worse horizontal accelerometer), and in µg and °/h. The mean is left "
-            "out because the alignment absorbs a constant bias; it reappears as heading error "
-            "(the |heading error| table). A model with a small residual and a large position "
-            "error owes its error to the alignment and the noise, not to the model."
-        )
-        for metric, caption, fmt in (
-            (
-                "accel_residual_pct",
-                "Horizontal accelerometers: share of the thermal swing left [%]",
-                "{:.1f}",
-            ),
-            ("accel_residual_ug", "Horizontal accelerometers: residual RMS [µg]", "{:.2f}"),
-            ("gyro_residual_dph", "Gyros: residual RMS, worst axis [°/h]", "{:.2g}"),
-        ):
-            h.table(f"summary_{metric}", _summary_view(t.summary, metric), caption, fmt)
-    if t.uncompensated:
-        u = rep.section("Where no compensation wins", "uncompensated")
-        u.raw("<ul>" + "".join(f"<li>{html.escape(x)}</li>" for x in t.uncompensated) + "</ul>")
+
+
+def _oracle_section(rep: Report, t: StudyTables) -> None:
+    o = rep.section("The oracle and the thermal part", "oracle")
+    o.text(
+        "The oracle navigates the same raw output compensated with the plant's true thermal "
+        "bias: the best any thermal model could do. A variant's thermal part (variant − "
+        "oracle, the 'thermal part' table below) is then the position error its model error "
+        "alone causes; turn-on offsets, noise and the alignment are common to both and "
+        "cancel. In a single run the oracle can still lose to no compensation: the thermal "
+        "bias and the run's turn-on offsets and noise add up to heading and tilt errors that "
+        "can partly cancel, and removing only the thermal part can undo a lucky "
+        "cancellation. Over units such luck averages out, so the test of the oracle is the "
+        "paired comparison below: no compensation − oracle > 0 means the oracle has less "
+        "error."
+    )
+    o.raw(ul(oracle_lines(t.oracle)))
+    o.table(
+        "oracle",
+        comparison_view(t.oracle),
+        "No compensation against the oracle (Δ = none − oracle; positive: the oracle has "
+        "less error)",
+    )
+
+
+def _ablation_section(rep: Report, t: StudyTables) -> None:
+    a = rep.section("Does the gradient pay? Method 2 with and without ΔT", "ablation")
+    a.text(
+        "Method 2 refitted on each unit's soak runs with its ΔT terms dropped (T and Ṫ only, "
+        "the same orders) and navigated on the same raw output: the paired difference "
+        "method 2 − method 2 without ΔT (< 0: the gradient terms help) answers whether the "
+        "gradient pays apart from the temperature rate. Whether a fit can separate the two "
+        "depends on the soak design: the correlation of Ṫ and ΔT over the unit's soak runs "
+        "(horizontal accelerometers, the worse of x and y) and the condition number of the "
+        "standardised design [T, Ṫ, ΔT]."
+    )
+    a.raw(ul(ablation_lines(t.ablation, t.design)))
+    a.table(
+        "ablation",
+        comparison_view(t.ablation),
+        "Method 2 against method 2 without ΔT (Δ = with − without)",
+    )
+    if not t.design.empty:
+        a.table("design", design_view(t.design), "Each unit's soak design")
+
+
+def _residual_section(rep: Report, t: StudyTables) -> None:
+    h = rep.section("How much of each result is model error", "residual")
+    h.text(
+        "Each model's held-out thermal residual on the cold starts themselves (not the "
+        "soak runs it was fitted to): the RMS of (model − true thermal bias) about its "
+        "mean over the run, from the alignment start, as a share of the true bias's own "
+        "swing (the worse horizontal accelerometer), and in µg and °/h. The mean is left "
+        "out because the alignment absorbs a constant bias; it reappears as heading error "
+        "(the |heading error| table). A model with a small residual and a large position "
+        "error owes its error to the alignment and the noise, not to the model."
+    )
+    for metric, caption in (
+        ("accel_residual_pct", "Horizontal accelerometers: share of the thermal swing left"),
+        ("accel_residual_ug", "Horizontal accelerometers: residual RMS"),
+        ("gyro_residual_dph", "Gyros: residual RMS, worst axis"),
+    ):
+        h.table(f"summary_{metric}", summary_view(t.summary, metric), caption)
+
+
+def _distributions_section(rep: Report, t: StudyTables) -> None:
     d = rep.section("Distributions per method", "distributions")
-    plants = list(dict.fromkeys(t.results["plant"]))
-    shown = plants if len(plants) <= 2 else plants[:1]
+    shown = _shown(t)
     for p in shown:
         d.figure(
             f"distribution-p{p}",
-            _distribution_figure(t.results, p),
+            figure_to_png(distribution_figure(t.results, p)),
             "Maximum horizontal position error of every run, per method and scenario",
         )
-    if len(shown) < len(plants):
+    n_plants = t.results["plant"].nunique()
+    if len(shown) < n_plants:
         d.text(
-            f"Figures for the first plant variant only; {len(plants)} variants are in the "
+            f"Figures for the first plant variant only; {n_plants} variants are in the "
             "tables and the sensitivity map.",
             "note",
         )
     d.table(
         "summary_max_error",
-        _summary_view(t.summary, "max_error_nmi"),
-        "Maximum horizontal position error per run [nmi]",
-        "{:.3f}",
+        summary_view(t.summary, "max_error_nmi"),
+        "Maximum horizontal position error per run",
+    )
+    d.text(
+        "The thermal part of a run is the largest distance between the variant's and the "
+        "oracle's position error tracks (same raw output): the error the model's misfit "
+        "alone causes. It is not the variant's error minus the oracle's error, and it is "
+        "positive even where the variant's total error is below the oracle's (see 'The "
+        "oracle and the thermal part')."
     )
     d.table(
         "summary_thermal_part",
-        _summary_view(t.summary, "thermal_part_nmi"),
-        "Its thermal part: the variant's position error minus the oracle's [nmi]",
-        "{:.3f}",
+        summary_view(t.summary, "thermal_part_nmi"),
+        "Its thermal part: the variant's position error track minus the oracle's",
     )
     d.table(
         "summary_heading",
-        _summary_view(t.summary, "abs_heading_error_arcsec"),
-        "|heading error| at the start of free navigation [arcsec]",
-        "{:.0f}",
+        summary_view(t.summary, "abs_heading_error_arcsec"),
+        "|heading error| at the start of free navigation",
     )
-    pr = rep.section("Paired differences", "paired")
-    for p in shown:
-        pr.figure(
-            f"paired-p{p}",
-            _forest_figure(t.pairs, p),
-            "Decrease of the mean maximum position error from method a to method b",
-        )
-    pr.table(
-        "pairs",
-        _pairs_view(t.pairs),
-        "Paired differences of the maximum position error (a − b > 0: b is better)",
-        "{:.2f}",
+
+
+def _map_section(rep: Report, t: StudyTables) -> None:
+    m = rep.section("Sensitivity map", "sensitivity")
+    m.text(
+        "Where do methods 2 and 3 pay? Each cell is a method's maximum position error minus "
+        "no compensation's or the cubic in T's (paired, mean over units, nmi) with its "
+        f"{CONFIDENCE:.0%} interval; a cell is coloured only where the interval excludes "
+        "zero. The plant variants are placed by their equivalent thermal sensitivities: the "
+        "horizontal accelerometers' bias per temperature rate (µg per °C/min) and per "
+        "inside/outside gradient (µg/°C), the gyros' bias per temperature rate (°/h per "
+        "°C/min), mean magnitudes over the horizontal accelerometers and over the gyros. For "
+        f"the polynomial law they are the slopes of the plant's law at {OPERATING_POINT_C:g} "
+        "°C, Ṫ = 0, ΔT = 0 (its coefficients times the sweep factors); for the mechanistic "
+        "law, which has no such coefficients, the coefficients of a first-order Table-6 "
+        "regression fitted to its true thermal bias over the soak protocol. Panels: one per "
+        "thermal law and warm-up time (the alignment's start after power-on)."
     )
-    if not t.sensitivity.empty:
-        m = rep.section("Sensitivity map", "sensitivity")
-        m.text(
-            "Where do methods 2 and 3 beat method 1? Each cell is the decrease of the mean "
-            "maximum position error from method 1 (sectional) to method 2 (regression) or "
-            "method 3 (BP network) with its interval; a method pays where the interval lies "
-            "above zero."
-        )
-        m.figure("sensitivity-map", _map_figure(t.sensitivity), "The sensitivity map")
-        m.table("sensitivity", t.sensitivity, "The sensitivity map as a table", "{:.3g}")
-    if not t.failures.empty:
-        f = rep.section("Failed tasks", "failures")
-        f.text(
-            f"{len(t.failures)} task(s) raised; the statistics leave them out. Run the "
-            "study again with --retry-failed to retry them.",
-            "banner",
-        )
-        f.table("failures", t.failures, "Tasks that raised and their errors")
-    return rep
+    m.raw(ul(map_lines(t.sensitivity)))
+    m.figure("sensitivity-map", figure_to_png(map_figure(t.sensitivity)), "The sensitivity map")
+    m.table(
+        "sensitivity_plants",
+        sensitivities_view(t.sensitivities),
+        "The plant variants: equivalent sensitivities",
+    )
+    m.table("sensitivity", map_view(t.sensitivity), "The sensitivity map as a table")
 
 
 def write_study_report(
@@ -503,7 +488,12 @@ def write_study_report(
         "plants": t.plants,
         "method_summary": t.summary,
         "paired_differences": t.pairs,
+        "against_references": t.comparisons,
+        "oracle": t.oracle,
+        "gradient_ablation": t.ablation,
+        "soak_design": t.design,
         "claims": t.claims,
+        "plant_sensitivities": t.sensitivities,
         "sensitivity_map": t.sensitivity,
         "failures": t.failures,
     }
@@ -542,13 +532,3 @@ def write_study_report(
     page = build_report(spec, t, run).to_html()
     write_atomic(root / "report.html", lambda tmp: tmp.write_text(page, encoding="utf-8"))
     return WrittenStudy(root / "report.html", t, verdicts)
-
-
-__all__ = [
-    "StudyTables",
-    "WrittenStudy",
-    "build_report",
-    "study_tables",
-    "verdict_lines",
-    "write_study_report",
-]

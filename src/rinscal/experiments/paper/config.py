@@ -35,6 +35,7 @@ LABELS = {
     "neural": "method 3 (BP network)",
     "true": "true bias (oracle)",
     "regression+sf": "method 2 + scale factor/axes over T",
+    "regression-no-dT": "method 2 without ΔT",
 }
 #: Navigation variants: uncompensated, each model, and the oracle (the best a model can do).
 VARIANTS = ("none", *METHODS, "true")

@@ -42,6 +42,7 @@ from rinscal import units
 from rinscal.errors import ConfigError
 from rinscal.experiments.paper.config import METHODS, ReproConfig, load_plant
 from rinscal.experiments.paper.imucal import IMU_VARIANT
+from rinscal.experiments.study.compare import NO_DT_VARIANT
 from rinscal.thermal.presets import PRESETS
 
 __all__ = [
@@ -66,10 +67,11 @@ __all__ = [
 BUILTIN_STUDIES = ("paper", "sensitivity")
 #: Variants a spec may list: uncompensated, the models (``regression+sf``: method 2 behind the
 #: thermal part of the unit's own multi-position calibration, see
-#: :mod:`rinscal.experiments.paper.imucal`), the true-bias oracle. ``none`` and
+#: :mod:`rinscal.experiments.paper.imucal`; ``regression-no-dT``: method 2 on ``T`` and ``Ṫ``
+#: only, the gradient ablation), the true-bias oracle. ``none`` and
 #: ``true`` are navigated in every task whether listed or not (the thermal part needs the
 #: oracle); the list decides which models are fitted.
-STUDY_VARIANTS = ("none", *METHODS, IMU_VARIANT, "true")
+STUDY_VARIANTS = ("none", *METHODS, NO_DT_VARIANT, IMU_VARIANT, "true")
 #: Scenario kinds (:data:`rinscal.nav.scenario.SCENARIOS`).
 SCENARIO_KINDS = ("quasi-static", "swing", "vehicle", "ramp")
 
@@ -215,7 +217,7 @@ class StudySpec:
     @property
     def models(self) -> tuple[str, ...]:
         """The methods that are fitted (the spec's methods without ``none``/``true``)."""
-        return tuple(m for m in self.methods if m in (*METHODS, IMU_VARIANT))
+        return tuple(m for m in self.methods if m in (*METHODS, NO_DT_VARIANT, IMU_VARIANT))
 
     def to_dict(self) -> dict[str, Any]:
         """Plain JSON-able form (what the results folder records)."""

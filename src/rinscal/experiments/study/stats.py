@@ -5,7 +5,10 @@ The unit of analysis is the simulated IMU unit. Where a scenario has several col
 unit (the lab's five temperatures), they are averaged per unit first; the intervals are
 bootstrap intervals over units (:func:`scipy.stats.bootstrap`, BCa, 95 %), so that starts of
 the same unit, which share its calibration, are not counted as independent. Comparisons
-between methods are paired: both navigated on the same raw data of the same unit and start.
+between methods are paired: both navigated on the same raw data of the same unit and start;
+a paired difference in nmi gets a Student-t interval over units
+(:func:`rinscal.experiments.study.compare.t_interval`). Below :data:`MIN_SAMPLES` units no
+interval is computed and every verdict says "not enough units for an interval".
 """
 
 from __future__ import annotations
@@ -22,12 +25,15 @@ from scipy import stats
 
 from rinscal.experiments.paper.config import LABELS, PAPER
 from rinscal.experiments.paper.navigation import RESIDUAL_COLUMNS
+from rinscal.experiments.study.compare import (
+    CONFIDENCE,
+    MIN_SAMPLES,
+    NO_DT_VARIANT,
+    decide,
+    not_enough,
+    t_interval,
+)
 
-#: Confidence level of every interval.
-CONFIDENCE = 0.95
-#: Fewest values (units) an interval is given for: below it, a bootstrap interval says
-#: nothing (NaN, and the verdicts say "too few units").
-MIN_SAMPLES = 5
 #: Bootstrap resamples per interval.
 N_RESAMPLES = 4999
 #: The metrics summarised, with their unit: per run maximum horizontal position error,
@@ -43,7 +49,7 @@ METRICS = {
     "gyro_residual_dph": "°/h",
 }
 #: Methods compared pairwise, in order: each pair (a, b) with a before b.
-PAIR_ORDER = ("none", "poly-t", "sectional", "regression", "neural")
+PAIR_ORDER = ("none", "poly-t", "sectional", "regression", NO_DT_VARIANT, "neural")
 
 
 def _interval(
@@ -203,10 +209,12 @@ def paired_differences(results: pd.DataFrame) -> pd.DataFrame:
     metric, paired on the same unit and start.
 
     Columns: ``mean a``, ``mean b``, ``difference`` (mean of a − b over units, with ``diff
-    ci low/high``), ``decrease %`` (of the mean, a → b, with ``decrease ci low/high``),
-    ``b better: units`` (fraction of units whose mean over their starts is lower with b),
-    ``b better: runs`` (fraction of runs), ``best decrease over the runs %`` (the paper's
-    "up to": the largest single-run decrease; a maximum, not an estimate).
+    ci low/high``, a Student-t interval over units), ``decrease %`` (of the mean, a → b,
+    with ``decrease ci low/high``, the paper's measure; heavy-tailed errors make it
+    unstable, so the report leads with the difference), ``units b better`` (a count, of
+    ``n units``: units whose mean over their starts is lower with b), ``runs b better``
+    (a count, of ``n runs``), ``best decrease over the runs %`` (the paper's "up to": the
+    largest single-run decrease; a maximum, not an estimate).
     """
     rows = []
     for metric, unit, (plant, label, scen), g, runs in _groups(results):
@@ -217,7 +225,7 @@ def paired_differences(results: pd.DataFrame) -> pd.DataFrame:
                 continue
             ua, ub = g[a].to_numpy(float), g[b].to_numpy(float)
             ra, rb = runs[a].to_numpy(float), runs[b].to_numpy(float)
-            dlo, dhi = bootstrap_ci(ua - ub)
+            dlo, dhi = t_interval(ua - ub)
             plo, phi = paired_decrease_ci(ua, ub)
             with np.errstate(divide="ignore", invalid="ignore"):
                 per_run_dec = 100.0 * (ra - rb) / ra
@@ -241,8 +249,8 @@ def paired_differences(results: pd.DataFrame) -> pd.DataFrame:
                     "decrease %": float(_decrease(ua, ub)),
                     "decrease ci low": plo,
                     "decrease ci high": phi,
-                    "b better: units": float(np.mean(ub < ua)),
-                    "b better: runs": float(np.mean(rb < ra)),
+                    "units b better": int(np.sum(ub < ua)),
+                    "runs b better": int(np.sum(rb < ra)),
                     "best decrease over the runs %": float(np.nanmax(per_run_dec)),
                 }
             )
@@ -298,7 +306,10 @@ def claims_table(results: pd.DataFrame, pairs: pd.DataFrame) -> pd.DataFrame:
                         "ci low": lo,
                         "ci high": hi,
                         "ours: best run %": r["best decrease over the runs %"],
-                        "b better: units": r["b better: units"],
+                        "difference a − b [nmi]": r["difference"],
+                        "diff ci low": r["diff ci low"],
+                        "diff ci high": r["diff ci high"],
+                        "units b better": r["units b better"],
                         "verdict": claim_verdict(paper, what, lo, hi, r),
                     }
                 )
@@ -309,7 +320,8 @@ def claim_verdict(paper: float, what: str, lo: float, hi: float, r: pd.Series) -
     """The verdict on one claim, in words, from our 95 % interval ``[lo, hi]`` of the mean
     decrease [%] and the paper's figure (a best run for ``what == "up to"``)."""
     if not (math.isfinite(lo) and math.isfinite(hi)):
-        return f"undecided: an interval needs at least {MIN_SAMPLES} units"
+        n = int(r["n units"]) if "n units" in r else 0
+        return f"undecided: {not_enough(n)}"
     if hi < 0:
         worse = f"{LABELS[r['b']]} is worse"
         if "mean a" in r and r["mean a"] > 0:
@@ -334,21 +346,22 @@ def claim_verdict(paper: float, what: str, lo: float, hi: float, r: pd.Series) -
 
 def uncompensated_wins(pairs: pd.DataFrame) -> list[str]:
     """Sentences for every plant, scenario and method where no compensation has the lower
-    mean maximum position error; marked as resolved when the interval of the difference
-    excludes zero."""
+    mean maximum position error, with the paired difference (method − none) [nmi], its
+    interval and the verdict (:func:`rinscal.experiments.study.compare.decide`): resolved
+    either way, no resolved difference, or not enough units for an interval."""
     p = pairs[(pairs["metric"] == "max_error_nmi") & (pairs["a"] == "none")]
     out = []
     for _, r in p.iterrows():
         if r["mean b"] > r["mean a"]:
-            sure = resolved(r["diff ci low"], r["diff ci high"]) == "a better"
+            name = LABELS[r["b"]]
+            # difference is a − b = none − method; the verdict is on method − none
+            lo, hi = -r["diff ci high"], -r["diff ci low"]
+            verdict = decide(int(r["n units"]), lo, hi, "no compensation", name)
+            ci = f" [{lo:+.3f}, {hi:+.3f}]" if math.isfinite(lo) and math.isfinite(hi) else ""
             out.append(
-                f"{r['plant_label']}, {r['scenario']}: no compensation "
-                f"({r['mean a']:.3f} nmi) beats {LABELS[r['b']]} ({r['mean b']:.3f} nmi)"
-                + (
-                    " — the interval of the difference excludes zero"
-                    if sure
-                    else " — within noise (the interval contains zero)"
-                )
+                f"{r['plant_label']}, {r['scenario']}: no compensation has the lower mean "
+                f"error ({r['mean a']:.3f} nmi against {r['mean b']:.3f} nmi with {name}; "
+                f"{name} − none = {-r['difference']:+.3f} nmi{ci}) — {verdict}"
             )
     return out
 
@@ -432,7 +445,8 @@ def structure_findings(
 
 
 def _against_none(pairs: pd.DataFrame, pl: str, ml: str) -> list[str]:
-    """Per scenario and model: does it beat no compensation on both plants?"""
+    """Per scenario and model: does it beat no compensation on both plants (the paired
+    difference model − none [nmi] and its interval)?"""
     p = pairs[(pairs["metric"] == "max_error_nmi") & (pairs["a"] == "none")]
     out = []
     kinds = {"b better": "beats no compensation", "a better": "loses to no compensation"}
@@ -442,25 +456,40 @@ def _against_none(pairs: pd.DataFrame, pl: str, ml: str) -> list[str]:
             continue
         ra, rb = ra.iloc[0], rb.iloc[0]
         k = [
-            kinds.get(resolved(r["diff ci low"], r["diff ci high"]), "not resolved")
+            kinds.get(resolved(r["diff ci low"], r["diff ci high"]), "no resolved difference")
             for r in (ra, rb)
         ]
-        decided = all(math.isfinite(r["decrease ci low"]) for r in (ra, rb))
-        tail = _survival(*(k if decided else ("undecided",) * 2), unresolved="not resolved")
-        fa = _pct_ci(ra["decrease %"], ra["decrease ci low"], ra["decrease ci high"])
-        fb = _pct_ci(rb["decrease %"], rb["decrease ci low"], rb["decrease ci high"])
+        n = min(int(ra["n units"]), int(rb["n units"]))
+        decided = all(math.isfinite(r["diff ci low"]) for r in (ra, rb))
+        tail = _survival(
+            *(k if decided else ("undecided",) * 2), unresolved="no resolved difference", n=n
+        )
+        fa, fb = (
+            _nmi_ci(-r["difference"], -r["diff ci high"], -r["diff ci low"]) for r in (ra, rb)
+        )
+        if not decided:
+            k = ["undecided"] * 2
         out.append(
-            f"{scen}, {LABELS[b]} against no compensation: {k[0]} on {pl} ({fa} less error), "
+            f"{scen}, {LABELS[b]} − no compensation: {k[0]} on {pl} ({fa}), "
             f"{k[1]} on {ml} ({fb}) — {tail}"
         )
     return out
 
 
-def _survival(ka: str, kb: str, unresolved: str = "not shown") -> str:
+def _nmi_ci(m: float, lo: float, hi: float) -> str:
+    """``+0.123 nmi [+0.01, +0.2]``, or without the interval where there is none."""
+    if math.isfinite(lo) and math.isfinite(hi):
+        return f"{m:+.3f} nmi [{lo:+.3f}, {hi:+.3f}]"
+    return f"{m:+.3f} nmi, no interval"
+
+
+def _survival(ka: str, kb: str, unresolved: str = "not shown", n: int | None = None) -> str:
     """Whether a verdict survives the change of law, from its kinds on both plants
     (``undecided``: no interval; ``unresolved``: the word for an interval containing 0)."""
     if "undecided" in (ka, kb):
-        return "not decided (too few units for an interval)"
+        return "not decided: " + (
+            not_enough(n) if n is not None else "not enough units for an interval"
+        )
     if ka == kb == unresolved:
         return "resolved on neither plant"
     if ka == kb:
@@ -475,32 +504,6 @@ def _pct_ci(m: float, lo: float, hi: float) -> str:
     return f"{m:.0f} % (no interval)"
 
 
-def sensitivity_map(pairs: pd.DataFrame, plants: pd.DataFrame) -> pd.DataFrame:
-    """Per plant variant and scenario: the decrease of the mean maximum position error from
-    method 1 to method 2 and to method 3 [%] with its interval, and whether it pays
-    (interval above zero), loses (below) or is not resolved."""
-    p = pairs[(pairs["metric"] == "max_error_nmi") & (pairs["a"] == "sectional")]
-    rows = []
-    for (plant, scen), g in p.groupby(["plant", "scenario"], sort=False):
-        row: dict[str, Any] = {"plant": plant, "scenario": scen}
-        for b, tag in (("regression", "m2"), ("neural", "m3")):
-            r = g[g["b"] == b]
-            if r.empty:
-                continue
-            r = r.iloc[0]
-            lo, hi = r["decrease ci low"], r["decrease ci high"]
-            row[f"{tag} decrease %"] = r["decrease %"]
-            row[f"{tag} ci low"] = lo
-            row[f"{tag} ci high"] = hi
-            verdict = {"b better": "pays", "a better": "loses"}.get(resolved(lo, hi), "noise")
-            row[f"{tag} verdict"] = verdict
-        rows.append(row)
-    out = pd.DataFrame(rows)
-    if out.empty:
-        return out
-    return plants.merge(out, on="plant", how="right")
-
-
 __all__ = [
     "CONFIDENCE",
     "METRICS",
@@ -510,12 +513,13 @@ __all__ = [
     "bootstrap_ci",
     "claim_verdict",
     "claims_table",
+    "decide",
     "method_summary",
+    "not_enough",
     "paired_decrease_ci",
     "paired_differences",
     "prepare",
     "resolved",
-    "sensitivity_map",
     "structure_findings",
     "structure_pairs",
     "uncompensated_wins",

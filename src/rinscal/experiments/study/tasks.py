@@ -23,6 +23,7 @@ import numpy as np
 import pandas as pd
 
 from rinscal import units
+from rinscal.calibration.thermal.features import build_features
 from rinscal.calibration.thermal.model import ThermalModel
 from rinscal.experiments.paper.config import load_plant
 from rinscal.experiments.paper.imucal import IMU_VARIANT, imu_variant_model
@@ -32,6 +33,7 @@ from rinscal.experiments.paper.navigation import (
     run_navigation_job,
     thermal_part_m,
 )
+from rinscal.experiments.study.compare import DESIGN_COLUMNS, NO_DT_VARIANT
 from rinscal.experiments.study.spec import (
     MECH_SPREAD_FIELDS,
     SPREAD_FIELDS,
@@ -50,6 +52,7 @@ __all__ = [
     "calibrate_unit",
     "navigate_unit",
     "plant_config",
+    "soak_design",
     "study_tasks",
     "task_seed",
     "unit_config",
@@ -214,7 +217,14 @@ def calibrate_unit(spec: StudySpec, plant: ImuConfig, task: CalTask) -> dict[str
             if m == IMU_VARIANT:  # the unit's own multi-position calibration, then method 2
                 mf = imu_variant_model(imu, log, meta, seed, quick=spec.quick)
             else:
-                fitted = ThermalModel(m, random_state=seed, estimator_params=params)
+                # the ablation: method 2 fitted without its ΔT terms (T and Ṫ only)
+                no_dt = m == NO_DT_VARIANT
+                fitted = ThermalModel(
+                    "regression" if no_dt else m,
+                    random_state=seed,
+                    estimator_params=params,
+                    use_gradient=False if no_dt else None,
+                )
                 mf = fitted.fit(log, meta).to_file(
                     source={"log": f"study {spec.name}, unit {task.unit}, soak"}
                 )
@@ -222,7 +232,52 @@ def calibrate_unit(spec: StudySpec, plant: ImuConfig, task: CalTask) -> dict[str
         msgs = sorted({str(x.message) for x in w if not issubclass(x.category, RuntimeWarning)})
         if msgs:
             caught[m] = msgs
-    return {"models": models, "warnings": caught, "elapsed_s": time.perf_counter() - t0}
+    return {
+        "models": models,
+        "warnings": caught,
+        "design": soak_design(log),
+        "elapsed_s": time.perf_counter() - t0,
+    }
+
+
+def soak_design(log: pd.DataFrame) -> dict[str, float]:
+    """How separable the temperature rate and the gradient are in a soak design.
+
+    Over the log's runs (features as the fits see them, :func:`build_features`), for each
+    horizontal accelerometer: the correlation of ``Ṫ`` [°C/min] and ``ΔT`` [°C], and the
+    condition number (2-norm) of the design ``[T, Ṫ, ΔT]`` with each column standardised
+    (mean 0, standard deviation 1). 1 means orthogonal columns; the larger, the less the
+    data can tell a ``Ṫ`` term from a ``ΔT`` term.
+
+    Returns
+    -------
+    dict
+        ``soak_rate_grad_corr`` (the channel's with the larger magnitude) and
+        ``soak_design_cond`` (the larger); NaN without a ``temp_out`` column.
+    """
+    nan = dict.fromkeys(DESIGN_COLUMNS, math.nan)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        f = build_features(log, channels=("accel_x", "accel_y"))
+    if f.grad is None:
+        return nan
+    best = nan
+    for j in range(len(f.channels)):
+        ok = f.inlier[:, j]
+        x = np.column_stack([f.temp[ok, j], f.rate[ok, j], f.grad[ok, j]])
+        sd = x.std(axis=0)
+        if x.shape[0] < 3 or np.any(sd == 0):
+            continue
+        z = (x - x.mean(axis=0)) / sd
+        corr = float(np.corrcoef(z[:, 1], z[:, 2])[0, 1])
+        cond = float(np.linalg.cond(z))
+        if not math.isfinite(best["soak_design_cond"]) or cond > best["soak_design_cond"]:
+            best = {**best, "soak_design_cond": cond}
+        if not math.isfinite(best["soak_rate_grad_corr"]) or abs(corr) > abs(
+            best["soak_rate_grad_corr"]
+        ):
+            best = {**best, "soak_rate_grad_corr": corr}
+    return best
 
 
 #: Columns of a navigation task's result rows (one row per variant).
@@ -242,6 +297,7 @@ RESULT_COLUMNS = (
     "thermal_part_nmi",
     "heading_error_arcsec",
     *RESIDUAL_COLUMNS,
+    *DESIGN_COLUMNS,
     "seed",
     "elapsed_s",
 )
@@ -258,7 +314,8 @@ def navigate_unit(
     :func:`rinscal.experiments.paper.navigation.thermal_part_m`) [nmi], the heading error
     at the start of free navigation [arcsec] and the model's held-out thermal residual on
     this cold start (:func:`rinscal.experiments.paper.navigation.thermal_residual`: gyros
-    [°/h], horizontal accelerometers [µg] and [% of the true swing]).
+    [°/h], horizontal accelerometers [µg] and [% of the true swing]), and the unit's soak
+    design (:data:`rinscal.experiments.study.compare.DESIGN_COLUMNS`, from ``calibration``).
     """
     t0 = time.perf_counter()
     sc = spec.scenarios[task.scenario]
@@ -291,6 +348,8 @@ def navigate_unit(
     df.insert(6, "ambient_c", float("nan") if amb is None else amb)
     df.insert(7, "align_start_s", sc.align_start_s)
     df.insert(8, "align_s", sc.align_s)
+    for c in DESIGN_COLUMNS:  # the unit's soak design (NaN from a calibration without it)
+        df[c] = float(calibration.get("design", {}).get(c, math.nan))
     df["seed"] = seed
     df["elapsed_s"] = time.perf_counter() - t0
     return df[list(RESULT_COLUMNS)]
