@@ -714,6 +714,11 @@ def reproduction_tables(
     heading = heading_error_table(nav)
     tables["heading_at_nav_start"] = heading
     tables["nav_by_method"] = nav_method_table(maxerr, heading)
+    # the heading half of it, shown as its own table on the page
+    nbm = tables["nav_by_method"]
+    tables["nav_heading_by_method"] = nbm[
+        ["runs", "variant", "method", *[c for c in nbm.columns if "heading" in c]]
+    ]
     tables["thermal_part"] = thermal_part_table(nav)
     compared = [v for v in (*VARIANTS, IMU_VARIANT) if v in maxerr]
     tables["paired_vs_none"] = paired_table(maxerr, "none", compared)
