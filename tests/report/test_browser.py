@@ -97,3 +97,32 @@ def test_study_report_fits_1280px(tmp_path) -> None:
     assert inv["tables"] and inv["figures"]
     assert inv["overflow"] == [], inv["overflow"]
     assert inv["scrollWidth"] <= PAGE_PX
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("study", ["paper", "sensitivity"])
+def test_real_study_reports_fit_1280px(tmp_path, study: str) -> None:
+    """Full size: the built-in studies run for real (quick settings, 5 units: enough for
+    intervals; the sensitivity study is about 10 min on 2 cores), their reports open at
+    1 280 px with nothing wider than its box, and the map's tick labels do not overlap."""
+    from typer.testing import CliRunner
+
+    from rinscal.cli import app
+    from rinscal.experiments.study.runner import StudyStore
+    from rinscal.report.study_figures import label_overlaps, map_figure
+
+    out = tmp_path / study
+    res = CliRunner().invoke(
+        app, ["study", study, "--quick", "--units", "5", "--workers", "2", "--out", str(out)]
+    )
+    assert res.exit_code == 0, res.output
+    page = out / "report.html"
+    inv = rendered_inventory(page, width=PAGE_PX)
+    assert inv["overflow"] == [], inv["overflow"]
+    assert inv["scrollWidth"] <= PAGE_PX
+    assert "within noise" not in page.read_text(encoding="utf-8")
+    if study == "sensitivity":
+        spec = load_spec("sensitivity", quick=True, units_override=5)
+        t = study_tables(StudyStore(out), spec)
+        assert not t.sensitivity.empty
+        assert label_overlaps(map_figure(t.sensitivity)) == []
