@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-__all__ = ["CONFIDENCE", "PairedDifference", "interval_text", "paired_difference"]
+__all__ = ["CONFIDENCE", "PairedDifference", "interval_text", "paired_difference", "t_interval"]
 
 #: Confidence level of every interval of the reproduction's report.
 CONFIDENCE = 0.95
@@ -25,8 +25,8 @@ CONFIDENCE = 0.95
 class PairedDifference:
     """``reference − variant`` over paired runs [nmi]: positive = the variant is better.
 
-    ``lo``/``hi`` are the Student-t interval of the mean (NaN below two runs or with no
-    scatter); ``better`` counts the runs where the variant's error is smaller;
+    ``lo``/``hi`` are the Student-t interval of the mean (:func:`t_interval`; NaN below
+    two runs); ``better`` counts the runs where the variant's error is smaller;
     ``median_ratio`` is median(variant) / median(reference) (below 1 = the variant better).
     """
 
@@ -41,12 +41,29 @@ class PairedDifference:
     def verdict(self) -> str:
         """Words: resolved one way, the other, not resolved, or no interval (one run)."""
         if self.n < 2 or not np.isfinite(self.lo):
-            return "one run: no interval" if self.n < 2 else "no scatter: no interval"
+            return "one run: no interval"
         if self.lo > 0:
             return "better (resolved)"
         if self.hi < 0:
             return "worse (resolved)"
         return "no resolved difference"
+
+
+def t_interval(
+    x: Sequence[float] | np.ndarray, confidence: float = CONFIDENCE, min_n: int = 2
+) -> tuple[float, float]:
+    """Student-t interval of the mean of the finite values of ``x``: ``m ± t·s/√n``, ``t``
+    the ``(1 + confidence)/2`` quantile of Student's t with ``n − 1`` degrees of freedom.
+    ``(nan, nan)`` for fewer than ``min_n`` values; ``(m, m)`` when they are all equal."""
+    a = np.asarray(x, dtype=float)
+    a = a[np.isfinite(a)]
+    if a.size < max(min_n, 2):
+        return (float("nan"), float("nan"))
+    if np.ptp(a) == 0.0:
+        return (float(a[0]), float(a[0]))
+    m = float(a.mean())
+    half = float(stats.t.ppf(0.5 + confidence / 2, a.size - 1)) * float(a.std(ddof=1))
+    return (m - half / np.sqrt(a.size), m + half / np.sqrt(a.size))
 
 
 def paired_difference(
@@ -65,12 +82,7 @@ def paired_difference(
     v = np.asarray(variant, dtype=float)
     d = r - v
     n = len(d)
-    lo = hi = float("nan")
-    if n >= 2:
-        sd = float(np.std(d, ddof=1))
-        if sd > 0:
-            half = float(stats.t.ppf(0.5 + confidence / 2, n - 1)) * sd / np.sqrt(n)
-            lo, hi = float(d.mean()) - half, float(d.mean()) + half
+    lo, hi = t_interval(d, confidence)
     med_r = float(np.median(r)) if n else float("nan")
     ratio = float(np.median(v)) / med_r if n and med_r > 0 else float("nan")
     return PairedDifference(

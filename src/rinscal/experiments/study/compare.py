@@ -34,6 +34,8 @@ import pandas as pd
 from scipy import stats
 
 from rinscal.experiments.paper.config import LABELS
+from rinscal.experiments.paper.paired import CONFIDENCE
+from rinscal.experiments.paper.paired import t_interval as paired_t_interval
 
 __all__ = [
     "CONFIDENCE",
@@ -49,8 +51,6 @@ __all__ = [
     "t_interval",
 ]
 
-#: Confidence level of every interval.
-CONFIDENCE = 0.95
 #: Fewest units an interval is given for: below it no interval is computed (NaN), and the
 #: verdict says "not enough units for an interval".
 MIN_SAMPLES = 5
@@ -70,16 +70,7 @@ def t_interval(
     """Student-t interval of the mean of the finite values of ``x``: ``m ± t·s/√n`` with
     ``t`` the ``(1 + confidence)/2`` quantile of Student's t with ``n − 1`` degrees of
     freedom. NaN for fewer than :data:`MIN_SAMPLES` values; ``(m, m)`` for no spread."""
-    v = np.asarray(x, dtype=float)
-    v = v[np.isfinite(v)]
-    if v.size < MIN_SAMPLES:
-        return (math.nan, math.nan)
-    if np.ptp(v) == 0.0:
-        return (float(v[0]), float(v[0]))
-    m = float(v.mean())
-    s = float(v.std(ddof=1))
-    h = float(stats.t.ppf(0.5 + confidence / 2.0, v.size - 1)) * s / math.sqrt(v.size)
-    return (m - h, m + h)
+    return paired_t_interval(x, confidence, min_n=MIN_SAMPLES)
 
 
 def _median_ratio(a: np.ndarray, b: np.ndarray, axis: int = -1) -> np.ndarray:
