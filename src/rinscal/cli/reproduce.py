@@ -126,13 +126,13 @@ def reproduce(
     )
     if quick:
         console.print(
-            f"quick reproduction, seed {seed}: expect about 2 minutes on 2 cores", highlight=False
+            f"quick reproduction, seed {seed}: expect about 1 minute on 2 cores", highlight=False
         )
     else:
         console.print(
             f"full reproduction, seed {seed}, {jobs} worker(s): expect about "
             f"{FULL_EXPECTED_MIN if jobs > 1 else FULL_EXPECTED_MIN + 1} minutes on a 2-core "
-            "machine (use --quick for a 2-minute version)",
+            "machine (use --quick for a 1-minute version)",
             highlight=False,
         )
     timings: dict[str, float] = {}
