@@ -341,8 +341,8 @@ def build_report(
         "Paired: every variant of a run navigates the same raw output, so the difference of "
         "two variants on one run is free of that run's noise and turn-on offsets. Below, "
         "each method against no compensation and against the cubic in T: the mean "
-        "difference of the maximum position error (positive: the method's error is "
-        "smaller), its 95 % Student-t interval over the runs, the runs where the method is "
+        "difference of the maximum position error, method minus reference (negative: the "
+        "method has less error), its 95 % Student-t interval over the runs, the runs where the method is "
         "better (a count), the ratio of the medians (below 1: the method better) and the "
         "verdict, 'resolved' only when the interval excludes zero. " + _paired_words(tables)
     )
@@ -350,8 +350,8 @@ def build_report(
         s.table(
             ident,
             tables[ident].drop(columns="variant"),
-            f"Each variant against {LABELS[ref]}: {LABELS[ref]} minus the variant, paired "
-            "over the runs of a group [nmi]",
+            f"Each variant against {LABELS[ref]}: the variant minus {LABELS[ref]}, paired "
+            "over the runs of a group [nmi] (negative: the variant has less error)",
             formats={"Δ mean [nmi]": "{:+.3f}", "median ratio": "{:.2f}"},
         )
     s.table(

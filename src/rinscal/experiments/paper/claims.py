@@ -370,8 +370,8 @@ def paired_table(
     Returns
     -------
     DataFrame
-        ``runs, variant, method, n runs, Δ mean [nmi]`` (reference − variant: positive =
-        the variant better), ``95 % interval [nmi]`` (text, empty without one),
+        ``runs, variant, method, n runs, Δ mean [nmi]`` (variant − reference: negative =
+        the variant has less error, the sign the study report uses), ``95 % interval [nmi]`` (text, empty without one),
         ``better in`` ("k of n" runs), ``median ratio`` (variant / reference) and
         ``verdict``.
     """
@@ -390,8 +390,8 @@ def paired_table(
                     "variant": v,
                     "method": LABELS.get(v, v),
                     "n runs": p.n,
-                    "Δ mean [nmi]": p.mean,
-                    f"{confidence:.0%} interval [nmi]": interval_text(p.lo, p.hi, p.mean),
+                    "Δ mean [nmi]": -p.mean,
+                    f"{confidence:.0%} interval [nmi]": interval_text(-p.hi, -p.lo, p.mean),
                     "better in": f"{p.better} of {p.n}",
                     "median ratio": p.median_ratio,
                     "verdict": p.verdict,
