@@ -290,7 +290,7 @@ def build_report(
     )
     items = []
     for c in claims.values():
-        tag = "a test fails if it breaks" if c["asserted"] else "reported, not tested"
+        tag = "a test guards it" if c["asserted"] else "reported only"
         items.append(
             f"<li>{_verdict(c['holds'])} ({tag}): {_esc(c['what'])}: {_esc(_fmt_values(c))}</li>"
         )
