@@ -371,7 +371,8 @@ def paired_table(
     -------
     DataFrame
         ``runs, variant, method, n runs, Δ mean [nmi]`` (variant − reference: negative =
-        the variant has less error, the sign the study report uses), ``95 % interval [nmi]`` (text, empty without one),
+        the variant has less error, the sign the study report uses),
+        ``95 % interval [nmi]`` (text, empty without one),
         ``better in`` ("k of n" runs), ``median ratio`` (variant / reference) and
         ``verdict``.
     """
