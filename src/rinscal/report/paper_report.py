@@ -344,7 +344,8 @@ def build_report(
         "difference of the maximum position error, method minus reference (negative: the "
         "method has less error), its 95 % Student-t interval over the runs, the runs "
         "where the method is better (a count), the ratio of the medians (below 1: the "
-        "method better) and the verdict, 'resolved' only when the interval excludes zero. " + _paired_words(tables)
+        "method better) and the verdict, 'resolved' only when the interval excludes zero. "
+        + _paired_words(tables)
     )
     for ref, ident in (("none", "paired_vs_none"), ("poly-t", "paired_vs_poly_t")):
         s.table(
