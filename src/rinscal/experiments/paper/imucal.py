@@ -148,6 +148,14 @@ def imu_thermal_model(
     ).model
 
 
+#: The paired verdict (:attr:`PairedDifference.verdict`) in the words of this table.
+_SAVING_WORDS = {
+    "better (resolved)": "the thermal model of scale factor and axes pays",
+    "worse (resolved)": "it costs: without it the error is smaller",
+    "no resolved difference": "not resolved: the interval contains zero",
+}
+
+
 def paired_saving_table(
     maxerr: pd.DataFrame, without: str = "regression", with_: str = IMU_VARIANT
 ) -> pd.DataFrame:
@@ -170,14 +178,7 @@ def paired_saving_table(
     rows = []
     for (exp, scen), g in maxerr.groupby(["experiment", "scenario"], sort=False):
         p = paired_difference(g[without], g[with_], CONFIDENCE)
-        if p.n < 2:
-            note = "one run: no interval"
-        elif p.lo > 0:
-            note = "the thermal model of scale factor and axes pays"
-        elif p.hi < 0:
-            note = "it costs: without it the error is smaller"
-        else:
-            note = "not resolved: the interval contains zero"
+        note = _SAVING_WORDS.get(p.verdict, p.verdict)
         rows.append(
             {
                 "experiment": exp,
