@@ -32,7 +32,7 @@ def test_writes_the_calibration_and_the_table_that_read_back(tmp_path):
     r = runner.invoke(app, ["calibrate-imu", str(path), "--out", str(out), "--settle", "3"])
     assert r.exit_code == 0, r.output
     data = json.loads(out.read_text())
-    assert data["schema"] == "rinscal.imu-calibration-file/1"
+    assert data["schema"] == "rinscal.imu-calibration-file/2"
     assert data["log"] == "cal.parquet" and data["generator"].startswith("rinscal calibrate-imu")
     cal = ImuCalibration.from_dict(data["imu_calibration"], str(out))
     assert len(cal.t_coefs) == 33 and 10.0 < cal.t0_c < 42.0

@@ -17,7 +17,7 @@ in one order, :data:`IMU_ORDER`, written into the file too:
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -60,11 +60,15 @@ class ImuStage:
     input_unit_to_si : dict of str to float
         SI value of one raw unit per channel [rad/s or m/s² per unit] (for pulses, counts per
         sample: the nominal pulse weight over the sample interval).
+    unit : dict
+        The unit the calibration was made on, as its log's metadata named it (``imu``,
+        ``serial``, ``device_ids``; :data:`rinscal.io.imucal.UNIT_KEYS`); empty when unknown.
     """
 
     calibration: ImuCalibration
     input_units: dict[str, str | None]
     input_unit_to_si: dict[str, float]
+    unit: dict[str, Any] = field(default_factory=dict)
 
     @property
     def needs_rate(self) -> bool:
@@ -116,8 +120,8 @@ class ImuStage:
         return self.correct_si(raw, temp_c, tdot_c_per_min) / PHYSICAL_TO_SI
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-able form (the model file's ``imu_calibration``)."""
-        return {
+        """JSON-able form (the model file's ``imu_calibration``; ``unit`` only when known)."""
+        out = {
             "order": list(IMU_ORDER),
             "input": {
                 "units": {c: self.input_units.get(c) for c in CHANNELS},
@@ -126,11 +130,20 @@ class ImuStage:
             "output_units": dict(PHYSICAL_UNITS),
             "calibration": self.calibration.to_dict(),
         }
+        if self.unit:
+            out["unit"] = dict(self.unit)
+        return out
 
     @classmethod
     def from_dict(cls, d: Any) -> ImuStage:
         """Validate the model file's ``imu_calibration``; :class:`ValueError` naming the key."""
-        exact(d, ("order", "input", "output_units", "calibration"), "imu_calibration")
+        keys = ("order", "input", "output_units", "calibration")
+        exact(
+            d, (*keys, "unit") if isinstance(d, dict) and "unit" in d else keys, "imu_calibration"
+        )
+        unit = d.get("unit", {})
+        if not isinstance(unit, dict):
+            raise ValueError("imu_calibration.unit must be an object")
         if not isinstance(d["order"], list) or not all(isinstance(v, str) for v in d["order"]):
             raise ValueError("imu_calibration.order must be a list of text")
         if d["output_units"] != PHYSICAL_UNITS:
@@ -154,4 +167,4 @@ class ImuStage:
             cal = ImuCalibration.from_dict(d["calibration"], source="imu_calibration.calibration")
         except ConfigError as exc:
             raise ValueError(str(exc)) from None
-        return cls(cal, unit_map, k_map)
+        return cls(cal, unit_map, k_map, dict(unit))

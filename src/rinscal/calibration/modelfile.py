@@ -39,7 +39,8 @@ files, without ``domain``, ``fallback`` and ``selection`` too, are still read)::
         # {"order": [...],                      # the order of application, in words
         #  "input": {"units": {"gyro_x": "pulse", ...}, "unit_to_si": {"gyro_x": ..., ...}},
         #  "output_units": {"gyro": "deg/h", "accel": "ug"},   # the channel models' unit
-        #  "calibration": {"schema": "rinscal.imu-calibration/1", ...}}
+        #  "calibration": {"schema": "rinscal.imu-calibration/1", ...},
+        #  "unit": {"imu": ...}}                # optional: the unit it was made on
       }
     }
 
@@ -82,7 +83,6 @@ calibration's step in :mod:`rinscal.calibration.imustage`.
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import json
 import os
 import re
@@ -109,6 +109,7 @@ from rinscal.calibration._modelcheck import (
 from rinscal.calibration.imustage import IMU_ORDER, PHYSICAL_UNITS, ImuStage
 from rinscal.calibration.inference import METHODS, n_inputs, predict_params
 from rinscal.errors import ConfigError, ModelFileError, RangeError
+from rinscal.io.checksum import payload_sha256  # shared with imu.json; kept importable here
 from rinscal.sensormodel import ImuCalibration
 
 __all__ = [
@@ -152,17 +153,6 @@ _HEX64 = re.compile(r"[0-9a-f]{64}")
 
 
 Policy = Literal["clamp", "fallback", "extrapolate", "error"]
-
-
-def _canonical(payload: Any) -> bytes:
-    return json.dumps(
-        payload, sort_keys=True, separators=(",", ":"), ensure_ascii=True, allow_nan=False
-    ).encode("ascii")
-
-
-def payload_sha256(payload: Mapping[str, Any]) -> str:
-    """SHA-256 hex digest of the canonical JSON of a model-file payload."""
-    return hashlib.sha256(_canonical(payload)).hexdigest()
 
 
 @dataclass(frozen=True)

@@ -34,18 +34,21 @@ from rinscal.calibration.compensate import (
 )
 from rinscal.calibration.compensate import compensate as _compensate_frame
 from rinscal.calibration.evaluate import StepConfig, evaluate_runs
-from rinscal.calibration.imustage import ImuStage
+from rinscal.calibration.imulog import (
+    CalibrationRangeTally,
+    check_log_for_imu,
+    imu_stage,
+    imu_stage_notes,
+)
 from rinscal.calibration.modelfile import ThermalModelFile, check_policy
 from rinscal.calibration.thermal.features import DerivativeConfig, MissingGradientWarning
 from rinscal.calibration.thermal.guards import TrainingDataWarning
 from rinscal.calibration.thermal.model import ThermalModel
 from rinscal.errors import ConfigError
 from rinscal.io.foreign import foreign_meta
-from rinscal.io.imucal import read_imu_calibration
 from rinscal.io.mapping import ColumnMapping
 from rinscal.io.streaming import LogStreamWriter, by_runs
 from rinscal.io.tables import SourceLog, format_of
-from rinscal.schema import CHANNELS, unit_factors
 from rinscal.sensormodel import ImuCalibration
 
 __all__ = [
@@ -257,14 +260,21 @@ def fit(
     if not isinstance(log, pd.DataFrame) and meta is None:
         meta = foreign_meta(Path(log), mapping)
     stage = None
+    imu_notes: list[str] = []
     if imu_calibration is not None:
-        stage = imu_stage(
+        stage, imu_notes = imu_stage_notes(
             imu_calibration, meta, "the log" if isinstance(log, pd.DataFrame) else str(log)
         )
         meta = physical_meta(meta)
 
+    tally = None if stage is None else CalibrationRangeTally(stage.calibration.t_range_c)
+
     def calibrated(frame: pd.DataFrame) -> pd.DataFrame:
-        return frame if stage is None else imu_calibrated_frame(frame, stage, deriv)
+        if stage is None or tally is None:
+            return frame
+        out = imu_calibrated_frame(frame, stage, deriv)  # first: it names a missing column
+        tally.add(frame)
+        return out
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", TrainingDataWarning)
@@ -289,38 +299,19 @@ def fit(
             )
             source = {"log": path.name}
     mf = model.to_file(source=source).with_imu(stage)
-    told = [f"{w.message}" for w in caught if issubclass(w.category, MissingGradientWarning)]
+    if tally is not None:
+        imu_notes += tally.notes(
+            "the log" if isinstance(log, pd.DataFrame) else str(log),
+            "the IMU calibration"
+            if isinstance(imu_calibration, ImuCalibration)
+            else f"the IMU calibration {imu_calibration}",
+        )
+    told = imu_notes + [
+        f"{w.message}" for w in caught if issubclass(w.category, MissingGradientWarning)
+    ]
     where = "" if isinstance(log, pd.DataFrame) else f"{log}: "
     told += [f"{where}{w.message}" for w in caught if issubclass(w.category, TrainingDataWarning)]
     return FitResult(mf, fit_table(mf), tuple(told), fit_note(mf, method))
-
-
-def imu_stage(
-    calibration: ImuCalLike, meta: Mapping[str, Any] | None, source: str = "the log"
-) -> ImuStage:
-    """An IMU calibration and the raw units of a log (from its metadata), as a model file's
-    first step.
-
-    Raises
-    ------
-    ConfigError
-        A channel whose unit or SI factor the metadata does not give (naming it), or a
-        calibration file that cannot be read.
-    """
-    cal = (
-        calibration
-        if isinstance(calibration, ImuCalibration)
-        else read_imu_calibration(calibration)
-    )
-    units, factors = unit_factors(meta, CHANNELS)
-    missing = [c for c in CHANNELS if factors[c] is None]
-    if missing:
-        raise ConfigError(
-            f"{source}: the IMU calibration turns raw output into SI with each channel's "
-            f"unit_to_si, and the log's metadata gives none for {', '.join(missing)} (units "
-            "and unit_to_si in its .meta.json, or a mapping's [units])"
-        )
-    return ImuStage(cal, units, {c: float(factors[c] or 0.0) for c in CHANNELS})
 
 
 def _counted(
@@ -460,6 +451,9 @@ class CompensationSummary:
         in the model).
     meta : dict or None
         The metadata written beside the output (None: the input had none).
+    warnings : tuple of str
+        Behind an IMU calibration: channels whose unit the log does not declare, a log of
+        another unit than the calibration's.
     """
 
     rows: int
@@ -469,6 +463,7 @@ class CompensationSummary:
     reference: str
     missing_reference: list[str]
     meta: dict[str, Any] | None = field(default=None)
+    warnings: tuple[str, ...] = ()
 
     @property
     def flagged_rows(self) -> int:
@@ -527,6 +522,7 @@ def compensate_file(
     meta = dict(foreign_meta(log_path, mapping) if meta is None else meta)
     if not ignore_units:
         check_units(mf, meta, str(log_path))
+    notes = _stage_notes(mf, meta, str(log_path), ignore_units)
     kind = "causal" if causal else None
     rows, flagged = by_runs(  # run by run: memory bounded by the longest run
         log_path, mapping, lambda s: _write_runs(s, mf, policy, kind, out_path)
@@ -544,7 +540,22 @@ def compensate_file(
             "output_units": OUTPUT_UNITS_IMU if mf.imu_stage is not None else "the input's",
         }
     reference, missing = describe_reference(mf)
-    return CompensationSummary(rows, mf, policy, flagged, reference, missing, meta or None)
+    return CompensationSummary(
+        rows, mf, policy, flagged, reference, missing, meta or None, tuple(notes)
+    )
+
+
+def _stage_notes(
+    mf: ThermalModelFile, meta: Mapping[str, Any] | None, source: str, ignore_units: bool
+) -> list[str]:
+    """What applying a model's IMU calibration to a log cannot check (undeclared units, another
+    unit); differing units were refused by :func:`check_units` already."""
+    if mf.imu_stage is None or ignore_units:
+        return []
+    stage = mf.imu_stage
+    return check_log_for_imu(
+        stage.input_units, stage.unit, meta, source, "the model's IMU calibration", refuse=False
+    )
 
 
 def _write_runs(
@@ -605,12 +616,15 @@ class Evaluation:
         Per run and channel, the Allan deviation curves (for a figure).
     model : ThermalModelFile
         The model evaluated.
+    warnings : tuple of str
+        As :attr:`CompensationSummary.warnings`.
     """
 
     table: pd.DataFrame
     allan: pd.DataFrame
     curves: dict[str, Any]
     model: ThermalModelFile
+    warnings: tuple[str, ...] = ()
 
 
 def evaluate(
@@ -655,6 +669,7 @@ def evaluate(
     mf = _model(model)
     deriv = "causal" if causal else None
     step = StepConfig(window_s=step_window_s)
+    notes: list[str] = []
     if isinstance(log, pd.DataFrame):
         res, allan, curves = evaluate_runs(_frame_runs(log), mf, policy, deriv, step)  # type: ignore[arg-type]
     else:
@@ -662,6 +677,7 @@ def evaluate(
         if not ignore_units:
             known = meta if meta is not None else foreign_meta(path, mapping)
             check_units(mf, dict(known or {}), str(path))
+            notes = _stage_notes(mf, dict(known or {}), str(path), ignore_units)
         res, allan, curves = by_runs(  # run by run: memory bounded by the longest run
             path,
             mapping,
@@ -673,4 +689,4 @@ def evaluate(
                 step,
             ),
         )
-    return Evaluation(res, allan, curves, mf)
+    return Evaluation(res, allan, curves, mf, tuple(notes))

@@ -78,6 +78,8 @@ def compensate_cmd(
         raise fail(f"{log}: {exc}") from None
     except RinscalError as exc:
         raise fail(str(exc)) from None
+    for note in done.warnings:
+        err_console.print(f"warning: {note}", highlight=False, soft_wrap=True, markup=False)
     console.print(
         f"wrote {out}: {done.rows:,} rows, {len(mf.channels)} channel(s) compensated with the "
         f"{mf.method} model; {done.flagged_rows:,} row(s) outside the training data ({policy})",
@@ -153,7 +155,7 @@ def evaluate_cmd(
 
     from rinscal.calibration.modelfile import POLICIES
     from rinscal.calibration.workflow import evaluate, load_model, model_label
-    from rinscal.cli._app import console, fail
+    from rinscal.cli._app import console, err_console, fail
     from rinscal.errors import RangeError, RinscalError
 
     if policy not in POLICIES:
@@ -177,6 +179,8 @@ def evaluate_cmd(
         raise fail(f"{log}: {exc}") from None
     except RinscalError as exc:
         raise fail(str(exc)) from None
+    for note in ev.warnings:
+        err_console.print(f"warning: {note}", highlight=False, soft_wrap=True, markup=False)
     labels = {c: model_label(mf.models[c]) for c in mf.channels}
     if as_json:
         doc = {

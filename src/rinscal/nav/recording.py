@@ -22,6 +22,7 @@ import numpy as np
 import pandas as pd
 
 from rinscal import units
+from rinscal.calibration.imulog import check_recording_for_imu
 from rinscal.calibration.modelfile import POLICIES, ThermalModelFile
 from rinscal.errors import ConfigError, LogError
 from rinscal.io.navopen import open_nav_log
@@ -167,6 +168,11 @@ def navigate_log(
                 f"{path}: a thermal model needs the sensor temperatures, and the log has none "
                 "(temp_<channel> or temp_in columns, or a mapping's temperature)"
             )
+        if model.imu_stage is not None:  # its raw units and unit against the recording's
+            warnings += check_recording_for_imu(
+                model.imu_stage, log.kind, log.units, _declared_units(log), log.meta,
+                f"{path}", f"the IMU calibration of {m}",
+            )  # fmt: skip
         comp = CausalModelCompensator(model, policy=policy, update_s=model_update_s)
         if comp.needs_outer and not log.has_temp_out:
             raise ConfigError(
@@ -366,6 +372,13 @@ def _imu_noise(imu: str) -> Noise:
     wd = cfg.noise.white_density_si()
     rw = cfg.noise.bias_rw_si()
     return Noise(float(wd[0]), float(wd[3]), float(rw[0]), float(rw[3]), f"--imu {imu}")
+
+
+def _declared_units(log: Any) -> bool:
+    """Whether a mapping or the metadata declared the recording's rate units."""
+    return bool(log.mapping is not None and log.mapping.units) or bool(
+        (log.meta or {}).get("units")
+    )
 
 
 def _unit_source(log: Any) -> str:

@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 from collections import Counter
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -26,13 +26,12 @@ from rinscal.calibration.imu.estimate import BlockEstimate, estimate_block
 from rinscal.calibration.imu.laws import Law, fit_law
 from rinscal.calibration.imu.segments import TABLE_COLUMNS, Segment, find_segments
 from rinscal.errors import ConfigError, DesignError, LogError
+from rinscal.io.imucal import IMU_CALIBRATION_FILE_SCHEMA, imu_calibration_file_doc, unit_identity
 from rinscal.schema import CHAMBER, CHANNELS, RUN, TIME, temperature_column, unit_factors
 from rinscal.sensormodel import PARAMETERS, ImuCalibration
 
 __all__ = ["IMU_CALIBRATION_FILE_SCHEMA", "ImuCalibrationResult", "calibrate_imu"]
 
-#: Schema tag of the file ``rinscal calibrate-imu`` writes (``imu.json``).
-IMU_CALIBRATION_FILE_SCHEMA = "rinscal.imu-calibration-file/1"
 #: A fit whose positions disagree more than this (reduced chi-square) gets a warning.
 _CHI2_WARN = 4.0
 
@@ -61,6 +60,14 @@ class ImuCalibrationResult:
     warnings : tuple of str
     settings : dict
         The options the fit ran with.
+    input_units : dict of str to str or None
+        Raw unit of each channel of the log (its metadata's ``units``): a log the calibration
+        is applied to must be in the same units.
+    input_unit_to_si : dict of str to float
+        SI value of one raw unit per channel (the metadata's ``unit_to_si``).
+    unit : dict
+        The unit's identity as the log's metadata gives it
+        (:data:`rinscal.io.imucal.UNIT_KEYS`: ``imu``, ``serial``, ``device_ids``).
     """
 
     calibration: ImuCalibration
@@ -70,9 +77,13 @@ class ImuCalibrationResult:
     fits: pd.DataFrame
     warnings: tuple[str, ...]
     settings: dict[str, Any]
+    input_units: dict[str, str | None] = field(default_factory=dict)
+    input_unit_to_si: dict[str, float] = field(default_factory=dict)
+    unit: dict[str, Any] = field(default_factory=dict)
 
     def file_dict(self, log: str = "") -> dict[str, Any]:
-        """The JSON layout of ``imu.json`` (schema :data:`IMU_CALIBRATION_FILE_SCHEMA`).
+        """The JSON layout of ``imu.json`` (schema :data:`IMU_CALIBRATION_FILE_SCHEMA`),
+        checksummed (:func:`rinscal.io.imucal.imu_calibration_file_doc`).
 
         Parameters
         ----------
@@ -86,14 +97,20 @@ class ImuCalibrationResult:
             }
             for r in self.laws.to_dict("records")
         ]
-        return {
-            "schema": IMU_CALIBRATION_FILE_SCHEMA,
-            "imu_calibration": self.calibration.to_dict(),
-            "laws": laws,
-            "log": log,
-            "settings": self.settings,
-            "generator": f"rinscal calibrate-imu {__version__}",
-        }
+        return imu_calibration_file_doc(
+            {
+                "imu_calibration": self.calibration.to_dict(),
+                "input": {
+                    "units": {c: self.input_units.get(c) for c in CHANNELS},
+                    "unit_to_si": {c: self.input_unit_to_si.get(c) for c in CHANNELS},
+                },
+                "unit": self.unit,
+                "laws": laws,
+                "log": log,
+                "settings": self.settings,
+                "generator": f"rinscal calibrate-imu {__version__}",
+            }
+        )
 
 
 @dataclass(frozen=True)
@@ -106,8 +123,8 @@ class _Block:
     tdot: np.ndarray | None  # [°C/min] per channel (ramp)
 
 
-def _factors(meta: Mapping[str, Any]) -> np.ndarray:
-    """SI per log unit of each channel; a DesignError naming the columns otherwise."""
+def _factors(meta: Mapping[str, Any]) -> tuple[dict[str, str | None], np.ndarray]:
+    """Unit and SI per log unit of each channel; a DesignError naming the columns otherwise."""
     try:
         names, factors = unit_factors(meta)
     except ConfigError as exc:
@@ -129,7 +146,7 @@ def _factors(meta: Mapping[str, Any]) -> np.ndarray:
             f"{', '.join(pulses)} are in {names[pulses[0]]} without a factor to SI "
             "(meta['unit_to_si'][channel]: the pulse weight divided by the sample interval)"
         )
-    return np.array([factors[c] for c in CHANNELS], dtype=float)
+    return dict(names), np.array([factors[c] for c in CHANNELS], dtype=float)
 
 
 def _site(meta: Mapping[str, Any]) -> tuple[float, float, float]:
@@ -396,7 +413,7 @@ def calibrate_imu(
             "calibrate_imu: settle_s >= 0, max_degree >= 0, motion_sigma > 0 and "
             f"scatter_limit > 1 (got {settle_s}, {max_degree}, {motion_sigma}, {scatter_limit})"
         )
-    factors = _factors(meta)
+    unit_names, factors = _factors(meta)
     site = _site(meta)
     notes: list[str] = []
     blocks, ramp = _blocks(log, meta, factors, site, settle_s, min_samples, notes)
@@ -516,4 +533,7 @@ def calibrate_imu(
         fits=pd.DataFrame(fit_rows),
         warnings=tuple(notes),
         settings=settings,
+        input_units={c: unit_names[c] for c in CHANNELS},
+        input_unit_to_si={c: float(k) for c, k in zip(CHANNELS, factors, strict=True)},
+        unit=unit_identity(meta),
     )
