@@ -435,32 +435,57 @@ class ImuCalibration:
 
     @classmethod
     def from_dict(cls, data: dict[str, Any], source: str = "<dict>") -> ImuCalibration:
-        """Read :meth:`to_dict`'s layout; a :class:`ConfigError` naming ``source`` otherwise."""
+        """Read :meth:`to_dict`'s layout; a :class:`ConfigError` naming ``source`` and the key
+        otherwise."""
+        if not isinstance(data, dict):
+            raise ConfigError(f"{source}: not an IMU calibration (not a JSON object)")
         if data.get("schema") != IMU_CALIBRATION_SCHEMA:
             raise ConfigError(
                 f"{source}: not an IMU calibration (schema {data.get('schema')!r}, "
                 f"expected {IMU_CALIBRATION_SCHEMA!r})"
             )
+        missing = [k for k in ("t0_c", "t_range_c", "t_coefs") if k not in data]
+        if missing:
+            raise ConfigError(f"{source}: malformed IMU calibration: no {', '.join(missing)}")
+
+        def table(key: str) -> dict[str, tuple[float, ...]]:
+            got = data.get(key, {})
+            if not isinstance(got, dict):
+                raise ConfigError(f"{source}: {key} must be an object of parameter: [coefficients]")
+            out = {}
+            for n, v in got.items():
+                if not isinstance(v, list) or not all(
+                    isinstance(c, int | float) and not isinstance(c, bool) for c in v
+                ):
+                    raise ConfigError(f"{source}: {key}.{n} must be a list of numbers, got {v!r}")
+                out[str(n)] = tuple(float(c) for c in v)
+            return out
+
+        t_coefs, rate = table("t_coefs"), table("rate_coefs")
+        rng = data["t_range_c"]
+        if not (isinstance(rng, list) and len(rng) == 2 and all(_is_number(v) for v in rng)):
+            raise ConfigError(f"{source}: t_range_c must be [low, high] in °C, got {rng!r}")
+        if not _is_number(data["t0_c"]):
+            raise ConfigError(f"{source}: t0_c must be a number [°C], got {data['t0_c']!r}")
+        units_in = data.get("units", {})
+        if not isinstance(units_in, dict):
+            raise ConfigError(f"{source}: units must be an object of parameter: unit")
         try:
-            t_coefs = {str(n): tuple(float(c) for c in v) for n, v in data["t_coefs"].items()}
-            rate = {
-                str(n): tuple(float(c) for c in v) for n, v in data.get("rate_coefs", {}).items()
-            }
-            lo, hi = (float(v) for v in data["t_range_c"])
-            units_in = data.get("units", {})
             for n, u in units_in.items():
                 if parameter_spec(n).unit != u:
                     raise ConfigError(
-                        f"{source}: {n} is in {u!r}, rinscal's unit is {parameter_spec(n).unit!r}"
+                        f"{n} is in {u!r}, rinscal's unit is {parameter_spec(n).unit!r}"
                     )
             return cls(
                 t0_c=float(data["t0_c"]),
-                t_range_c=(lo, hi),
+                t_range_c=(float(rng[0]), float(rng[1])),
                 t_coefs=t_coefs,
                 rate_coefs=rate,
                 source=str(data.get("source", "")),
             )
-        except ConfigError:
-            raise
-        except (KeyError, TypeError, ValueError) as exc:
-            raise ConfigError(f"{source}: malformed IMU calibration ({exc!r})") from None
+        except ConfigError as exc:
+            raise ConfigError(f"{source}: {exc}") from None
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool)

@@ -134,11 +134,18 @@ class Split:
         between positions, not rate tests).
     short : int
         Static groups with fewer than ``min_samples`` samples after the settle time.
+    short_longest_s : float [s]
+        Duration (samples × interval) of the longest of them; 0 when none.
+    short_settle_max_s : float or None [s]
+        The longest settle time that would have kept ``min_samples`` samples of it (None:
+        it has fewer samples than that).
     """
 
     segments: tuple[Segment, ...]
     slews: int
     short: int
+    short_longest_s: float = 0.0
+    short_settle_max_s: float | None = None
 
 
 def _groups(o: NDArray, i: NDArray, ro: NDArray, ri: NDArray) -> list[tuple[int, int]]:
@@ -194,12 +201,15 @@ def find_segments(
     segments: list[Segment] = []
     counts = {"static": 0, "rate": 0}
     slews = short = 0
+    longest = (0, 0)  # the longest short stop (g0, g1)
     for g0, g1 in _groups(o, i, ro, ri):
         if ro[g0] != 0 and ri[g0] != 0:
             continue  # both axes turn: a transition
         keep = np.flatnonzero(t[g0:g1] - t[g0] >= settle_s - 1e-9)
         if keep.size < min_samples:
-            short += int(ro[g0] == 0 and ri[g0] == 0 and g1 - g0 >= 2)
+            if ro[g0] == 0 and ri[g0] == 0 and g1 - g0 >= 2:
+                short += 1
+                longest = max(longest, (g0, g1), key=lambda g: g[1] - g[0])
             continue
         k0, k_end = g0 + int(keep[0]), g1 - 1
         if ro[g0] == 0 and ri[g0] == 0:
@@ -249,7 +259,9 @@ def find_segments(
                 float(t[k1]),
             )
         )
-    return Split(tuple(segments), slews, short)
+    g0, g1 = longest
+    settle_max = float(t[g1 - min_samples] - t[g0]) if g1 - g0 >= min_samples > 0 else None
+    return Split(tuple(segments), slews, short, (g1 - g0) * dt_all, settle_max)
 
 
 def segment_references(

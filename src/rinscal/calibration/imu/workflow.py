@@ -32,6 +32,7 @@ from rinscal.sensormodel import PARAMETERS, ImuCalibration
 
 __all__ = ["IMU_CALIBRATION_FILE_SCHEMA", "ImuCalibrationResult", "calibrate_imu"]
 
+_ROWS = "data row numbers are 1-based, header not counted"
 #: A fit whose positions disagree more than this (reduced chi-square) gets a warning.
 _CHI2_WARN = 4.0
 
@@ -167,14 +168,54 @@ def _site(meta: Mapping[str, Any]) -> tuple[float, float, float]:
 
 
 def _numeric(df: pd.DataFrame, col: str, run: str) -> np.ndarray:
+    """A column of one run as floats; a LogError naming the run, the column and the data row
+    (counted from the log's start, as every reader counts them) of its first bad value."""
     v = pd.to_numeric(df[col], errors="coerce").to_numpy(dtype=float)
     bad = np.flatnonzero(~np.isfinite(v))
     if bad.size:
+        raw = df[col].iloc[bad[0]]
+        missing = raw is None or (
+            raw.strip().lower() in ("", "nan", "+nan", "-nan")
+            if isinstance(raw, str)
+            else isinstance(raw, float | np.floating) and np.isnan(raw)
+        )
+        if missing:
+            what = "missing value (NaN or empty cell)"
+        elif isinstance(raw, str):
+            what = f"non-numeric value {raw!r}"
+        else:
+            what = f"value {float(raw) if isinstance(raw, np.number) else raw}"
         raise LogError(
-            f"run {run}, column {col}: {df[col].iloc[bad[0]]!r} in its row {int(bad[0]) + 1} "
-            "is not a finite number"
+            f"run {run}, column {col!r}, data row {int(df.index[bad[0]]) + 1}: {what}; the "
+            f"fit needs a finite number in every row ({_ROWS})"
         )
     return v
+
+
+def _looks_like_radians(table: np.ndarray, run: str) -> None:
+    """Refuse turntable angles that look like radians: every position's angles within ±2π
+    and none a whole degree (a degree design has positions such as 90° and 180°; a rate
+    test's angle may run over several turns, so only the positions count)."""
+    static = (table[:, 2] == 0) & (table[:, 3] == 0)
+    held = np.abs(table[static, :2]).ravel()
+    held = held[held > 1e-9]
+    if not held.size or held.max() > 2 * np.pi + 1e-6:
+        return
+    if np.any(np.abs(held - np.round(held)) < 1e-6):
+        return  # a whole degree among the positions: degrees
+    rates = np.abs(table[:, 2:]).max()
+    shown = ", ".join(f"{v:.4g}" for v in np.unique(np.round(held, 4))[:4])
+    raise DesignError(
+        f"run {run}: the angles of {TABLE_COLUMNS[0]} and {TABLE_COLUMNS[1]} look like radians "
+        f"(every position within ±2π, at {shown}, none a whole degree); the "
+        "turntable columns must be in degrees"
+        + (
+            f", and their rates in deg/s ({TABLE_COLUMNS[2]}, {TABLE_COLUMNS[3]} reach "
+            f"{rates:.4g}: {np.degrees(rates):.4g} °/s if that was rad/s)"
+            if rates > 0
+            else ""
+        )
+    )
 
 
 def _run_stats(
@@ -194,8 +235,23 @@ def _run_stats(
         df, y = df[good], y[good]
     t = _numeric(df, TIME, run)
     table = np.stack([_numeric(df, c, run) for c in TABLE_COLUMNS], axis=1)
+    _looks_like_radians(table, run)
     temps = np.stack([_numeric(df, temperature_column(df, c), run) for c in CHANNELS], axis=1)
     split = find_segments(run, t, table, settle_s=settle_s, min_samples=min_samples)
+    if split.short and not any(s.kind == "static" for s in split.segments):
+        dt = float(np.median(np.diff(t))) if t.size > 1 else 0.0
+        fix = (
+            f"use a settle time of at most {split.short_settle_max_s:.3g} s (--settle), or "
+            if split.short_settle_max_s is not None
+            else ""
+        )
+        raise DesignError(
+            f"run {run}: no static position is left: each of its {split.short} stops is "
+            f"shorter than the settle time cut from its start ({settle_s:g} s, --settle) plus "
+            f"{min_samples} samples (the longest stop lasts {split.short_longest_s:.3g} s); "
+            f"{fix}dwell at least {settle_s + min_samples * dt:.3g} s at each position "
+            "(rinscal simulate multiposition --dwell)"
+        )
     if split.short:
         notes.append(
             f"run {run}: {split.short} stop(s) shorter than {min_samples} samples after the "
@@ -402,6 +458,7 @@ def calibrate_imu(
     ConfigError
         The metadata lacks the site.
     """
+    log = log.reset_index(drop=True)  # row labels: data rows from the log's start, 0-based
     missing = [c for c in (TIME, RUN, *CHANNELS, *TABLE_COLUMNS) if c not in log.columns]
     if missing:
         raise LogError(
