@@ -93,6 +93,7 @@ from typing import Any, Literal
 
 import numpy as np
 
+from rinscal._check import wrong_type
 from rinscal._version import __version__
 from rinscal.calibration._domain import inside_domain
 from rinscal.calibration._modelcheck import (
@@ -144,6 +145,8 @@ def check_policy(policy: str) -> None:
     ConfigError
         Naming the policies (a :class:`ValueError` too).
     """
+    if not isinstance(policy, str):
+        raise wrong_type("policy", policy, f"one of {', '.join(POLICIES)}")
     if policy not in POLICIES:
         raise ConfigError(f"policy must be one of {', '.join(POLICIES)}, got {policy!r}")
 
