@@ -33,6 +33,7 @@ from rinscal.errors import ArgumentTypeError, ConfigError, LogError
 from rinscal.schema import validate_log
 
 __all__ = [
+    "array",
     "flag",
     "instance",
     "log_like",
@@ -170,6 +171,25 @@ def strings(name: str, value: Any, *, optional: bool = False) -> tuple[str, ...]
         if not isinstance(v, str):
             raise wrong_type(f"{name}[{k}]", v, "a string")
     return tuple(value)
+
+
+def array(name: str, value: Any, *, last: int | None = None, optional: bool = False) -> Any:
+    """An array of numbers (any array-like, returned as a float ndarray); ``last``: the size
+    its last axis must have (e.g. 6 channels)."""
+    if value is None and optional:
+        return None
+    accepted = "an array of numbers" + (f" with {last} columns" if last else "")
+    if isinstance(value, str | bytes | Mapping):
+        raise wrong_type(name, value, accepted)
+    try:
+        a = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise wrong_type(name, value, accepted) from None
+    if last is not None and (a.ndim == 0 or a.shape[-1] != last):
+        raise ConfigError(
+            f"{name} must have {last} columns (shape (n, {last})), got shape {a.shape}"
+        )
+    return a
 
 
 def flag(name: str, value: Any, *, optional: bool = False) -> bool | None:

@@ -417,7 +417,10 @@ class ImuCalibration:
         -------
         ndarray, shape (n, 6) [rad/s, m/s²]
         """
-        y = np.asarray(y_si, dtype=float)
+        y = _check.array("y_si", y_si, last=6)
+        _check.array("temp_c", temp_c, last=6)
+        _check.array("tdot_c_per_min", tdot_c_per_min, last=6, optional=True)
+        _check.flag("with_bias", with_bias)
         gyro, accel = self.triads(temp_c, tdot_c_per_min)
         out = np.empty_like(y)
         for sl, e in ((slice(0, 3), gyro), (slice(3, 6), accel)):

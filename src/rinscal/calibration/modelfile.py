@@ -93,7 +93,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from rinscal._check import wrong_type
+from rinscal._check import path_like, wrong_type
 from rinscal._version import __version__
 from rinscal.calibration._domain import inside_domain
 from rinscal.calibration._modelcheck import (
@@ -358,7 +358,7 @@ class ThermalModelFile:
         # deferred: the io package's other modules are not needed to load a model
         from rinscal.io.atomic import write_atomic
 
-        p = Path(path)
+        p = path_like("path", path)
         text = self.dumps()
         if not p.parent.is_dir():
             raise ModelFileError(f"{p}: folder {p.parent} does not exist")
@@ -375,7 +375,7 @@ class ThermalModelFile:
             Naming the file and the problem (missing, not JSON, truncated, tampered, wrong
             version, missing key, wrong shape, non-finite number, inconsistent content).
         """
-        p = Path(path)
+        p = path_like("path", path)
         try:
             raw = p.read_bytes()
         except FileNotFoundError:
