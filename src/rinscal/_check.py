@@ -73,11 +73,13 @@ def _is_numeric_text(value: Any) -> bool:
     return True
 
 
-def wrong_type(name: str, value: Any, accepted: str) -> ArgumentTypeError:
-    """The error for ``name`` given ``value`` of a type it does not take."""
+def wrong_type(name: str, value: Any, accepted: str, *, listed: bool = False) -> ArgumentTypeError:
+    """The error for ``name`` given ``value`` of a type it does not take (``listed``: the
+    argument is a sequence, so a number as text is shown as a list)."""
     hint = ""
     if _is_numeric_text(value):
-        hint = f"; numbers are not read from text: give {value.strip()} without quotes"
+        given = f"[{value.strip()}]" if listed else value.strip()
+        hint = f"; numbers are not read from text: give {given} without quotes"
     return ArgumentTypeError(f"{name}: expected {accepted}, got {shown(value)}{hint}")
 
 
@@ -151,7 +153,7 @@ def numbers_of(
         return None
     what = "a sequence of numbers" if length is None else f"{length} numbers"
     if isinstance(value, str | bytes | Mapping) or not isinstance(value, Sequence | np.ndarray):
-        raise wrong_type(name, value, what + (" or None" if optional else ""))
+        raise wrong_type(name, value, what + (" or None" if optional else ""), listed=True)
     items = list(np.asarray(value).ravel()) if isinstance(value, np.ndarray) else list(value)
     if length is not None and len(items) != length:
         raise ConfigError(f"{name} must hold {length} numbers, got {len(items)}: {value!r}")
