@@ -140,7 +140,9 @@ def navigate_scenario(
         scenario built in code (then ``hours``, ``rate_hz``, ``rotation`` and the alignment
         arguments are its own).
     imu : str, PathLike or ImuConfig
-        The plant: a preset name, an IMU TOML file or a configuration.
+        The plant: a preset name, an IMU TOML file or a configuration; default the paper's
+        own (``paper``), as :func:`rinscal.simulate`'s, so a model fitted on a default
+        simulated log navigates the unit it was fitted on.
     models : mapping or sequence
         Thermal models to compensate with (files or loaded); a sequence is named by file
         stem.
