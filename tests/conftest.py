@@ -8,10 +8,10 @@ import pytest
 
 @pytest.fixture(scope="session")
 def soak_small() -> tuple[pd.DataFrame, pd.DataFrame, dict]:
-    """Seven soak cold starts (Table 3), 1 h each at 0.5 Hz: the simulator's plant."""
+    """Seven soak cold starts (Table 3), 1 h each at 0.5 Hz, on the navigation-grade plant."""
     from rinscal.thermal.protocols import simulate_protocol
 
-    return simulate_protocol("soak", hours=1.0, rate_hz=0.5, seed=11)
+    return simulate_protocol("soak", hours=1.0, rate_hz=0.5, seed=11, imu="navigation_grade")
 
 
 @pytest.fixture(scope="session")
@@ -19,7 +19,7 @@ def repeat_small() -> tuple[pd.DataFrame, pd.DataFrame, dict]:
     """The repetition-priming cold start at 25 °C, 2 h at 0.5 Hz."""
     from rinscal.thermal.protocols import simulate_protocol
 
-    return simulate_protocol("repeat", hours=2.0, rate_hz=0.5, seed=12)
+    return simulate_protocol("repeat", hours=2.0, rate_hz=0.5, seed=12, imu="navigation_grade")
 
 
 @pytest.fixture(scope="session")

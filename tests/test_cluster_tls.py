@@ -80,7 +80,7 @@ def tls_address(pems: dict[str, Path]) -> Iterator[str]:
 
 @pytest.fixture(scope="module")
 def unit_log(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    log, _, meta = simulate_protocol("soak", hours=0.5, rate_hz=0.5, seed=3)
+    log, _, meta = simulate_protocol("soak", hours=0.5, rate_hz=0.5, seed=3, imu="navigation_grade")
     path = tmp_path_factory.mktemp("unit") / "SN7.csv"
     write_log(log, path)
     write_meta(meta, path)

@@ -33,6 +33,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
         "rinscal.units",
         "rinscal.errors",
         "rinscal.schema",
+        "rinscal._check",
         "rinscal.earth",
         "rinscal.firmware",
         "rinscal._resources",

@@ -56,6 +56,13 @@ Navigation
     :func:`navigate` (a scenario or a recording, with and without models), :class:`Scenario`
     (a scenario built in code), :func:`scenario` (the paper's, by name).
 
+Every function that takes an IMU takes it as ``imu=`` (a preset name, a TOML file or an
+:class:`ImuConfig`), default ``"paper"``, as the commands do. Arguments are checked at the
+boundary (:mod:`rinscal._check`): a wrong type raises
+:class:`~rinscal.errors.ArgumentTypeError` (a ``TypeError``; a number given as a string
+too), a wrong value :class:`~rinscal.errors.ConfigError`, an empty table or one that is not a
+log :class:`~rinscal.errors.LogError` (both ``ValueError``); the message names the argument.
+
 A notebook session: ``docs/api.md``.
 
 >>> import rinscal

@@ -21,6 +21,12 @@ class ConfigError(RinscalError, ValueError):
     """A configuration (TOML file or parameter) is invalid: the message names the key."""
 
 
+class ArgumentTypeError(ConfigError, TypeError):
+    """An argument of a library function has the wrong type (a string where a number is
+    asked, a number where a path is asked): the message names the argument, what was given
+    and what is accepted. Both a :class:`TypeError` and a :class:`ConfigError`."""
+
+
 class ModelFileError(RinscalError, ValueError):
     """A model file is truncated, tampered with, or of an unknown schema version."""
 

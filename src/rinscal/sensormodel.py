@@ -47,7 +47,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from rinscal import units
+from rinscal import _check, units
 from rinscal.errors import ConfigError
 
 __all__ = [
@@ -281,6 +281,14 @@ class ImuCalibration:
     source: str = ""
 
     def __post_init__(self) -> None:
+        _check.number("t0_c", self.t0_c)
+        _check.numbers_of("t_range_c", self.t_range_c, length=2)
+        _check.mapping("t_coefs", self.t_coefs)
+        _check.mapping("rate_coefs", self.rate_coefs)
+        for table in (self.t_coefs, self.rate_coefs):
+            for name, coefs in table.items():
+                _check.numbers_of(f"coefficients of {name}", coefs, nonempty=False)
+        _check.instance("source", self.source, str, "free text (str)")
         lo, hi = self.t_range_c
         if not (math.isfinite(self.t0_c) and math.isfinite(lo) and math.isfinite(hi) and lo <= hi):
             raise ConfigError(
@@ -409,7 +417,10 @@ class ImuCalibration:
         -------
         ndarray, shape (n, 6) [rad/s, m/s²]
         """
-        y = np.asarray(y_si, dtype=float)
+        y = _check.array("y_si", y_si, last=6)
+        _check.array("temp_c", temp_c, last=6)
+        _check.array("tdot_c_per_min", tdot_c_per_min, last=6, optional=True)
+        _check.flag("with_bias", with_bias)
         gyro, accel = self.triads(temp_c, tdot_c_per_min)
         out = np.empty_like(y)
         for sl, e in ((slice(0, 3), gyro), (slice(3, 6), accel)):

@@ -124,7 +124,7 @@ def test_median_ratio() -> None:
 def test_soak_design_condition_number_is_bounded_by_the_correlation() -> None:
     """For standardised columns, the condition number of [T, Ṫ, ΔT] is at least that of the
     pair (Ṫ, ΔT), sqrt((1 + |r|)/(1 − |r|)) for their correlation r."""
-    log, _, _ = simulate_protocol("soak", hours=0.5, rate_hz=1.0, seed=1)
+    log, _, _ = simulate_protocol("soak", hours=0.5, rate_hz=1.0, seed=1, imu="navigation_grade")
     d = soak_design(log)
     r, k = d["soak_rate_grad_corr"], d["soak_design_cond"]
     assert -1.0 < r < 1.0 and abs(r) > 0.1  # a warm-up: the rate and the gradient move together

@@ -41,7 +41,9 @@ def units(tmp_path_factory) -> dict[str, Path]:
     d = tmp_path_factory.mktemp("fleet")
     out = {}
     for k in range(1, 6):
-        log, _, meta = simulate_protocol("soak", hours=0.5, rate_hz=0.5, seed=k)
+        log, _, meta = simulate_protocol(
+            "soak", hours=0.5, rate_hz=0.5, seed=k, imu="navigation_grade"
+        )
         if k == 5:  # ten times the white noise on every gyro
             rng = np.random.default_rng(5)
             for c in ("gyro_x", "gyro_y", "gyro_z"):
@@ -96,7 +98,7 @@ def test_fleet_fits_flags_and_reports(units, client, tmp_path) -> None:
     # physics: the simulated white noise recovered (ARW [deg/√h] · 60 = [deg/h·√s]; VRW)
     from rinscal.thermal.config import load_imu
 
-    noise = load_imu("navigation_grade").noise  # simulate_protocol's default plant
+    noise = load_imu("navigation_grade").noise  # the plant the logs were simulated on
     for u, summ in store.summaries().items():
         if u == "u5":
             continue

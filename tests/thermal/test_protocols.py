@@ -18,7 +18,9 @@ def test_soak_runs_are_table_3() -> None:
 
 
 def test_soak_log_is_canonical_and_starts_in_equilibrium() -> None:
-    log, truth, meta = simulate_protocol("soak", hours=1.0, rate_hz=1.0, seed=2)
+    log, truth, meta = simulate_protocol(
+        "soak", hours=1.0, rate_hz=1.0, seed=2, imu="navigation_grade"
+    )
     validate_log(log, source="simulated")
     assert len(log) == len(truth) == 7 * 3600
     first = log.groupby("run", sort=False).head(1)
@@ -32,7 +34,7 @@ def test_soak_log_is_canonical_and_starts_in_equilibrium() -> None:
 
 
 def test_ramp_follows_the_chamber_at_0_2_degrees_per_minute() -> None:
-    log, _, _ = simulate_protocol("ramp", rate_hz=0.2, seed=0)
+    log, _, _ = simulate_protocol("ramp", rate_hz=0.2, seed=0, imu="navigation_grade")
     assert log["time_s"].iloc[-1] == pytest.approx(52 / 0.2 * 60 + 1800, abs=5.0)
     ch = log["chamber_temp"].to_numpy()
     assert ch[0] == pytest.approx(-2.0 + 0.2 * 5 / 60) and ch[-1] == pytest.approx(50.0)
@@ -47,9 +49,9 @@ def test_ramp_follows_the_chamber_at_0_2_degrees_per_minute() -> None:
 
 
 def test_same_seed_same_log_other_seed_other_log() -> None:
-    a, ta, _ = simulate_protocol("repeat", hours=0.2, rate_hz=5.0, seed=11)
-    b, tb, _ = simulate_protocol("repeat", hours=0.2, rate_hz=5.0, seed=11)
-    c, _, _ = simulate_protocol("repeat", hours=0.2, rate_hz=5.0, seed=12)
+    a, ta, _ = simulate_protocol("repeat", hours=0.2, rate_hz=5.0, seed=11, imu="navigation_grade")
+    b, tb, _ = simulate_protocol("repeat", hours=0.2, rate_hz=5.0, seed=11, imu="navigation_grade")
+    c, _, _ = simulate_protocol("repeat", hours=0.2, rate_hz=5.0, seed=12, imu="navigation_grade")
     pd.testing.assert_frame_equal(a, b)
     pd.testing.assert_frame_equal(ta, tb)
     assert not np.allclose(a[list(CHANNELS)], c[list(CHANNELS)])
@@ -57,7 +59,7 @@ def test_same_seed_same_log_other_seed_other_log() -> None:
 
 def test_turn_on_offsets_differ_between_power_ons() -> None:
     """Repetition priming: every power-on has its own constant offset (Figure 1a)."""
-    _, _, meta = simulate_protocol("soak", hours=0.05, rate_hz=1.0, seed=4)
+    _, _, meta = simulate_protocol("soak", hours=0.05, rate_hz=1.0, seed=4, imu="navigation_grade")
     offs = np.array([[v[c] for c in CHANNELS] for v in meta["turn_on_offset"].values()])
     assert np.all(offs.std(axis=0) > 0)
 
@@ -72,6 +74,8 @@ def test_a_simulated_log_has_the_same_bits_whatever_the_thread_count() -> None:
     runs = []
     for threads in (1, 2):
         with threadpool_limits(limits=threads, user_api="blas"):
-            runs.append(simulate_protocol("soak", hours=0.5, rate_hz=1.0, seed=3))
+            runs.append(
+                simulate_protocol("soak", hours=0.5, rate_hz=1.0, seed=3, imu="navigation_grade")
+            )
     for a, b in zip(runs[0][:2], runs[1][:2], strict=True):
         pd.testing.assert_frame_equal(a, b, check_exact=True)

@@ -93,6 +93,7 @@ from typing import Any, Literal
 
 import numpy as np
 
+from rinscal._check import path_like, wrong_type
 from rinscal._version import __version__
 from rinscal.calibration._domain import inside_domain
 from rinscal.calibration._modelcheck import (
@@ -145,6 +146,8 @@ def check_policy(policy: str) -> None:
     ConfigError
         Naming the policies (a :class:`ValueError` too).
     """
+    if not isinstance(policy, str):
+        raise wrong_type("policy", policy, f"one of {', '.join(POLICIES)}")
     if policy not in POLICIES:
         raise ConfigError(f"policy must be one of {', '.join(POLICIES)}, got {policy!r}")
 
@@ -345,7 +348,7 @@ class ThermalModelFile:
         # deferred: the io package's other modules are not needed to load a model
         from rinscal.io.atomic import write_atomic
 
-        p = Path(path)
+        p = path_like("path", path)
         text = self.dumps()
         if not p.parent.is_dir():
             raise ModelFileError(f"{p}: folder {p.parent} does not exist")
@@ -362,7 +365,7 @@ class ThermalModelFile:
             Naming the file and the problem (missing, not JSON, truncated, tampered, wrong
             version, missing key, wrong shape, non-finite number, inconsistent content).
         """
-        p = Path(path)
+        p = path_like("path", path)
         try:
             raw = p.read_bytes()
         except FileNotFoundError:

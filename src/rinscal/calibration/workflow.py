@@ -9,6 +9,11 @@ only :func:`compensate_file` writes, because it streams a log too large to hold.
 The command-line interface (``rinscal fit``, ``compensate``, ``evaluate``) is a thin layer
 over these; they are also :func:`rinscal.fit`, :func:`rinscal.compensate` and
 :func:`rinscal.evaluate`.
+
+Why one module: these are the public API's calibration functions, each the same few steps
+(check the arguments at the boundary, read the log as a file run by run or take a table,
+apply the model, return data); split, the shared log and model handling would be imported
+back and forth.
 """
 
 from __future__ import annotations
@@ -24,6 +29,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from rinscal import _check
 from rinscal.calibration.compensate import (
     FLAG_COLUMN,
     check_units,
@@ -128,11 +134,21 @@ def load_model(path: str | os.PathLike[str]) -> ThermalModelFile:
     >>> model.channels  # doctest: +SKIP
     ('gyro_x', 'gyro_y', 'gyro_z', 'accel_x', 'accel_y', 'accel_z')
     """
-    return ThermalModelFile.load(path)
+    return ThermalModelFile.load(_check.path_like("path", path))
+
+
+#: What a ``model`` and an ``imu_calibration`` argument accept, in words.
+MODEL_ACCEPTED = "a model file's path (str or os.PathLike) or a loaded model (rinscal.load_model)"
+IMUCAL_ACCEPTED = "an ImuCalibration or an IMU calibration file's path (str or os.PathLike)"
 
 
 def _model(model: ModelLike) -> ThermalModelFile:
-    return model if isinstance(model, ThermalModelFile) else load_model(model)
+    """A model argument: a loaded model as it is, a path loaded (a wrong type named)."""
+    if isinstance(model, ThermalModelFile):
+        return model
+    return ThermalModelFile.load(
+        _check.instance("model", model, (str, os.PathLike), MODEL_ACCEPTED)
+    )
 
 
 def _frame_runs(log: pd.DataFrame) -> Iterator[tuple[pd.DataFrame, int]]:
@@ -232,7 +248,24 @@ def fit(
     >>> result.table[["channel", "model", "rms_train"]]  # doctest: +SKIP
     >>> result.save("regression.json")  # doctest: +SKIP
     """
-    lo, hi = (float(v) for v in temp_range)
+    log = _check.log_like("log", log)
+    _check.text("method", method)
+    _check.mapping("meta", meta, optional=True)
+    _check.numbers_of("orders", orders, optional=True, integer=True, min=0)
+    _check.number("hidden", hidden, optional=True, integer=True, min=1)
+    _check.numbers_of("edges", edges, optional=True)
+    _check.number("window_s", window_s, above=0.0, unit="s")
+    _check.flag("causal", causal)
+    _check.flag("gradient", gradient, optional=True)
+    lo, hi = _check.numbers_of("temp_range", temp_range, length=2)  # type: ignore[misc]
+    _check.number("tolerance", tolerance, min=0.0)
+    _check.strings("candidates", candidates, optional=True)
+    _check.number("seed", seed, min=0, integer=True)
+    _check.number("max_samples", max_samples, optional=True, integer=True, min=1)
+    imucal_types = (str, os.PathLike, ImuCalibration)
+    _check.instance(
+        "imu_calibration", imu_calibration, imucal_types, IMUCAL_ACCEPTED, optional=True
+    )
     if not lo < hi:
         raise ConfigError(f"temp_range must be (lo, hi) in °C with lo < hi, got {temp_range!r}")
     if candidates is not None and method != "auto":
@@ -425,9 +458,12 @@ def compensate(
     # deferred: reading a file needs the table readers only here
     from rinscal.io.tables import read_log
 
+    log = _check.log_like("log", log)
     check_policy(policy)
+    _check.flag("causal", causal)
+    mf = _model(model)
     frame = log if isinstance(log, pd.DataFrame) else read_log(log, mapping)
-    return _compensate_frame(frame, _model(model), policy, "causal" if causal else None)  # type: ignore[arg-type]
+    return _compensate_frame(frame, mf, policy, "causal" if causal else None)  # type: ignore[arg-type]
 
 
 @dataclass(frozen=True)
@@ -516,9 +552,13 @@ def compensate_file(
     RangeError
         A row outside the training data under ``policy="error"``.
     """
+    log_path = _check.log_like("log", log, table=False)
+    out_path = _check.path_like("out", out)
     check_policy(policy)
+    _check.flag("causal", causal)
+    _check.mapping("meta", meta, optional=True)
+    _check.flag("ignore_units", ignore_units)
     mf = _model(model)
-    log_path, out_path = Path(log), Path(out)
     meta = dict(foreign_meta(log_path, mapping) if meta is None else meta)
     if not ignore_units:
         check_units(mf, meta, str(log_path))
@@ -665,7 +705,12 @@ def evaluate(
     >>> ev = rinscal.evaluate("soak.parquet", "regression.json")  # doctest: +SKIP
     >>> ev.table[["run", "channel", "rms_before", "rms_after"]]  # doctest: +SKIP
     """
+    log = _check.log_like("log", log)
     check_policy(policy)
+    _check.flag("causal", causal)
+    _check.number("step_window_s", step_window_s, above=0.0, unit="s")
+    _check.mapping("meta", meta, optional=True)
+    _check.flag("ignore_units", ignore_units)
     mf = _model(model)
     deriv = "causal" if causal else None
     step = StepConfig(window_s=step_window_s)

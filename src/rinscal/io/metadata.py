@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from rinscal import _check
 from rinscal.errors import LogError
 from rinscal.io.atomic import write_atomic
 
@@ -85,6 +86,8 @@ def write_meta(meta: Mapping[str, Any], logpath: str | os.PathLike[str]) -> Path
     Path
         The metadata file written, ``<logpath>.meta.json``.
     """
+    _check.mapping("meta", meta)
+    _check.path_like("logpath", logpath)
     mp = meta_path(logpath)
     text = json.dumps(dict(meta), indent=2, default=_json_default, allow_nan=False) + "\n"
     write_atomic(mp, lambda tmp: tmp.write_text(text, encoding="utf-8"))

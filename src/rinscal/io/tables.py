@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 import pandas as pd
 
+from rinscal import _check
 from rinscal.errors import LogError, LogNoteWarning
 from rinscal.io.atomic import write_atomic
 from rinscal.io.mapping import SEPARATORS, TIME_UNITS, ColumnMapping
@@ -388,6 +389,8 @@ def read_log(
     LogError
         Naming the file, the column and the first offending data row.
     """
+    _check.path_like("path", path)
+    _check.text("fmt", fmt, optional=True)
     return read_log_source(path, mapping, fmt=fmt).log
 
 
@@ -512,7 +515,11 @@ def write_log(
     LogError
         For an unknown format or an invalid log.
     """
-    p = Path(path)
+    _check.instance("df", df, pd.DataFrame, "a calibration log as a pandas DataFrame")
+    p = _check.path_like("path", path)
+    _check.text("fmt", fmt, optional=True)
+    _check.flag("validate", validate)
+    _check.instance("sep", sep, str, "a field separator (str)", optional=True)
     f = format_of(p, fmt)
     if validate:
         df = validate_log(df, source=f"log to write to {p}")

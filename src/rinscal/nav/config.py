@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+from rinscal import _check
 from rinscal.errors import ConfigError
 from rinscal.nav.align import AlignConfig
 from rinscal.nav.rotation import RotationSchedule
@@ -62,6 +63,15 @@ class ScenarioConfig:
     vertical: VerticalMode = "hold"
 
     def __post_init__(self) -> None:
+        _check.text("name", self.name)
+        if not callable(getattr(self.trajectory, "kinematics", None)):
+            raise _check.wrong_type("trajectory", self.trajectory, "a carrier motion (Trajectory)")
+        _check.instance("schedule", self.schedule, RotationSchedule, "a RotationSchedule")
+        for name in ("duration_s", "rate_hz", "chunk_s", "out_dt_s"):
+            _check.number(name, getattr(self, name))  # the ranges below
+        _check.instance("align", self.align, AlignConfig, "an AlignConfig", optional=True)
+        _check.instance("chamber", self.chamber, ChamberProfile, "a ChamberProfile", optional=True)
+        _check.one_of("vertical", self.vertical, ("hold", "damped", "free"))
         if not (math.isfinite(self.duration_s) and self.duration_s > 0):
             raise ConfigError(f"scenario: duration_s must be > 0, got {self.duration_s}")
         if not (math.isfinite(self.rate_hz) and self.rate_hz > 0):

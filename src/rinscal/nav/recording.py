@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from rinscal import units
+from rinscal import _check, units
 from rinscal.calibration.imulog import check_recording_for_imu
 from rinscal.calibration.modelfile import POLICIES, ThermalModelFile
 from rinscal.errors import ConfigError, LogError
@@ -154,6 +154,25 @@ def navigate_log(
     progress : callable, optional
         ``progress(stage, done_s, total_s)``: stage ``"reading"`` or ``"navigating"``.
     """
+    _check.path_like("log", path)  # the types here (named as rinscal.navigate's), ranges below
+    _check.instance("models", models, (list, tuple), "a list of model files' paths")
+    for k, m in enumerate(models):
+        _check.instance(f"models[{k}]", m, (str, os.PathLike), "a model file's path")
+    _check.numbers_of("site", site, length=3, optional=True)
+    for name, v in (("heading_deg", heading_deg), ("align_start_s", align_start_s)):
+        _check.number(name, v, optional=True)
+    for name, v in (
+        ("align_s", align_s),
+        ("min_align_s", min_align_s),
+        ("model_update_s", model_update_s),
+        ("out_dt_s", out_dt_s),
+    ):
+        _check.number(name, v)
+    _check.number("max_gap_samples", max_gap_samples, integer=True, min=0)
+    _check.flag("allow_gaps", allow_gaps)
+    _check.instance(
+        "imu", imu, (str, os.PathLike), "an IMU preset name or TOML file", optional=True
+    )
     if policy not in POLICIES:
         raise ConfigError(f"--policy must be one of {', '.join(POLICIES)}, got {policy!r}")
     log = open_nav_log(path, mapping, run=run)

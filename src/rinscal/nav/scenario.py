@@ -31,7 +31,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from rinscal import earth, units
+from rinscal import _check, earth, units
 from rinscal.errors import ConfigError
 from rinscal.nav.align import AlignConfig, Aligner, AlignResult, feed_and_hand_over
 from rinscal.nav.config import ScenarioConfig
@@ -110,8 +110,13 @@ def preset(
     schedule : RotationSchedule, optional
         Turntable schedule (default four-position, 60 s dwell, 10 °/s).
     """
+    _check.text("name", name)
     if name not in SCENARIOS:
         raise ConfigError(f"unknown scenario {name!r}; choose one of {', '.join(SCENARIOS)}")
+    _check.number("hours", hours, optional=True, unit="h")  # its range below
+    _check.number("rate_hz", rate_hz, above=0.0, unit="Hz")
+    _check.instance("align", align, AlignConfig, "an AlignConfig", optional=True)
+    _check.instance("schedule", schedule, RotationSchedule, "a RotationSchedule", optional=True)
     hours = DEFAULT_HOURS[name] if hours is None else float(hours)
     if not (math.isfinite(hours) and hours > 0):
         raise ConfigError(f"hours must be > 0, got {hours}")

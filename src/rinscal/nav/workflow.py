@@ -11,6 +11,7 @@ raw recording when asked (``record=``), streamed as it is simulated.
 
 from __future__ import annotations
 
+import inspect
 import os
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -20,6 +21,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from rinscal import _check
 from rinscal.calibration.modelfile import ThermalModelFile, check_policy
 from rinscal.errors import ConfigError
 from rinscal.nav.config import ScenarioConfig
@@ -31,10 +33,10 @@ from rinscal.nav.sensors import (
     oracle_compensator,
     temperature_frame,
 )
-from rinscal.thermal.config import ImuConfig, load_imu
+from rinscal.thermal.config import ImuConfig, resolve_imu
 from rinscal.thermal.presets import DEFAULT_PRESET
 
-__all__ = ["Navigation", "model_compensator", "navigate", "navigate_scenario"]
+__all__ = ["Navigation", "check_models", "model_compensator", "navigate", "navigate_scenario"]
 
 ModelLike = str | os.PathLike[str] | ThermalModelFile
 #: What ``record=`` may be named (the log formats of :data:`rinscal.io.tables.FORMATS`).
@@ -85,6 +87,19 @@ def model_compensator(model: ModelLike, plant: ThermalPlant, policy: str = "clam
     return ModelCompensator(mf, plant, policy=policy)
 
 
+def check_models(models: Any) -> None:
+    """Refuse ``models`` that are neither a mapping nor a sequence of models (a single
+    path would be read as its characters), naming the argument and the bad entry."""
+    accepted = "a list of model files (or loaded models) or a dict of name to model"
+    if isinstance(models, str | os.PathLike | ThermalModelFile):
+        raise _check.wrong_type("models", models, accepted + f", e.g. [{models!r}]")
+    _check.instance("models", models, (Mapping, Sequence), accepted)
+    items = models.items() if isinstance(models, Mapping) else enumerate(models)
+    for key, m in items:
+        model_accepted = "a model file's path (str or os.PathLike) or a loaded model"
+        _check.instance(f"models[{key!r}]", m, (str, os.PathLike, ThermalModelFile), model_accepted)
+
+
 def _named_models(models: Mapping[str, ModelLike] | Sequence[ModelLike]) -> dict[str, ModelLike]:
     """Variant names: a mapping's keys, else each file's stem (``_`` appended to repeats)."""
     if isinstance(models, Mapping):
@@ -125,7 +140,9 @@ def navigate_scenario(
         scenario built in code (then ``hours``, ``rate_hz``, ``rotation`` and the alignment
         arguments are its own).
     imu : str, PathLike or ImuConfig
-        The plant: a preset name, an IMU TOML file or a configuration.
+        The plant: a preset name, an IMU TOML file or a configuration; default the paper's
+        own (``paper``), as :func:`rinscal.simulate`'s, so a model fitted on a default
+        simulated log navigates the unit it was fitted on.
     models : mapping or sequence
         Thermal models to compensate with (files or loaded); a sequence is named by file
         stem.
@@ -165,15 +182,21 @@ def navigate_scenario(
     >>> nav = rinscal.navigate("quasi-static", hours=1, models=["m.json"])  # doctest: +SKIP
     >>> nav.summary["variants"]["regression"]["max_error_nmi"]  # doctest: +SKIP
     """
+    _check.instance("scenario", scenario, (str, ScenarioConfig), "a scenario name or a Scenario")
     check_policy(policy)
-    for name, value, low in (("rate_hz", rate_hz, 0.0), ("align_s", align_s, 0.0)):
-        if not (np.isfinite(value) and value > low):
-            raise ConfigError(f"{name} must be > 0, got {value}")
-    if not (np.isfinite(align_start_s) and align_start_s >= 0):
-        raise ConfigError(f"align_start_s must be >= 0 s, got {align_start_s}")
+    hours = _check.number("hours", hours, above=0.0, optional=True, unit="h")
+    rate_hz = _check.number("rate_hz", rate_hz, above=0.0, unit="Hz")
+    align_s = _check.number("align_s", align_s, above=0.0, unit="s")
+    align_start_s = _check.number("align_start_s", align_start_s, min=0.0, unit="s")
+    seed = _check.number("seed", seed, min=0, integer=True)
+    _check.text("rotation", rotation)
+    _check.flag("oracle", oracle)
+    _check.flag("increments", increments)
+    record = _check.path_like("record", record, optional=True)
+    check_models(models)
     if record is not None and Path(record).suffix.lower() not in RECORD_SUFFIXES:
         raise ConfigError(f"record {record}: give a .parquet, .csv or .tsv file name")
-    plant_cfg = imu if isinstance(imu, ImuConfig) else load_imu(imu)
+    plant_cfg = resolve_imu(imu)
     if isinstance(scenario, ScenarioConfig):
         cfg = scenario
     else:
@@ -305,6 +328,10 @@ def navigate(
     >>> sim = rinscal.navigate("quasi-static", hours=1, models=["m.json"])  # doctest: +SKIP
     >>> rec = rinscal.navigate(log="run.parquet", models=["m.json"])  # doctest: +SKIP
     """
+    _check.instance(
+        "scenario", scenario, (str, ScenarioConfig), "a scenario name or a Scenario", optional=True
+    )
+    log = _check.path_like("log", log, optional=True)
     if scenario is None and log is None:
         raise ConfigError("give a scenario (a simulated run) or log= (a recording)")
     if scenario is not None and log is not None:
@@ -313,5 +340,18 @@ def navigate(
         # deferred: the recording reader and its window finder are not needed by a scenario
         from rinscal.nav.recording import navigate_log
 
+        _known_options(navigate_log, options, "a recording (log=)")
         return navigate_log(log, **options)
+    _known_options(navigate_scenario, options, "a scenario")
     return navigate_scenario(scenario, **options)  # type: ignore[arg-type]
+
+
+def _known_options(target: Callable[..., Any], options: Mapping[str, Any], what: str) -> None:
+    """Refuse an option the navigation of ``what`` does not take, naming those it does."""
+    known = [p for p in inspect.signature(target).parameters if p not in ("scenario", "path")]
+    unknown = [k for k in options if k not in known]
+    if unknown:
+        raise ConfigError(
+            f"navigate: {', '.join(map(repr, unknown))} is not an option of {what}; "
+            f"its options: {', '.join(known)}"
+        )

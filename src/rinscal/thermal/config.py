@@ -8,6 +8,7 @@ The configuration file uses deg/h and µg (see ``rinscal/data/navigation_grade.t
 from __future__ import annotations
 
 import math
+import os
 import tomllib
 from dataclasses import asdict, dataclass, field, fields, replace
 from importlib import resources
@@ -18,6 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rinscal import units
+from rinscal._check import wrong_type
 from rinscal.errors import ConfigError
 from rinscal.schema import CHANNELS
 from rinscal.thermal._checks import _finite, _nonneg
@@ -28,7 +30,7 @@ from rinscal.thermal.field import (
 )
 from rinscal.thermal.mechanistic import MechanisticThermal
 from rinscal.thermal.polynomial import POLYNOMIAL_KEYS, ChannelThermal
-from rinscal.thermal.presets import PRESETS
+from rinscal.thermal.presets import DEFAULT_PRESET, PRESETS
 
 __all__ = [
     "ENGINEERING_UNITS",
@@ -39,6 +41,7 @@ __all__ = [
     "NoiseConfig",
     "OutputConfig",
     "load_imu",
+    "resolve_imu",
 ]
 
 
@@ -488,8 +491,14 @@ class ImuConfig:
         return ("pulse",) * 6 if self.output.mode == "pulses" else ENGINEERING_UNITS
 
 
-def load_imu(spec: str | Path) -> ImuConfig:
+#: What an ``imu=`` argument accepts, in words.
+IMU_ACCEPTED = f"an IMU: a preset name ({', '.join(PRESETS)}), a TOML file's path or an ImuConfig"
+
+
+def load_imu(spec: str | os.PathLike[str]) -> ImuConfig:
     """An IMU configuration from a preset name (:data:`PRESETS`) or a TOML file path."""
+    if not isinstance(spec, str | os.PathLike):
+        raise wrong_type("spec", spec, "an IMU preset name or a TOML file's path")
     if isinstance(spec, str) and spec in PRESETS:
         return ImuConfig.preset(spec)
     path = Path(spec)
@@ -498,6 +507,43 @@ def load_imu(spec: str | Path) -> ImuConfig:
             f"IMU {str(spec)!r} is neither a preset ({', '.join(PRESETS)}) nor a TOML file"
         )
     return ImuConfig.from_toml(path)
+
+
+def resolve_imu(
+    imu: str | os.PathLike[str] | ImuConfig | None = None,
+    config: str | os.PathLike[str] | ImuConfig | None = None,
+) -> ImuConfig:
+    """The plant a public function was given: ``imu=`` or its older spelling ``config=``.
+
+    Every function of the API that takes an IMU takes it as ``imu=`` (a preset name of
+    :data:`PRESETS`, an IMU TOML file's path or an :class:`ImuConfig`), default the paper's
+    own (:data:`~rinscal.thermal.presets.DEFAULT_PRESET`), as the command line does.
+
+    Raises
+    ------
+    ConfigError
+        Both ``imu`` and ``config`` given; an unknown preset or a bad TOML file.
+    ArgumentTypeError
+        Neither a name, a path nor an ImuConfig (the message names the argument).
+    """
+    if imu is not None and config is not None:
+        raise ConfigError(
+            "give the IMU once: imu= (config= is its older spelling), not both "
+            f"(got imu={_shown_imu(imu)} and config={_shown_imu(config)})"
+        )
+    name, spec = ("config", config) if config is not None else ("imu", imu)
+    if spec is None:
+        return ImuConfig.preset(DEFAULT_PRESET)
+    if isinstance(spec, ImuConfig):
+        return spec
+    if not isinstance(spec, str | os.PathLike):
+        raise wrong_type(name, spec, IMU_ACCEPTED)
+    return load_imu(spec)
+
+
+def _shown_imu(spec: object) -> str:
+    """An IMU argument in a message: an ImuConfig by its name, else its repr."""
+    return f"ImuConfig {spec.name!r}" if isinstance(spec, ImuConfig) else repr(spec)
 
 
 def _toml_table(d: dict[str, Any], drop: tuple[str, ...] = ()) -> dict[str, Any]:

@@ -85,6 +85,7 @@ since ``t_cal_c``).
 from __future__ import annotations
 
 import math
+import os
 import tomllib
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, replace
@@ -94,12 +95,12 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from rinscal import turntable
+from rinscal import _check, turntable
 from rinscal.errors import ConfigError
 from rinscal.io.params import PARAMS_COLUMNS, check_params_table
 from rinscal.schema import CHANNELS
 from rinscal.sensormodel import PARAMETERS, ImuCalibration, triad_forward
-from rinscal.thermal.config import ImuConfig
+from rinscal.thermal.config import ImuConfig, resolve_imu
 from rinscal.thermal.field import ChamberProfile, measure, simulate_field
 from rinscal.thermal.plant import (
     SensorNoise,
@@ -713,8 +714,9 @@ def _check_args(
 
 
 def simulate_multiposition(
-    config: ImuConfig,
+    imu: str | os.PathLike[str] | ImuConfig | None = None,
     *,
+    config: str | os.PathLike[str] | ImuConfig | None = None,
     sequence: str | Path | Sequence[Sequence[float]] = "19",
     set_points_c: Sequence[float] = DEFAULT_SET_POINTS_C,
     rates_dps: Sequence[float] = DEFAULT_RATES_DPS,
@@ -732,8 +734,11 @@ def simulate_multiposition(
 
     Parameters
     ----------
-    config : ImuConfig
-        The plant; ``config.output.mode`` chooses pulses (raw) or physical units.
+    imu : str, PathLike or ImuConfig, optional
+        The plant (a preset name, an IMU TOML file or a configuration; default the paper's
+        own, ``paper``); its ``output.mode`` chooses pulses (raw) or physical units.
+    config : str, PathLike or ImuConfig, optional
+        The older spelling of ``imu`` (give one of them).
     sequence : str, Path or sequence of (outer_deg, inner_deg)
         ``"12"``, ``"18"``, ``"19"``, a TOML file or the positions [deg].
     set_points_c : sequence of float [°C]
@@ -768,6 +773,22 @@ def simulate_multiposition(
     meta : dict
         Sidecar metadata (the log contract's keys).
     """
+    numeric = {
+        "dwell_s": dwell_s,
+        "warmup_s": warmup_s,
+        "rate_hz": rate_hz,
+        "ramp_rate_c_per_min": ramp_rate_c_per_min,
+        "rate_error_ppm": rate_error_ppm,
+        "position_error_arcmin": position_error_arcmin,
+    }
+    for name, v in numeric.items():
+        _check.number(name, v)  # the types here, the ranges in _check_args
+    _check.number("seed", seed, min=0, integer=True)
+    _check.numbers_of("set_points_c", set_points_c)
+    _check.numbers_of("rates_dps", rates_dps, nonempty=False)
+    _check.flag("ramp", ramp)
+    _check.flag("turntable_error", turntable_error)
+    config = resolve_imu(imu, config)
     runs = []
     for run in iter_multiposition(
         config,

@@ -17,6 +17,7 @@ The multi-position and rate-table protocol on a two-axis turntable is
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterator
 from dataclasses import dataclass, replace
 
@@ -24,11 +25,11 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from rinscal import units
+from rinscal import _check, units
 from rinscal.earth import static_outputs_r
 from rinscal.errors import ConfigError
 from rinscal.schema import CHANNELS
-from rinscal.thermal.config import ImuConfig
+from rinscal.thermal.config import ImuConfig, resolve_imu
 from rinscal.thermal.field import ChamberProfile, measure, simulate_field
 from rinscal.thermal.plant import (
     SensorNoise,
@@ -321,9 +322,11 @@ def simulate_protocol(
     hours: float | None = None,
     rate_hz: float = 10.0,
     seed: int = 0,
-    config: ImuConfig | None = None,
+    imu: str | os.PathLike[str] | ImuConfig | None = None,
+    *,
+    config: str | os.PathLike[str] | ImuConfig | None = None,
 ) -> tuple[pd.DataFrame, pd.DataFrame, dict[str, object]]:
-    """Simulate a whole protocol into one stacked log.
+    """Simulate a whole protocol into one stacked log (:func:`rinscal.simulate`).
 
     Parameters
     ----------
@@ -335,8 +338,12 @@ def simulate_protocol(
         Sample rate.
     seed : int
         Seed of every random number.
-    config : ImuConfig, optional
-        The plant; the navigation-grade preset if omitted.
+    imu : str, PathLike or ImuConfig, optional
+        The plant: a preset name (:data:`~rinscal.thermal.presets.PRESETS`), an IMU TOML
+        file or a configuration; default the paper's own (``paper``, Tables 1-2), the
+        default of :func:`rinscal.navigate` and of the command line too.
+    config : str, PathLike or ImuConfig, optional
+        The older spelling of ``imu`` (give one of them).
 
     Returns
     -------
@@ -347,7 +354,11 @@ def simulate_protocol(
     meta : dict
         Sidecar metadata (see :func:`log_meta`).
     """
-    config = config or ImuConfig.navigation_grade()
+    _check.one_of("protocol", protocol, PROTOCOLS)
+    hours = _check.number("hours", hours, above=0.0, optional=True, unit="h")
+    rate_hz = _check.number("rate_hz", rate_hz, above=0.0, unit="Hz")
+    seed = _check.number("seed", seed, min=0, integer=True)
+    config = resolve_imu(imu, config)
     runs = list(iter_protocol(protocol, config, hours, rate_hz, seed))
     log = pd.concat([r.log for r in runs], ignore_index=True)
     truth = pd.concat([r.truth for r in runs], ignore_index=True)

@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from rinscal import units
+from rinscal import _check, units
 from rinscal._version import __version__
 from rinscal.calibration.imu.design import SegmentStats, check_observable, segment_stats
 from rinscal.calibration.imu.estimate import BlockEstimate, estimate_block
@@ -458,7 +458,18 @@ def calibrate_imu(
     ConfigError
         The metadata lacks the site.
     """
+    log = _check.log_table("log", log, validate=False)
     log = log.reset_index(drop=True)  # row labels: data rows from the log's start, 0-based
+    meta = _check.mapping("meta", meta)
+    for name, v in (
+        ("settle_s", settle_s),
+        ("motion_sigma", motion_sigma),
+        ("scatter_limit", scatter_limit),
+    ):
+        _check.number(name, v)
+    _check.number("max_degree", max_degree, integer=True)
+    _check.number("min_samples", min_samples, integer=True, min=1)
+    _check.flag("nonlinear", nonlinear)
     missing = [c for c in (TIME, RUN, *CHANNELS, *TABLE_COLUMNS) if c not in log.columns]
     if missing:
         raise LogError(

@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from rinscal import _check
 from rinscal.calibration.thermal.features import (
     DerivativeConfig,
     Features,
@@ -308,6 +309,11 @@ def select_model(
     -------
     SelectionResult
     """
+    log = _check.log_table("log", log) if features is None else log
+    _check.text("method", method)
+    _check.numbers_of("settings", settings, optional=True, nonempty=False, integer=True)
+    _check.number("tolerance", tolerance, min=0.0)
+    _check.number("random_state", random_state, min=0, integer=True)
     settings = _settings(method, settings, tolerance)
     derivative = derivative or DerivativeConfig()
     outliers = outliers or OutlierConfig()
