@@ -328,8 +328,8 @@ class Selection:
         ``train_rms`` (fit on all the data; polynomial candidates only, else None), in the
         log's units.
     fitted : dict of str to dict
-        Parameters on all the data of the chosen and fallback candidates that the selection
-        could fit without another pass (the field's fits, their filters already run);
+        Parameters on all the data of the candidates that the selection could fit without
+        another pass (the field's fits, their filters already run: every one that scored);
         :func:`fit_candidate` for the others.
     """
 
@@ -640,4 +640,16 @@ def _choose_scored(
             for c in (chosen, fallback)
             if c.method in ("px4", "ardupilot")
         }
+        # the field's other fits on all the data too: the firmware exports may need them
+        # (a channel whose choice PX4 and ArduPilot cannot hold exports its best cubic)
+        for c, row in zip(cands, table, strict=True):
+            if c.method in ("px4", "ardupilot") and c.name not in fitted:
+                if row["heldout_rms"] is None:
+                    continue
+                try:
+                    with warnings.catch_warnings():
+                        warnings.simplefilter("ignore")
+                        fitted[c.name] = baseline_fold(c.method, None)
+                except (ValueError, DesignError):
+                    pass
         return Selection(chosen, fallback, folds, float(tolerance), table, fitted)
