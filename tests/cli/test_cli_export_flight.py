@@ -97,8 +97,9 @@ def test_readme_chain_on_the_default_fit_of_a_simulated_soak(soak, soak_small, t
     parm_out = tmp_path / "m.parm"
     text_px4 = _ok(["export", model, "--format", "px4", "--out", params_out, *IDS])
     text_ap = _ok(["export", model, "--format", "ardupilot", "--out", parm_out])
-    # the model file, and so what compensate and navigate apply, is unchanged
+    # the model file, and so what compensate and navigate apply, is unchanged: its choice
     assert model.read_bytes() == before
+    assert all(chosen[c].startswith(mf.models[c].params["method"]) for c in changed)
     # the expected export, built apart: per channel the model's own choice where the firmware
     # holds it, else the best held-out cubic, as `fit --method poly-t|px4|ardupilot` fits it
     log = soak_small[0]

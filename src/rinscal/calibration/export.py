@@ -275,7 +275,9 @@ def to_px4_params(
     ----------
     model : ThermalModelFile
         Every gyro and accelerometer channel a ``poly-t`` (degree ≤ 3), ``px4`` or
-        ``ardupilot`` model with known units.
+        ``ardupilot`` model with known units, or an ``auto`` choice the file keeps such a
+        candidate for (:func:`flight_model`: the best one by held-out RMS is written, and
+        named in the header comments).
     gyro_id, accel_id : int, optional
         Device ids of the gyro and accelerometer (``TC_G0_ID``, ``TC_A0_ID``): the
         ``device_id`` of ``sensor_gyro``/``sensor_accel`` in a ULog (uint32) or the
@@ -396,7 +398,8 @@ def to_ardupilot_parm(model: ThermalModelFile, instance: int | None = None) -> s
     ----------
     model : ThermalModelFile
         Every gyro and accelerometer channel a ``poly-t`` (degree ≤ 3), ``px4`` or
-        ``ardupilot`` model with known units.
+        ``ardupilot`` model with known units, or an ``auto`` choice the file keeps such a
+        candidate for (:func:`flight_model`, as for :func:`to_px4_params`).
     instance : int, optional
         The IMU instance, numbered as the readers number it (DataFlash ``IMU.I``, 0-based):
         0, 1, 2 write ``INS_TCAL1_*`` .. ``INS_TCAL3_*``. Default: the model's
