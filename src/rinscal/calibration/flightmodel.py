@@ -129,7 +129,7 @@ def flight_model(model: ThermalModelFile) -> tuple[ThermalModelFile, tuple[Fligh
                 if sel is None
                 else "the file was written before model files kept them, schema version < 4"
                 if flight is None
-                else "no cubic candidate could be fitted"
+                else "none was among the candidates fitted (fit --candidates) or fitted well"
             )
             refused.append((c, _what(cm.params), why))
             continue
