@@ -93,7 +93,7 @@ class FitResult:
         What the fit warned of, in words: a missing gradient first, then weak training
         data (prefixed with the log's path when the log was a file).
     note : str
-        How to read the table (the held-out scheme, what RMS* means).
+        How to read the table (the held-out scheme, what each RMS is).
     """
 
     model: ThermalModelFile
