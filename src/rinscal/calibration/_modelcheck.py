@@ -188,10 +188,11 @@ def _check_flight(selection: dict[str, Any], where: str) -> None:
     flight = selection["flight"]
     if not isinstance(flight, dict):
         raise ValueError(f"{where}.flight must be a JSON object")
-    names = {r.get("name") for r in selection["table"] if isinstance(r, dict)}
+    rows = {r.get("name"): r for r in selection["table"] if isinstance(r, dict)}
     for name, params in flight.items():
-        if name not in names:
+        if name not in rows:
             raise ValueError(f"{where}.flight.{name}: not a candidate of {where}.table")
+        finite(rows[name].get("heldout_rms"), f"{where}.table[{name}].heldout_rms")
         try:
             validate_params(params)
         except ValueError as exc:
