@@ -99,7 +99,7 @@ def test_forward_then_file_then_compensate_recovers_the_true_signal(tmp_path) ->
     mf = _model(stage)
     path = mf.save(tmp_path / "model.json")
     doc = json.loads(path.read_text())
-    assert doc["schema_version"] == SCHEMA_VERSION == 3
+    assert doc["schema_version"] == SCHEMA_VERSION == 4
     held = doc["payload"]["imu_calibration"]
     assert held["output_units"] == {"gyro": "deg/h", "accel": "ug"}
     assert held["input"]["units"]["gyro_x"] == "pulse" and "misalignment" in held["order"][1]

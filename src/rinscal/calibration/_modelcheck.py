@@ -44,8 +44,12 @@ CHANNEL_KEYS = (
 )
 #: Keys of a channel's entry in schema version 1.
 CHANNEL_KEYS_V1 = CHANNEL_KEYS[:7]
-#: Keys of a channel's ``selection`` entry (method ``auto``).
-SELECTION_KEYS = ("scheme", "folds", "tolerance", "chosen", "fallback", "table")
+#: Keys of a channel's ``selection`` entry (method ``auto``) up to schema version 3; version 4
+#: adds ``flight``: the full-data fits of the candidates PX4 and ArduPilot can hold.
+SELECTION_KEYS_V3 = ("scheme", "folds", "tolerance", "chosen", "fallback", "table")
+SELECTION_KEYS = (*SELECTION_KEYS_V3, "flight")
+#: Methods of the models a ``selection.flight`` entry may hold (a clamped cubic in T).
+FLIGHT_PARAM_METHODS = ("poly-t", "px4", "ardupilot")
 METRIC_KEYS = ("rms_train", "rms_train_about_run_mean", "n_train", "n_outliers", "n_runs")
 
 
@@ -159,9 +163,12 @@ def channel_fields(d: Any, c: str, method: str, k: int, version: int) -> dict[st
             raise ValueError(f"channel_models.{c}.fallback must be a model of T alone")
     selection = d.get("selection")
     if selection is not None:
-        exact(selection, SELECTION_KEYS, f"channel_models.{c}.selection")
+        where = f"channel_models.{c}.selection"
+        exact(selection, SELECTION_KEYS if version >= 4 else SELECTION_KEYS_V3, where)
         if not isinstance(selection["table"], list):
-            raise ValueError(f"channel_models.{c}.selection.table must be a list")
+            raise ValueError(f"{where}.table must be a list")
+        if "flight" in selection:
+            _check_flight(selection, where)
     return {
         "params": params,
         "train_range": rng,
@@ -174,3 +181,25 @@ def channel_fields(d: Any, c: str, method: str, k: int, version: int) -> dict[st
         "fallback": fallback,
         "selection": selection,
     }
+
+
+def _check_flight(selection: dict[str, Any], where: str) -> None:
+    """``selection.flight``: candidate names of the table, each a cubic-type model of T."""
+    flight = selection["flight"]
+    if not isinstance(flight, dict):
+        raise ValueError(f"{where}.flight must be a JSON object")
+    rows = {r.get("name"): r for r in selection["table"] if isinstance(r, dict)}
+    for name, params in flight.items():
+        if name not in rows:
+            raise ValueError(f"{where}.flight.{name}: not a candidate of {where}.table")
+        finite(rows[name].get("heldout_rms"), f"{where}.table[{name}].heldout_rms")
+        try:
+            validate_params(params)
+        except ValueError as exc:
+            raise ValueError(f"{where}.flight.{name}: {exc}") from None
+        if params["method"] not in FLIGHT_PARAM_METHODS or n_inputs(params) != 1:
+            raise ValueError(
+                f"{where}.flight.{name} must be a poly-t, px4 or ardupilot model of T alone"
+            )
+        if params["method"] == "poly-t" and len(params["coef"]) > 4:
+            raise ValueError(f"{where}.flight.{name}: a poly-t of degree > 3 is not a cubic")

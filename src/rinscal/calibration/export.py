@@ -1,9 +1,17 @@
 """Export thermal models for flight software: PX4 ``.params``, ArduPilot ``.parm``, C headers.
 
 Flight-software exports (PX4, ArduPilot) take a cubic in temperature: every channel of the
-exported sensors must be a ``poly-t`` (degree ≤ 3), ``px4`` or ``ardupilot`` model (a file
-whose top-level method is ``auto`` may mix them per channel); any other method is refused
-with the channel named (use the C header). The clamp range is the training range of a
+exported sensors is written as a ``poly-t`` (degree ≤ 3), ``px4`` or ``ardupilot`` model (a
+file whose top-level method is ``auto`` may mix them per channel). Where ``fit --method
+auto`` chose a model they cannot hold (a regression, a ``poly-t`` of degree 4, a network),
+:func:`flight_model` takes the channel's best candidate they can hold by held-out RMS, fitted
+on all the data (the model file's ``selection.flight``; the same fit as ``fit --method
+poly-t|px4|ardupilot`` with the same settings), and says what that costs
+(:class:`FlightChoice`; written as comments in the file and printed by ``rinscal export``);
+the model file itself, and what ``compensate`` and ``navigate`` apply, are unchanged. A
+channel with no such candidate (another method, or an ``auto`` file written before schema
+version 4) is refused with the channels named and what to do (refit, or the C header).
+The clamp range is the training range of a
 ``poly-t`` channel and the model's own ``t_min``/``t_max`` for ``px4``/``ardupilot``
 channels, intersected over the three axes and **rounded inwards** at the written precision
 (0.01 °C: ``TMIN`` up, ``TMAX`` down), so the firmware never evaluates the cubic outside
@@ -63,7 +71,7 @@ C header (every method)
     dT, out)``: ``<prefix>_imu_correct`` then ``out − (f − STATIC_REF)`` per channel. Channel
     order gyro x..z, accel x..z; ``Tdot`` is used only by a calibration with rate laws.
 
-Why one module: about 720 lines, one idea: a model file written out as another program's
+Why one module: about 740 lines, one idea: a model file written out as another program's
 input. The three targets share the clamp range, the re-expansion of the cubics and the
 number formatting, and the C header's IMU step is the same evaluation as its channels'.
 """
@@ -78,6 +86,7 @@ from decimal import ROUND_CEILING, ROUND_FLOOR, Decimal
 
 import numpy as np
 
+from rinscal.calibration.flightmodel import FLIGHT_METHODS, FlightChoice, flight_model
 from rinscal.calibration.imustage import PHYSICAL_TO_SI, ImuStage
 from rinscal.calibration.inference import poly_shift, segment_params
 from rinscal.calibration.modelfile import INPUT_NAMES, ThermalModelFile
@@ -91,7 +100,9 @@ __all__ = [
     "FLIGHT_METHODS",
     "MAVPROXY_MIN_DELTA",
     "TEMP_DECIMALS",
+    "FlightChoice",
     "SmallCoefficientWarning",
+    "flight_model",
     "lost_share",
     "to_ardupilot_parm",
     "to_c_header",
@@ -100,8 +111,6 @@ __all__ = [
 
 _AXES = ("x", "y", "z")
 _CHANNELS = ("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z")
-#: Channel methods that PX4 and ArduPilot can represent (a clamped cubic in T).
-FLIGHT_METHODS: tuple[str, ...] = ("poly-t", "px4", "ardupilot")
 #: Decimals of the written TMIN/TMAX [°C] (rounded inwards at this precision).
 TEMP_DECIMALS = 2
 #: pymavlink ``MAVParmDict.mindelta``: MAVProxy's ``param load`` skips a value within this of
@@ -130,6 +139,17 @@ class SmallCoefficientWarning(UserWarning):
         self.parameter = parameter
         self.value = value
         self.lost_share = lost_share
+
+
+def _changed_lines(changed: tuple[FlightChoice, ...]) -> list[str]:
+    """Header comments naming the channels written with another candidate than the model's."""
+    if not changed:
+        return []
+    return [
+        "# not the model file's choice (PX4/ArduPilot hold a cubic in T; the best one by",
+        "# held-out RMS of 60 s means is written; compensate/navigate apply the file's):",
+        *(f"#   {ch.describe()}" for ch in changed),
+    ]
 
 
 @dataclass(frozen=True)
@@ -255,7 +275,9 @@ def to_px4_params(
     ----------
     model : ThermalModelFile
         Every gyro and accelerometer channel a ``poly-t`` (degree ≤ 3), ``px4`` or
-        ``ardupilot`` model with known units.
+        ``ardupilot`` model with known units, or an ``auto`` choice the file keeps such a
+        candidate for (:func:`flight_model`: the best one by held-out RMS is written, and
+        named in the header comments).
     gyro_id, accel_id : int, optional
         Device ids of the gyro and accelerometer (``TC_G0_ID``, ``TC_A0_ID``): the
         ``device_id`` of ``sensor_gyro``/``sensor_accel`` in a ULog (uint32) or the
@@ -278,6 +300,7 @@ def to_px4_params(
         A device id missing or 0 (naming ``--gyro-id``/``--accel-id``), a channel whose
         method is not a clamped cubic, unknown units, or axes without a common range.
     """
+    model, changed = flight_model(model)
     slot = instance
     if slot is None:
         inst = _instance(model)
@@ -298,6 +321,7 @@ def to_px4_params(
         "# loading this file clears no other set: if another set already holds one of these",
         "# ids, set that set's ID to 0 first (or export into it with --instance).",
         "# TC_G_ENABLE and TC_A_ENABLE take effect after a reboot.",
+        *_changed_lines(changed),
         "#",
         "# Vehicle-Id\tComponent-Id\tName\tValue\tType",
     ]
@@ -374,7 +398,8 @@ def to_ardupilot_parm(model: ThermalModelFile, instance: int | None = None) -> s
     ----------
     model : ThermalModelFile
         Every gyro and accelerometer channel a ``poly-t`` (degree ≤ 3), ``px4`` or
-        ``ardupilot`` model with known units.
+        ``ardupilot`` model with known units, or an ``auto`` choice the file keeps such a
+        candidate for (:func:`flight_model`, as for :func:`to_px4_params`).
     instance : int, optional
         The IMU instance, numbered as the readers number it (DataFlash ``IMU.I``, 0-based):
         0, 1, 2 write ``INS_TCAL1_*`` .. ``INS_TCAL3_*``. Default: the model's
@@ -393,6 +418,7 @@ def to_ardupilot_parm(model: ThermalModelFile, instance: int | None = None) -> s
         Per written coefficient ``v`` with ``0 < |v| ≤ 1e-6``, which MAVProxy's ``param load``
         does not send to a vehicle where it is 0 (see :data:`MAVPROXY_MIN_DELTA`).
     """
+    model, changed = flight_model(model)
     if instance is None:
         instance = _instance(model) or 0
     try:
@@ -429,6 +455,7 @@ def to_ardupilot_parm(model: ThermalModelFile, instance: int | None = None) -> s
         ),
         "# cubic about 35 degC, no constant term, coefficients x 1e6 (SI units);",
         "# TMIN/TMAX: the common range of all six channels, rounded inwards (degC)",
+        *_changed_lines(changed),
         f"{p}ENABLE 1",
         f"{p}TMIN {tmin}",
         f"{p}TMAX {tmax}",

@@ -1,11 +1,12 @@
 """The thermal model file: JSON, checksummed, validated on load, evaluated with numpy alone.
 
-Layout (``schema_version`` 3; version 2 files, without ``imu_calibration``, and version 1
-files, without ``domain``, ``fallback`` and ``selection`` too, are still read)::
+Layout (``schema_version`` 4; version 3 files, without ``selection.flight``, version 2 files,
+without ``imu_calibration`` too, and version 1 files, without ``domain``, ``fallback`` and
+``selection`` too, are still read)::
 
     {
       "format": "rinscal-thermal-model",
-      "schema_version": 3,
+      "schema_version": 4,
       "sha256": "<hex digest of the canonical JSON of payload>",
       "payload": {
         "method": "regression",                 # poly-t | sectional | regression | neural
@@ -32,7 +33,9 @@ files, without ``domain``, ``fallback`` and ``selection`` too, are still read)::
                                                 # joint (T, Ṫ, ΔT) occupancy grid, or null
             "fallback": {...},                  # params of the T-only model used outside
                                                 # the domain (policy "fallback"), or null
-            "selection": {...}                  # method auto: held-out table and choice
+            "selection": {...}                  # method auto: held-out table and choice, and
+                                                # "flight": {candidate: params} of the
+                                                # cubics PX4/ArduPilot hold, fitted on all data
           }, ...
         },
         "imu_calibration": null                 # or the IMU calibration applied first:
@@ -129,9 +132,9 @@ __all__ = [
 #: Value of the ``format`` key.
 FORMAT = "rinscal-thermal-model"
 #: Schema version written and read by this rinscal.
-SCHEMA_VERSION = 3
+SCHEMA_VERSION = 4
 #: Schema versions this rinscal reads.
-READABLE_VERSIONS: tuple[int, ...] = (1, 2, 3)
+READABLE_VERSIONS: tuple[int, ...] = (1, 2, 3, 4)
 #: What to do with inputs outside the training data: ``clamp`` each input to its range,
 #: ``fallback`` to the channel's T-only model outside the joint domain, ``extrapolate``,
 #: ``error``.
@@ -189,7 +192,10 @@ class ChannelModel:
         How ``fit --method auto`` chose this channel's model: ``scheme`` and ``folds`` of
         the held-out check, ``tolerance``, ``chosen`` and ``fallback`` (candidate names),
         ``table`` (one row per candidate: ``name``, ``method``, ``n_params``,
-        ``heldout_rms``, ``fold_rms``, ``train_rms``).
+        ``heldout_rms``, ``fold_rms``, ``train_rms``) and, from schema version 4, ``flight``
+        (candidate name → parameters on all the data of every scored candidate PX4 and
+        ArduPilot can hold: ``none``, ``poly-t`` of degree ≤ 3, ``px4``, ``ardupilot``; what
+        ``rinscal export`` writes for a channel whose choice they cannot hold).
     """
 
     params: dict[str, Any]

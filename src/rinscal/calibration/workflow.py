@@ -92,15 +92,17 @@ class FitResult:
     table : DataFrame
         One row per channel: ``channel``, ``unit`` (the log's), ``model`` (the fitted
         family, the auto choice), ``samples``, ``masked`` (outliers left out),
-        ``t_min_c``, ``t_max_c`` (training temperatures [°C]), ``rms_train`` (training
-        residual about each run's mean, Eq. 16, log units) and, for ``method="auto"``,
-        ``heldout_rms`` and ``none_heldout_rms`` (held-out RMS of 60 s means of the chosen
-        model and of no compensation, log units).
+        ``t_min_c``, ``t_max_c`` (training temperatures [°C]), ``rms_train`` (RMS per
+        sample of the training residual about each run's mean, Eq. 16, log units) and, for
+        ``method="auto"``, ``train_rms``, ``heldout_rms`` and ``none_heldout_rms``: one
+        figure, the RMS of 60 s means of the residual about each scored part's mean (log
+        units), of the chosen model fitted on all the data, of the chosen with each part's
+        fold left out, and of no compensation left out alike (the selection's table).
     warnings : tuple of str
         What the fit warned of, in words: a missing gradient first, then weak training
         data (prefixed with the log's path when the log was a file).
     note : str
-        How to read the table (the held-out scheme, what RMS* means).
+        How to read the table (the held-out scheme, what each RMS is).
     """
 
     model: ThermalModelFile
@@ -378,6 +380,7 @@ def fit_table(mf: ThermalModelFile) -> pd.DataFrame:
         }
         if cm.selection is not None:
             by_name = {r["name"]: r for r in cm.selection["table"]}
+            row["train_rms"] = by_name[cm.selection["chosen"]].get("train_rms")
             row["heldout_rms"] = by_name[cm.selection["chosen"]]["heldout_rms"]
             row["none_heldout_rms"] = by_name.get("none", {}).get("heldout_rms")
         rows.append(row)
@@ -400,12 +403,14 @@ def model_label(cm: Any) -> str:
 
 
 def fit_note(mf: ThermalModelFile, method: str) -> str:
-    """How to read :func:`fit_table`: masked samples, RMS*, the held-out scheme."""
-    note = (
-        "masked: outlier samples left out of the fit; RMS* of the training residual about "
-        "each run's mean (turn-on offsets removed)."
-    )
-    if method == "auto":
+    """How to read :func:`fit_table`: masked samples, what each RMS is, the held-out scheme."""
+    note = "masked: outlier samples left out of the fit."
+    if method != "auto":
+        note += (
+            " RMS/sample: RMS per sample of the training residual about each run's mean "
+            "(Eq. 16, turn-on offsets removed)."
+        )
+    else:
         first = next(iter(mf.models.values())).selection or {}
         scheme, parts = first.get("scheme", "?"), len(first.get("folds", []))
         how = (
@@ -414,8 +419,11 @@ def fit_note(mf: ThermalModelFile, method: str) -> str:
             else f"{scheme} over {parts} folds"
         )
         note += (
-            f" Held-out: RMS of 60 s means of the residual, {how} (rinscal select LOG "
-            "--method auto shows every candidate)."
+            " Train and held-out RMS are one figure: the RMS of 60 s means of the residual "
+            "about each scored part's mean (turn-on offsets removed), over the samples inside "
+            f"the other folds' temperatures; held-out: {how}, each part predicted by the fit "
+            "without its fold; train: the fit on all the data (rinscal select LOG --method "
+            "auto shows every candidate)."
         )
     return note
 

@@ -135,13 +135,19 @@ def _floats(text: str | None, option: str) -> tuple[float, ...] | None:
         raise fail(f"{option}: {text!r} is not a comma-separated list of numbers") from None
 
 
+#: What a table shows for a figure that does not exist (None, NaN): never "None" or "nan".
+MISSING = "—"
+
+
 def _fmt(v: Any, digits: int = 4) -> str:
+    if v is None:
+        return MISSING
     try:
         f = float(v)
     except (TypeError, ValueError):
         return str(v)
     if f != f:  # NaN
-        return "-"
+        return MISSING
     return f"{f:.{digits}g}"
 
 
@@ -330,10 +336,17 @@ def fit(
         raise fail(str(exc)) from None
     for text in result.warnings:
         err_console.print(styled("warning:", "yellow", f" {text}"), highlight=False)
-    table = Table(title=f"{method} model of {log.name}: training residual (Eq. 16)")
-    cols = ["channel", "model", "samples", "masked", "T range [°C]", "RMS*"]
-    if method == "auto":
-        cols += ["held-out", "none held-out"]
+    auto = method == "auto"
+    title = (
+        f"auto model of {log.name}: RMS of 60 s means of the residual about each scored "
+        "part's mean (train and held-out alike; channel's unit)"
+        if auto
+        else f"{method} model of {log.name}: training RMS per sample about each run's mean "
+        "(Eq. 16; channel's unit)"
+    )
+    table = Table(title=title)
+    cols = ["channel", "model", "samples", "masked", "T range [°C]"]
+    cols += ["train RMS", "held-out RMS", "none held-out"] if auto else ["RMS/sample"]
     for name in cols:
         left = name in ("channel", "model", "T range [°C]")
         table.add_column(name, justify="left" if left else "right")
@@ -344,10 +357,11 @@ def fit(
             f"{r['samples']:,}",
             f"{r['masked']:,}",
             f"{r['t_min_c']:.2f} .. {r['t_max_c']:.2f}",
-            _fmt(r["rms_train"]),
         ]
-        if method == "auto" and "heldout_rms" in r:
-            row += [_fmt(r["heldout_rms"]), _fmt(r["none_heldout_rms"])]
+        if auto:
+            row += [_fmt(r.get(k)) for k in ("train_rms", "heldout_rms", "none_heldout_rms")]
+        else:
+            row.append(_fmt(r["rms_train"]))
         table.add_row(*row)
     print_table(console, table)
     if imu_cal is not None:
@@ -504,13 +518,14 @@ def select(
         return
     what = "orders p=q=s" if method == "regression" else "hidden neurons n"
     table = Table(
-        title=f"{method} selection on {log.name}: RMS (Eq. 16) about each run's mean, "
-        f"held-out = leave-one-run-out over {len(res.runs)} runs"
+        title=f"{method} selection on {log.name}: RMS per sample (Eq. 16) about each run's "
+        f"mean, train and held-out alike (not the 60 s means of select --method auto); "
+        f"train: the fit on all {len(res.runs)} runs; held-out: leave-one-run-out"
     )
     table.add_column("channel")
     table.add_column(what, justify="right")
-    table.add_column("train RMS", justify="right")
-    table.add_column("held-out RMS", justify="right")
+    table.add_column("train RMS/sample", justify="right")
+    table.add_column("held-out RMS/sample", justify="right")
     table.add_column("", justify="left")
     for c, grp in res.table.groupby("channel", sort=False):
         for _, r in grp.iterrows():
@@ -575,7 +590,9 @@ def _select_auto(
     if as_json:
         doc = {
             "log": log.name,
-            "rms": "held-out RMS of 60 s means of the residual about each part's mean, log units",
+            "rms": "heldout_rms, fold_rms and train_rms: RMS of 60 s means of the residual "
+            "about each scored part's mean, log units; held-out: the part's fold left out of "
+            "the fit; train: the fit on all the data, over the same rows; null: not fitted",
             "channels": {
                 c: {"unit": mf.models[c].unit, **(mf.models[c].selection or {})}
                 for c in mf.channels
@@ -586,13 +603,14 @@ def _select_auto(
     for c in mf.channels:
         sel = mf.models[c].selection or {}
         table = Table(
-            title=f"{c} ({mf.models[c].unit or '?'}): held-out RMS of 60 s means, "
+            title=f"{c} ({mf.models[c].unit or '?'}): RMS of 60 s means of the residual about "
+            f"each scored part's mean (held-out, per part and train alike), "
             f"{sel.get('scheme')}, {len(sel.get('folds', []))} scored parts "
             f"({', '.join(sel.get('folds', []))})"
         )
-        for name in ("candidate", "params", "held-out RMS", "per fold", "train RMS", ""):
+        for name in ("candidate", "params", "held-out RMS", "per part", "train RMS", ""):
             table.add_column(
-                name, justify="left" if name in ("candidate", "per fold", "") else "right"
+                name, justify="left" if name in ("candidate", "per part", "") else "right"
             )
         rows = sorted(
             sel.get("table", []),
@@ -613,6 +631,14 @@ def _select_auto(
                 ", ".join(mark),
             )
         print_table(console, table)
+    console.print(
+        "held-out RMS: each part predicted by the fit without its fold (per part: each part's "
+        "own); train RMS: the fit on all the data, over the same rows and 60 s blocks; "
+        f"{MISSING}: not fitted (per part: or no sample of the part inside the other folds' "
+        "temperatures; train: a network is not refitted on all the data while screening).",
+        highlight=False,
+        soft_wrap=True,
+    )
     console.print(
         "chosen: among the models a paired t-test (90 %, log ratios over the folds) cannot "
         "tell from the best held-out error"

@@ -306,6 +306,7 @@ def export_cmd(
     # deferred: loaded when the command runs, so that `rinscal --help` starts fast
     from rinscal.calibration.export import (
         SmallCoefficientWarning,
+        flight_model,
         to_ardupilot_parm,
         to_c_header,
         to_px4_params,
@@ -323,8 +324,11 @@ def export_cmd(
             f"--instance {imu - 1}"
         )
     refuse_inputs(out, [model])
+    changed: tuple[Any, ...] = ()
     try:
         mf = ThermalModelFile.load(model)
+        if fmt in ("px4", "ardupilot"):  # a cubic in T per channel: the best one auto kept
+            changed = flight_model(mf)[1]  # the exporters make the same change
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", SmallCoefficientWarning)
             if fmt == "px4":
@@ -339,4 +343,39 @@ def export_cmd(
     for w in caught:
         if issubclass(w.category, SmallCoefficientWarning):
             err_console.print(styled("warning:", "yellow", f" {w.message}"), highlight=False)
+    if changed:
+        _print_flight_changes(changed, "PX4" if fmt == "px4" else "ArduPilot")
     console.print(f"wrote {out} ({fmt}, {mf.method} model)", highlight=False)
+
+
+def _print_flight_changes(changed: tuple[Any, ...], firmware: str) -> None:
+    """The channels exported with another candidate than the model's, and the cost."""
+    # deferred: loaded when the command runs, so that `rinscal --help` starts fast
+    from rich.table import Table
+
+    from rinscal.cli._app import console
+
+    table = Table(
+        title=f"{len(changed)} channel(s) exported with another model than the file's: "
+        f"{firmware} holds a clamped cubic in T, so each gets its best one by held-out RMS "
+        "(of 60 s means of the residual, as fit --method auto scores; channel's unit)"
+    )
+    for name in ("channel", "auto chose", "held-out RMS", "exported", "held-out RMS", "cost"):
+        left = name in ("channel", "auto chose", "exported")
+        table.add_column(name, justify="left" if left else "right")
+    for ch in changed:
+        table.add_row(
+            f"{ch.channel} ({ch.unit or '?'})",
+            ch.chosen,
+            _fmt(ch.chosen_rms),
+            ch.exported,
+            _fmt(ch.exported_rms),
+            f"{ch.cost:+.3g} (x{ch.ratio:.3g})",
+        )
+    print_table(console, table)
+    console.print(
+        "The model file is unchanged: compensate, evaluate and navigate apply its own choice; "
+        "export --format c writes it whole.",
+        highlight=False,
+        soft_wrap=True,
+    )

@@ -3,11 +3,13 @@
 Per channel, every candidate is fitted on all folds but one and scored on the fold left out;
 the score is the RMS of the held-out residual averaged over 60 s blocks (:data:`BLOCK_S`: the
 slow part a thermal model is for; white noise averages out), about each fold's own mean (a
-turn-on offset is not thermal), pooled over the folds. Among the candidates within noise of
-the best (those a one-sided paired t-test on the folds' log error ratios cannot tell from it,
-:func:`choose`) the choice is no compensation, else the field's own cubic (ArduPilot's, then
-PX4's), else the fewest thermal parameters: within noise, the simpler wins. "No compensation"
-is a candidate, so on the held-out data the choice is never clearly worse than doing nothing.
+turn-on offset is not thermal), pooled over the folds. The training RMS of the table is the
+same figure for the fit on every fold, over the same rows and blocks, so the two compare.
+Among the candidates within noise of the best (those a one-sided paired t-test on the folds'
+log error ratios cannot tell from it, :func:`choose`) the choice is no compensation, else the
+field's own cubic (ArduPilot's, then PX4's), else the fewest thermal parameters: within
+noise, the simpler wins. "No compensation" is a candidate, so on the held-out data the
+choice is never clearly worse than doing nothing.
 
 Folds (:func:`rinscal.calibration.selection.folds.holdout_folds`)
     Leave-one-run-out when the log has three runs or more. Otherwise each run is cut into its
@@ -228,11 +230,13 @@ def _polynomial_scores(
     blocks: np.ndarray,
     units: np.ndarray | None = None,
     unit_fold: np.ndarray | None = None,
-) -> dict[str, tuple[np.ndarray, float]]:
-    """Held-out SS of block means about the unit's mean, per scoring unit, and the training RSS.
+) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Held-out and training SS of block means about the unit's mean, per scoring unit.
 
     ``blocks`` numbers the scored rows' averaging blocks (−1: not scored); ``units`` and
-    ``unit_fold`` (default: the folds themselves) are the scoring units and their folds.
+    ``unit_fold`` (default: the folds themselves) are the scoring units and their folds. The
+    held-out SS of a unit is that of the fit without its fold, the training SS that of the
+    fit on every fold, over the same scored rows and blocks.
     """
     if units is None or unit_fold is None:
         units, unit_fold = folds, np.arange(n_folds)
@@ -278,7 +282,7 @@ def _polynomial_scores(
         rs_scored.append(r)
         counts.append(nb)
     start = np.cumsum([1, *max_orders[:-1]])
-    out: dict[str, tuple[np.ndarray, float]] = {}
+    out: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     refused = {
         o: bool(collinear_inputs(x, o))
         for o in {tuple(min(v, 1) for v in c.orders[:d]) for c in cands if c.orders}
@@ -286,7 +290,7 @@ def _polynomial_scores(
     for cand in cands:
         assert cand.orders is not None
         if refused[tuple(min(v, 1) for v in cand.orders[:d])]:
-            out[cand.name] = (np.full(n_units, np.nan), np.nan)
+            out[cand.name] = (np.full(n_units, np.nan), np.full(n_units, np.nan))
             continue
         cols = [0]
         for v, o in enumerate(cand.orders[:d]):
@@ -304,7 +308,14 @@ def _polynomial_scores(
             for u in mine:
                 ss[u] = factor_ss_about_mean(rs_scored[u][:, sel], beta, int(counts[u]))
         full = np.linalg.qr(np.vstack([r[:, sel] for r in rs]), mode="r")
-        out[cand.name] = (ss, solve_r(full, m)[1])
+        coef = np.append(solve_r(full, m)[0], -1.0)
+        train = np.array(
+            [
+                factor_ss_about_mean(rs_scored[u][:, sel], coef, int(counts[u]))
+                for u in range(n_units)
+            ]
+        )
+        out[cand.name] = (ss, train)
     return out
 
 
@@ -324,12 +335,15 @@ class Selection:
         Relative tolerance of the choice.
     table : list of dict
         One row per candidate: ``name``, ``method``, ``n_params``, ``heldout_rms`` (None if
-        the candidate could not be fitted on some fold), ``fold_rms`` (per fold), and
-        ``train_rms`` (fit on all the data; polynomial candidates only, else None), in the
-        log's units.
+        the candidate could not be fitted on some fold), ``fold_rms`` (per scoring unit;
+        None where it was not fitted or nothing of the unit was scored), and ``train_rms``
+        (the fit on all the data; None for a network, not refitted while screening), in
+        the log's units. Both RMS are of the same figure (:data:`BLOCK_S`): 60 s means of
+        the residual about each scoring unit's mean, over the scored rows, pooled; held-out
+        with the unit's fold left out of the fit, training with every fold in it.
     fitted : dict of str to dict
-        Parameters on all the data of the chosen and fallback candidates that the selection
-        could fit without another pass (the field's fits, their filters already run);
+        Parameters on all the data of the candidates that the selection could fit without
+        another pass (the field's fits, their filters already run: every one that scored);
         :func:`fit_candidate` for the others.
     """
 
@@ -586,13 +600,25 @@ def _choose_scored(
             else {}
         )
         n_total = int(counts.sum())
+        scored_units = [(units == u) & scored for u in range(nu)]
         table, mse_rows = [], []
+        fitted: dict[str, dict[str, Any]] = {}
         for cand in cands:
-            train_rms = None
+            train_ss = np.full(nu, np.nan)  # neural: not fitted on every fold while screening
             if cand.name in fast:
-                ss, rss = fast[cand.name]
-                train_rms = math.sqrt(rss / x.shape[0]) if np.isfinite(rss) else None
+                ss, train_ss = fast[cand.name]
             else:
+                if cand.method in ("px4", "ardupilot"):  # the tool's own fit on all the data
+                    try:
+                        with warnings.catch_warnings():
+                            warnings.simplefilter("ignore")
+                            fitted[cand.name] = baseline_fold(cand.method, None)
+                    except (ValueError, DesignError):
+                        pass
+                    else:
+                        for u, te in enumerate(scored_units):
+                            pred = predict_params(fitted[cand.name], x[te])
+                            train_ss[u] = _ss_about_mean(_block_means(y[te] - pred, blocks[te]))
                 ss = np.empty(nu)
                 for k in range(nf):
                     tr = codes != k
@@ -610,12 +636,18 @@ def _choose_scored(
                         ss[mine] = np.nan
                         continue
                     for u in mine:
-                        te = (units == u) & scored
+                        te = scored_units[u]
                         pred = predict_params(params, x[te])
                         ss[u] = _ss_about_mean(_block_means(y[te] - pred, blocks[te]))
             ss[counts == 0] = 0.0
+            train_ss[counts == 0] = 0.0
             fold_rms = np.sqrt(ss / np.maximum(counts, 1))
             score = float(math.sqrt(np.sum(ss) / n_total)) if np.all(np.isfinite(ss)) else None
+            train_rms = (
+                float(math.sqrt(np.sum(train_ss) / n_total))
+                if n_total and np.all(np.isfinite(train_ss))
+                else None
+            )
             mse_rows.append((ss / np.maximum(counts, 1))[counts > 0])
             table.append(
                 {
@@ -635,9 +667,16 @@ def _choose_scored(
         chosen = choose(cands, mse, tolerance)
         t_only = [i for i, c in enumerate(cands) if c.t_only]
         fallback = choose([cands[i] for i in t_only], mse[t_only], tolerance)
+        # the field's fits on all the data (their training RMS above): the chosen and the
+        # fallback, and for the firmware exports every one that scored (a channel whose
+        # choice PX4 and ArduPilot cannot hold exports its best cubic)
+        for c in (chosen, fallback):
+            if c.method in ("px4", "ardupilot") and c.name not in fitted:
+                fitted[c.name] = baseline_fold(c.method, None)  # as before: its error tells
+        scored_names = {r["name"] for r in table if r["heldout_rms"] is not None}
         fitted = {
-            c.name: baseline_fold(c.method, None)
-            for c in (chosen, fallback)
-            if c.method in ("px4", "ardupilot")
+            k: v
+            for k, v in fitted.items()
+            if k in scored_names or k in (chosen.name, fallback.name)
         }
         return Selection(chosen, fallback, folds, float(tolerance), table, fitted)

@@ -19,6 +19,7 @@ from rinscal.calibration.thermal.dispatch import fit_params
 __all__ = [
     "DEFAULT_FAMILIES",
     "FAMILIES",
+    "FLIGHT_MAX_DEGREE",
     "HIDDEN",
     "MAX_ORDERS",
     "NEURAL_SCREEN",
@@ -34,6 +35,8 @@ FAMILIES: tuple[str, ...] = ("none", "ardupilot", "px4", "poly-t", "regression",
 DEFAULT_FAMILIES: tuple[str, ...] = ("none", "ardupilot", "px4", "poly-t", "regression")
 #: Largest orders of the polynomial candidates (T, Ṫ, ΔT).
 MAX_ORDERS: tuple[int, int, int] = (4, 3, 3)
+#: Largest degree in T of a ``poly-t`` candidate that PX4 and ArduPilot can hold (a cubic).
+FLIGHT_MAX_DEGREE = 3
 #: Hidden-layer sizes screened when ``neural`` is a candidate.
 HIDDEN: tuple[int, ...] = (2, 4, 6)
 #: Screening budget of a neural candidate's held-out fits.
@@ -73,6 +76,14 @@ class Candidate:
         if self.family in ("none", "px4", "ardupilot", "poly-t"):
             return True
         return self.orders is not None and not any(self.orders[1:])
+
+    @property
+    def flight(self) -> bool:
+        """Whether PX4 and ArduPilot can hold the candidate: a clamped cubic in T (``none``,
+        ``ardupilot``, ``px4``, ``poly-t`` of degree ≤ :data:`FLIGHT_MAX_DEGREE`)."""
+        if self.family in ("none", "px4", "ardupilot"):
+            return True
+        return self.family == "poly-t" and int(self.params["degree"]) <= FLIGHT_MAX_DEGREE
 
 
 def candidates(

@@ -698,7 +698,9 @@ class _Fitting:
             params = self._fit_chosen(fits, sel, sel.chosen)
             # a chosen model of T alone is its own fallback: fit it once
             fb = params if sel.fallback == sel.chosen else self._fit_chosen(fits, sel, sel.fallback)
-            return params, fb, sel.to_dict()
+            record = sel.to_dict()
+            record["flight"] = self._flight_fits(fits, sel, cands, {sel.chosen.name: params})
+            return params, fb, record
         hyper = m.hyper_for(c, sp)
         if m.method == "regression":
             params = fits.regression(
@@ -727,6 +729,36 @@ class _Fitting:
             return fits.regression(list(cand.orders[:used]))
         xo, yo, codes, to = fits.data()
         return fit_candidate(cand, xo, yo, codes, to, self.model.random_state)
+
+    def _flight_fits(
+        self,
+        fits: RunFits,
+        sel: Selection,
+        cands: Sequence[Candidate],
+        done: dict[str, dict[str, Any]],
+    ) -> dict[str, dict[str, Any]]:
+        """``auto``: every candidate PX4 and ArduPilot can hold that scored, fitted on all the
+        data as :meth:`_fit_chosen` fits a chosen one (``done``: those already fitted).
+
+        ``rinscal export --format px4|ardupilot`` exports a channel whose choice they cannot
+        hold with the best of these by held-out RMS; each is what ``fit --method
+        poly-t|px4|ardupilot`` gives the channel with the same settings.
+        """
+        scored = {r["name"] for r in sel.table if r["heldout_rms"] is not None}
+        out: dict[str, dict[str, Any]] = {}
+        for cand in cands:
+            if not cand.flight or cand.name not in scored:
+                continue
+            if cand.name in done:
+                out[cand.name] = done[cand.name]
+                continue
+            try:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    out[cand.name] = self._fit_chosen(fits, sel, cand)
+            except (DesignError, ValueError):
+                continue
+        return out
 
     @staticmethod
     def _metrics(params: dict[str, Any], fits: RunFits) -> dict[str, float]:
