@@ -22,15 +22,17 @@ from __future__ import annotations
 import math
 import numbers
 import os
+import sys
 from collections.abc import Collection, Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
 
 from rinscal.errors import ArgumentTypeError, ConfigError, LogError
-from rinscal.schema import validate_log
+
+if TYPE_CHECKING:  # pandas is imported by the caller that has a table, never here:
+    import pandas as pd  # model files load with numpy alone (test_inference_needs_numpy_only)
 
 __all__ = [
     "array",
@@ -53,9 +55,16 @@ __all__ = [
 SHOWN_CHARS = 60
 
 
+def _is_frame(value: Any) -> bool:
+    """Whether ``value`` is a :class:`pandas.DataFrame` (False, without importing pandas,
+    where nothing has imported it: then no value can be one)."""
+    pd = sys.modules.get("pandas")
+    return pd is not None and isinstance(value, pd.DataFrame)
+
+
 def shown(value: Any, limit: int = SHOWN_CHARS) -> str:
     """A value as a message shows it: its type and its repr, shortened (``str '0.05'``)."""
-    if isinstance(value, pd.DataFrame):
+    if _is_frame(value):
         return f"a DataFrame of {len(value)} rows × {value.shape[1]} columns"
     r = repr(value)
     if len(r) > limit:
@@ -266,7 +275,7 @@ def log_table(name: str, value: Any, *, validate: bool = True) -> pd.DataFrame:
     """A calibration log as a table: a non-empty :class:`pandas.DataFrame` that passes
     :func:`rinscal.schema.validate_log` (returned validated; messages name ``name``);
     ``validate=False``: the type and the rows only (the function checks its columns)."""
-    if not isinstance(value, pd.DataFrame):
+    if not _is_frame(value):
         raise wrong_type(name, value, "a calibration log as a pandas DataFrame")
     if len(value) == 0:
         cols = (
@@ -276,12 +285,16 @@ def log_table(name: str, value: Any, *, validate: bool = True) -> pd.DataFrame:
             f"{name} has no rows (an empty DataFrame, {cols}); give a calibration log "
             "(rinscal.read_log or rinscal.simulate)"
         )
-    return validate_log(value, source=name) if validate else value
+    if not validate:
+        return value
+    from rinscal.schema import validate_log  # deferred: schema imports pandas
+
+    return validate_log(value, source=name)
 
 
 def log_like(name: str, value: Any, *, table: bool = True) -> Path | pd.DataFrame:
     """A calibration log: a file's path, or (``table``) a table as :func:`log_table`."""
-    if table and isinstance(value, pd.DataFrame):
+    if table and _is_frame(value):
         return log_table(name, value)
     if not isinstance(value, str | os.PathLike):
         accepted = "a log file's path (str or os.PathLike)"
