@@ -164,3 +164,26 @@ def test_a_failed_command_leaves_no_folder_it_created(tmp_path) -> None:
     (tmp_path / "kept").mkdir()  # a folder that was there stays
     code, _ = _invoke(["fit", bad, "--out", tmp_path / "kept" / "sub" / "m.json"])
     assert code == 2 and (tmp_path / "kept").is_dir() and not (tmp_path / "kept" / "sub").exists()
+
+
+def test_a_write_that_fails_late_is_a_message_not_a_traceback(tmp_path, monkeypatch) -> None:
+    """calibrate-imu: the disk fills after the checks, while the calibration is written."""
+    import errno
+    import os
+
+    log = tmp_path / "mp.parquet"
+    code, text = _invoke(["simulate", "multiposition", "--rate", "2", "--out", log])
+    assert code == 0, text
+    real_replace = os.replace
+
+    def full(src, dst):
+        if str(dst).endswith("imu.json"):
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        return real_replace(src, dst)
+
+    monkeypatch.setattr(os, "replace", full)
+    out = tmp_path / "cal" / "imu.json"
+    code, text = _invoke(["calibrate-imu", log, "--out", out])
+    assert code == 2, text
+    assert f"{out}: cannot write: No space left on device; the disk is full" in text
+    assert not out.exists()

@@ -89,7 +89,7 @@ def guard_os_errors(command: Callable[..., Any] | None) -> Callable[..., Any] | 
         # deferred: loaded when the command runs, so that `rinscal --help` starts fast
         import warnings
 
-        from rinscal.errors import describe_os_error
+        from rinscal.errors import OutputError, describe_os_error
         from rinscal.io.atomic import remove_empty_folders
 
         recorded: list[warnings.WarningMessage] = []
@@ -108,6 +108,8 @@ def guard_os_errors(command: Callable[..., Any] | None) -> Callable[..., Any] | 
                 finally:
                     recorded = list(caught)
         except OSError as exc:
+            if isinstance(exc, OutputError):  # a write that failed late (disk full): its message
+                raise fail(str(exc)) from None
             if exc.filename is None:  # not about a path: a bug or the system, not the input
                 raise
             raise fail(describe_os_error(exc).replace("cannot write", "cannot use")) from None
