@@ -55,6 +55,13 @@ def test_a_turntable_without_its_encoder_is_named(table, tmp_path) -> None:
     assert "turntable (encoder)" in text and "no encoder angle" not in text
 
 
+def test_a_table_turning_on_and_on_without_its_encoder_is_named(tmp_path) -> None:
+    """Continuous rotation: no still second to compare with, one steady rate of 6 °/s."""
+    rec = _record(tmp_path, "quasi-static", "continuous")
+    text = _invoke(["navigate", "--log", _without_encoder(rec), "--out", tmp_path / "n"])
+    assert "no encoder angle (table_deg)" in text and "at a median 6.0 °/s" in text
+
+
 def test_a_vehicle_that_turns_while_it_drives_is_not_a_turntable(tmp_path) -> None:
     """The z gyro turns, but the horizontal specific force (v ω) says the base moved."""
     rec = _record(tmp_path, "vehicle", "none")

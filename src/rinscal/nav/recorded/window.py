@@ -382,8 +382,10 @@ def check_turning_without_encoder(
     Seconds in which the z gyro, the Earth rate's vertical part ``Ω sin L`` removed, turns
     faster than :data:`TABLE_RATE_DPS` while ``|f|`` stays at gravity and the horizontal
     specific force at what it is in the still seconds (a vehicle that turns while moving feels
-    the centripetal ``v ω``) are the table's; more than :data:`TABLE_TURN_DEG` of them in all
-    is warned of, naming the missing column and how to map it.
+    the centripetal ``v ω``) are the table's; with no still second (a table turning on and
+    on), those that turn at one steady rate (within 1 %) with a steady horizontal force. More
+    than :data:`TABLE_TURN_DEG` of them in all is warned of, naming the missing column and
+    how to map it.
 
     Parameters
     ----------
@@ -402,16 +404,18 @@ def check_turning_without_encoder(
     wz = blocks.w_mean[:, 2] - earth.RATE * math.sin(lat)
     turning = np.abs(wz) > TABLE_RATE_DPS * units.DEG_TO_RAD
     still = np.abs(wz) < 0.1 * TABLE_RATE_DPS * units.DEG_TO_RAD
-    if turning.sum() < 3 or still.sum() < 3:  # never still: a vehicle, or nothing to compare
+    if turning.sum() < 3:
         return {}, []
     g = float(earth.gravity(lat, h))
     fh = np.hypot(blocks.f_mean[:, 0], blocks.f_mean[:, 1])
-    level = float(np.median(fh[still]))
-    at_rest = (
-        turning
-        & (np.abs(fh - level) < AT_REST_HORIZONTAL_MPS2)
-        & (np.abs(blocks.fmag_mean - g) < 0.01 * g)
-    )
+    at_rest = turning & (np.abs(blocks.fmag_mean - g) < 0.01 * g)
+    if still.sum() >= 3:  # the horizontal force of the still seconds: the IMU's tilt
+        at_rest &= np.abs(fh - float(np.median(fh[still]))) < AT_REST_HORIZONTAL_MPS2
+    else:  # never still (a table turning on and on): a steady rate and a steady force
+        rate = float(np.median(np.abs(wz[turning])))
+        at_rest &= (np.abs(np.abs(wz) - rate) < 0.01 * rate) & (
+            np.abs(fh - float(np.median(fh[turning]))) < AT_REST_HORIZONTAL_MPS2
+        )
     turned = float(np.sum(np.abs(wz[at_rest]) * span[at_rest])) / units.DEG_TO_RAD
     if at_rest.sum() < 3 or turned < TABLE_TURN_DEG:
         return {}, []
