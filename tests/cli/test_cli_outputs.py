@@ -5,6 +5,7 @@ created behind when it fails."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -187,3 +188,18 @@ def test_a_write_that_fails_late_is_a_message_not_a_traceback(tmp_path, monkeypa
     assert code == 2, text
     assert f"{out}: cannot write: No space left on device; the disk is full" in text
     assert not out.exists()
+
+
+@pytest.mark.skipif(
+    not hasattr(os, "geteuid") or os.geteuid() == 0, reason="root writes into any folder"
+)
+def test_a_read_only_folder_is_refused(inputs, tmp_path) -> None:
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    ro.chmod(0o555)
+    try:
+        code, text = _invoke(["fit", inputs["log"], "--out", ro / "sub" / "m.json"])
+        assert code == 2 and "cannot write: Permission denied" in text, text
+        assert not (ro / "sub").exists()
+    finally:
+        ro.chmod(0o755)
