@@ -26,14 +26,24 @@ from rinscal.experiments.paper.paper_tables import (
 from rinscal.thermal.config import EffectsConfig
 from rinscal.thermal.protocols import simulate_protocol
 
-PAPER_MD = Path("/work/shared/paper/wang-cheng-du-2020-thermal-calibration-single-axis-rins.md")
+PAPER_NAME = "wang-cheng-du-2020-thermal-calibration-single-axis-rins.md"
+
+
+def _paper_md() -> Path | None:
+    """The paper's text in ``shared/paper/`` beside the repository (``../shared/paper`` from a
+    clone's root; a worktree deeper down finds it in a folder further up), if any."""
+    for parent in Path(__file__).resolve().parents:
+        p = parent / "shared" / "paper" / PAPER_NAME
+        if p.is_file():
+            return p
+    return None
 
 
 def _paper_text() -> str:
-    for p in (PAPER_MD, Path(__file__).parents[2] / "paper"):
-        if p.is_file():
-            return p.read_text(encoding="utf-8")
-    pytest.skip("the paper's text is not in this checkout (/work/shared/paper)")
+    p = _paper_md()
+    if p is None:
+        pytest.skip(f"the paper's text ({PAPER_NAME}) is in no shared/paper/ above this checkout")
+    return p.read_text(encoding="utf-8")
 
 
 def test_transcription_spot_checks_against_the_paper_text() -> None:

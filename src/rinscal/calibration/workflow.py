@@ -346,6 +346,15 @@ def fit(
     ]
     where = "" if isinstance(log, pd.DataFrame) else f"{log}: "
     told += [f"{where}{w.message}" for w in caught if issubclass(w.category, TrainingDataWarning)]
+    missing = describe_reference(mf)[1]
+    if missing:  # said now, not first at compensate, after 1 g was taken off accel_z
+        told.append(
+            f"{where}no site and no static reference (latitude_deg/heading_deg or "
+            f"static_reference in the metadata): {', '.join(missing)} keep no static output, "
+            "so compensating with this model removes their static level (gravity, 1 g on a "
+            "vertical accelerometer; the Earth rate) with the thermal bias; give the site "
+            "(fit --latitude and --heading) or --static-ref mean|CHANNEL=VALUE to keep it"
+        )
     return FitResult(mf, fit_table(mf), tuple(told), fit_note(mf, method))
 
 

@@ -69,12 +69,17 @@ def fail(message: str, code: int = 2) -> typer.Exit:
     return typer.Exit(code)
 
 
+#: The folders the running command created for its outputs (:func:`rinscal.cli._options.
+#: prepare_outputs`); removed again, when empty, if the command fails.
+created_folders: list[Any] = []
+
+
 def guard_os_errors(command: Callable[..., Any] | None) -> Callable[..., Any] | None:
     """Wrap a command: an operating-system error becomes one line naming the path, exit 2.
 
     Permission denied, a missing folder, a full disk: wherever a command meets one (an output
     folder it creates, a figure it saves), the user reads the path and what to do, not a
-    traceback.
+    traceback. A command that fails removes the output folders it created, if they are empty.
     """
     if command is None:
         return None
@@ -84,21 +89,34 @@ def guard_os_errors(command: Callable[..., Any] | None) -> Callable[..., Any] | 
         # deferred: loaded when the command runs, so that `rinscal --help` starts fast
         import warnings
 
-        from rinscal.errors import describe_os_error
+        from rinscal.errors import OutputError, describe_os_error
+        from rinscal.io.atomic import remove_empty_folders
 
         recorded: list[warnings.WarningMessage] = []
+        created_folders.clear()
+        ok = False
         try:
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always", LogNoteWarning)
                 try:
-                    return command(*args, **kwargs)
+                    value = command(*args, **kwargs)
+                    ok = True
+                    return value
+                except typer.Exit as exc:
+                    ok = exc.exit_code == 0
+                    raise
                 finally:
                     recorded = list(caught)
         except OSError as exc:
+            if isinstance(exc, OutputError):  # a write that failed late (disk full): its message
+                raise fail(str(exc)) from None
             if exc.filename is None:  # not about a path: a bug or the system, not the input
                 raise
             raise fail(describe_os_error(exc).replace("cannot write", "cannot use")) from None
         finally:  # once the command's filters are gone, so that Python shows the others
+            if not ok:
+                remove_empty_folders(created_folders)
+            created_folders.clear()
             report_warnings(recorded)
 
     return run

@@ -177,24 +177,54 @@ def is_same_file(a: Path, b: Path) -> bool:
     return a.exists() and b.exists() and os.path.samefile(a, b)
 
 
-def refuse_inputs(out: Path, inputs: list[Path], also: Sequence[Path] = ()) -> None:
+def prepare_outputs(
+    files: Sequence[tuple[str, Path]] = (), folders: Sequence[tuple[str, Path]] = ()
+) -> None:
+    """Check every output of a command, then create their missing folders; exit if one fails.
+
+    The rule of every command that writes: the missing folders of its outputs are created,
+    after every output (``(option, path)``: ``files`` and ``folders`` the command writes
+    into) has been checked, before any work; a path that goes through a file, a folder that
+    cannot be written, a folder where a file goes is refused with a message naming the path.
+    If the command then fails, the folders it created are removed again when empty
+    (:func:`rinscal.cli._app.guard_os_errors`).
+    """
+    # deferred: loaded when the command runs, so that `rinscal --help` starts fast
+    from rinscal.cli._app import created_folders, fail
+    from rinscal.errors import OutputError
+    from rinscal.io.atomic import check_output, make_folders
+
+    todo: list[Path] = []
+    try:
+        for kind, items in ((False, files), (True, folders)):
+            for what, path in items:
+                for f in check_output(path, what=what, folder=kind):
+                    if f not in todo:
+                        todo.append(f)
+        todo.sort(key=lambda f: len(f.parts))  # outermost first, across outputs
+        created_folders.extend(make_folders(todo))
+    except OutputError as exc:
+        raise fail(str(exc)) from None
+
+
+def refuse_inputs(
+    out: Path, inputs: list[Path], also: Sequence[Path] = (), what: str = "--out"
+) -> None:
     """Exit with a message, before any work, if an output cannot be written whole.
 
-    ``out`` must not be one of ``inputs``, its folder must exist, and neither ``out`` nor a
-    file written beside it (``also``: a truth file, sidecar metadata) may be a folder: a
-    command that is refused leaves nothing behind.
+    ``out`` must not be one of ``inputs``, and neither ``out`` nor a file written beside it
+    (``also``: a truth file, sidecar metadata) may be a folder or go through a file; their
+    missing folders are created (:func:`prepare_outputs`): a command that is refused leaves
+    nothing behind.
     """
     # deferred: loaded when the command runs, so that `rinscal --help` starts fast
     from rinscal.cli._app import fail
 
     for src in inputs:
         if is_same_file(out, src):
-            raise fail(f"{out}: refusing to overwrite the input {src}; choose another --out")
-    if not out.resolve().parent.is_dir():
-        raise fail(f"{out}: folder {out.resolve().parent} does not exist")
+            raise fail(f"{out}: refusing to overwrite the input {src}; choose another {what}")
     for path in (out, *also):
-        if path.is_dir():
-            raise fail(f"{path}: a folder is in the way; --out takes a file name")
         for src in inputs:
             if path != out and is_same_file(path, src):
-                raise fail(f"{path}: refusing to overwrite the input {src}; choose another --out")
+                raise fail(f"{path}: refusing to overwrite the input {src}; choose another {what}")
+    prepare_outputs(files=[(what, p) for p in (out, *also)])

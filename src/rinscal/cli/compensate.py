@@ -162,7 +162,7 @@ def evaluate_cmd(
         raise fail(f"--policy must be one of {', '.join(POLICIES)}, got {policy!r}")
     inputs = [log, model] + ([map_file] if map_file is not None else [])
     if allan_plot is not None:
-        refuse_inputs(allan_plot, inputs)
+        refuse_inputs(allan_plot, inputs, what="--allan-plot")
     try:
         mf = load_model(model)
         mapping, meta = _mapping_meta(

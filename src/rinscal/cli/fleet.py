@@ -15,6 +15,7 @@ from rinscal.cli._options import (
     TLSKeyOpt,
     WorkersOpt,
     cluster_options,
+    prepare_outputs,
 )
 
 fleet_app = typer.Typer(
@@ -82,6 +83,7 @@ def fleet_fit(
         FleetStore,
         fleet_report,
         run_fleet,
+        split_side_files,
         write_fleet_report,
     )
     from rinscal.report.fleet_report import fleet_html
@@ -94,8 +96,23 @@ def fleet_fit(
     missing = [str(p) for p in logs if not p.is_file()]
     if missing:
         raise fail(f"log(s) not found: {', '.join(missing)}")
+    units, side = split_side_files(logs)
+    if not units:
+        raise fail(f"no log among the {len(logs)} file(s) given: only side files ({side[0]}, ...)")
     try:
         lim = FleetLimits.from_toml(limits) if limits is not None else FleetLimits()
+    except RinscalError as exc:
+        raise fail(str(exc)) from None
+    prepare_outputs(folders=[("--out", out)])
+    if side:
+        shown = ", ".join(Path(p).name for p in side[:5]) + (", ..." if len(side) > 5 else "")
+        console.print(
+            f"skipped {len(side)} side file(s) of the logs given (truth, metadata; not units): "
+            f"{shown}",
+            highlight=False,
+            soft_wrap=True,
+        )
+    try:
         store = FleetStore(out)
         with Progress(
             TextColumn("{task.description}"),
@@ -105,9 +122,9 @@ def fleet_fit(
             console=console,
             transient=True,
         ) as progress:
-            task = progress.add_task("fitting", total=len(logs))
+            task = progress.add_task("fitting", total=len(units))
             run = run_fleet(
-                logs,
+                units,
                 store,
                 method=method,
                 export=export,

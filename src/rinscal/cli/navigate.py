@@ -11,7 +11,7 @@ from typing import Annotated, Any
 import typer
 
 from rinscal.cli._app import app
-from rinscal.cli._options import PolicyOpt, is_same_file
+from rinscal.cli._options import PolicyOpt, is_same_file, prepare_outputs
 from rinscal.thermal.presets import DEFAULT_PRESET, PRESETS
 
 #: The plant ``rinscal navigate`` runs unless ``--imu`` names another (as simulate and
@@ -225,8 +225,9 @@ def navigate(
         if not src.is_file():
             raise fail(f"{src}: file not found")
     out_paths = [out / name for name in _OUTPUTS]
+    from rinscal.io.metadata import meta_path
+
     if record is not None:
-        from rinscal.io.metadata import meta_path
         from rinscal.io.tables import FORMATS
 
         if record.suffix.lower() not in FORMATS:
@@ -234,15 +235,11 @@ def navigate(
         for dst in out_paths:
             if is_same_file(record, dst) or record.resolve() == dst.resolve():
                 raise fail(f"--record {record}: that is one of the outputs in --out; name another")
-        if not record.resolve().parent.is_dir():
-            raise fail(f"--record {record}: folder {record.resolve().parent} does not exist")
         out_paths += [record, meta_path(record)]
     for dst in out_paths:
         for src in inputs:
             if is_same_file(dst, src):
                 raise fail(f"{dst}: refusing to overwrite the input {src}; choose another --out")
-    if out.exists() and not out.is_dir():
-        raise fail(f"{out}: exists and is not a folder")
     if not (math.isfinite(rate) and rate > 0):
         raise fail(f"--rate must be > 0 Hz, got {rate}")
     if not (math.isfinite(align_s) and align_s > 0):
@@ -251,6 +248,9 @@ def navigate(
         raise fail(f"--align-start-s must be >= 0 s, got {align_start_s}")
     if policy not in POLICIES:
         raise fail(f"--policy must be one of {', '.join(POLICIES)}, got {policy!r}")
+    # every output checked, then its folders created, before the run; none left if it fails
+    recorded = [] if record is None else [("--record", record), ("--record", meta_path(record))]
+    prepare_outputs(files=recorded, folders=[("--out", out)])
 
     try:
         # deferred: navigation loads numba kernels; `rinscal --help` must not
@@ -268,8 +268,6 @@ def navigate(
                 scenario, imu=imu_spec, models=models, hours=hours, rate_hz=rate, seed=seed,
                 rotation=rotation, align_s=align_s, align_start_s=align_start_s, oracle=oracle,
                 policy=policy, record=record, increments=increments, progress=tick,
-                # before the run: an unusable --out fails at once, bad arguments make none
-                before_run=lambda: out.mkdir(parents=True, exist_ok=True),
             )  # fmt: skip
     except RinscalError as exc:
         raise fail(str(exc)) from None
@@ -390,10 +388,9 @@ def _navigate_log(log: Path, out: Path, models: list[Path], policy: str, **kw: o
                 raise fail(
                     f"{out / name}: refusing to overwrite the input {src}; choose another --out"
                 )
-    if out.exists() and not out.is_dir():
-        raise fail(f"{out}: exists and is not a folder")
     if is_flight_log(log):
         raise fail(f"{log}: a flight log; navigate --log reads CSV, TSV or Parquet recordings")
+    prepare_outputs(folders=[("--out", out)])
     try:
         from rinscal.io.navmapping import read_nav_mapping
         from rinscal.nav.recording import heading_text, navigate_log, parse_site

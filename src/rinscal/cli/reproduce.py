@@ -82,6 +82,7 @@ def reproduce(
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     from rinscal.cli._app import console, err_console, fail, styled
+    from rinscal.cli._options import prepare_outputs
     from rinscal.cluster import local_workers
     from rinscal.errors import RinscalError
     from rinscal.experiments.paper.calibration import calibration_stage
@@ -115,8 +116,7 @@ def reproduce(
         alignment_config(plant, cfg.align_s, cfg.align_start_s)
     except RinscalError as exc:
         raise fail(str(exc)) from None
-    if out.exists() and not out.is_dir():
-        raise fail(f"{out}: exists and is not a folder")
+    prepare_outputs(folders=[("--out", out)])
     info = plant_info(cfg.imu, plant)
     n_nav = len(navigation_jobs(cfg))
     console.print(

@@ -222,7 +222,7 @@ def simulate(
     from rinscal._resources import require_memory
     from rinscal.cli._app import console, fail
     from rinscal.errors import RinscalError
-    from rinscal.io.metadata import meta_path, write_meta
+    from rinscal.io.metadata import meta_path, truth_path, write_meta
     from rinscal.io.streaming import LogStreamWriter
     from rinscal.io.tables import format_of
     from rinscal.thermal.config import OutputConfig, load_imu
@@ -243,9 +243,8 @@ def simulate(
         specs = protocol_runs(protocol, hours)
     except RinscalError as exc:
         raise fail(str(exc)) from None
-    out.parent.mkdir(parents=True, exist_ok=True)
-    truth_path = out.with_name(f"{out.stem}.truth{out.suffix}")
-    refuse_inputs(out, [] if imu in PRESETS else [Path(imu)], also=[truth_path, meta_path(out)])
+    truth_out = truth_path(out)
+    refuse_inputs(out, [] if imu in PRESETS else [Path(imu)], also=[truth_out, meta_path(out)])
     n_samples = sum(int(s.duration_s * rate) for s in specs)
     # measured: about 0.27 GB plus 1.25 kB per sample of the longest run (one run in memory)
     longest = max(int(s.duration_s * rate) for s in specs)
@@ -266,7 +265,7 @@ def simulate(
     try:
         with (
             LogStreamWriter(out, validate=False) as log_writer,
-            LogStreamWriter(truth_path, validate=False) as truth_writer,
+            LogStreamWriter(truth_out, validate=False) as truth_writer,
             Progress(
                 TextColumn("{task.description}"),
                 BarColumn(),
@@ -285,11 +284,11 @@ def simulate(
                 progress.advance(task)
         rows = log_writer.rows
         meta = log_meta(protocol, config, rate, seed, runs)
-        meta["truth_file"] = truth_path.name
+        meta["truth_file"] = truth_out.name
         meta_file = write_meta(meta, out)
     except RinscalError as exc:
         raise fail(str(exc)) from None
-    console.print(f"wrote {out} ({rows:,} rows), {truth_path.name}, {meta_file.name}")
+    console.print(f"wrote {out} ({rows:,} rows), {truth_out.name}, {meta_file.name}")
 
 
 def _floats(text: str | None, option: str) -> tuple[float, ...] | None:
@@ -330,7 +329,7 @@ def _simulate_multiposition(
     from rinscal.cli._app import console, fail
     from rinscal.errors import RinscalError
     from rinscal.io.metadata import meta_path, write_meta
-    from rinscal.io.params import params_path, write_params
+    from rinscal.io.params import TRUTH_SUFFIX, params_path, write_params
     from rinscal.io.streaming import LogStreamWriter
     from rinscal.io.tables import format_of
     from rinscal.thermal.config import OutputConfig, load_imu
@@ -355,8 +354,7 @@ def _simulate_multiposition(
         seq_name, positions = load_sequence(sequence)
     except RinscalError as exc:
         raise fail(str(exc)) from None
-    out.parent.mkdir(parents=True, exist_ok=True)
-    truth_path = params_path(out, ".params.truth.csv")
+    truth_path = params_path(out, TRUTH_SUFFIX)
     inputs = [] if imu in PRESETS else [Path(imu)]
     inputs += [] if sequence in SEQUENCES else [Path(sequence)]
     refuse_inputs(out, inputs, also=[truth_path, meta_path(out)])

@@ -15,6 +15,7 @@ from rinscal.cli._options import (
     TLSKeyOpt,
     WorkersOpt,
     cluster_options,
+    prepare_outputs,
 )
 from rinscal.thermal.presets import PRESETS
 
@@ -102,6 +103,7 @@ def study(
         f"{n_tasks} tasks on {where}",
         highlight=False,
     )
+    prepare_outputs(folders=[("--out", out)])
     store = StudyStore(out)
     columns = (
         TextColumn("{task.description}"),

@@ -20,6 +20,8 @@ from rinscal.io.atomic import write_atomic
 __all__ = [
     "meta_path",
     "read_meta",
+    "side_files",
+    "truth_path",
     "write_meta",
 ]
 
@@ -28,6 +30,23 @@ def meta_path(logpath: str | os.PathLike[str]) -> Path:
     """Sidecar metadata path of a log: ``<logpath>.meta.json``."""
     p = Path(logpath)
     return p.with_name(p.name + ".meta.json")
+
+
+def truth_path(logpath: str | os.PathLike[str]) -> Path:
+    """The simulator's truth beside a simulated log: ``cal.parquet`` → ``cal.truth.parquet``
+    (the true thermal bias of every sample, in the log's format)."""
+    p = Path(logpath)
+    return p.with_name(f"{p.stem}.truth{p.suffix}")
+
+
+def side_files(logpath: str | os.PathLike[str]) -> list[Path]:
+    """The files written beside a log that are not logs: its truth (:func:`truth_path`), the
+    multiposition truth table (``.params.truth.csv``) and its sidecar metadata
+    (:func:`meta_path`)."""
+    # deferred: the parameter table's module loads pandas
+    from rinscal.io.params import TRUTH_SUFFIX, params_path
+
+    return [truth_path(logpath), params_path(logpath, TRUTH_SUFFIX), meta_path(logpath)]
 
 
 def _json_default(obj: object) -> object:

@@ -19,10 +19,20 @@ from rinscal.errors import ConfigError, LogError
 from rinscal.io.atomic import write_atomic
 from rinscal.sensormodel import parameter_spec
 
-__all__ = ["PARAMS_COLUMNS", "check_params_table", "params_path", "read_params", "write_params"]
+__all__ = [
+    "PARAMS_COLUMNS",
+    "TRUTH_SUFFIX",
+    "check_params_table",
+    "params_path",
+    "read_params",
+    "write_params",
+]
 
 #: Columns of a parameter table, in order.
 PARAMS_COLUMNS = ("temperature_c", "parameter", "value", "sd", "unit")
+
+#: The simulator's truth table beside a multiposition log (:func:`params_path`'s suffix).
+TRUTH_SUFFIX = ".params.truth.csv"
 
 
 def params_path(path: str | os.PathLike[str], suffix: str = ".params.csv") -> Path:

@@ -36,6 +36,7 @@ from rinscal.nav.recorded.window import (
     align_config,
     check_at_rest,
     check_encoder,
+    check_turning_without_encoder,
     estimate_noise,
     find_window,
     seen_schedule,
@@ -189,7 +190,7 @@ def navigate_log(
             )
         if model.imu_stage is not None:  # its raw units and unit against the recording's
             warnings += check_recording_for_imu(
-                model.imu_stage, log.kind, log.units, _declared_units(log), log.meta,
+                model.imu_stage, log.kind, log.units, _units_declared(log), log.meta,
                 f"{path}", f"the IMU calibration of {m}",
             )  # fmt: skip
         comp = CausalModelCompensator(model, policy=policy, update_s=model_update_s)
@@ -273,7 +274,9 @@ def navigate_log(
     if blocks.gaps is not None and blocks.gaps[blocks.select(window.start_s, window.end_s)].any():
         warnings.append("the alignment window holds a gap in time: the alignment steps over it")
     try:
-        at_rest, warn = check_at_rest(blocks, window, reference.lat, reference.h)
+        at_rest, warn = check_at_rest(
+            blocks, window, reference.lat, reference.h, _declared_units(log)
+        )
     except LogError as exc:
         raise LogError(f"{path}: {exc} [{_unit_source(log)}]") from None
     warnings += warn
@@ -302,6 +305,11 @@ def navigate_log(
             progress("navigating", done, total)
 
     sched = seen_schedule(blocks)
+    unseen, warn = check_turning_without_encoder(blocks, reference.lat, reference.h)
+    if unseen:
+        sched["source"] = "none (no encoder angle), but the z gyro shows a turntable turning"
+        sched["turning_without_encoder"] = unseen
+    warnings += warn
     result = navigate_recording(
         pieces(),
         reference,
@@ -393,11 +401,20 @@ def _imu_noise(imu: str) -> Noise:
     return Noise(float(wd[0]), float(wd[3]), float(rw[0]), float(rw[3]), f"--imu {imu}")
 
 
-def _declared_units(log: Any) -> bool:
+def _units_declared(log: Any) -> bool:
     """Whether a mapping or the metadata declared the recording's rate units."""
     return bool(log.mapping is not None and log.mapping.units) or bool(
         (log.meta or {}).get("units")
     )
+
+
+def _declared_units(log: Any) -> dict[str, str | None]:
+    """The unit a rate log was read in, by sensor type (None: not rates, or mixed)."""
+    out: dict[str, str | None] = {}
+    for sensor in ("gyro", "accel"):
+        seen = {log.units.get(c) for c in CHANNELS if c.startswith(sensor)}
+        out[sensor] = seen.pop() if log.kind == "rates" and len(seen) == 1 else None
+    return out
 
 
 def _unit_source(log: Any) -> str:
@@ -409,9 +426,17 @@ def _unit_source(log: Any) -> str:
     src = (
         "the mapping's [units]"
         if log.mapping is not None and log.mapping.units
-        else ("the metadata's units" if (log.meta or {}).get("units") else "the default units")
+        else (
+            "the metadata's units"
+            if (log.meta or {}).get("units")
+            else "the default units: no [units] in a mapping, no units in the metadata"
+        )
     )
-    return f"rates in {log.units} from {src}"
+    by_unit: dict[str, list[str]] = {}
+    for c in CHANNELS:
+        by_unit.setdefault(str(log.units.get(c)), []).append(c)
+    said = "; ".join(f"{', '.join(cs)} in {u}" for u, cs in by_unit.items())
+    return f"rates read as {said}, from {src}"
 
 
 def _noise(log: Any, blocks: Any, window: Any) -> Noise:

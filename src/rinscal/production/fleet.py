@@ -48,6 +48,7 @@ import pandas as pd
 from rinscal.cluster import TLSFiles, dask_client
 from rinscal.errors import ConfigError, RinscalError
 from rinscal.io.atomic import write_atomic
+from rinscal.io.metadata import side_files
 from rinscal.schema import CHANNELS
 
 __all__ = [
@@ -61,6 +62,7 @@ __all__ = [
     "fit_unit",
     "fleet_report",
     "run_fleet",
+    "split_side_files",
     "unit_names",
     "write_fleet_report",
 ]
@@ -408,6 +410,39 @@ class FleetRun:
     failed: int = 0
     workers: int = 0
     elapsed_s: float = 0.0
+    #: Files given that are another log's side files (truth, metadata), not units: left out.
+    side_files: list[str] = field(default_factory=list)
+
+
+def split_side_files(
+    logs: Sequence[str | os.PathLike[str]],
+) -> tuple[list[str], list[str]]:
+    """Split ``logs`` into the units' logs and the side files of a log beside them.
+
+    A side file is one the simulator (or a command) writes beside a log, named from it by
+    :func:`rinscal.io.metadata.side_files` (``cal.truth.parquet``, ``cal.params.truth.csv``,
+    ``cal.parquet.meta.json``), whose log is in the same folder: ``runs/*.parquet`` matches
+    both ``cal.parquet`` and its truth.
+
+    Returns
+    -------
+    (list of str, list of str)
+        The logs, then the side files, each in the order given.
+    """
+    owners: dict[str, set[str]] = {}  # folder -> the side files of every file in it
+    kept: list[str] = []
+    side: list[str] = []
+    for log in logs:
+        p = Path(log)
+        folder = os.path.abspath(p.parent)
+        if folder not in owners:
+            try:
+                siblings = [q for q in Path(folder).iterdir() if q.is_file()]
+            except OSError:
+                siblings = []
+            owners[folder] = {os.path.abspath(s) for q in siblings for s in side_files(q) if s != q}
+        (side if os.path.abspath(p) in owners[folder] else kept).append(str(p))
+    return kept, side
 
 
 def _task(log: str, method: str, export: str, unit: str) -> dict[str, Any]:
@@ -441,7 +476,9 @@ def run_fleet(
     ----------
     logs : sequence of path-like
         One calibration log per unit, named by :func:`unit_names`; a log that ``store``
-        holds a unit of keeps that unit's name.
+        holds a unit of keeps that unit's name. A log's side files among them (its truth,
+        its metadata: :func:`split_side_files`) are left out and listed in
+        :attr:`FleetRun.side_files`.
     store : FleetStore
         The results folder.
     method, export : str
@@ -463,11 +500,11 @@ def run_fleet(
     """
     if export not in EXPORTS:
         raise ConfigError(f"export must be one of {', '.join(EXPORTS)}, got {export!r}")
-    paths = [str(Path(p)) for p in logs]
+    paths, side = split_side_files([str(Path(p)) for p in logs])
     names = unit_names(paths)
     store.open({"method": method, "export": export})
     names = _keep_known_names(store, paths, names)
-    run = FleetRun(units=len(names))
+    run = FleetRun(units=len(names), side_files=side)
     failed_before = set(store.failures())
     todo = []
     for name, path in zip(names, paths, strict=True):

@@ -15,6 +15,7 @@ sees; a smooth constant acceleration it would not (a vehicle never drives that s
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -37,11 +38,20 @@ __all__ = [
     "align_config",
     "check_at_rest",
     "check_encoder",
+    "check_turning_without_encoder",
     "estimate_noise",
     "find_window",
     "quiet_blocks",
     "seen_schedule",
 ]
+
+#: A turn of the table about z: |ω_z − Ω sin L| above this [°/s] (a table turns at 1-20 °/s).
+TABLE_RATE_DPS = 1.0
+#: Turned about z at rest, in all, beyond which a log without encoder angle is warned of [°].
+TABLE_TURN_DEG = 20.0
+#: What "at rest" allows the horizontal specific force to change while turning [m/s²] (2 mg:
+#: a vehicle that turns at 1 °/s while moving at 1 m/s feels 17 mg).
+AT_REST_HORIZONTAL_MPS2 = 2e-3 * 9.80665
 
 #: A block is quiet when the spread of ``|f|`` within it is at most this many times the floor.
 QUIET_FACTOR = 3.0
@@ -233,7 +243,11 @@ def estimate_noise(blocks: Blocks, window: Window) -> Noise:
 
 
 def check_at_rest(
-    blocks: Blocks, window: Window, lat: float, h: float
+    blocks: Blocks,
+    window: Window,
+    lat: float,
+    h: float,
+    declared: Mapping[str, str | None] | None = None,
 ) -> tuple[dict[str, Any], list[str]]:
     """Plausibility of the units on the alignment window: |f| against g, |ω| against Earth rate.
 
@@ -244,6 +258,10 @@ def check_at_rest(
     ----------
     lat : float [rad]
     h : float [m]
+    declared : mapping, optional
+        The unit the rates were read in, by sensor type (``{"gyro": "deg/h", "accel":
+        "ug"}``; None where unknown, mixed, or not rates): the message then names the unit
+        the magnitudes point to (``m/s² read as µg``) and how to declare it.
 
     Raises
     ------
@@ -254,6 +272,7 @@ def check_at_rest(
     sel = blocks.select(window.start_s, window.end_s)
     if not sel.any():
         raise LogError("the alignment window holds no complete second")
+    given = dict(declared or {})
     g = float(earth.gravity(lat, h))
     n = blocks.n[sel]
     fbar = float(np.sum(blocks.fmag_mean[sel] * n) / np.sum(n))
@@ -264,7 +283,8 @@ def check_at_rest(
         raise LogError(
             f"at rest the accelerometers read |f| = {fbar:.6g} m/s² where local gravity is "
             f"{g:.5f} m/s² (× {ratio:.4g}): wrong accelerometer units"
-            f"{_factor_hint(ratio, blocks.dt, 'accel')}"
+            f"{_factor_hint(ratio, blocks.dt, 'accel', given.get('accel'), fbar)}"
+            f"{_gyro_too(blocks, sel, given.get('gyro'))}"
         )
     if abs(ratio - 1) > 0.01:
         warn.append(f"at rest |f| is {100 * (ratio - 1):+.2f} % from local gravity")
@@ -293,7 +313,8 @@ def check_at_rest(
         raise LogError(
             f"at rest the gyros read |ω| = {wbar / units.DPH_TO_RPS:.6g} °/h where the Earth "
             f"turns at {earth.RATE / units.DPH_TO_RPS:.4f} °/h (× {rr:.4g}): wrong gyro "
-            f"units{_factor_hint(rr, blocks.dt, 'gyro')}, or a gyro whose bias is beyond "
+            f"units{_factor_hint(rr, blocks.dt, 'gyro', given.get('gyro'), wbar)}, or a gyro "
+            "whose bias is beyond "
             "20 × the Earth rate (a consumer MEMS cannot find north by itself)"
         )
     if not 0.5 <= rr <= 2:
@@ -342,7 +363,8 @@ def check_encoder(blocks: Blocks) -> list[str]:
     if turning.sum() >= 3:
         size = float(np.sum(np.abs(blocks.table_turn[turning])) / np.sum(np.abs(gyro[turning])))
         for k in (units.DEG_TO_RAD, 1 / units.DEG_TO_RAD):
-            if abs(math.log(size / k)) < math.log(1.1):
+            # size 0: the table stood while the vehicle turned (its yaw is not the encoder's)
+            if size > 0 and abs(math.log(size / k)) < math.log(1.1):
                 out.append(
                     f"the encoder turns {size:.3g} × what the z gyro turns while the table "
                     "moves: its unit is wrong (table_unit in the mapping: deg or rad)"
@@ -350,36 +372,126 @@ def check_encoder(blocks: Blocks) -> list[str]:
     return out
 
 
-#: Factors a wrong unit gives, by sensor: what is read as what.
-_UNIT_FACTORS: dict[str, tuple[tuple[float, str], ...]] = {
-    "gyro": (
-        (1 / units.DEG_TO_RAD, "deg/s read as rad/s"),
-        (units.DEG_TO_RAD, "rad/s read as deg/s"),
-        (3600.0, "deg/h read as deg/s"),
-        (1 / 3600.0, "deg/s read as deg/h"),
-        (1 / units.DPH_TO_RPS, "deg/h read as rad/s"),
-        (units.DPH_TO_RPS, "rad/s read as deg/h"),
-    ),
-    "accel": (
-        (1 / units.UG_TO_MPS2, "µg read as m/s²"),
-        (1 / units.MG_TO_MPS2, "mg read as m/s²"),
-        (units.G0, "m/s² read as g"),
-        (1 / units.G0, "g read as m/s²"),
-        (1e3, "µg read as mg"),
-        (1e-3, "mg read as µg"),
-    ),
-}
+def check_turning_without_encoder(
+    blocks: Blocks, lat: float, h: float
+) -> tuple[dict[str, Any], list[str]]:
+    """A turntable the log does not record: the z gyro turns while the base stands still.
+
+    With no encoder angle, the navigation (in the IMU frame) is right but its heading is the
+    IMU's, compared with the body's: a table turned by 135° reads as a 135° heading error.
+    Seconds in which the z gyro, the Earth rate's vertical part ``Ω sin L`` removed, turns
+    faster than :data:`TABLE_RATE_DPS` while ``|f|`` stays at gravity and the horizontal
+    specific force at what it is in the still seconds (a vehicle that turns while moving feels
+    the centripetal ``v ω``) are the table's; with no still second (a table turning on and
+    on), those that turn at one steady rate (within 1 %) with a steady horizontal force. More
+    than :data:`TABLE_TURN_DEG` of them in all is warned of, naming the missing column and
+    how to map it.
+
+    Parameters
+    ----------
+    lat : float [rad]
+    h : float [m]
+
+    Returns
+    -------
+    (dict, list of str)
+        ``turned_deg``, ``seconds``, ``rate_dps_median`` of the turning at rest (empty when
+        there is an encoder or no such turning), and the warning.
+    """
+    if blocks.has_table or blocks.t0.size < 3:
+        return {}, []
+    span = np.maximum(blocks.t1 - blocks.t0, 1e-9)
+    wz = blocks.w_mean[:, 2] - earth.RATE * math.sin(lat)
+    turning = np.abs(wz) > TABLE_RATE_DPS * units.DEG_TO_RAD
+    still = np.abs(wz) < 0.1 * TABLE_RATE_DPS * units.DEG_TO_RAD
+    if turning.sum() < 3:
+        return {}, []
+    g = float(earth.gravity(lat, h))
+    fh = np.hypot(blocks.f_mean[:, 0], blocks.f_mean[:, 1])
+    at_rest = turning & (np.abs(blocks.fmag_mean - g) < 0.01 * g)
+    if still.sum() >= 3:  # the horizontal force of the still seconds: the IMU's tilt
+        at_rest &= np.abs(fh - float(np.median(fh[still]))) < AT_REST_HORIZONTAL_MPS2
+    else:  # never still (a table turning on and on): a steady rate and a steady force
+        rate = float(np.median(np.abs(wz[turning])))
+        at_rest &= (np.abs(np.abs(wz) - rate) < 0.01 * rate) & (
+            np.abs(fh - float(np.median(fh[turning]))) < AT_REST_HORIZONTAL_MPS2
+        )
+    turned = float(np.sum(np.abs(wz[at_rest]) * span[at_rest])) / units.DEG_TO_RAD
+    if at_rest.sum() < 3 or turned < TABLE_TURN_DEG:
+        return {}, []
+    rate = float(np.median(np.abs(wz[at_rest]))) / units.DEG_TO_RAD
+    seconds = float(np.sum(span[at_rest]))
+    info = {"turned_deg": turned, "seconds": seconds, "rate_dps_median": rate}
+    return info, [
+        f"the z gyro (Earth rate removed) turns the IMU {turned:.0f}° in all, over "
+        f"{seconds:.0f} s at a median {rate:.1f} °/s, while the accelerometers say the base "
+        "stood still: the IMU is on a turntable, and the log has no encoder angle "
+        "(table_deg). The heading error compares the IMU's heading with the body's and is "
+        "meaningless (the position error, computed in the IMU frame, is not touched): map the "
+        'encoder column, e.g. [columns] ENCODER = "table_deg" in the mapping (--mapping '
+        "FILE.toml; table_unit, table_sign, table_zero_deg if it needs them)"
+    ]
 
 
-def _factor_hint(ratio: float, dt: float, sensor: str) -> str:
-    """Name the unit mix-up a measured/expected ratio points to, if one is near (10 %)."""
-    cands = [
-        *_UNIT_FACTORS[sensor],
+#: How a unit is written in a message (the name to declare it by is the SENSOR_UNITS key).
+_SHOWN = {"m/s^2": "m/s²", "ug": "µg"}
+
+
+def _unit_mixups(sensor: str, declared: str | None) -> list[tuple[float, str, str]]:
+    """Every (measured/expected ratio, actual unit, unit read as) a wrong unit gives for a
+    sensor type: a column in ``a`` read as ``b`` is ``SI(b) / SI(a)`` times the truth. Only
+    the pairs read as ``declared`` when the unit the log was read in is known."""
+    names = [u for u in units.SENSOR_TYPE_UNITS[sensor] if u in units.SENSOR_UNITS]
+    return [
+        (units.SENSOR_UNITS[b] / units.SENSOR_UNITS[a], a, b)
+        for b in names
+        for a in names
+        if a != b and (declared is None or b == declared)
+    ]
+
+
+def _gyro_too(blocks: Blocks, sel: NDArray[np.bool_], declared: str | None) -> str:
+    """With the accelerometers' units refused: the gyros' mix-up too, when their quietest
+    seconds point to one (an SI log read in the default units is wrong in both)."""
+    if declared is None:
+        return ""
+    w = np.linalg.norm(blocks.w_mean[sel], axis=1)
+    rr = float(np.median(w[w <= np.percentile(w, 25)])) / earth.RATE
+    for k, a, _ in _unit_mixups("gyro", declared):
+        if abs(math.log(max(rr, 1e-300) / k)) < math.log(1.5):  # a bias may add to Ω
+            return (
+                f"; the gyros too read {rr:.3g} × the Earth rate at rest: {_SHOWN.get(a, a)} "
+                f'read as {_SHOWN.get(declared, declared)}? (gyro = "{a}")'
+            )
+    return ""
+
+
+def _factor_hint(
+    ratio: float, dt: float, sensor: str, declared: str | None = None, si: float = math.nan
+) -> str:
+    """Name the unit mix-up a measured/expected ratio points to, if one is near (10 %), and
+    how to declare the unit; ``declared``: the unit the log's rates were read in, ``si``:
+    the magnitude measured, in SI (the columns' own number is said when both are known)."""
+
+    def near(k: float) -> bool:
+        return abs(math.log(ratio / k)) < math.log(1.1)
+
+    found = [(a, b) for k, a, b in _unit_mixups(sensor, declared) if near(k)]
+    if found:
+        a = found[0][0]
+        what = " or ".join(f"{_SHOWN.get(x, x)} read as {_SHOWN.get(y, y)}" for x, y in found)
+        if declared is not None and math.isfinite(si):
+            what = f"the columns hold {si / units.SENSOR_UNITS[declared]:.4g}: {what}"
+        return (
+            f' ({what}?: declare the unit, e.g. {sensor} = "{a}" under [units] in the '
+            f'mapping (--mapping FILE.toml), or "units": {{"{sensor}": "{a}"}} in the '
+            "log's .meta.json)"
+        )
+    for k, what in (
         (dt, "increments read as rates (× the interval)"),
         (1 / dt, "rates read as increments"),
-    ]
-    for k, what in cands:
-        if abs(math.log(ratio / k)) < math.log(1.1):
+    ):
+        if near(k):
             return f" ({what}?)"
     return " (counts without pulse weights, or a unit mix-up)"
 
