@@ -20,29 +20,16 @@ from typer.testing import CliRunner
 from rinscal.cli import app
 from rinscal.io.tables import read_log, write_log
 from rinscal.schema import CHANNELS
+from tests._shared import linear_log
 
 runner = CliRunner()
-
-
-def _log(n: int = 400, runs: int = 2, t0: float = 1.0) -> pd.DataFrame:
-    """A small canonical log: outputs linear in T, two runs warming up."""
-    rng = np.random.default_rng(0)
-    parts = []
-    for k in range(runs):
-        t = t0 + np.arange(n) * 10.0
-        temp = 10.0 + 15.0 * k + 20.0 * (1 - np.exp(-t / 1500.0))
-        frame = {"time_s": t, "run": f"r{k}", "temp_in": temp}
-        for j, c in enumerate(CHANNELS):
-            frame[c] = (j + 1) * 0.1 * (temp - 25.0) + rng.normal(0, 0.01, n)
-        parts.append(pd.DataFrame(frame))
-    return pd.concat(parts, ignore_index=True)
 
 
 @pytest.fixture(scope="module")
 def model_file(tmp_path_factory) -> Path:
     d = tmp_path_factory.mktemp("model")
     log = d / "train.csv"
-    write_log(_log(), log)
+    write_log(linear_log(), log)
     out = d / "m.json"
     res = runner.invoke(app, ["fit", str(log), "--method", "poly-t", "--out", str(out)])
     assert res.exit_code == 0, res.output
@@ -61,7 +48,7 @@ def test_mapping_options_leave_time_as_given_unless_asked(tmp_path, model_file) 
     from rinscal.io.foreign import read_foreign_source
 
     src = tmp_path / "in.csv"
-    _log().to_csv(src, sep=";", index=False)
+    linear_log().to_csv(src, sep=";", index=False)
     # a mapping option (the separator) no longer shifts time: it was 0.0 here before
     df = read_foreign_source(src, sep="semicolon")[0].log
     assert df.groupby("run")["time_s"].first().tolist() == [1.0, 1.0]
@@ -75,7 +62,7 @@ def test_mapping_options_leave_time_as_given_unless_asked(tmp_path, model_file) 
         )
         assert code == 0, text
         back = pd.read_csv(out, sep=";")
-        assert back["time_s"].tolist() == _log()["time_s"].tolist()
+        assert back["time_s"].tolist() == linear_log()["time_s"].tolist()
 
 
 def test_relative_time_is_in_help() -> None:
@@ -87,7 +74,7 @@ def test_relative_time_is_in_help() -> None:
 
 
 def test_extra_text_columns_come_back_byte_for_byte(tmp_path, model_file) -> None:
-    log = _log(n=50)
+    log = linear_log(n=50)
     log["note"] = ["NA", "null", "n/a", "", " padded ", "NaN", "None", "-nan", "1.50", "x"] * 10
     src = tmp_path / "in.csv"
     log.to_csv(src, index=False, lineterminator="\n")
@@ -103,7 +90,7 @@ def test_extra_text_columns_come_back_byte_for_byte(tmp_path, model_file) -> Non
 
 
 def test_a_foreign_log_keeps_its_own_columns(tmp_path) -> None:
-    log = _log(n=200)
+    log = linear_log(n=200)
     foreign = pd.DataFrame(
         {
             "timestamp": (log["time_s"] * 1e6).astype(np.int64),
@@ -147,7 +134,7 @@ def test_a_foreign_log_keeps_its_own_columns(tmp_path) -> None:
     )
 )
 def test_csv_round_trip_of_any_extra_text_is_exact(tmp_path, model_file, texts) -> None:
-    log = _log(n=30, runs=1)
+    log = linear_log(n=30, runs=1)
     log["extra"] = (texts * 10)[:30]
     src = tmp_path / "h.csv"
     src.write_text(log.to_csv(index=False, lineterminator="\n"), encoding="utf-8")
@@ -165,7 +152,7 @@ def test_csv_round_trip_of_any_extra_text_is_exact(tmp_path, model_file, texts) 
 
 def _foreign(tmp_path: Path) -> tuple[Path, list[str]]:
     """A foreign one-run log whose accelerometer z reads −9.8 m/s² plus a thermal drift."""
-    log = _log(n=300, runs=1)
+    log = linear_log(n=300, runs=1)
     log["accel_z"] = -9.8 + 0.002 * (log["temp_in"] - 25.0)
     src = tmp_path / "foreign.csv"
     log.rename(columns={c: f"imu_{c}" for c in CHANNELS}).to_csv(src, index=False)
@@ -218,11 +205,11 @@ def test_units_that_differ_from_the_model_are_refused(tmp_path, model_file) -> N
     from rinscal.io.metadata import write_meta
 
     src = tmp_path / "pulses.csv"
-    write_log(_log(), src)
+    write_log(linear_log(), src)
     write_meta({"units": {"gyro": "pulse", "accel": "pulse"}}, src)
     # a model fitted in deg/h and ug
     train = tmp_path / "t.csv"
-    write_log(_log(), train)
+    write_log(linear_log(), train)
     write_meta({"units": {"gyro": "deg/h", "accel": "ug"}}, train)
     model = tmp_path / "m.json"
     assert _invoke(["fit", train, "--method", "poly-t", "--out", model])[0] == 0
@@ -251,7 +238,7 @@ def test_os_errors_on_output_name_the_path(tmp_path, model_file, monkeypatch, er
         raise OSError(errno_, os.strerror(errno_), kwargs.get("dir", "?"))
 
     src = tmp_path / "in.csv"
-    write_log(_log(), src)
+    write_log(linear_log(), src)
     monkeypatch.setattr(tempfile, "mkstemp", refuse)
     out = tmp_path / "out.csv"
     code, text = _invoke(["compensate", src, "-m", model_file, "--out", out])
@@ -288,7 +275,7 @@ def test_simulate_refuses_what_memory_cannot_hold(tmp_path, monkeypatch) -> None
 
 def test_padded_column_names_are_quoted(tmp_path) -> None:
     src = tmp_path / "pad.csv"
-    log = _log(n=20, runs=1).rename(columns={"accel_x": " accel_x "})
+    log = linear_log(n=20, runs=1).rename(columns={"accel_x": " accel_x "})
     log.to_csv(src, index=False)
     code, text = _invoke(["fit", src, "--out", tmp_path / "m.json"])
     assert code == 2 and "' accel_x '" in text and "spaces around them" in text
@@ -302,7 +289,7 @@ def test_compressed_logs_get_an_answer_that_exists(tmp_path) -> None:
 
 
 def test_time_errors_print_plain_numbers(tmp_path) -> None:
-    log = _log(n=20, runs=1)
+    log = linear_log(n=20, runs=1)
     log.loc[5, "time_s"] = log.loc[4, "time_s"]
     src = tmp_path / "t.csv"
     log.to_csv(src, index=False)
@@ -311,7 +298,7 @@ def test_time_errors_print_plain_numbers(tmp_path) -> None:
 
 
 def test_policy_error_names_the_file_and_counts_rows_from_1(tmp_path, model_file) -> None:
-    log = _log()
+    log = linear_log()
     log.loc[log.index[-1], "temp_in"] = 80.0  # the last row, far outside the training data
     src = tmp_path / "hot.csv"
     write_log(log, src)

@@ -87,7 +87,10 @@ def test_imu_json_is_checksummed_and_an_edited_law_is_refused(here):
     r = _fit("cal.parquet", "edited.json")
     assert r.exit_code == 2
     out = flat(r.output)
-    assert "edited.json: checksum mismatch" in out and "edited after it was written" in out
+    assert (
+        "edited.json: checksum mismatch" in out
+        and "edited or corrupted after it was written" in out
+    )
     assert "Traceback" not in r.output and not (here / "model.json").exists()
 
 

@@ -8,37 +8,21 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-import numpy as np
-import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
 from rinscal.cli import app
 from rinscal.io.tables import write_log
-from rinscal.schema import CHANNELS
+from tests._shared import linear_log
 
 runner = CliRunner()
-
-
-def _log(n: int = 300, runs: int = 2) -> pd.DataFrame:
-    """A small canonical log: outputs linear in temperature, two runs warming up."""
-    rng = np.random.default_rng(0)
-    parts = []
-    for k in range(runs):
-        t = np.arange(n) * 10.0
-        temp = 10.0 + 15.0 * k + 20.0 * (1 - np.exp(-t / 1500.0))
-        frame = {"time_s": t, "run": f"r{k}", "temp_in": temp}
-        for j, c in enumerate(CHANNELS):
-            frame[c] = (j + 1) * 0.1 * (temp - 25.0) + rng.normal(0, 0.01, n)
-        parts.append(pd.DataFrame(frame))
-    return pd.concat(parts, ignore_index=True)
 
 
 @pytest.fixture(scope="module")
 def inputs(tmp_path_factory) -> dict[str, Path]:
     d = tmp_path_factory.mktemp("inputs")
     log = d / "log.csv"
-    write_log(_log(), log)
+    write_log(linear_log(n=300, t0=0.0), log)
     model = d / "m.json"
     res = runner.invoke(app, ["fit", str(log), "--method", "poly-t", "--out", str(model)])
     assert res.exit_code == 0, res.output

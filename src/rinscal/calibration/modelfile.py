@@ -88,7 +88,6 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
-import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -113,7 +112,10 @@ from rinscal.calibration._modelcheck import (
 from rinscal.calibration.imustage import IMU_ORDER, PHYSICAL_UNITS, ImuStage
 from rinscal.calibration.inference import METHODS, n_inputs, predict_params
 from rinscal.errors import ConfigError, ModelFileError, RangeError
-from rinscal.io.checksum import payload_sha256  # shared with imu.json; kept importable here
+from rinscal.io.checksum import (  # shared with imu.json; payload_sha256 kept importable here
+    checksum_problem,
+    payload_sha256,
+)
 from rinscal.sensormodel import ImuCalibration
 
 __all__ = [
@@ -153,9 +155,6 @@ def check_policy(policy: str) -> None:
         raise wrong_type("policy", policy, f"one of {', '.join(POLICIES)}")
     if policy not in POLICIES:
         raise ConfigError(f"policy must be one of {', '.join(POLICIES)}, got {policy!r}")
-
-
-_HEX64 = re.compile(r"[0-9a-f]{64}")
 
 
 Policy = Literal["clamp", "fallback", "extrapolate", "error"]
@@ -433,22 +432,12 @@ class ThermalModelFile:
         extra = set(doc) - {"format", "schema_version", "sha256", "payload"}
         if extra:
             raise bad(f"unexpected top-level key(s) {sorted(extra)}")
-        digest = doc["sha256"]
-        if not isinstance(digest, str) or not _HEX64.fullmatch(digest):
-            raise bad("sha256 must be 64 lowercase hex digits")
         payload = doc["payload"]
         if not isinstance(payload, dict):
             raise bad("payload must be a JSON object")
-        try:
-            actual = payload_sha256(payload)
-        except (ValueError, TypeError) as exc:
-            raise bad(f"payload cannot be checksummed: {exc}") from None
-        if actual != digest:
-            raise bad(
-                "checksum mismatch: the payload's sha256 is "
-                f"{actual[:12]}..., the file says {digest[:12]}...; the file was modified or "
-                "corrupted after it was written"
-            )
+        problem = checksum_problem(doc["sha256"], payload)
+        if problem is not None:
+            raise bad(problem)
         try:
             return cls._from_payload(payload, version)
         except (ValueError, TypeError, KeyError) as exc:

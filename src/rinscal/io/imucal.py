@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import json
 import os
-import re
 import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -33,7 +32,7 @@ from pathlib import Path
 from typing import Any
 
 from rinscal.errors import ConfigError
-from rinscal.io.checksum import payload_sha256
+from rinscal.io.checksum import checksum_problem, payload_sha256
 from rinscal.schema import CHANNELS
 from rinscal.sensormodel import IMU_CALIBRATION_SCHEMA, ImuCalibration
 
@@ -59,7 +58,6 @@ IMU_CALIBRATION_FILE_SCHEMA_V1 = "rinscal.imu-calibration-file/1"
 #: ``device_ids``: a flight log's sensor ids).
 UNIT_KEYS: tuple[str, ...] = ("imu", "serial", "device_ids")
 _MODEL_FORMAT = "rinscal-thermal-model"
-_HEX64 = re.compile(r"[0-9a-f]{64}")
 
 
 @dataclass(frozen=True)
@@ -173,21 +171,11 @@ def imu_calibration_from_doc(doc: Any, source: str = "<document>") -> ImuCalibra
 
 
 def _checksum(doc: dict[str, Any], covered: Any, source: str, what: str) -> None:
-    digest = doc.get("sha256")
-    if not isinstance(digest, str) or not _HEX64.fullmatch(digest):
+    problem = checksum_problem(doc.get("sha256"), covered)
+    if problem is not None:
         raise ConfigError(
-            f"{source}: {what} without a valid sha256 (64 lowercase hex digits, got "
-            f"{digest!r}); it was edited or not written by rinscal"
-        )
-    try:
-        actual = payload_sha256(covered)
-    except (ValueError, TypeError) as exc:
-        raise ConfigError(f"{source}: cannot be checksummed: {exc}") from None
-    if actual != digest:
-        raise ConfigError(
-            f"{source}: checksum mismatch: the file was edited after it was written (its "
-            f"content's sha256 is {actual[:12]}..., the file says {digest[:12]}...); a "
-            "calibration is not edited by hand: run rinscal calibrate-imu again"
+            f"{source}: {problem} ({what}); a calibration is not edited by hand: run "
+            "rinscal calibrate-imu again"
         )
 
 
