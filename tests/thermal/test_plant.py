@@ -198,6 +198,7 @@ def test_presets_by_name_and_unknown_names() -> None:
         "navigation_grade",
         "paper_mechanistic",
         "navigation_grade_mechanistic",
+        "ring_laser",
     }
     assert load_imu("navigation_grade") == PRESET
     assert load_imu("paper").name.startswith("the paper")

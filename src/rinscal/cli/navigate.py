@@ -124,6 +124,26 @@ def navigate(
             "--increments", help="--record writes increments (dtheta_*, dvel_*), not rates."
         ),
     ] = False,
+    counts: Annotated[
+        bool | None,
+        typer.Option(
+            "--counts/--no-counts",
+            help="Scenario: the IMU puts out whole pulses of its [output] weights, the "
+            "remainder carried, and --record writes integer counts (default: as the IMU "
+            "says; ring_laser: counts of 0.1″ and 125 µg·s).",
+        ),
+    ] = None,
+    disturbed_start: Annotated[
+        float | None,
+        typer.Option(
+            "--disturbed-start",
+            min=0.0,
+            max=1e6,
+            help="Scenario: people about the parked carrier for the first MIN minutes "
+            "(sway and small tilt steps, carried by the truth); quasi-static or ramp.",
+            metavar="MIN",
+        ),
+    ] = None,
     mapping: Annotated[
         Path | None,
         typer.Option("--mapping", help="--log: TOML mapping of a foreign recording."),
@@ -188,7 +208,8 @@ def navigate(
     if scenario is not None and log is not None:
         raise fail("give either --scenario (a simulated run) or --log (a recording), not both")
     if log is not None:
-        extra = {"--record": record, "--hours": hours, "--imu-config": imu_config}
+        extra = {"--record": record, "--hours": hours, "--imu-config": imu_config,
+                 "--counts/--no-counts": counts, "--disturbed-start": disturbed_start}  # fmt: skip
         given = [k for k, v in extra.items() if v is not None] + (["--increments"] * increments)
         given += [
             f"--{p.replace('_', '-')}"
@@ -246,6 +267,8 @@ def navigate(
         raise fail(f"--align-s must be > 0 s, got {align_s}")
     if not (math.isfinite(align_start_s) and align_start_s >= 0):
         raise fail(f"--align-start-s must be >= 0 s, got {align_start_s}")
+    if disturbed_start is not None and not (math.isfinite(disturbed_start) and disturbed_start > 0):
+        raise fail(f"--disturbed-start must be > 0 min, got {disturbed_start}")
     if policy not in POLICIES:
         raise fail(f"--policy must be one of {', '.join(POLICIES)}, got {policy!r}")
     # every output checked, then its folders created, before the run; none left if it fails
@@ -267,7 +290,8 @@ def navigate(
             nav = navigate_scenario(
                 scenario, imu=imu_spec, models=models, hours=hours, rate_hz=rate, seed=seed,
                 rotation=rotation, align_s=align_s, align_start_s=align_start_s, oracle=oracle,
-                policy=policy, record=record, increments=increments, progress=tick,
+                policy=policy, record=record, increments=increments, quantise=counts,
+                disturbed_start_min=disturbed_start, progress=tick,
             )  # fmt: skip
     except RinscalError as exc:
         raise fail(str(exc)) from None
@@ -279,8 +303,24 @@ def navigate(
         highlight=False,
         soft_wrap=True,
     )
+    if "disturbance" in summary:
+        d = summary["disturbance"]
+        console.print(
+            f"disturbed start: people about the carrier until {d['end_s']:g} s "
+            f"({d['sway_bursts']} sway bursts, {d['tilt_steps']} tilt steps)",
+            highlight=False,
+            soft_wrap=True,
+        )
     if record is not None:
-        console.print(f"recorded the raw IMU output to {record}", highlight=False, soft_wrap=True)
+        out_kind = summary.get("output", {})
+        how = (
+            f"integer counts of {out_kind['weights']['gyro']} and {out_kind['weights']['accel']}"
+            if out_kind.get("quantised") and not increments
+            else ("increments" if increments else "rates")
+        )
+        console.print(
+            f"recorded the raw IMU output to {record} ({how})", highlight=False, soft_wrap=True
+        )
     _print_variants(summary)
 
 

@@ -117,9 +117,14 @@ def _resolve(p: Path, cols: list[str], mapping: NavMapping | None) -> dict[str, 
 
 
 def _kind(
-    p: Path, names: dict[str, str], mapping: NavMapping | None, cols: list[str]
+    p: Path,
+    names: dict[str, str],
+    mapping: NavMapping | None,
+    cols: list[str],
+    meta_weights: bool = False,
 ) -> tuple[Kind, tuple[str, ...]]:
-    """How the file gives the IMU's output, and its six sensor columns (canonical names)."""
+    """How the file gives the IMU's output, and its six sensor columns (canonical names);
+    ``meta_weights``: the metadata gives pulse weights (increment columns are counts)."""
     rates = [c for c in NAV_RATES if c in names]
     incr = [c for c in (*DTHETA, *DVEL) if c in names]
 
@@ -145,7 +150,7 @@ def _kind(
             f"{p}: {'rate' if rates else 'increment'} columns {shown(have)} but not "
             f"{', '.join(map(repr, lacking))}: all six are needed"
         )
-    if mapping is not None and mapping.weights:
+    if (mapping is not None and mapping.weights) or (meta_weights and incr):
         return "counts", tuple(want)
     if incr and mapping is not None and mapping.units:
         raise ConfigError(
@@ -214,11 +219,20 @@ def _units(
         if kind == "increments":
             units[ch], to_si[ch] = ("rad" if sensor == "gyro" else "m/s"), 1.0
         elif kind == "counts":
-            assert mapping is not None
-            w = channel_unit(mapping.weights, ch)
+            if mapping is not None and mapping.weights:
+                w = channel_unit(mapping.weights, ch)
+                key = f"weights.{ch}"
+            else:  # a recording of counts that says its weights (navigate --record)
+                w = channel_unit((meta or {})["weights"], ch)
+                key = f"{mp}: weights.{ch}"
+                if not isinstance(w, str):
+                    raise LogError(
+                        f"{mp}: weights: no weight for {ch} (give one by sensor, "
+                        '"gyro"/"accel", or by channel, e.g. "0.1 arcsec", "125 ug*s")'
+                    )
             assert w is not None
             units[ch] = f"{w}/count"
-            to_si[ch] = parse_weight(w, sensor, key=f"weights.{ch}")
+            to_si[ch] = parse_weight(w, sensor, key=key)
         else:
             u = mapping.units and channel_unit(mapping.units, ch) if mapping else None
             if not u:
@@ -287,9 +301,12 @@ def open_nav_log(
             f"{p}: no time column {TIME!r} (columns found: {quoted_columns(cols)}); a foreign log "
             "names its time column in the mapping (time = ..., time_unit = ...)"
         )
-    kind, sensors = _kind(p, names, mapping, cols)
     meta = read_meta(p)
     mp = f"{p}.meta.json"
+    meta_weights = (meta or {}).get("weights")
+    if meta_weights is not None and not isinstance(meta_weights, Mapping):
+        raise LogError(f'{mp}: weights must be an object, e.g. {{"gyro": "0.1 arcsec"}}')
+    kind, sensors = _kind(p, names, mapping, cols, meta_weights=bool(meta_weights))
     fields = _read_meta_fields(meta, mp)
     units, to_si = _units(kind, mapping, meta, mp)
 

@@ -102,6 +102,14 @@ class ThermalPlant:
     schedule : RotationSchedule, optional
         The turntable schedule: heat fixed in the body reaches each sensor according to the
         encoder angle. None: the table holds at encoder zero.
+    quantise : bool, optional
+        Put out whole pulses of ``config.output``'s weights (0.1″ and 125 µg·s for the
+        ``ring_laser`` preset) as a pulse counter does: the true increment plus every error
+        is accumulated, the whole pulses are put out and the remainder is carried to the
+        next sample, so the sum of the output over any span is the sum of the unquantised
+        output to within one pulse (no drift from rounding). The counter starts half a
+        pulse full. None (default): as the configuration says (``[output] mode =
+        "pulses"`` and ``[effects] quantisation``).
     """
 
     def __init__(
@@ -115,8 +123,16 @@ class ThermalPlant:
         noise: bool = True,
         turn_on: bool = True,
         schedule: RotationSchedule | None = None,
+        quantise: bool | None = None,
     ) -> None:
         self.config = config
+        if quantise is None:
+            quantise = config.output.mode == "pulses" and config.effects.quantisation
+        #: Weight of one output pulse per channel [rad, m/s], None: the output is not quantised.
+        self.pulse_weights: NDArray[np.float64] | None = (
+            config.output.pulse_weight_si() if quantise else None
+        )
+        self._counter = np.full(6, 0.5)  # the pulse counters' remainders [pulses]
         self.chamber = chamber
         self.schedule = schedule
         self.dt = 1.0 / rate_hz
@@ -164,6 +180,7 @@ class ThermalPlant:
         thermal: bool = True,
         noise: bool = True,
         turn_on: bool = True,
+        quantise: bool | None = None,
     ) -> ThermalPlant:
         """The plant of a navigation scenario: its chamber, duration, rate and turntable."""
         if scenario.chamber is None:
@@ -178,6 +195,7 @@ class ThermalPlant:
             noise=noise,
             turn_on=turn_on,
             schedule=scenario.schedule,
+            quantise=quantise,
         )
 
     def _on_grid(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -252,7 +270,25 @@ class ThermalPlant:
             e[:, 3:] += self.size_effect(omega_r)
         if self.noise is not None:
             e += self.noise.draw(np.shape(t)[0])[0]
+        if self.pulse_weights is not None:
+            e = self.quantised(omega_r, f_r, e)
         return e
+
+    def quantised(
+        self, omega_r: NDArray[np.float64], f_r: NDArray[np.float64], e: NDArray[np.float64]
+    ) -> NDArray[np.float64]:
+        """The errors ``e`` (n, 6) [rad/s, m/s²] of the true signal ``omega_r``, ``f_r``
+        (n, 3) with the pulse counters' quantisation added: the output becomes whole pulses
+        per sample, the remainder carried (call chunks in time order)."""
+        assert self.pulse_weights is not None
+        dt = self.dt
+        signal = np.concatenate([omega_r, f_r], axis=1)
+        acc = np.cumsum((signal + e) * (dt / self.pulse_weights), axis=0)
+        acc += self._counter
+        whole = np.floor(acc)
+        counts = np.diff(whole, axis=0, prepend=np.floor(self._counter)[None])
+        self._counter = acc[-1] - whole[-1]
+        return counts * (self.pulse_weights / dt) - signal
 
     __call__ = errors_r
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 import inspect
 import os
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -25,6 +25,7 @@ from rinscal import _check
 from rinscal.calibration.modelfile import ThermalModelFile, check_policy
 from rinscal.errors import ConfigError
 from rinscal.nav.config import ScenarioConfig
+from rinscal.nav.disturbance import DisturbedStart
 from rinscal.nav.rotation import schedule_from_name
 from rinscal.nav.scenario import NavResult, align_for, preset, run_scenario
 from rinscal.nav.sensors import (
@@ -33,6 +34,7 @@ from rinscal.nav.sensors import (
     oracle_compensator,
     temperature_frame,
 )
+from rinscal.nav.trajectory import StaticMotion
 from rinscal.thermal.config import ImuConfig, resolve_imu
 from rinscal.thermal.presets import DEFAULT_PRESET
 
@@ -128,6 +130,8 @@ def navigate_scenario(
     policy: str = "clamp",
     record: str | os.PathLike[str] | None = None,
     increments: bool = False,
+    quantise: bool | None = None,
+    disturbed_start_min: float | None = None,
     progress: Callable[[float, float], None] | None = None,
     before_run: Callable[[], None] | None = None,
 ) -> Navigation:
@@ -165,7 +169,18 @@ def navigate_scenario(
         Also stream the raw IMU output navigated into this file (Parquet, CSV or TSV, with
         its ``.meta.json``), readable by :func:`rinscal.navigate` with ``log=``.
     increments : bool
-        ``record`` writes increments (``dtheta_*``, ``dvel_*``), not rates.
+        ``record`` writes increments (``dtheta_*``, ``dvel_*``) [rad, m/s], not rates (nor
+        counts).
+    quantise : bool, optional
+        The IMU puts out whole pulses of its ``[output]`` weights, the remainder carried
+        (:class:`rinscal.nav.sensors.ThermalPlant`); ``record`` then writes integer counts
+        (``dtheta_*``, ``dvel_*``) with the weights in its metadata, which ``log=`` reads
+        as they are. None (default): as the IMU's configuration says (``ring_laser``:
+        counts of 0.1″ and 125 µg·s; the other presets: rates).
+    disturbed_start_min : float, optional [min]
+        People about the parked carrier for the first minutes: sway and small tilt steps
+        (:class:`rinscal.nav.disturbance.DisturbedStart`, drawn from ``seed``), carried by
+        the truth. Static scenarios only (``quasi-static``, ``ramp``).
     progress : callable, optional
         Called with (simulated seconds done, total seconds).
     before_run : callable, optional
@@ -193,6 +208,10 @@ def navigate_scenario(
     _check.flag("oracle", oracle)
     _check.flag("increments", increments)
     record = _check.path_like("record", record, optional=True)
+    _check.flag("quantise", quantise, optional=True)
+    disturbed_start_min = _check.number(
+        "disturbed_start_min", disturbed_start_min, above=0.0, optional=True, unit="min"
+    )
     check_models(models)
     if record is not None and Path(record).suffix.lower() not in RECORD_SUFFIXES:
         raise ConfigError(f"record {record}: give a .parquet, .csv or .tsv file name")
@@ -210,7 +229,9 @@ def navigate_scenario(
         )
     if cfg.chamber is None:
         raise ConfigError(f"scenario {cfg.name!r} has no chamber profile: no thermal plant")
-    plant = ThermalPlant.for_scenario(plant_cfg, cfg, seed=seed)
+    if disturbed_start_min is not None:
+        cfg = disturbed(cfg, disturbed_start_min * 60.0, seed=seed)
+    plant = ThermalPlant.for_scenario(plant_cfg, cfg, seed=seed, quantise=quantise)
     comps: dict[str, Any] = {"none": None}
     if oracle:
         comps["true"] = oracle_compensator(plant)
@@ -227,6 +248,9 @@ def navigate_scenario(
     summary["seed"] = seed
     summary["imu"] = plant_cfg.name
     summary["imu_spec"] = str(imu) if not isinstance(imu, ImuConfig) else imu.name
+    summary["output"] = _output_summary(plant)
+    if isinstance(cfg.trajectory, DisturbedStart):
+        summary["disturbance"] = cfg.trajectory.summary()
     summary["models"] = {
         k: (m.source.get("log") if isinstance(m, ThermalModelFile) else str(m))
         for k, m in named.items()
@@ -251,8 +275,9 @@ def _record(
     # deferred: the writers (pyarrow) and the recording's columns only when recording
     from rinscal.io.metadata import write_meta
     from rinscal.io.streaming import LogStreamWriter
-    from rinscal.nav.recorded.frame import recording_frame
+    from rinscal.nav.recorded.frame import recording_frame, weight_texts
 
+    counts = None if increments else plant.pulse_weights
     grid = np.arange(0.0, float(plant.field.t[-1]) + 1e-9, 1.0)
     inner, outer = plant.measured_temperatures(grid)
     tr = cfg.trajectory
@@ -260,7 +285,7 @@ def _record(
     with LogStreamWriter(record, validate=False) as w:
 
         def rec(ch: Any, dth: Any, dv: Any) -> None:
-            w.write(recording_frame(ch, dth, dv, increments=increments,
+            w.write(recording_frame(ch, dth, dv, increments=increments, counts=counts,
                                     readings=(grid, inner, outer), track=moving))  # fmt: skip
 
         result = run_scenario(cfg, plant, comps, progress=tick, recorder=rec)
@@ -270,7 +295,7 @@ def _record(
             "kind": "navigation recording",
             "source": f"rinscal navigate --scenario {cfg.name} --seed {seed}",
             "rate_hz": cfg.rate_hz,
-            "units": {"gyro": "deg/h", "accel": "ug"} if not increments else {},
+            "units": {"gyro": "deg/h", "accel": "ug"} if not increments and counts is None else {},
             "site": {
                 "lat_deg": float(np.rad2deg(tr.lat0)),
                 "lon_deg": float(np.rad2deg(tr.lon0)),
@@ -287,8 +312,38 @@ def _record(
             },
             "imu": plant.config.name,
         }
+        if counts is not None:
+            meta["weights"] = weight_texts(counts)
+        if isinstance(tr, DisturbedStart):
+            meta["disturbance"] = tr.summary()
     write_meta(meta, record)
     return result
+
+
+def disturbed(cfg: ScenarioConfig, duration_s: float, seed: int = 0) -> ScenarioConfig:
+    """The scenario with people about its parked carrier for the first ``duration_s`` [s]
+    (:class:`rinscal.nav.disturbance.DisturbedStart` about its static attitude)."""
+    if not isinstance(cfg.trajectory, StaticMotion):
+        raise ConfigError(
+            f"disturbed start: scenario {cfg.name!r} does not stand still (give a static "
+            "scenario: quasi-static or ramp)"
+        )
+    if duration_s >= cfg.duration_s:
+        raise ConfigError(
+            f"disturbed start: {duration_s / 60:g} min is not shorter than the run "
+            f"({cfg.duration_s / 60:g} min)"
+        )
+    return replace(cfg, trajectory=DisturbedStart.draw(cfg.trajectory, duration_s, seed=seed))
+
+
+def _output_summary(plant: ThermalPlant) -> dict[str, Any]:
+    """How the plant puts out its increments, for the summary."""
+    if plant.pulse_weights is None:
+        return {"quantised": False}
+    # deferred: the recording's columns, as in _record
+    from rinscal.nav.recorded.frame import weight_texts
+
+    return {"quantised": True, "weights": weight_texts(plant.pulse_weights)}
 
 
 def navigate(

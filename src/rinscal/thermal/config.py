@@ -74,6 +74,15 @@ class EffectsConfig:
     rotation_heat : bool
         Heat fixed in the body reaching the turning sensors by encoder angle, and the torque
         motor's heat while the table moves.
+    angle_noise : bool
+        The gyros' angle noise (``[noise] gyro_angle_*``: a dithered ring laser's white and
+        correlated angle noise); a preset without it has sizes 0, so the switch changes
+        nothing there.
+    quantisation : bool
+        With ``[output] mode = "pulses"``, the navigation plant puts out whole pulses of
+        ``gyro_pulse_arcsec`` and ``accel_pulse_mps``, the remainder carried to the next
+        sample as a pulse counter does (off: the pulse mode writes counts only in a
+        simulated calibration log, the navigation plant's output is not quantised).
     """
 
     shupe: bool = True
@@ -82,6 +91,8 @@ class EffectsConfig:
     misalignment: bool = True
     lever_arm: bool = True
     rotation_heat: bool = True
+    angle_noise: bool = True
+    quantisation: bool = True
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -113,6 +124,17 @@ class NoiseConfig:
         Size (1σ) of an accelerometer vibration outlier.
     outlier_rate_hz : float [1/s]
         Mean rate of single-sample outliers per channel (torque-motor vibration).
+    gyro_angle_white_arcsec : float [arcsec]
+        White *angle* noise of each gyro, the standard deviation of the angle read at each
+        sample (readout and dither-stripping residual of a dithered ring laser, pulse
+        quantisation aside): Allan deviation ``√3·s/τ`` (slope −1) whatever the rate.
+        0 (the default): none.
+    gyro_angle_markov_arcsec : float [arcsec]
+        Stationary standard deviation of a first-order Gauss-Markov angle noise of each
+        gyro (the slowly wandering part of the dither-stripping residual): Allan slope −½
+        below ``gyro_angle_markov_tau_s``, −1 beyond; it never accumulates. 0: none.
+    gyro_angle_markov_tau_s : float [s]
+        Its correlation time (> 0 where it has a size).
     """
 
     gyro_arw_deg_rth: float = 0.001
@@ -124,10 +146,26 @@ class NoiseConfig:
     accel_turn_on_ug: float = 15.0
     accel_outlier_ug: float = 1000.0
     outlier_rate_hz: float = 0.002
+    gyro_angle_white_arcsec: float = 0.0
+    gyro_angle_markov_arcsec: float = 0.0
+    gyro_angle_markov_tau_s: float = 100.0
 
     def __post_init__(self) -> None:
         for f in fields(self):
             _nonneg(f"noise.{f.name}", getattr(self, f.name))
+        if self.gyro_angle_markov_arcsec > 0 and not self.gyro_angle_markov_tau_s > 0:
+            raise ConfigError(
+                "noise.gyro_angle_markov_tau_s must be > 0 s with a Gauss-Markov angle noise, "
+                f"got {self.gyro_angle_markov_tau_s}"
+            )
+
+    def angle_noise_si(self) -> tuple[float, float, float]:
+        """Gyro angle noise: white sd [rad], Gauss-Markov sd [rad] and its time [s]."""
+        return (
+            self.gyro_angle_white_arcsec * units.ARCSEC_TO_RAD,
+            self.gyro_angle_markov_arcsec * units.ARCSEC_TO_RAD,
+            float(self.gyro_angle_markov_tau_s),
+        )
 
     def white_density_si(self) -> NDArray[np.float64]:
         """White-noise density per channel [rad/s/√Hz = rad/√s, m/s²/√Hz]."""

@@ -233,10 +233,17 @@ def turn_on_offsets(config: ImuConfig, rng: np.random.Generator) -> NDArray[np.f
 
 
 class SensorNoise:
-    """White noise, bias random walk and rare outliers, drawn chunk by chunk.
+    """White noise, bias random walk, rare outliers and the gyros' angle noise, drawn chunk
+    by chunk.
 
     The random-walk state is carried from one call of :meth:`draw` to the next, so a run can
     be generated in chunks of any size with bounded memory.
+
+    Angle noise (``[noise] gyro_angle_*``, switched by ``[effects] angle_noise``) is an error
+    of the gyro's *angle* ``a[k]``, white plus first-order Gauss-Markov: the sample's mean
+    rate error is ``(a[k] − a[k−1]) / dt``, so it never accumulates (Allan slope −1 where
+    it dominates, not the −½ of white rate noise). Its draws come after the others' and
+    only when it is on, so a plant without it draws the same numbers as before.
 
     Parameters
     ----------
@@ -258,6 +265,13 @@ class SensorNoise:
         self.outlier_sd = config.noise.outlier_sd_si()
         self.outlier_p = min(1.0, config.noise.outlier_rate_hz * dt)
         self.walk = np.zeros(6)
+        white_a, markov_a, tau_a = config.noise.angle_noise_si()
+        self.angle_white_sd = white_a if config.effects.angle_noise else 0.0
+        self.angle_markov_sd = markov_a if config.effects.angle_noise else 0.0
+        self.angle_phi = math.exp(-dt / tau_a) if tau_a > 0 else 0.0
+        # the angle noise before the first sample (a stationary start), drawn on first use
+        self._angle_last: NDArray[np.float64] | None = None
+        self._markov_last: NDArray[np.float64] | None = None
 
     def draw(self, n: int) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
         """Errors of the next ``n`` samples.
@@ -285,7 +299,31 @@ class SensorNoise:
                 flat = rng.choice(n * 6, size=k, replace=False)
                 outlier.ravel()[flat] = True
                 e.ravel()[flat] += rng.standard_normal(k) * self.outlier_sd[flat % 6]
+        if self.angle_white_sd > 0 or self.angle_markov_sd > 0:
+            e = e.astype(np.float64)
+            e[:, :3] += np.diff(self._angle(n), axis=0) / self.dt
         return e, outlier
+
+    def _angle(self, n: int) -> NDArray[np.float64]:
+        """The gyros' angle noise at the end of the previous sample and of the next ``n``,
+        shape (n + 1, 3) [rad] (its state carried to the next call)."""
+        rng = self.rng
+        if self._angle_last is None:  # stationary at power-on
+            self._markov_last = rng.standard_normal(3) * self.angle_markov_sd
+            self._angle_last = rng.standard_normal(3) * self.angle_white_sd + self._markov_last
+        a = np.empty((n + 1, 3))
+        a[0] = self._angle_last
+        a[1:] = rng.standard_normal((n, 3)) * self.angle_white_sd
+        if self.angle_markov_sd > 0:
+            from scipy.signal import lfilter  # deferred: only a plant with angle noise needs it
+
+            phi = self.angle_phi
+            drive = rng.standard_normal((n, 3)) * (self.angle_markov_sd * math.sqrt(1 - phi * phi))
+            m, _ = lfilter([1.0], [1.0, -phi], drive, axis=0, zi=(phi * self._markov_last)[None])
+            self._markov_last = m[-1].copy()
+            a[1:] += m
+        self._angle_last = a[-1].copy()
+        return a
 
 
 def to_log_units(

@@ -7,7 +7,13 @@ reads them.
 from __future__ import annotations
 
 #: Built-in IMU presets, chosen by name wherever an IMU is accepted.
-PRESETS = ("paper", "navigation_grade", "paper_mechanistic", "navigation_grade_mechanistic")
+PRESETS = (
+    "paper",
+    "navigation_grade",
+    "paper_mechanistic",
+    "navigation_grade_mechanistic",
+    "ring_laser",
+)
 #: The preset the tool runs by default: the paper's own IMU.
 DEFAULT_PRESET = "paper"
 

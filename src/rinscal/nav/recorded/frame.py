@@ -13,7 +13,21 @@ from rinscal.schema import CHANNELS, DTHETA, DVEL, REF_HEADING, REF_TRACK, TABLE
 
 __all__ = [
     "recording_frame",
+    "weight_texts",
 ]
+
+#: Standard gravity of the velocity pulse units µg·s, mg·s, g·s [m/s²].
+_G0 = 9.80665
+
+
+def weight_texts(weights: NDArray[np.float64]) -> dict[str, str]:
+    """The metadata's ``weights`` of a recording of counts: one count of each sensor type
+    in the units of a mapping's ``[weights]`` (``"0.1 arcsec"``, ``"125 ug*s"``), from the
+    weights per channel (6,) [rad, m/s] (one weight per sensor type)."""
+    w = np.asarray(weights, dtype=float)
+    arcsec = float(w[0]) / units.ARCSEC_TO_RAD
+    ugs = float(w[3]) / (1e-6 * _G0)
+    return {"gyro": f"{arcsec:.12g} arcsec", "accel": f"{ugs:.12g} ug*s"}
 
 
 # --------------------------------------------------------------------------- recording
@@ -25,6 +39,7 @@ def recording_frame(
     increments: bool = False,
     readings: tuple[NDArray, NDArray, NDArray] | None = None,
     track: bool = False,
+    counts: NDArray[np.float64] | None = None,
 ) -> pd.DataFrame:
     """The raw recording of a simulated chunk, in the recorded-navigation log's columns.
 
@@ -42,6 +57,10 @@ def recording_frame(
         taken at or before the middle of its interval (what a navigation computer logs).
     track : bool
         Write the true position as ``ref_lat_deg, ref_lon_deg, ref_h_m`` (a moving carrier).
+    counts : ndarray, shape (6,) [rad, m/s], optional
+        Pulse weights of an IMU whose output is whole pulses (a quantised plant): write
+        ``dtheta_*`` and ``dvel_*`` as integer counts per interval (``increments`` is then
+        ignored); the metadata's ``weights`` say what one count is.
 
     Returns
     -------
@@ -52,7 +71,11 @@ def recording_frame(
     t = chunk.t
     dt = np.diff(t, prepend=t[0] - (t[1] - t[0] if t.size > 1 else 1.0))
     cols: dict[str, Any] = {"time_s": t}
-    if increments:
+    if counts is not None:
+        n = np.rint(np.concatenate([dtheta, dv], axis=1) / np.asarray(counts)).astype(np.int64)
+        for j, c in enumerate((*DTHETA, *DVEL)):
+            cols[c] = n[:, j]
+    elif increments:
         for j, c in enumerate(DTHETA):
             cols[c] = dtheta[:, j]
         for j, c in enumerate(DVEL):

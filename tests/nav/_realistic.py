@@ -1,0 +1,205 @@
+"""Recordings "made like the real one", for tests of navigating a real sensor's recording.
+
+The real recording of issue 35: a laser-gyro strapdown IMU on a parked vehicle, people moving
+about at first, 100 Hz, 31 min, integer counts of 0.1″ and 125 µg·s; its gyros' Allan
+deviation 3-5 °/h at τ = 1 s falling with a slope of about −0.8 out to 100 s; per-second gyro
+peaks of hundreds of °/h while disturbed, about the Earth rate's 15 °/h when quiet.
+
+:func:`write_realistic` simulates such a recording with ``rinscal navigate --scenario
+quasi-static --imu ring_laser --rotation none --disturbed-start 9 --record`` (the library
+call) and returns where it is and what is true about it (:class:`Realistic`): the noise terms
+the plant drew, the disturbance's interval, the site and heading. Variants: ``"ring_laser"``
+(100 Hz counts), ``"ring_laser_1hz"`` (the same unit recorded at 1 Hz) and ``"fog"`` (the
+FOG-like ``navigation_grade`` unit: rates, white rate noise). The recording's metadata keeps
+the site, heading, rate and weights but not the noise (a real recording does not say it);
+:meth:`Realistic.true_noise` gives it in the metadata's form.
+
+The session-scoped fixtures of ``tests/nav/conftest.py`` write each variant once per test
+session (about 20 s for the 100 Hz ones, under a second at 1 Hz).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from rinscal import units
+from rinscal.nav.workflow import navigate_scenario
+from rinscal.thermal.config import load_imu
+
+#: The variants :func:`write_realistic` writes: (IMU preset, rate [Hz]).
+VARIANTS = {
+    "ring_laser": ("ring_laser", 100.0),
+    "ring_laser_1hz": ("ring_laser", 1.0),
+    "fog": ("navigation_grade", 100.0),
+}
+
+
+@dataclass(frozen=True)
+class Realistic:
+    """A simulated recording and its truth.
+
+    Attributes
+    ----------
+    path : Path
+        The recording (Parquet) with its ``.meta.json``.
+    variant : str
+        One of :data:`VARIANTS`.
+    rate_hz : float [Hz]
+        Sample rate.
+    duration_s : float [s]
+        Length.
+    counts : bool
+        The sensor columns are integer counts (``dtheta_*``, ``dvel_*``; weights in the
+        metadata), else rates (``gyro_*`` [deg/h], ``accel_*`` [µg]).
+    weights : tuple of 2 float [rad, m/s]
+        One count of a gyro, of an accelerometer (the plant's weights even for rates).
+    gyro_arw : float [rad/√s]
+        True angle random walk (white rate noise density).
+    gyro_angle_white : float [rad]
+        White angle noise, standard deviation per sample.
+    gyro_angle_markov : float [rad]
+        Gauss-Markov angle noise, stationary standard deviation ...
+    gyro_angle_markov_tau_s : float [s]
+        ... and its correlation time.
+    accel_vrw : float [m/s²/√Hz]
+        Accelerometer white noise density.
+    gyro_bias_rw, accel_bias_rw : float [rad/s/√s, m/s²/√s]
+        Bias random walks.
+    disturbed : tuple of 2 float [s]
+        The disturbance's interval (people about the vehicle); quiet after it.
+    site : tuple of 3 float [deg, deg, m]
+        Latitude, longitude, height.
+    heading_deg : float [deg]
+        The body's heading once the disturbance is over (its tilt and heading steps end
+        there).
+    """
+
+    path: Path
+    variant: str
+    rate_hz: float
+    duration_s: float
+    counts: bool
+    weights: tuple[float, float]
+    gyro_arw: float
+    gyro_angle_white: float
+    gyro_angle_markov: float
+    gyro_angle_markov_tau_s: float
+    accel_vrw: float
+    gyro_bias_rw: float
+    accel_bias_rw: float
+    disturbed: tuple[float, float]
+    site: tuple[float, float, float]
+    heading_deg: float
+
+    @property
+    def gyro_arw_deg_rth(self) -> float:
+        """True angle random walk [deg/√h]."""
+        return self.gyro_arw / units.DPRH_TO_RPRS
+
+    @property
+    def accel_vrw_ug_rthz(self) -> float:
+        """Accelerometer white noise density [µg/√Hz]."""
+        return self.accel_vrw / units.UG_TO_MPS2
+
+    def gyro_adev_dph(self, tau_s: float) -> float:
+        """The gyros' true Allan deviation at ``tau_s`` [s] from the noise terms [deg/h]
+        (white angle, Gauss-Markov angle, white rate; quantisation and the bias random walk
+        are small beside them)."""
+        tau = float(tau_s)
+        m, tc = self.gyro_angle_markov, self.gyro_angle_markov_tau_s
+        var = 3 * self.gyro_angle_white**2 / tau**2
+        var += m * m / tau**2 * (3 - 4 * math.exp(-tau / tc) + math.exp(-2 * tau / tc))
+        var += self.gyro_arw**2 / tau
+        return math.sqrt(var) / units.DPH_TO_RPS
+
+    def true_noise(self) -> dict[str, float]:
+        """The true white noise and bias random walks in the metadata's ``noise`` form
+        (SI: rad/√s, m/s²/√Hz, rad/s/√s, m/s²/√s): the filter told the truth."""
+        return {
+            "gyro_noise_density": self.gyro_arw,
+            "accel_noise_density": self.accel_vrw,
+            "gyro_bias_rw": self.gyro_bias_rw,
+            "accel_bias_rw": self.accel_bias_rw,
+        }
+
+    def meta(self) -> dict[str, Any]:
+        """The recording's metadata as written."""
+        return json.loads(Path(f"{self.path}.meta.json").read_text())
+
+
+def write_realistic(
+    folder: str | Path,
+    variant: str = "ring_laser",
+    *,
+    minutes: float = 31.0,
+    disturbed_min: float = 9.0,
+    seed: int = 35,
+    noise_in_meta: bool = False,
+) -> Realistic:
+    """Simulate a recording made like the real one into ``folder``.
+
+    Parameters
+    ----------
+    folder : path
+        Where ``<variant>.parquet`` and its ``.meta.json`` go.
+    variant : str
+        ``"ring_laser"`` (100 Hz counts of 0.1″ and 125 µg·s, dithered-laser angle noise),
+        ``"ring_laser_1hz"`` (the same at 1 Hz) or ``"fog"`` (``navigation_grade``: rates,
+        white rate noise).
+    minutes : float [min]
+        Length (the real one: 31 min).
+    disturbed_min : float [min]
+        People about the parked vehicle for the first minutes (0: none).
+    seed : int
+        Seed of the noise and the disturbance.
+    noise_in_meta : bool
+        Keep the plant's white noise and bias random walks in the metadata (a real
+        recording does not say them; default False).
+    """
+    imu, rate = VARIANTS[variant]
+    path = Path(folder) / f"{variant}.parquet"
+    nav = navigate_scenario(
+        "quasi-static",
+        imu=imu,
+        hours=minutes / 60.0,
+        rate_hz=rate,
+        seed=seed,
+        rotation="none",
+        oracle=False,
+        record=path,
+        disturbed_start_min=disturbed_min or None,
+    )
+    meta_file = Path(f"{path}.meta.json")
+    meta = json.loads(meta_file.read_text())
+    if not noise_in_meta:
+        meta.pop("noise", None)
+        meta_file.write_text(json.dumps(meta, indent=2) + "\n")
+    cfg = load_imu(imu)
+    wd, rw = cfg.noise.white_density_si(), cfg.noise.bias_rw_si()
+    white_a, markov_a, tau_a = cfg.noise.angle_noise_si()
+    w = cfg.output.pulse_weight_si()
+    tr = nav.config.trajectory
+    end = float(nav.summary["disturbance"]["end_s"]) if disturbed_min else 0.0
+    heading = float(tr.kinematics([end + 1.0]).euler[0, 0]) / units.DEG_TO_RAD
+    return Realistic(
+        path=path,
+        variant=variant,
+        rate_hz=rate,
+        duration_s=float(nav.config.duration_s),
+        counts=bool(nav.summary["output"]["quantised"]),
+        weights=(float(w[0]), float(w[3])),
+        gyro_arw=float(wd[0]),
+        gyro_angle_white=white_a,
+        gyro_angle_markov=markov_a,
+        gyro_angle_markov_tau_s=tau_a,
+        accel_vrw=float(wd[3]),
+        gyro_bias_rw=float(rw[0]),
+        accel_bias_rw=float(rw[3]),
+        disturbed=(0.0, end),
+        site=(meta["site"]["lat_deg"], meta["site"]["lon_deg"], meta["site"]["h_m"]),
+        heading_deg=heading,
+    )
