@@ -93,7 +93,7 @@ def test_ring_laser_records_counts_that_navigate_log_reads_as_they_are(tmp_path)
     rec = tmp_path / "run.parquet"
     res = runner.invoke(
         app,
-        ["navigate", "--scenario", "quasi-static", "--imu", "ring_laser", "--hours", "0.1",
+        ["navigate", "--scenario", "quasi-static", "--imu", "ring_laser", "--hours", "0.25",
          "--rate", "10", "--rotation", "none", "--align-s", "120", "--no-oracle",
          "--record", str(rec), "--out", str(tmp_path / "sim")],
     )  # fmt: skip
@@ -106,10 +106,12 @@ def test_ring_laser_records_counts_that_navigate_log_reads_as_they_are(tmp_path)
     assert meta["units"] == {}
     # at rest the vertical accelerometer counts gravity: 0.1 s × 9.79 m/s² / 1.226 mm/s ≈ 799
     assert abs(df["dvel_z"].mean() - 0.1 * 9.7949 / (125e-6 * 9.80665)) < 2.0
-    res = runner.invoke(app, ["navigate", "--log", str(rec), "--out", str(tmp_path / "log")])
+    res = runner.invoke(
+        app, ["navigate", "--log", str(rec), "--align-s", "300", "--out", str(tmp_path / "log")]
+    )
     assert res.exit_code == 0, res.output
     summary = json.loads((tmp_path / "log" / "summary.json").read_text())
-    assert "0.1 arcsec/count" in json.dumps(summary["recording"])
+    assert summary["recording"]["kind"] == "counts"
 
 
 def test_fog_keeps_rates_unless_asked(tmp_path) -> None:  # type: ignore[no-untyped-def]
@@ -176,7 +178,7 @@ def test_recording_like_the_real_one_allan_curve(which: str, request) -> None:  
     slope −0.7..−0.95 between 1 and 100 s, close to the truth's own curve."""
     rec: Realistic = request.getfixturevalue(which)
     assert rec.counts
-    assert 25 * 60 <= rec.duration_s <= 31 * 60
+    assert 25 * 60 <= rec.duration_s <= 31 * 60 + 1e-6
     assert 0.005 <= rec.gyro_arw_deg_rth <= 0.01
     rate = _gyro_dph(rec)
     quiet = rate[round((rec.disturbed[1] + 10.0) * rec.rate_hz) :]
@@ -241,7 +243,9 @@ def test_disturbed_start_through_the_cli_and_its_refusals(tmp_path) -> None:  # 
         [*base, "--scenario", "vehicle", "--disturbed-start", "2", "--out", str(tmp_path / "b")],
     )
     assert res.exit_code != 0 and "does not stand still" in res.output
-    res = runner.invoke(app, ["navigate", "--log", "x.parquet", "--disturbed-start", "2"])
+    res = runner.invoke(
+        app, ["navigate", "--log", "x.parquet", "--disturbed-start", "2", "--out", str(tmp_path)]
+    )
     assert (
         res.exit_code != 0
         and "--disturbed-start" in res.output
