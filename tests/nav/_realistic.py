@@ -26,16 +26,21 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+import pandas as pd
+
 from rinscal import units
 from rinscal.nav.workflow import navigate_scenario
 from rinscal.thermal.config import load_imu
 
-#: The variants :func:`write_realistic` writes: (IMU preset, rate [Hz]).
+#: The variants :func:`write_realistic` writes: (IMU preset, rate [Hz]). Each is simulated
+#: at 100 Hz (the sway must be resolved); a lower rate sums the counts, as the unit would.
 VARIANTS = {
     "ring_laser": ("ring_laser", 100.0),
     "ring_laser_1hz": ("ring_laser", 1.0),
     "fog": ("navigation_grade", 100.0),
 }
+SIM_RATE_HZ = 100.0
 
 
 @dataclass(frozen=True)
@@ -162,22 +167,27 @@ def write_realistic(
     """
     imu, rate = VARIANTS[variant]
     path = Path(folder) / f"{variant}.parquet"
+    sim_path = path if rate == SIM_RATE_HZ else Path(folder) / f"{variant}.sim.parquet"
     nav = navigate_scenario(
         "quasi-static",
         imu=imu,
         hours=minutes / 60.0,
-        rate_hz=rate,
+        rate_hz=SIM_RATE_HZ,
         seed=seed,
         rotation="none",
         oracle=False,
-        record=path,
+        record=sim_path,
         disturbed_start_min=disturbed_min or None,
     )
-    meta_file = Path(f"{path}.meta.json")
-    meta = json.loads(meta_file.read_text())
+    meta = json.loads(Path(f"{sim_path}.meta.json").read_text())
+    if sim_path != path:
+        _decimate(sim_path, path, round(SIM_RATE_HZ / rate))
+        meta["rate_hz"] = rate
+        sim_path.unlink()
+        Path(f"{sim_path}.meta.json").unlink()
     if not noise_in_meta:
         meta.pop("noise", None)
-        meta_file.write_text(json.dumps(meta, indent=2) + "\n")
+    Path(f"{path}.meta.json").write_text(json.dumps(meta, indent=2) + "\n")
     cfg = load_imu(imu)
     wd, rw = cfg.noise.white_density_si(), cfg.noise.bias_rw_si()
     white_a, markov_a, tau_a = cfg.noise.angle_noise_si()
@@ -203,3 +213,19 @@ def write_realistic(
         site=(meta["site"]["lat_deg"], meta["site"]["lon_deg"], meta["site"]["h_m"]),
         heading_deg=heading,
     )
+
+
+def _decimate(src: Path, dst: Path, k: int) -> None:
+    """Write ``src`` at 1/``k`` of its rate into ``dst``: counts summed over each ``k``
+    samples (what the unit's own lower-rate output holds), everything else (time, encoder,
+    temperatures, reference heading) as at the last of them."""
+    df = pd.read_parquet(src)
+    m = len(df) // k
+    df = df.iloc[: m * k]
+    group = np.arange(m * k) // k
+    sums = [c for c in df.columns if c.startswith(("dtheta_", "dvel_"))]
+    rest = [c for c in df.columns if c not in sums]
+    out = df[rest].groupby(group).last()
+    for c in sums:
+        out[c] = df[c].groupby(group).sum().astype(df[c].dtype)
+    out[list(df.columns)].reset_index(drop=True).to_parquet(dst, index=False)

@@ -41,6 +41,9 @@ from rinscal.thermal.presets import DEFAULT_PRESET
 __all__ = ["Navigation", "check_models", "model_compensator", "navigate", "navigate_scenario"]
 
 ModelLike = str | os.PathLike[str] | ThermalModelFile
+#: The lowest IMU rate a disturbed start is simulated at [Hz]: its 1-3 Hz sway must be
+#: resolved by each sample's 4-point quadrature.
+MIN_DISTURBED_RATE_HZ = 50.0
 #: What ``record=`` may be named (the log formats of :data:`rinscal.io.tables.FORMATS`).
 RECORD_SUFFIXES = (".parquet", ".pq", ".csv", ".tsv")
 
@@ -180,7 +183,8 @@ def navigate_scenario(
     disturbed_start_min : float, optional [min]
         People about the parked carrier for the first minutes: sway and small tilt steps
         (:class:`rinscal.nav.disturbance.DisturbedStart`, drawn from ``seed``), carried by
-        the truth. Static scenarios only (``quasi-static``, ``ramp``).
+        the truth. Static scenarios only (``quasi-static``, ``ramp``), at
+        :data:`MIN_DISTURBED_RATE_HZ` or more.
     progress : callable, optional
         Called with (simulated seconds done, total seconds).
     before_run : callable, optional
@@ -327,6 +331,12 @@ def disturbed(cfg: ScenarioConfig, duration_s: float, seed: int = 0) -> Scenario
         raise ConfigError(
             f"disturbed start: scenario {cfg.name!r} does not stand still (give a static "
             "scenario: quasi-static or ramp)"
+        )
+    if cfg.rate_hz < MIN_DISTURBED_RATE_HZ:
+        raise ConfigError(
+            f"disturbed start: the sway (1-3 Hz) is integrated exactly only at "
+            f"{MIN_DISTURBED_RATE_HZ:g} Hz or more, not at {cfg.rate_hz:g} Hz (simulate at "
+            "100 Hz and sum the counts to a lower rate, as a unit's own output does)"
         )
     if duration_s >= cfg.duration_s:
         raise ConfigError(
