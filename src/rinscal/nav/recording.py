@@ -65,7 +65,9 @@ class RecordedNavigation:
         Errors per variant (``none`` uncompensated, one per model, named by the model
         file's stem), the reference at the same times, the alignment per variant.
     report : dict
-        JSON-able: ``log``, ``window`` (start, length, how it was chosen, its quality),
+        JSON-able: ``log``, ``recording_kind`` (what the recording is: ``kind``, ``evidence``,
+        ``text``, ``rate_hz``; :mod:`rinscal.nav.recorded.kind`), ``window`` (start, length,
+        how it was chosen, its quality),
         ``noise`` (what the filter assumed and where it came from), ``at_rest`` (|f| and
         |ω| against gravity and the Earth rate), ``gaps``, ``rotation`` (what the encoder
         saw), ``reference`` and ``warnings``.
@@ -161,6 +163,14 @@ def navigate_log(
         Interval of the reported errors.
     progress : callable, optional
         ``progress(stage, done_s, total_s)``: stage ``"reading"`` or ``"navigating"``.
+
+    Raises
+    ------
+    LogError
+        Among the reader's and the checks' refusals: a calibration log (named, pointed at
+        ``fit`` or ``calibrate-imu``), a recording that moves with no still stretch to align
+        on or a window set by hand that moves (said before any unit check); a refusal of the
+        window finder names the rate.
     """
     _check.path_like("log", path)  # the types here (named as rinscal.navigate's), ranges below
     _check.instance("models", models, (list, tuple), "a list of model files' paths")
@@ -187,7 +197,7 @@ def navigate_log(
     head = nav_log_header(path, mapping)
     cal_kind, refuse = calibration_log(path, head.columns, head.meta, head.runs, run)
     if refuse is not None:
-        raise ConfigError(refuse)
+        raise LogError(refuse)
     log = open_nav_log(path, mapping, run=run)
     warnings: list[str] = []
     # everything that can be refused without reading the data, before reading it

@@ -261,6 +261,9 @@ def track_speed(
         1/span m/s).
     """
     t_track = np.asarray(t_track, dtype=float)
+    lat, lon = np.asarray(lat, dtype=float), np.asarray(lon, dtype=float)
+    ok = np.isfinite(t_track) & np.isfinite(lat) & np.isfinite(lon)  # empty cells left out
+    t_track, lat, lon = t_track[ok], lat[ok], lon[ok]
     at = np.asarray(at, dtype=float)
     out = np.full(at.shape, np.nan)
     if t_track.size < 2:
