@@ -49,11 +49,12 @@ def _run(*args: object) -> tuple[int, str]:
 
 @pytest.fixture(scope="module")
 def vehicle(tmp_path_factory) -> dict[str, Path]:  # type: ignore[no-untyped-def]
-    """The vehicle scenario recorded at 5 Hz: 60 s parked, then 3 min of driving; and the
+    """The vehicle scenario recorded at 5 Hz: 60 s parked, then 4 min of driving (a 90° turn
+    at 230 s); and the
     drive alone (the log from 61 s, no reference columns) with its track as NMEA GGA."""
     d = tmp_path_factory.mktemp("veh")
     rec = d / "veh.parquet"
-    code, text = _run("navigate", "--scenario", "vehicle", "--hours", "0.05", "--rate", "5",
+    code, text = _run("navigate", "--scenario", "vehicle", "--hours", "0.07", "--rate", "5",
                       "--align-s", "60", "--no-oracle", "--out", d / "sim",
                       "--record", rec)  # fmt: skip
     assert code == 0, text
@@ -81,7 +82,9 @@ def test_a_drive_with_a_gga_track_is_named_moving_not_quiet(vehicle, tmp_path) -
     assert code == 2, text
     assert "the recording moves (track speed" in text
     speed = [float(v) for v in text.split("track speed ")[1].split(" m/s")[0].split("-")]
-    assert 10 <= speed[-1] <= 13  # the route drives at 12 m/s
+    assert 12 <= speed[-1] <= 21  # the route drives at 12, then 20 m/s
+    yaw = float(text.split("yaw rates up to ")[1].split(" °/s")[0])
+    assert 12 <= yaw <= 17  # 90° in 12 s (the table's own turn removed)
     assert "the alignment needs the vehicle at rest" in text
     assert "stop for 5-10 min for the alignment" in text
     assert "in-motion alignment with a track is not built yet" in text
@@ -114,7 +117,8 @@ def test_a_parked_start_is_aligned_on_and_a_moving_window_set_by_hand_refused(
     ev = kind["evidence"]
     assert 58 <= ev["longest_still_s"] <= 66 and ev["longest_still_from_s"] < 1
     assert 60 <= ev["from_s"] <= 66  # the drive starts at 60 s (the track's own columns)
-    assert 10 <= ev["track_speed_mps"][1] <= 13
+    assert 12 <= ev["track_speed_mps"][1] <= 21
+    assert 12 <= ev["yaw_dps_max"] <= 17
     assert summary["recording"]["window"]["start_s"] < 1
     code, text = _run("navigate", "--log", vehicle["rec"], "--align-start-s", "100",
                       "--align-s", "60", "--out", tmp_path / "b")  # fmt: skip
