@@ -176,6 +176,17 @@ def test_a_chamber_calibration_log_is_named_and_pointed_at_fit(soak, tmp_path) -
     Path(f"{csv}.meta.json").write_text(Path(f"{soak}.meta.json").read_text())
     code, text = _run("navigate", "--log", csv, "--out", tmp_path / "c")
     assert code == 2 and "is a thermal calibration log (7 run(s)" in text
+    # by its columns alone: several runs and an outer temperature, no encoder, no metadata
+    bare = tmp_path / "bare.parquet"
+    pd.read_parquet(soak).drop(columns=["chamber_temp"]).to_parquet(bare, index=False)
+    code, text = _run("navigate", "--log", bare, "--site", "32,118,10", "--out", tmp_path / "d")
+    assert code == 2 and "is a thermal calibration log (7 run(s)" in text
+    assert "columns temp_out" in text and "protocol" not in text
+    # a navigation recording of several runs with temp_out and an encoder is not one
+    nav = tmp_path / "nav.parquet"
+    pd.read_parquet(soak).drop(columns=["chamber_temp"]).assign(table_deg=0.0).to_parquet(nav)
+    code, text = _run("navigate", "--log", nav, "--site", "32,118,10", "--out", tmp_path / "e")
+    assert code == 2 and "calibration log" not in text and "choose one with --run" in text
 
 
 def test_a_multiposition_turntable_log_is_pointed_at_calibrate_imu(tmp_path) -> None:  # type: ignore[no-untyped-def]

@@ -269,7 +269,8 @@ class NavHeader:
     runs : list of str, optional
         The names in the run column, read only when the header looks like a calibration
         log's (a ``chamber_temp`` or two-axis turntable column, or a metadata ``protocol``);
-        None otherwise or without a run column.
+        None otherwise or without a run column (a ``temp_out`` column without the encoder's
+        or a reference's looks like one too).
     """
 
     path: Path
@@ -299,7 +300,11 @@ def nav_log_header(
     run_col = RUN
     if mapping is not None:
         run_col = next((k for k, v in mapping.rename().items() if v == RUN), RUN)
-    looks = any(c in cols for c in _CALIBRATION_COLUMNS) or "protocol" in (meta or {})
+    looks = (
+        any(c in cols for c in _CALIBRATION_COLUMNS)
+        or "protocol" in (meta or {})
+        or (TEMP_OUT in cols and TABLE not in cols and not any(c in cols for c in REF_TRACK))
+    )
     runs = None
     if looks and run_col in cols:
         try:

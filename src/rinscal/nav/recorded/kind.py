@@ -93,6 +93,8 @@ TURNTABLE_COLUMNS = (
 )
 #: Temperature columns of a chamber calibration log.
 _CHAMBER_COLUMNS = ("chamber_temp", "temp_out")
+#: Columns only a navigation recording has (its encoder, its reference).
+_NAV_ONLY_COLUMNS = ("table_deg", "ref_lat_deg", "ref_heading_deg")
 
 
 @dataclass(frozen=True)
@@ -129,6 +131,11 @@ def calibration_log(
 ) -> tuple[RecordingKind | None, str | None]:
     """Whether a file is a calibration log (the README's schema), and whether to refuse it.
 
+    It is one when its metadata's ``protocol`` is a calibration protocol, when it has the
+    two-axis turntable's columns, or when it holds several runs with a ``chamber_temp``
+    column, or a ``temp_out`` column and none of a navigation recording's own (``table_deg``,
+    ``ref_*``).
+
     Parameters
     ----------
     path : path-like
@@ -157,7 +164,10 @@ def calibration_log(
     table = [c for c in TURNTABLE_COLUMNS[:2] if c in cols]
     chamber = [c for c in _CHAMBER_COLUMNS if c in cols]
     several = runs is not None and len(runs) > 1
-    if not (protocol or table or (several and chamber)):
+    # temp_out alone: a navigation log may have it too, but not the encoder or a reference
+    nav_only = any(c in cols for c in _NAV_ONLY_COLUMNS)
+    thermal = "chamber_temp" in chamber or (bool(chamber) and not nav_only)
+    if not (protocol or table or (several and thermal)):
         return None, None
     what = "turntable" if (table or protocol == "multiposition") else "thermal"
     seen: list[str] = []
