@@ -206,7 +206,10 @@ def calibration_log(
         )
         return RecordingKind("calibration log", evidence, said), refuse
     evidence["run"] = run
-    text = f"run {run!r} of a thermal calibration log ({'; '.join(seen)}), navigated at rest"
+    text = (
+        f"recording: run {run!r} of a thermal calibration log ({'; '.join(seen)}), "
+        "navigated at rest"
+    )
     return RecordingKind("calibration log run", evidence, text), None
 
 
