@@ -458,6 +458,7 @@ def _navigate_log(log: Path, out: Path, models: list[Path], policy: str, **kw: o
     summary.pop("scenario", None)
     summary = {"log": str(log), **summary, "recording": nav.report}
     _write_outputs(out, nav.result, summary, nav.temperatures)
+    console.print(nav.report["recording_kind"]["text"], highlight=False, soft_wrap=True)
     console.print(heading_text(nav.report), highlight=False, soft_wrap=True)
     rot = nav.report["rotation"]
     if rot.get("source") == "encoder":

@@ -12,8 +12,11 @@ import csv
 import math
 import os
 from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+
+import pandas as pd
 
 from rinscal.errors import ConfigError, LogError
 from rinscal.io.mapping import SEPARATORS, channel_unit
@@ -23,6 +26,7 @@ from rinscal.io.navmapping import Kind, NavMapping, parse_weight
 from rinscal.io.tables import _check_parquet, _sniff_text, format_of
 from rinscal.io.track import parse_utc
 from rinscal.schema import (
+    CHAMBER,
     CHANNELS,
     DTHETA,
     DVEL,
@@ -42,6 +46,8 @@ from rinscal.units import DEG_TO_RAD, SENSOR_UNITS, check_sensor_unit
 
 __all__ = [
     "DEFAULT_RATE_UNITS",
+    "NavHeader",
+    "nav_log_header",
     "open_nav_log",
 ]
 
@@ -187,6 +193,13 @@ def _read_meta_fields(meta: dict[str, Any] | None, mp: str) -> dict[str, Any]:
         if abs(lat) > 90.0:
             raise LogError(f"{mp}: site.lat_deg: {lat!r} is beyond ±90°")
         out["site"] = (lat * DEG_TO_RAD, lon * DEG_TO_RAD, h)
+    elif "latitude_deg" in meta:  # a calibration log's metadata: latitude, altitude
+        lat = _meta_number(meta, "latitude_deg", mp)
+        if abs(lat) > 90.0:
+            raise LogError(f"{mp}: latitude_deg: {lat!r} is beyond ±90°")
+        lon = _meta_number(meta, "longitude_deg", mp) if "longitude_deg" in meta else 0.0
+        h = _meta_number(meta, "altitude_m", mp) if "altitude_m" in meta else 0.0
+        out["site"] = (lat * DEG_TO_RAD, lon * DEG_TO_RAD, h)
     if meta.get("heading_deg") is not None:
         out["heading_deg"] = _meta_number(meta, "heading_deg", mp)
     if "noise" in meta:
@@ -250,6 +263,76 @@ def _units(
             u = u or DEFAULT_RATE_UNITS[sensor]
             units[ch], to_si[ch] = u, SENSOR_UNITS[u]
     return units, to_si
+
+
+#: Columns that make a header look like a calibration log's (whose runs are then listed).
+_CALIBRATION_COLUMNS = (CHAMBER, "table_outer_deg", "table_inner_deg")
+
+
+@dataclass(frozen=True)
+class NavHeader:
+    """What a log's header and metadata say before it is opened (:func:`nav_log_header`).
+
+    Attributes
+    ----------
+    path : Path
+    columns : list of str
+        The file's column names (as written).
+    meta : dict, optional
+        The sidecar metadata, unparsed.
+    runs : list of str, optional
+        The names in the run column, read only when the header looks like a calibration
+        log's (a ``chamber_temp`` or two-axis turntable column, or a metadata ``protocol``);
+        None otherwise or without a run column (a ``temp_out`` column without the encoder's
+        or a reference's looks like one too).
+    """
+
+    path: Path
+    columns: list[str]
+    meta: dict[str, Any] | None
+    runs: list[str] | None
+
+
+def nav_log_header(
+    path: str | os.PathLike[str], mapping: NavMapping | None = None, *, fmt: str | None = None
+) -> NavHeader:
+    """Read a log's header and metadata (and its runs, if it looks like a calibration log).
+
+    Raises
+    ------
+    LogError
+        As :func:`open_nav_log` for a missing file, an unknown format or an unreadable header.
+    """
+    p = Path(path)
+    f = format_of(p, fmt)
+    if not p.exists():
+        raise LogError(f"{p}: no such file")
+    if p.is_dir():
+        raise LogError(f"{p}: is a folder, not a log file")
+    cols, sep, _ = _header(p, f, mapping)
+    meta = read_meta(p)
+    run_col = RUN
+    if mapping is not None:
+        run_col = next((k for k, v in mapping.rename().items() if v == RUN), RUN)
+    looks = (
+        any(c in cols for c in _CALIBRATION_COLUMNS)
+        or "protocol" in (meta or {})
+        or (TEMP_OUT in cols and TABLE not in cols and not any(c in cols for c in REF_TRACK))
+    )
+    runs = None
+    if looks and run_col in cols:
+        try:
+            if f == "parquet":
+                # deferred on purpose: pyarrow is heavy and only Parquet needs it
+                import pyarrow.parquet as pq
+
+                col = pq.read_table(p, columns=[run_col]).column(0).to_pandas()
+            else:
+                col = pd.read_csv(p, sep=sep, usecols=[run_col], dtype=str).iloc[:, 0]
+            runs = [str(r) for r in pd.unique(col.dropna())]
+        except Exception:  # the runs only name the log; reading it proper says what is wrong
+            runs = None
+    return NavHeader(p, cols, meta, runs)
 
 
 def open_nav_log(

@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -25,10 +25,17 @@ from rinscal import _check, units
 from rinscal.calibration.imulog import check_recording_for_imu
 from rinscal.calibration.modelfile import POLICIES, ThermalModelFile
 from rinscal.errors import ConfigError, LogError
-from rinscal.io.navopen import open_nav_log
+from rinscal.io.navopen import nav_log_header, open_nav_log
 from rinscal.io.track import read_track
 from rinscal.nav.recorded.blocks import BlockStats
 from rinscal.nav.recorded.compensation import CausalModelCompensator
+from rinscal.nav.recorded.kind import (
+    calibration_log,
+    motion,
+    recording_motion,
+    still_blocks,
+    window_motion,
+)
 from rinscal.nav.recorded.navigate import Reference, navigate_recording
 from rinscal.nav.recorded.window import (
     MIN_WINDOW_S,
@@ -58,7 +65,9 @@ class RecordedNavigation:
         Errors per variant (``none`` uncompensated, one per model, named by the model
         file's stem), the reference at the same times, the alignment per variant.
     report : dict
-        JSON-able: ``log``, ``window`` (start, length, how it was chosen, its quality),
+        JSON-able: ``log``, ``recording_kind`` (what the recording is: ``kind``, ``evidence``,
+        ``text``, ``rate_hz``; :mod:`rinscal.nav.recorded.kind`), ``window`` (start, length,
+        how it was chosen, its quality),
         ``noise`` (what the filter assumed and where it came from), ``at_rest`` (|f| and
         |ω| against gravity and the Earth rate), ``gaps``, ``rotation`` (what the encoder
         saw), ``reference`` and ``warnings``.
@@ -154,6 +163,14 @@ def navigate_log(
         Interval of the reported errors.
     progress : callable, optional
         ``progress(stage, done_s, total_s)``: stage ``"reading"`` or ``"navigating"``.
+
+    Raises
+    ------
+    LogError
+        Among the reader's and the checks' refusals: a calibration log (named, pointed at
+        ``fit`` or ``calibrate-imu``), a recording that moves with no still stretch to align
+        on or a window set by hand that moves (said before any unit check); a refusal of the
+        window finder names the rate.
     """
     _check.path_like("log", path)  # the types here (named as rinscal.navigate's), ranges below
     _check.instance("models", models, (list, tuple), "a list of model files' paths")
@@ -176,6 +193,11 @@ def navigate_log(
     )
     if policy not in POLICIES:
         raise ConfigError(f"--policy must be one of {', '.join(POLICIES)}, got {policy!r}")
+    # what the recording is, first: a calibration log is named before its units are read
+    head = nav_log_header(path, mapping)
+    cal_kind, refuse = calibration_log(path, head.columns, head.meta, head.runs, run)
+    if refuse is not None:
+        raise LogError(refuse)
     log = open_nav_log(path, mapping, run=run)
     warnings: list[str] = []
     # everything that can be refused without reading the data, before reading it
@@ -235,9 +257,15 @@ def navigate_log(
     # pass 1: per-second sums, the temperatures for the figure
     stats = BlockStats()
     temps: list[np.ndarray] = []
-    next_t = -math.inf
+    refs: list[np.ndarray] = []  # the log's own track, a point a second (its speed)
+    next_t = next_ref = -math.inf
     for s in pieces():
         stats.add(s)
+        if s.ref is not None and s.n:
+            keep = _every(s.t, 1.0, next_ref)
+            if keep.size:
+                refs.append(np.column_stack([s.t[keep], s.ref[keep, :2]]))
+                next_ref = float(s.t[keep[-1]]) + 1.0
         if s.temps is not None and s.n:
             keep = _every(s.t, TEMPERATURE_STEP_S, next_t)
             if keep.size:
@@ -265,8 +293,34 @@ def navigate_log(
             "not to be trusted (navigation runs in the IMU frame and does not use the encoder)"
         )
     warnings += check_encoder(blocks)
-    window = find_window(blocks, align_s, min_s=min_align_s, start_s=align_start_s)
-    if window.how == "given" and window.quality.get("quiet_fraction", 1.0) < 0.9:
+    # moving or at rest, said before the window and the units are judged on it
+    ref_track = np.concatenate(refs) if refs else None
+    moved = motion(
+        blocks,
+        (tr.t, tr.lat, tr.lon) if tr is not None
+        else None if ref_track is None
+        else (ref_track[:, 0], ref_track[:, 1], ref_track[:, 2]),
+    )  # fmt: skip
+    kind, refuse = recording_motion(blocks, moved, min(min_align_s, align_s))
+    rate_hz = 1.0 / dt
+    if refuse is None and align_start_s is not None:
+        refuse = window_motion(blocks, moved, align_start_s, align_start_s + align_s)
+    if refuse is not None:
+        raise LogError(f"{path}: {refuse}")
+    if cal_kind is not None:
+        kind = replace(cal_kind, evidence={**cal_kind.evidence, "motion": kind.to_dict()})
+    try:
+        window = find_window(
+            blocks if align_start_s is not None or not moved.moving.any()
+            else still_blocks(blocks, moved),
+            align_s, min_s=min_align_s, start_s=align_start_s,
+        )  # fmt: skip
+    except LogError as exc:  # name the rate: a low-rate recording's seconds hold few samples
+        raise LogError(f"{path} ({rate_hz:.3g} Hz, {kind.kind}): {exc}") from None
+    # a second holding one or two samples has no spread of |f| to judge it quiet by (1-2 Hz):
+    # the window set by hand was checked for motion above, its quiet fraction says nothing
+    judged = float(np.median(blocks.n)) >= 3
+    if window.how == "given" and judged and window.quality.get("quiet_fraction", 1.0) < 0.9:
         warnings.append(
             f"only {100 * window.quality['quiet_fraction']:.0f} % of the seconds of the "
             "alignment window set by hand are quiet: the base moved while it aligned"
@@ -278,7 +332,8 @@ def navigate_log(
             blocks, window, reference.lat, reference.h, _declared_units(log)
         )
     except LogError as exc:
-        raise LogError(f"{path}: {exc} [{_unit_source(log)}]") from None
+        low = f" ({rate_hz:.3g} Hz)" if rate_hz < 10 else ""
+        raise LogError(f"{path}{low}: {exc} [{_unit_source(log)}]") from None
     warnings += warn
     noise = imu_noise or _noise(log, blocks, window)
     floor = window.quality.get("floor_ug", math.nan) * units.UG_TO_MPS2
@@ -335,6 +390,7 @@ def navigate_log(
         "log": str(path),
         "run": log.run,
         "kind": log.kind,
+        "recording_kind": {**kind.to_dict(), "text": kind.text, "rate_hz": rate_hz},
         "window": {
             "start_s": window.start_s,
             "length_s": window.length_s,

@@ -23,6 +23,8 @@ Modules
     The recorded-navigation log's columns written from a simulated chunk.
 :mod:`~rinscal.nav.recorded.blocks`
     The first pass: per-second sums.
+:mod:`~rinscal.nav.recorded.kind`
+    What the recording is: at rest, moving, a calibration log (said before the window).
 :mod:`~rinscal.nav.recorded.window`
     The alignment window, the sensor noise, the checks, the turntable's schedule.
 :mod:`~rinscal.nav.recorded.compensation`
