@@ -39,6 +39,20 @@ Confidence
     ``M = Σ_s ⌊n_samples_s / m⌋`` over the stretches. It is conservative for the
     overlapping estimator; allantools' own ``σ/√n_pairs`` treats the overlapping
     differences as independent and is ``√(m/2)`` times too optimistic at long τ.
+
+The five terms fitted together
+    :func:`fit_noise_terms` fits the whole IEEE 952 model, ``σ²(τ) = 3Q²/τ² + N²/τ +
+    (2 ln 2/π) B² + K² τ/3 + R² τ²/2``, to every point of a curve by non-negative weighted
+    least squares on the Allan variance, each point weighted by its clusters, and says which
+    terms the curve resolves and on which τ; ``N`` and ``K`` get upper bounds where it does
+    not (a dithered laser gyro's white angle noise ``Q``, slope −1, hiding the random walk
+    on a 10 min record). :func:`noise_parameters` is the slope reading of Annex C, kept for
+    the calibration report's table.
+
+Why one module
+    The Allan variance, its confidence (the clusters of each τ) and the two readings of it
+    (slopes, fit) are one idea: the fit's weights and bounds are the curve's confidence, and
+    both readings must agree on the same curve; split, they would share private helpers.
 """
 
 from __future__ import annotations
@@ -50,6 +64,7 @@ from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.optimize import nnls
 
 from rinscal.errors import ConfigError
 
@@ -615,8 +630,6 @@ def pool_curves(curves: list[AllanCurve] | tuple[AllanCurve, ...]) -> AllanCurve
 
 
 def _nnls(a: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
-    from scipy.optimize import nnls
-
     scale = np.linalg.norm(a, axis=0)
     scale[scale == 0] = 1.0
     x, _ = nnls(a / scale, y, maxiter=50 * a.shape[1])

@@ -29,6 +29,7 @@ from rinscal.io.navopen import open_nav_log
 from rinscal.io.track import read_track
 from rinscal.nav.recorded.blocks import BlockStats
 from rinscal.nav.recorded.compensation import CausalModelCompensator
+from rinscal.nav.recorded.noise import estimate_noise_allan, noise_text
 from rinscal.nav.recorded.navigate import Reference, navigate_recording
 from rinscal.nav.recorded.window import (
     MIN_WINDOW_S,
@@ -37,7 +38,6 @@ from rinscal.nav.recorded.window import (
     check_at_rest,
     check_encoder,
     check_turning_without_encoder,
-    estimate_noise,
     find_window,
     seen_schedule,
 )
@@ -280,10 +280,10 @@ def navigate_log(
     except LogError as exc:
         raise LogError(f"{path}: {exc} [{_unit_source(log)}]") from None
     warnings += warn
-    noise = imu_noise or _noise(log, blocks, window)
+    noise = imu_noise or _noise(log, blocks, window, reference.lat)
     floor = window.quality.get("floor_ug", math.nan) * units.UG_TO_MPS2
     expected = noise.accel_density / math.sqrt(dt)
-    if noise.source != "estimated on the window" and floor > 3 * expected:
+    if not noise.source.startswith("estimated on the window") and floor > 3 * expected:
         warnings.append(
             f"the quietest seconds of the recording scatter by {floor / units.UG_TO_MPS2:.0f} µg, "
             f"{floor / expected:.1f} × the accelerometer noise of {noise.source} "
@@ -439,8 +439,9 @@ def _unit_source(log: Any) -> str:
     return f"rates read as {said}, from {src}"
 
 
-def _noise(log: Any, blocks: Any, window: Any) -> Noise:
-    """The filter's sensor noise: the log's metadata, else estimated on the window."""
+def _noise(log: Any, blocks: Any, window: Any, lat: float) -> Noise:
+    """The filter's sensor noise: the log's metadata, else estimated on the window (from its
+    Allan deviation, :mod:`rinscal.nav.recorded.noise`)."""
     meta = log.noise
     if meta:
         try:
@@ -456,7 +457,7 @@ def _noise(log: Any, blocks: Any, window: Any) -> Noise:
                 f"{log.path}: metadata 'noise' needs gyro_noise_density [rad/√s] and "
                 f"accel_noise_density [m/s²/√Hz], got {meta!r}"
             ) from None
-    return estimate_noise(blocks, window)
+    return estimate_noise_allan(blocks, window, lat=lat)
 
 
 def heading_text(report: dict[str, Any]) -> str:
@@ -467,9 +468,7 @@ def heading_text(report: dict[str, Any]) -> str:
         f"alignment window {a:.0f}-{a + w['length_s']:.0f} s ({w['how']}"
         f", |f| spread median {w['sd_ug_median']:.0f} µg against a floor of "
         f"{w['floor_ug']:.0f} µg, {100 * w['quiet_fraction']:.0f} % of its seconds quiet); "
-        f"filter noise {report['noise']['source']}: "
-        f"{report['noise']['gyro_arw_deg_per_rth']:.2g} °/√h, "
-        f"{report['noise']['accel_vrw_ug_per_rthz']:.3g} µg/√Hz"
+        + noise_text(report["noise"])
     )
 
 
