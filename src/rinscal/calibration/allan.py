@@ -346,9 +346,7 @@ def _allan(a: NDArray[np.float64], rate: float, taus: Any, name: str) -> AllanCu
         clusters[use] += s.size // m_all[use]
     adev = np.sqrt(sum_sq / pairs)
     err = adev / np.sqrt(2.0 * np.maximum(clusters - 1, 1))
-    return AllanCurve(
-        tau_s=m_all / rate, adev=adev, adev_err=err, n_pairs=pairs, clusters=clusters
-    )
+    return AllanCurve(tau_s=m_all / rate, adev=adev, adev_err=err, n_pairs=pairs, clusters=clusters)
 
 
 def allan_deviations(
@@ -604,7 +602,9 @@ class NoiseFit:
     def model(self, tau_s: ArrayLike) -> NDArray[np.float64]:
         """The fitted Allan deviation at ``tau_s`` [s] (unit of the curve)."""
         t = np.asarray(tau_s, dtype=np.float64)
-        var = sum(c * term.value**2 * t**p for (_, p, c, _), term in zip(_TERMS, self.terms))
+        var = sum(
+            c * term.value**2 * t**p for (_, p, c, _), term in zip(_TERMS, self.terms, strict=True)
+        )
         return np.sqrt(var)
 
 

@@ -29,8 +29,8 @@ from rinscal.io.navopen import open_nav_log
 from rinscal.io.track import read_track
 from rinscal.nav.recorded.blocks import BlockStats
 from rinscal.nav.recorded.compensation import CausalModelCompensator
-from rinscal.nav.recorded.noise import estimate_noise_allan, noise_text
 from rinscal.nav.recorded.navigate import Reference, navigate_recording
+from rinscal.nav.recorded.noise import estimate_noise_allan, noise_text
 from rinscal.nav.recorded.window import (
     MIN_WINDOW_S,
     Noise,

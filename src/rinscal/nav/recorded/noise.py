@@ -231,13 +231,14 @@ def _sensor_text(name: str, d: dict[str, Any]) -> str:
         t = d["terms"][key]
         sym = key.upper()
         if t["resolved"]:
-            where = (
-                f", dominant {t['dominant_tau_s'][0]:g}-{t['dominant_tau_s'][1]:g} s"
-                if t["dominant_tau_s"]
-                else ""
-            )
+            dom = t["dominant_tau_s"]
+            where = ""
+            if dom:
+                span = f"{dom[0]:g}" if dom[0] == dom[1] else f"{dom[0]:g}-{dom[1]:g}"
+                where = f", dominant at τ {span} s"
             rel = f" ±{100 * t['sd'] / t['value']:.0f} %" if t["sd"] is not None else ""
-            parts.append(f"{sym} {_fmt(t['value'])} {t['unit']}{rel} (resolved{where})")
+            sep = "" if t["unit"] == "″" else " "
+            parts.append(f"{sym} {_fmt(t['value'])}{sep}{t['unit']}{rel} (resolved{where})")
         elif key == "n" and "bound" in t:
             parts.append(
                 f"N ≤ {_fmt(t['bound'])} {t['unit']} (bound at τ = {t['bound_tau_s']:g} s)"
@@ -342,17 +343,20 @@ def estimate_noise_allan(
         },
         "first_differences": fd,
     }
-    found = [f"gyro {t.name.upper()}" for t in gf.terms if t.resolved] + [
-        f"accel {t.name.upper()}" for t in af.terms if t.resolved
-    ]
+
+    def found(fit: NoiseFit) -> str:
+        return ", ".join(t.name.upper() for t in fit.terms if t.resolved) or "none"
+
+    def said(fit: NoiseFit, resolved: bool) -> str:
+        return "" if resolved else f", N its bound at τ {fit.n.bound_tau_s:g} s"
+
     return Noise(
         gyro_density=n_g,
         accel_density=n_a,
         source=(
-            f"estimated on the window (Allan: {', '.join(found) or 'no term'} resolved on "
-            f"τ {gf.tau_s[0]:g}-{gf.tau_s[1]:g} s; "
-            f"gyro N {'resolved' if g_res else 'bound'}, accel N "
-            f"{'resolved' if a_res else 'bound'})"
+            f"estimated on the window (Allan, τ {gf.tau_s[0]:g}-{gf.tau_s[1]:g} s: "
+            f"gyro {found(gf)} resolved{said(gf, g_res)}; "
+            f"accel {found(af)} resolved{said(af, a_res)})"
         ),
         gyro_angle_white=q_g,
         accel_velocity_white=q_a,
