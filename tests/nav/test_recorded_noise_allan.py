@@ -134,7 +134,7 @@ def test_a_ring_laser_like_unit_gets_its_random_walk_not_its_count() -> None:
     assert a["first_differences"]["gyro_arw_deg_per_rth"] == pytest.approx(
         first.gyro_density / units.DPRH_TO_RPRS
     )
-    assert noise.source.startswith("estimated on the window (Allan: ")
+    assert noise.source.startswith("estimated on the window (Allan, τ 1-")
     # the count enters the zero-velocity measurement, as √(d² + Q_v² + (g Q_θ T)²)
     T = AlignConfig().kf_interval_s
     q_v, q_th = noise.accel_velocity_white, noise.gyro_angle_white
