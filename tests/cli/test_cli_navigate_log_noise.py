@@ -114,3 +114,31 @@ def test_the_heading_is_better_than_with_the_first_difference_noise(ring_laser) 
         return abs(v["attitude_error_at_nav_start"]["heading_arcsec"])
 
     assert heading(d / "o2") > 3.0 * heading(d / "o")
+
+
+def test_the_metadata_gives_the_white_angle_and_velocity_noise_too(ring_laser) -> None:  # type: ignore[no-untyped-def]
+    d, meta = ring_laser["dir"], ring_laser["meta"]
+    rec = pd.read_parquet(d / "rlg.parquet")
+    q_th, q_v = 2.5 * units.ARCSEC_TO_RAD, 125.0 * units.UG_TO_MPS2 / np.sqrt(12.0)
+    given = {
+        **meta,
+        "noise": {**meta["noise"], "gyro_angle_noise": q_th, "accel_velocity_noise": q_v},
+    }
+    rec.to_parquet(d / "given.parquet")
+    (d / "given.parquet.meta.json").write_text(json.dumps(given))
+    res = runner.invoke(
+        app, ["navigate", "--log", str(d / "given.parquet"), "--out", str(d / "o3")]
+    )
+    assert res.exit_code == 0, res.output
+    noise = _summary(d / "o3")["recording"]["noise"]
+    assert noise["source"] == "metadata of the log"
+    want = np.sqrt(1e-6 + q_v**2 + (9.80665 * q_th * 0.5) ** 2) * 1e3
+    assert noise["velocity_meas_sd_mm_per_s"] == pytest.approx(want)
+    assert noise["gyro_angle_white_arcsec"] == pytest.approx(2.5)
+    bad = {**meta, "noise": {**meta["noise"], "accel_velocity_noise": -1.0}}
+    (d / "given.parquet.meta.json").write_text(json.dumps(bad))
+    res = runner.invoke(
+        app, ["navigate", "--log", str(d / "given.parquet"), "--out", str(d / "o4")]
+    )
+    assert res.exit_code != 0 and "noise.accel_velocity_noise: -1.0 is negative" in res.output
+    assert not (d / "o4").exists()

@@ -30,7 +30,12 @@ from rinscal.io.track import read_track
 from rinscal.nav.recorded.blocks import BlockStats
 from rinscal.nav.recorded.compensation import CausalModelCompensator
 from rinscal.nav.recorded.navigate import Reference, navigate_recording
-from rinscal.nav.recorded.noise import estimate_noise_allan, noise_text
+from rinscal.nav.recorded.noise import (
+    KF_INTERVAL_S,
+    estimate_noise_allan,
+    noise_text,
+    velocity_meas_sd,
+)
 from rinscal.nav.recorded.window import (
     MIN_WINDOW_S,
     Noise,
@@ -445,17 +450,28 @@ def _noise(log: Any, blocks: Any, window: Any, lat: float) -> Noise:
     meta = log.noise
     if meta:
         try:
+            q_th = float(meta.get("gyro_angle_noise", 0.0))
+            q_v = float(meta.get("accel_velocity_noise", 0.0))
+            if not (q_th >= 0 and q_v >= 0 and math.isfinite(q_th + q_v)):
+                raise ValueError("negative")
             return Noise(
                 float(meta["gyro_noise_density"]),
                 float(meta["accel_noise_density"]),
                 float(meta.get("gyro_bias_rw", 0.0)),
                 float(meta.get("accel_bias_rw", 0.0)),
                 "metadata of the log",
+                gyro_angle_white=q_th,
+                accel_velocity_white=q_v,
+                velocity_meas_sd=(
+                    velocity_meas_sd(q_v, q_th, KF_INTERVAL_S) if q_th > 0 or q_v > 0 else None
+                ),
             )
         except (KeyError, TypeError, ValueError):
             raise ConfigError(
                 f"{log.path}: metadata 'noise' needs gyro_noise_density [rad/√s] and "
-                f"accel_noise_density [m/s²/√Hz], got {meta!r}"
+                f"accel_noise_density [m/s²/√Hz] (optionally gyro_bias_rw, accel_bias_rw, "
+                f"gyro_angle_noise [rad], accel_velocity_noise [m/s], none negative), "
+                f"got {meta!r}"
             ) from None
     return estimate_noise_allan(blocks, window, lat=lat)
 

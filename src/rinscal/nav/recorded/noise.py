@@ -82,6 +82,7 @@ from rinscal.nav.recorded.blocks import BLOCK_S, Blocks
 from rinscal.nav.recorded.window import Noise, Window, estimate_noise
 
 __all__ = [
+    "KF_INTERVAL_S",
     "TURN_DEG",
     "TURN_FLOOR_DPH",
     "TURN_SIGMA",
@@ -91,6 +92,8 @@ __all__ = [
     "velocity_meas_sd",
 ]
 
+#: The alignment filter's update interval T [s] (AlignConfig's default).
+KF_INTERVAL_S = AlignConfig().kf_interval_s
 #: An encoder turn within a second above this [deg] marks the second as turning.
 TURN_DEG = 0.01
 #: A second whose z rate is beyond this many robust sd of the window's median turns.
