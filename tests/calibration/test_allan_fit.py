@@ -166,3 +166,19 @@ def test_every_tau_is_used_and_weighted_by_its_clusters() -> None:
     assert abs(bumped(len(c) - 1) / f.n.value - 1) < 0.2 * abs(bumped(0) / f.n.value - 1)
     with pytest.raises(ConfigError, match="at least 2 points"):
         fit_noise_terms(allan_deviation(y[:4], 1.0))
+
+
+def test_the_non_negative_least_squares_is_scipys() -> None:
+    """The exact small-problem NNLS (every support tried) against scipy's active set."""
+    from scipy.optimize import nnls
+
+    from rinscal.calibration import allan
+
+    rng = np.random.default_rng(18)
+    for _ in range(50):
+        a = rng.normal(size=(12, 5)) * 10.0 ** rng.uniform(-6, 6, 5)
+        y = rng.normal(size=12)
+        want, _ = nnls(a, y)
+        got = allan._nnls(a, y)
+        assert np.linalg.norm(a @ got - y) <= np.linalg.norm(a @ want - y) * (1 + 1e-9) + 1e-12
+        assert np.all(got >= 0)

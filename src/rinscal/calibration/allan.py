@@ -64,7 +64,6 @@ from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import nnls
 
 from rinscal.errors import ConfigError
 
@@ -630,10 +629,30 @@ def pool_curves(curves: list[AllanCurve] | tuple[AllanCurve, ...]) -> AllanCurve
 
 
 def _nnls(a: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Non-negative least squares ``min ‖a x − y‖, x ≥ 0`` of a few unknowns, exactly.
+
+    The solution is the unconstrained least squares on its own support (the terms it
+    keeps); with five terms every support (31) is tried and the best feasible one kept.
+    Columns are scaled to unit norm first (the terms differ by many decades).
+    """
+    k = a.shape[1]
     scale = np.linalg.norm(a, axis=0)
     scale[scale == 0] = 1.0
-    x, _ = nnls(a / scale, y, maxiter=50 * a.shape[1])
-    return np.asarray(x / scale, dtype=np.float64)
+    b = a / scale
+    best = np.zeros(k)
+    best_r = float(np.dot(y, y))
+    for mask in range(1, 2**k):
+        cols = [j for j in range(k) if mask >> j & 1]
+        sol, *_ = np.linalg.lstsq(b[:, cols], y, rcond=None)
+        if np.any(sol <= 0):
+            continue
+        r = y - b[:, cols] @ sol
+        rr = float(np.dot(r, r))
+        if rr < best_r:
+            best_r = rr
+            best = np.zeros(k)
+            best[cols] = sol
+    return np.asarray(best / scale, dtype=np.float64)
 
 
 def _cov(a: NDArray[np.float64], cols: list[int]) -> NDArray[np.float64]:
