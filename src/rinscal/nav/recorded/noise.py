@@ -15,7 +15,8 @@ What is done here (:func:`estimate_noise_allan`):
 1. The window's **per-second means** of the rates and forces (``Blocks.w_mean``,
    ``f_mean``: the counts of a second divided by its length, so the count's remainder is
    carried exactly as the hardware carries it) are laid on a 1 s grid. Their overlapping
-   Allan deviation at ``τ = m`` s is the recording's own at those τ: τ ≥ 1 s, which is where
+   Allan deviation at ``τ = m`` s (1, 2, 3, 4, 6, 8, ... s and the longest the longest
+   stretch holds) is the recording's own at those τ: τ ≥ 1 s, which is where
    the filter works (it updates every ``kf_interval_s`` = 0.5 s and its errors grow over
    minutes). Shorter τ would need a second pass over every sample (an 8 h × 200 Hz file
    read again) and would show the count even more plainly, not the random walk.
@@ -168,8 +169,19 @@ def _series(x: NDArray[np.float64], grid: NDArray[np.int64], ok: NDArray[np.bool
     return out
 
 
-def _pooled(series: NDArray[np.float64]) -> AllanCurve:
-    return pool_curves([allan_deviation(series[:, j], 1.0 / BLOCK_S) for j in range(3)])
+def _taus(ok: NDArray[np.bool_]) -> NDArray[np.float64]:
+    """τ [s]: 1, 2, 3, 4, 6, 8, 12, ... (half octaves) up to the longest the longest usable
+    stretch holds, and that longest one (a turntable's dwells end the curve early)."""
+    edges = np.flatnonzero(np.diff(np.concatenate(([0], ok.view(np.int8), [0]))))
+    longest = int(np.max(edges[1::2] - edges[::2]))
+    m_max = (longest - 1) // 2
+    octave = 2 ** np.arange(max(m_max, 1).bit_length())
+    m = np.unique(np.concatenate((octave, np.round(1.5 * octave), [m_max])))
+    return (m[(m >= 1) & (m <= m_max)] * BLOCK_S).astype(np.float64)
+
+
+def _pooled(series: NDArray[np.float64], taus: NDArray[np.float64]) -> AllanCurve:
+    return pool_curves([allan_deviation(series[:, j], 1.0 / BLOCK_S, taus) for j in range(3)])
 
 
 # what each term is, and its display unit: (label, scale from SI for gyros, unit; for accels)
@@ -242,6 +254,9 @@ def _sensor_text(name: str, d: dict[str, Any]) -> str:
             rel = f" ±{100 * t['sd'] / t['value']:.0f} %" if t["sd"] is not None else ""
             sep = "" if t["unit"] == "″" else " "
             parts.append(f"{sym} {_fmt(t['value'])}{sep}{t['unit']}{rel} (resolved{where})")
+        elif key == "q" and t["value"] > 0:  # used for the velocity measurement all the same
+            sep = "" if t["unit"] == "″" else " "
+            parts.append(f"Q ≈ {_fmt(t['value'])}{sep}{t['unit']} (not resolved)")
         elif key == "n" and "bound" in t:
             parts.append(
                 f"N ≤ {_fmt(t['bound'])} {t['unit']} (bound at τ = {t['bound_tau_s']:g} s)"
@@ -320,8 +335,9 @@ def estimate_noise_allan(
             allan={"first_differences": fd, "seconds_used": int(ok.sum())},
         )
     try:
-        gc = _pooled(_series(blocks.w_mean, grid, ok))
-        ac = _pooled(_series(blocks.f_mean, grid, ok))
+        taus = _taus(ok)
+        gc = _pooled(_series(blocks.w_mean, grid, ok), taus)
+        ac = _pooled(_series(blocks.f_mean, grid, ok), taus)
         gf = fit_noise_terms(gc)
         af = fit_noise_terms(ac)
     except ConfigError as exc:  # too little for a fit
