@@ -39,6 +39,20 @@ Confidence
     ``M = Σ_s ⌊n_samples_s / m⌋`` over the stretches. It is conservative for the
     overlapping estimator; allantools' own ``σ/√n_pairs`` treats the overlapping
     differences as independent and is ``√(m/2)`` times too optimistic at long τ.
+
+The five terms fitted together
+    :func:`fit_noise_terms` fits the whole IEEE 952 model, ``σ²(τ) = 3Q²/τ² + N²/τ +
+    (2 ln 2/π) B² + K² τ/3 + R² τ²/2``, to every point of a curve by non-negative weighted
+    least squares on the Allan variance, each point weighted by its clusters, and says which
+    terms the curve resolves and on which τ; ``N`` and ``K`` get upper bounds where it does
+    not (a dithered laser gyro's white angle noise ``Q``, slope −1, hiding the random walk
+    on a 10 min record). :func:`noise_parameters` is the slope reading of Annex C, kept for
+    the calibration report's table.
+
+Why one module
+    The Allan variance, its confidence (the clusters of each τ) and the two readings of it
+    (slopes, fit) are one idea: the fit's weights and bounds are the curve's confidence, and
+    both readings must agree on the same curve; split, they would share private helpers.
 """
 
 from __future__ import annotations
@@ -55,11 +69,16 @@ from rinscal.errors import ConfigError
 
 __all__ = [
     "BIAS_INSTABILITY_FACTOR",
+    "MIN_CLUSTERS",
     "AllanCurve",
+    "NoiseFit",
     "NoiseParameters",
+    "NoiseTerm",
     "allan_deviation",
     "allan_deviations",
+    "fit_noise_terms",
     "noise_parameters",
+    "pool_curves",
 ]
 
 #: ``√(2 ln 2 / π)``: the flat floor of the Allan deviation of flicker (1/f) noise of
@@ -94,19 +113,33 @@ class AllanCurve:
     n_pairs : ndarray of int, shape (m,)
         Number of overlapping second differences averaged at each ``tau_s``, summed over
         the NaN-free stretches of the record.
+    clusters : ndarray of float, shape (m,), optional
+        Number ``M`` of independent clusters of each ``tau_s`` (summed over stretches, and
+        over channels for a pooled curve). Without it (a curve built by hand) it is read
+        back from ``adev_err``: ``M = 1 + (adev/adev_err)²/2``.
     """
 
     tau_s: NDArray[np.float64]
     adev: NDArray[np.float64]
     adev_err: NDArray[np.float64]
     n_pairs: NDArray[np.int64]
+    clusters: NDArray[np.float64] | None = None
 
     def __post_init__(self) -> None:
+        adev = np.array(self.adev, dtype=np.float64)
+        err = np.array(self.adev_err, dtype=np.float64)
+        if self.clusters is None:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                m = 1.0 + 0.5 * (adev / err) ** 2
+            clusters = np.where(np.isfinite(m), m, 1.0)
+        else:
+            clusters = np.array(self.clusters, dtype=np.float64)
         arrays = {
             "tau_s": np.array(self.tau_s, dtype=np.float64),
-            "adev": np.array(self.adev, dtype=np.float64),
-            "adev_err": np.array(self.adev_err, dtype=np.float64),
+            "adev": adev,
+            "adev_err": err,
             "n_pairs": np.array(self.n_pairs, dtype=np.int64),
+            "clusters": clusters,
         }
         shape = arrays["tau_s"].shape
         if len(shape) != 1 or shape[0] == 0:
@@ -312,7 +345,7 @@ def _allan(a: NDArray[np.float64], rate: float, taus: Any, name: str) -> AllanCu
         clusters[use] += s.size // m_all[use]
     adev = np.sqrt(sum_sq / pairs)
     err = adev / np.sqrt(2.0 * np.maximum(clusters - 1, 1))
-    return AllanCurve(tau_s=m_all / rate, adev=adev, adev_err=err, n_pairs=pairs)
+    return AllanCurve(tau_s=m_all / rate, adev=adev, adev_err=err, n_pairs=pairs, clusters=clusters)
 
 
 def allan_deviations(
@@ -457,3 +490,300 @@ def noise_parameters(
         b = float(sig[i_min]) / BIAS_INSTABILITY_FACTOR
         b_tau = float(tau[i_min])
     return NoiseParameters(n=n, n_tau_s=n_tau, b=b, b_tau_s=b_tau, k=k, k_tau_s=k_tau)
+
+
+# ---------------------------------------------------------------------------------------
+# IEEE 952 terms fitted to the whole curve
+# ---------------------------------------------------------------------------------------
+
+#: Fewest independent clusters (dimensionless) of a point that may show a term dominating
+#: or bound the random walk: 10 (relative 1σ of the deviation 1/√18 = 24 %).
+MIN_CLUSTERS = 10.0
+#: Largest relative 1σ (dimensionless) of a fitted term's value that makes it resolved.
+RESOLVED_REL_SD = 0.3
+#: A term dominating somewhere is resolved if its relative 1σ is at most this.
+DOMINANT_REL_SD = 0.5
+
+#: The IEEE 952 terms in the fit: name, power of τ in σ²(τ), coefficient, and what it is.
+_TERMS: tuple[tuple[str, int, float, str], ...] = (
+    ("q", -2, 3.0, "white angle (velocity) noise / quantisation"),
+    ("n", -1, 1.0, "angle (velocity) random walk"),
+    ("b", 0, BIAS_INSTABILITY_FACTOR**2, "bias instability"),
+    ("k", 1, 1.0 / 3.0, "rate random walk"),
+    ("r", 2, 0.5, "rate ramp"),
+)
+
+
+@dataclass(frozen=True)
+class NoiseTerm:
+    """One IEEE 952 term fitted to an Allan variance curve (``u`` the unit of the curve).
+
+    Attributes
+    ----------
+    name : {"q", "n", "b", "k", "r"}
+        Quantisation / white angle noise ``Q`` [u·s], angle random walk ``N`` [u·√s], bias
+        instability ``B`` [u], rate random walk ``K`` [u/√s], rate ramp ``R`` [u/s].
+    value : float
+        The fitted value (≥ 0; 0 where the fit put none).
+    sd : float
+        Its 1σ from the weighted least squares (``inf`` where the curve cannot tell it).
+    resolved : bool
+        The curve determines it: relative 1σ ≤ :data:`RESOLVED_REL_SD`, or it is the
+        largest term at some τ with at least :data:`MIN_CLUSTERS` clusters and its relative
+        1σ ≤ :data:`DOMINANT_REL_SD`.
+    dominant_tau_s : tuple of float or None [s]
+        First and last τ (with enough clusters) where its contribution to σ² is the largest.
+    bound : float or None
+        Upper bound on the term from the curve alone (``N`` and ``K``, whatever the other
+        terms): ``N ≤ σ(τ)·√τ`` and ``K ≤ σ(τ)·√(3/τ)`` at the τ that gives the smallest,
+        each σ raised by its 1σ, over the points with enough clusters.
+    bound_tau_s : float or None [s]
+        The τ of that bound.
+    """
+
+    name: str
+    value: float
+    sd: float
+    resolved: bool
+    dominant_tau_s: tuple[float, float] | None = None
+    bound: float | None = None
+    bound_tau_s: float | None = None
+
+    @property
+    def rel_sd(self) -> float:
+        """``sd / value`` (``inf`` for a zero value)."""
+        return self.sd / self.value if self.value > 0 else math.inf
+
+
+@dataclass(frozen=True)
+class NoiseFit:
+    """The five IEEE 952 terms fitted to one Allan curve, and what the curve could show.
+
+    Attributes
+    ----------
+    q, n, b, k, r : NoiseTerm
+        See :class:`NoiseTerm`.
+    tau_s : tuple of float [s]
+        First and last τ of the points fitted.
+    tau_reliable_s : float [s]
+        Longest τ with at least :data:`MIN_CLUSTERS` clusters.
+    points : int
+        Points fitted.
+    chi2_dof : float
+        Weighted residual sum of squares per degree of freedom (≈ 1 when the model and the
+        confidence agree; below 1 is usual, the overlapping points being correlated).
+    """
+
+    q: NoiseTerm
+    n: NoiseTerm
+    b: NoiseTerm
+    k: NoiseTerm
+    r: NoiseTerm
+    tau_s: tuple[float, float]
+    tau_reliable_s: float
+    points: int
+    chi2_dof: float
+
+    @property
+    def terms(self) -> tuple[NoiseTerm, ...]:
+        return (self.q, self.n, self.b, self.k, self.r)
+
+    def n_for_filter(self) -> tuple[float, bool]:
+        """The random walk a filter should assume: ``N`` if resolved, else its bound.
+
+        Returns ``(value [u·√s], resolved)``; the bound is the safe side (the truth lies
+        under it), the fitted value of an unresolved ``N`` is not.
+        """
+        if self.n.resolved or self.n.bound is None:
+            return self.n.value, self.n.resolved
+        return self.n.bound, False
+
+    def model(self, tau_s: ArrayLike) -> NDArray[np.float64]:
+        """The fitted Allan deviation at ``tau_s`` [s] (unit of the curve)."""
+        t = np.asarray(tau_s, dtype=np.float64)
+        var = sum(
+            c * term.value**2 * t**p for (_, p, c, _), term in zip(_TERMS, self.terms, strict=True)
+        )
+        return np.sqrt(var)
+
+
+def pool_curves(curves: list[AllanCurve] | tuple[AllanCurve, ...]) -> AllanCurve:
+    """One curve of several channels of the same noise: the mean Allan variance.
+
+    The channels (e.g. the three axes of a gyro triad) must share the τ grid; their
+    variances are averaged and their clusters summed (independent channels), so the result
+    is the curve of the channels' mean-square noise with the confidence of all of them.
+    """
+    if not curves:
+        raise ConfigError("pool_curves needs at least one curve")
+    tau = curves[0].tau_s
+    for c in curves[1:]:
+        if c.tau_s.shape != tau.shape or not np.allclose(c.tau_s, tau):
+            raise ConfigError("pool_curves: the curves must share their averaging times")
+    var = np.mean([c.adev**2 for c in curves], axis=0)
+    clusters = np.sum([c.clusters for c in curves], axis=0)
+    adev = np.sqrt(var)
+    err = adev / np.sqrt(2.0 * np.maximum(clusters - 1.0, 1.0))
+    pairs = np.sum([c.n_pairs for c in curves], axis=0)
+    return AllanCurve(tau_s=tau, adev=adev, adev_err=err, n_pairs=pairs, clusters=clusters)
+
+
+def _nnls(a: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Non-negative least squares ``min ‖a x − y‖, x ≥ 0`` of a few unknowns, exactly.
+
+    The solution is the unconstrained least squares on its own support (the terms it
+    keeps); with five terms every support (31) is tried and the best feasible one kept.
+    Columns are scaled to unit norm first (the terms differ by many decades).
+    """
+    k = a.shape[1]
+    scale = np.linalg.norm(a, axis=0)
+    scale[scale == 0] = 1.0
+    b = a / scale
+    best = np.zeros(k)
+    best_r = float(np.dot(y, y))
+    for mask in range(1, 2**k):
+        cols = [j for j in range(k) if mask >> j & 1]
+        sol, *_ = np.linalg.lstsq(b[:, cols], y, rcond=None)
+        if np.any(sol <= 0):
+            continue
+        r = y - b[:, cols] @ sol
+        rr = float(np.dot(r, r))
+        if rr < best_r:
+            best_r = rr
+            best = np.zeros(k)
+            best[cols] = sol
+    return np.asarray(best / scale, dtype=np.float64)
+
+
+def _cov(a: NDArray[np.float64], cols: list[int]) -> NDArray[np.float64]:
+    """Covariance of the parameters ``cols`` of the whitened system ``a`` (pinv)."""
+    sub = a[:, cols]
+    return np.asarray(np.linalg.pinv(sub.T @ sub), dtype=np.float64)
+
+
+def fit_noise_terms(
+    curve: AllanCurve, *, min_clusters: float = MIN_CLUSTERS, iterations: int = 4
+) -> NoiseFit:
+    """Fit the IEEE Std 952-1997 model to every point of an Allan curve.
+
+    The model (IEEE Std 952-1997 Annex C, eq. C.15; El-Sheimy, Hou & Niu 2008, IEEE Trans.
+    Instrum. Meas. 57(1), Table I) is the sum of the Allan variances of five independent
+    processes, ``u`` the unit of the curve (a rate):
+
+    ``σ²(τ) = 3Q²/τ² + N²/τ + (2 ln 2/π) B² + K² τ/3 + R² τ²/2``
+
+    with ``Q`` the quantisation / white angle noise [u·s] (slope −1: a pulse-output gyro's
+    count, a dithered laser gyro's angle noise, an accelerometer's velocity count), ``N``
+    the angle (velocity) random walk [u·√s] (slope −1/2), ``B`` the bias instability [u]
+    (flat; the flicker floor's Allan variance, exact only where τ is well inside the
+    flicker band), ``K`` the rate random walk [u/√s] (+1/2) and ``R`` the rate ramp [u/s]
+    (+1). It is linear in ``(Q², N², B², K², R²)``, which are found by **non-negative
+    weighted least squares** on the Allan *variance* of every point (not only those with
+    many clusters: a point's weight is its confidence). The variance of an Allan variance
+    estimated from ``M`` independent clusters is ``2σ⁴/(M − 1)`` (from IEEE 952's
+    ``σ/√(2(M − 1))`` on the deviation), so each point is weighted by ``(M − 1)/(2σ⁴)``,
+    σ the model's (iteratively reweighted: the measured σ⁴ would favour points that came
+    out low). The covariance of the terms the fit kept is the inverse normal matrix, scaled
+    by the residual χ² per degree of freedom where above 1; a term the fit put at zero gets
+    the 1σ it would have had if freed alone.
+
+    What the curve shows (:class:`NoiseTerm`): a term is *resolved* when its relative 1σ is
+    at most 30 %, or when it dominates σ² somewhere among the points with at least
+    ``min_clusters`` clusters and its relative 1σ is at most 50 %. ``N`` and ``K`` also get
+    bounds from the curve alone: every term adds to σ², so ``N²/τ ≤ σ²(τ)`` and
+    ``K²τ/3 ≤ σ²(τ)`` at every τ; the bound is the smallest ``(σ + 1σ)·√τ`` (``·√(3/τ)``)
+    over the points with enough clusters. Where quantisation dominates up to the longest
+    such τ (a dithered laser gyro on a 10 min window), ``N ≤ σ(τ_max)·√τ_max`` is what the
+    curve can say, and :meth:`NoiseFit.n_for_filter` hands that bound on.
+
+    Parameters
+    ----------
+    curve : AllanCurve
+        From :func:`allan_deviation` or :func:`pool_curves`, in unit ``u``; points with
+        ``σ = 0`` or fewer than 2 clusters are left out.
+    min_clusters : float
+        Clusters a point needs to show a dominating term or give a bound (default 10).
+    iterations : int
+        Reweighting passes (≥ 1).
+
+    Returns
+    -------
+    NoiseFit
+
+    Raises
+    ------
+    rinscal.errors.ConfigError
+        Fewer than 2 usable points.
+    """
+    if not (min_clusters >= 2):
+        raise ConfigError(f"min_clusters must be at least 2, got {min_clusters!r}")
+    use = (curve.adev > 0) & np.isfinite(curve.adev) & (curve.clusters >= 2)
+    if np.count_nonzero(use) < 2:
+        raise ConfigError(
+            f"an IEEE 952 fit needs at least 2 points with 2 clusters; the curve has "
+            f"{int(np.count_nonzero(use))} of {len(curve)}"
+        )
+    tau = curve.tau_s[use]
+    sig = curve.adev[use]
+    m = curve.clusters[use]
+    y = sig**2
+    basis = np.stack([c * tau**p for _, p, c, _ in _TERMS], axis=1)
+    dof_w = np.maximum(m - 1.0, 1.0) / 2.0  # 1 / relative variance of σ²
+    model = y.copy()
+    x = np.zeros(len(_TERMS))
+    for _ in range(max(1, int(iterations))):
+        s = model / np.sqrt(dof_w)  # 1σ of each σ² point
+        x = _nnls(basis / s[:, None], y / s)
+        fitted = basis @ x
+        # guard: a point the model calls zero keeps its own variance as its scale
+        model = np.where(fitted > 0, fitted, y)
+    s = model / np.sqrt(dof_w)
+    aw = basis / s[:, None]
+    resid = (y - basis @ x) / s
+    active = [j for j in range(len(_TERMS)) if x[j] > 0]
+    dof = max(tau.size - len(active), 1)
+    chi2 = float(np.sum(resid**2) / dof)
+    inflate = max(chi2, 1.0)
+    var_theta = np.full(len(_TERMS), np.inf)
+    if active:
+        cov = _cov(aw, active) * inflate
+        for i, j in enumerate(active):
+            var_theta[j] = cov[i, i]
+    for j in range(len(_TERMS)):
+        if j not in active:
+            cov = _cov(aw, [*active, j]) * inflate
+            var_theta[j] = cov[-1, -1]
+
+    reliable = m >= min_clusters
+    tau_rel = float(tau[reliable][-1]) if np.any(reliable) else float(tau[0])
+    contrib = basis * x  # each term's σ² at each point
+    largest = np.argmax(contrib, axis=1)
+    rel_dev = 1.0 / np.sqrt(2.0 * np.maximum(m - 1.0, 1.0))
+    upper = sig * (1.0 + rel_dev)
+    terms: list[NoiseTerm] = []
+    for j, (name, power, coef, _) in enumerate(_TERMS):
+        theta = float(x[j])
+        value = math.sqrt(theta)
+        sd_theta = math.sqrt(var_theta[j]) if np.isfinite(var_theta[j]) else math.inf
+        # σ of √θ: sd_θ / (2√θ) where θ > 0; at θ = 0 the 1σ of √θ is √(sd_θ)
+        sd = sd_theta / (2.0 * value) if value > 0 else math.sqrt(sd_theta)
+        dom = reliable & (largest == j) & (theta > 0)
+        dom_tau = (float(tau[dom][0]), float(tau[dom][-1])) if np.any(dom) else None
+        rel = sd / value if value > 0 else math.inf
+        resolved = value > 0 and (
+            rel <= RESOLVED_REL_SD or (dom_tau is not None and rel <= DOMINANT_REL_SD)
+        )
+        bound = bound_tau = None
+        if power in (-1, 1) and np.any(reliable):
+            b_all = upper / np.sqrt(coef * tau**power)
+            b_all = np.where(reliable, b_all, np.inf)
+            i = int(np.argmin(b_all))
+            bound, bound_tau = float(b_all[i]), float(tau[i])
+        terms.append(NoiseTerm(name, value, sd, bool(resolved), dom_tau, bound, bound_tau))
+    return NoiseFit(
+        *terms,
+        tau_s=(float(tau[0]), float(tau[-1])),
+        tau_reliable_s=tau_rel,
+        points=int(tau.size),
+        chi2_dof=chi2,
+    )

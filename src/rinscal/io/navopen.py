@@ -208,7 +208,14 @@ def _read_meta_fields(meta: dict[str, Any] | None, mp: str) -> dict[str, Any]:
             raise LogError(f"{mp}: noise must be an object of noise densities")
         out["noise"] = {
             k: _meta_number(noise, k, f"{mp}: noise")
-            for k in ("gyro_noise_density", "accel_noise_density", "gyro_bias_rw", "accel_bias_rw")
+            for k in (
+                "gyro_noise_density",
+                "accel_noise_density",
+                "gyro_bias_rw",
+                "accel_bias_rw",
+                "gyro_angle_noise",
+                "accel_velocity_noise",
+            )
             if k in noise
         }
         for k, v in out["noise"].items():

@@ -37,6 +37,12 @@ from rinscal.nav.recorded.kind import (
     window_motion,
 )
 from rinscal.nav.recorded.navigate import Reference, navigate_recording
+from rinscal.nav.recorded.noise import (
+    KF_INTERVAL_S,
+    estimate_noise_allan,
+    noise_text,
+    velocity_meas_sd,
+)
 from rinscal.nav.recorded.window import (
     MIN_WINDOW_S,
     Noise,
@@ -44,7 +50,6 @@ from rinscal.nav.recorded.window import (
     check_at_rest,
     check_encoder,
     check_turning_without_encoder,
-    estimate_noise,
     find_window,
     seen_schedule,
 )
@@ -335,10 +340,10 @@ def navigate_log(
         low = f" ({rate_hz:.3g} Hz)" if rate_hz < 10 else ""
         raise LogError(f"{path}{low}: {exc} [{_unit_source(log)}]") from None
     warnings += warn
-    noise = imu_noise or _noise(log, blocks, window)
+    noise = imu_noise or _noise(log, blocks, window, reference.lat)
     floor = window.quality.get("floor_ug", math.nan) * units.UG_TO_MPS2
     expected = noise.accel_density / math.sqrt(dt)
-    if noise.source != "estimated on the window" and floor > 3 * expected:
+    if not noise.source.startswith("estimated on the window") and floor > 3 * expected:
         warnings.append(
             f"the quietest seconds of the recording scatter by {floor / units.UG_TO_MPS2:.0f} µg, "
             f"{floor / expected:.1f} × the accelerometer noise of {noise.source} "
@@ -495,24 +500,36 @@ def _unit_source(log: Any) -> str:
     return f"rates read as {said}, from {src}"
 
 
-def _noise(log: Any, blocks: Any, window: Any) -> Noise:
-    """The filter's sensor noise: the log's metadata, else estimated on the window."""
+def _noise(log: Any, blocks: Any, window: Any, lat: float) -> Noise:
+    """The filter's sensor noise: the log's metadata, else estimated on the window (from its
+    Allan deviation, :mod:`rinscal.nav.recorded.noise`)."""
     meta = log.noise
     if meta:
         try:
+            q_th = float(meta.get("gyro_angle_noise", 0.0))
+            q_v = float(meta.get("accel_velocity_noise", 0.0))
+            if not (q_th >= 0 and q_v >= 0 and math.isfinite(q_th + q_v)):
+                raise ValueError("negative")
             return Noise(
                 float(meta["gyro_noise_density"]),
                 float(meta["accel_noise_density"]),
                 float(meta.get("gyro_bias_rw", 0.0)),
                 float(meta.get("accel_bias_rw", 0.0)),
                 "metadata of the log",
+                gyro_angle_white=q_th,
+                accel_velocity_white=q_v,
+                velocity_meas_sd=(
+                    velocity_meas_sd(q_v, q_th, KF_INTERVAL_S) if q_th > 0 or q_v > 0 else None
+                ),
             )
         except (KeyError, TypeError, ValueError):
             raise ConfigError(
                 f"{log.path}: metadata 'noise' needs gyro_noise_density [rad/√s] and "
-                f"accel_noise_density [m/s²/√Hz], got {meta!r}"
+                f"accel_noise_density [m/s²/√Hz] (optionally gyro_bias_rw, accel_bias_rw, "
+                f"gyro_angle_noise [rad], accel_velocity_noise [m/s], none negative), "
+                f"got {meta!r}"
             ) from None
-    return estimate_noise(blocks, window)
+    return estimate_noise_allan(blocks, window, lat=lat)
 
 
 def heading_text(report: dict[str, Any]) -> str:
@@ -523,9 +540,7 @@ def heading_text(report: dict[str, Any]) -> str:
         f"alignment window {a:.0f}-{a + w['length_s']:.0f} s ({w['how']}"
         f", |f| spread median {w['sd_ug_median']:.0f} µg against a floor of "
         f"{w['floor_ug']:.0f} µg, {100 * w['quiet_fraction']:.0f} % of its seconds quiet); "
-        f"filter noise {report['noise']['source']}: "
-        f"{report['noise']['gyro_arw_deg_per_rth']:.2g} °/√h, "
-        f"{report['noise']['accel_vrw_ug_per_rthz']:.3g} µg/√Hz"
+        + noise_text(report["noise"])
     )
 
 

@@ -7,8 +7,9 @@ pieces:
 1. :class:`~rinscal.nav.recorded.blocks.BlockStats` sums every second of the recording: the
    specific force magnitude ``|f|`` (its mean and spread), the mean rate and force vectors,
    the spread of first differences (white noise) and the encoder's turn. From these
-   :mod:`~rinscal.nav.recorded.window` finds the alignment window (``find_window``), the
-   filter's sensor noise if nobody gave it (``estimate_noise``), whether the units are
+   :mod:`~rinscal.nav.recorded.window` finds the alignment window (``find_window``),
+   :mod:`~rinscal.nav.recorded.noise` the filter's sensor noise if nobody gave it (from the
+   window's Allan deviation, ``estimate_noise_allan``), whether the units are
    plausible (``check_at_rest``) and what the turntable did (``seen_schedule``).
 2. :func:`~rinscal.nav.recorded.navigate.navigate_recording` runs the variants
    (uncompensated, one per model) side by side: every variant's compensator sees every
@@ -26,7 +27,9 @@ Modules
 :mod:`~rinscal.nav.recorded.kind`
     What the recording is: at rest, moving, a calibration log (said before the window).
 :mod:`~rinscal.nav.recorded.window`
-    The alignment window, the sensor noise, the checks, the turntable's schedule.
+    The alignment window, the first-difference noise, the checks, the turntable's schedule.
+:mod:`~rinscal.nav.recorded.noise`
+    The filter's noise from the window's Allan deviation (IEEE 952 terms, bounds).
 :mod:`~rinscal.nav.recorded.compensation`
     Causal thermal compensation piece by piece.
 :mod:`~rinscal.nav.recorded.navigate`

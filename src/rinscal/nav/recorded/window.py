@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -200,11 +200,22 @@ class Noise:
     Attributes
     ----------
     gyro_density : float [rad/√s]
+        Angle random walk ``N`` (the filter's gyro process noise).
     accel_density : float [m/s²/√Hz]
+        Velocity random walk ``N`` (its accelerometer process noise).
     gyro_bias_rw : float [rad/s/√s]
     accel_bias_rw : float [m/s²/√s]
     source : str
-        ``"metadata"``, ``"--imu NAME"`` or ``"estimated on the window"``.
+        ``"metadata of the log"``, ``"--imu NAME"`` or ``"estimated on the window
+        (Allan: ...)"``.
+    gyro_angle_white : float [rad]
+        White angle noise / quantisation ``Q`` of the gyros (0: none known).
+    accel_velocity_white : float [m/s]
+        White velocity noise / quantisation ``Q`` of the accelerometers (0: none known).
+    velocity_meas_sd : float or None [m/s]
+        The zero-velocity measurement's sd the filter gets (None: its default).
+    allan : dict or None
+        What the Allan curves of the window showed (:mod:`~rinscal.nav.recorded.noise`).
     """
 
     gyro_density: float
@@ -212,13 +223,25 @@ class Noise:
     gyro_bias_rw: float = 0.0
     accel_bias_rw: float = 0.0
     source: str = "given"
+    gyro_angle_white: float = 0.0
+    accel_velocity_white: float = 0.0
+    velocity_meas_sd: float | None = None
+    allan: dict[str, Any] | None = None
 
     def to_dict(self) -> dict[str, Any]:
-        return {
+        out: dict[str, Any] = {
             "source": self.source,
             "gyro_arw_deg_per_rth": self.gyro_density / units.DPRH_TO_RPRS,
             "accel_vrw_ug_per_rthz": self.accel_density / units.UG_TO_MPS2,
         }
+        if self.gyro_angle_white > 0 or self.accel_velocity_white > 0:
+            out["gyro_angle_white_arcsec"] = self.gyro_angle_white / units.ARCSEC_TO_RAD
+            out["accel_velocity_white_mm_per_s"] = 1e3 * self.accel_velocity_white
+        if self.velocity_meas_sd is not None:
+            out["velocity_meas_sd_mm_per_s"] = 1e3 * self.velocity_meas_sd
+        if self.allan is not None:
+            out["allan"] = self.allan
+        return out
 
 
 def estimate_noise(blocks: Blocks, window: Window) -> Noise:
@@ -524,8 +547,9 @@ def seen_schedule(blocks: Blocks) -> dict[str, Any]:
 def align_config(
     noise: Noise, window: Window, coarse_s: float = 60.0, base: AlignConfig | None = None
 ) -> AlignConfig:
-    """Alignment settings for a window and a noise (bias Markov floors as :func:`align_for`)."""
-    return align_from_noise(
+    """Alignment settings for a window and a noise (bias Markov floors as :func:`align_for`;
+    the zero-velocity measurement sd from ``noise.velocity_meas_sd`` where it has one)."""
+    cfg = align_from_noise(
         noise.gyro_density,
         noise.accel_density,
         noise.gyro_bias_rw,
@@ -534,3 +558,6 @@ def align_config(
         coarse_s=coarse_s,
         start_s=max(window.start_s, 0.0),  # informative only: a log's clock may start < 0
     )
+    if noise.velocity_meas_sd is not None:
+        cfg = replace(cfg, velocity_meas_sd=noise.velocity_meas_sd)
+    return cfg
