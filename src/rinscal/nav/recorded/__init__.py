@@ -6,7 +6,8 @@ pieces:
 
 1. :class:`~rinscal.nav.recorded.blocks.BlockStats` sums every second of the recording: the
    specific force magnitude ``|f|`` (its mean and spread), the mean rate and force vectors,
-   the spread of first differences (white noise) and the encoder's turn. From these
+   the spread of first differences (white noise), the encoder's turn, and the largest
+   deviation of its 0.1 s means. From these
    :mod:`~rinscal.nav.recorded.window` finds the alignment window (``find_window``), the
    filter's sensor noise if nobody gave it (``estimate_noise``), whether the units are
    plausible (``check_at_rest``) and what the turntable did (``seen_schedule``).
@@ -15,7 +16,7 @@ pieces:
    sample from the first on (its temperature history is causal), the aligner the window,
    the strapdown everything after it.
 
-What "quiet" means is told in :mod:`~rinscal.nav.recorded.window`.
+What "quiet" means is told in :mod:`~rinscal.nav.recorded.motion`.
 
 Modules
 -------
@@ -23,6 +24,8 @@ Modules
     The recorded-navigation log's columns written from a simulated chunk.
 :mod:`~rinscal.nav.recorded.blocks`
     The first pass: per-second sums.
+:mod:`~rinscal.nav.recorded.motion`
+    Which seconds are quiet, judged on what quantisation cannot hide; where it moved.
 :mod:`~rinscal.nav.recorded.window`
     The alignment window, the sensor noise, the checks, the turntable's schedule.
 :mod:`~rinscal.nav.recorded.compensation`
