@@ -179,6 +179,7 @@ class BlockStats:
         dw = np.diff(w, axis=0, prepend=pw)
         df = np.diff(f, axis=0, prepend=pf)
         self._prev_w, self._prev_f = w[-1:].copy(), f[-1:].copy()
+        first_table = s.table is not None and self._prev_table is None
         if s.table is not None:
             u = self._unwrap(s.table)
             if self._prev_table is None:
@@ -205,6 +206,8 @@ class BlockStats:
         if s.table is not None:
             psi = u
             wz = w[:, 2] - turn / dt
+            if first_table and s.n > 1:  # the first reading's turn is unknown: the next's
+                wz[0] = w[0, 2] - turn[1] / dt[1]
         else:
             psi = self._psi + np.cumsum(s.dtheta[:, 2])
             self._psi = float(psi[-1])
