@@ -227,6 +227,37 @@ def test_the_cli_finds_and_reports_the_disturbance_without_false_warnings(
     # a correct site and the true noise: no latitude, no "never at rest"
     assert not any("latitude" in x or "never" in x for x in rec["warnings"]), rec["warnings"]
     assert rec["at_rest"]["latitude_measured_deg"] == pytest.approx(34.75, abs=0.3)
+    # nor with a preset's noise (a navigation-grade unit's, finer than this one's)
+    res = runner.invoke(
+        app,
+        ["navigate", "--log", str(log), "--align-s", "300", "--imu", "navigation_grade",
+         "--out", str(tmp_path / "p")],
+    )  # fmt: skip
+    assert res.exit_code == 0, res.output
+    rec = json.loads((tmp_path / "p" / "summary.json").read_text())["recording"]
+    assert not any("latitude" in x or "never" in x for x in rec["warnings"]), rec["warnings"]
+
+
+def test_a_turntable_without_its_encoder_is_checked_at_rest_dwell_by_dwell(
+    tmp_path: Path,
+) -> None:
+    run = tmp_path / "table.parquet"
+    res = runner.invoke(
+        app,
+        ["navigate", "--scenario", "quasi-static", "--hours", "0.25", "--rate", "10",
+         "--no-oracle", "--out", str(tmp_path / "sim"), "--record", str(run)],
+    )  # fmt: skip
+    assert res.exit_code == 0, res.output
+    bare = tmp_path / "bare.parquet"
+    pd.read_parquet(run).drop(columns=["table_deg"]).to_parquet(bare)
+    Path(f"{bare}.meta.json").write_text(Path(f"{run}.meta.json").read_text())
+    res = runner.invoke(app, ["navigate", "--log", str(bare), "--out", str(tmp_path / "o")])
+    assert res.exit_code == 0, res.output
+    at_rest = json.loads((tmp_path / "o" / "summary.json").read_text())["recording"]["at_rest"]
+    # the four positions' dwells, each its own mean: the Earth rate and the site's latitude
+    assert at_rest["omega_checked"] and at_rest["dwells"] >= 4
+    assert at_rest["omega_over_earth_rate"] == pytest.approx(1.0, abs=0.02)
+    assert at_rest["latitude_measured_deg"] == pytest.approx(32.06, abs=0.5)
 
 
 def test_a_one_hertz_recording_is_judged_at_its_own_rate(tmp_path: Path) -> None:

@@ -31,7 +31,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rinscal import earth, units
-from rinscal.nav.recorded.blocks import Blocks
+from rinscal.nav.recorded.blocks import BLOCK_S, Blocks
 
 __all__ = [
     "FLOOR_PERCENTILE",
@@ -251,8 +251,8 @@ class Disturbance:
     tilt_count : int
         All such steps.
     step_peak_ug : float [µg]
-        Largest step of the force between seconds (or of its means over
-        :data:`TILT_SPAN` seconds).
+        NaN unless the force stepped in it; else the largest step of the force between
+        seconds (or of its means over :data:`TILT_SPAN` seconds).
     """
 
     start_s: float
@@ -285,6 +285,8 @@ class Disturbance:
             parts.append(f"force {self.accel_peak_mg:.2g} mg in 0.1 s")
         if not parts and not self.tilt_steps and math.isfinite(self.step_peak_ug):
             parts.append(f"force steps up to {self.step_peak_ug:.0f} µg between seconds")
+        if not parts and not self.tilt_steps:
+            parts.append("|f| unsteady within its seconds")
         if self.tilt_steps:
             at = ", ".join(f"{t:.0f}" for t, _ in self.tilt_steps)
             size = ", ".join(f"{a:.0f}″" for _, a in self.tilt_steps)
@@ -357,7 +359,7 @@ def motion(blocks: Blocks) -> Motion:
     g = 9.80665
     ug, dph = units.UG_TO_MPS2, units.DPH_TO_RPS
     f_floor, w_floor = 1e-5 * g, 0.1 * earth.RATE  # 10 µg (2″ of tilt), 1.5 °/h
-    spread = float(np.median(blocks.n)) >= MIN_SPREAD_SAMPLES
+    spread = BLOCK_S / blocks.dt >= MIN_SPREAD_SAMPLES - 1e-9  # the rate, not a short log's
     sd = blocks.fmag_sd
     floor = float(np.percentile(sd[full], FLOOR_PERCENTILE)) if full.any() else math.nan
     loud = np.zeros(blocks.size, dtype=bool)
@@ -438,21 +440,30 @@ def motion(blocks: Blocks) -> Motion:
                     if "accel_dev_ug" in beyond and beyond["accel_dev_ug"][a:b].any()
                     else math.nan,
                     step_peak_ug=max(
-                        (float(np.nanmax(x[a:b], initial=0.0)) / ug)
-                        for n_, x, _, _ in stats
-                        if n_ in ("accel_step_ug", "tilt_step_ug") and x is not None
+                        (
+                            float(np.nanmax(x[a:b], initial=0.0)) / ug
+                            for n_, x, _, _ in stats
+                            if n_ in beyond and n_.endswith("step_ug") and beyond[n_][a:b].any()
+                        ),
+                        default=math.nan,
                     ),
                     tilt_steps=tuple(big),
                     tilt_count=len(steps),
                 )
             )
-    judged = (
-        f"the spread of |f| within a second at most {thr / ug:.0f} µg, {QUIET_FACTOR:g} × the "
-        f"recording's floor of {floor / ug:.0f} µg, and "
-        if spread
-        else f"at {1 / blocks.dt:.3g} Hz (fewer than {MIN_SPREAD_SAMPLES} samples a second) "
-        "the steps between samples: "
-    ) + ", ".join(f"{k} ≤ {v:.3g}" for k, v in limits.items())
+    said = [f"{k} ≤ {v:.3g}" for k, v in limits.items()]
+    if spread:
+        said.insert(
+            0,
+            f"the spread of |f| within a second at most {thr / ug:.0f} µg, {QUIET_FACTOR:g} × "
+            f"the recording's floor of {floor / ug:.0f} µg",
+        )
+        judged = ", ".join(said)
+    else:
+        judged = (
+            f"at {1 / blocks.dt:.3g} Hz (fewer than {MIN_SPREAD_SAMPLES} samples a second) the "
+            f"steps between samples: {', '.join(said) or 'too few samples to judge'}"
+        )
     return Motion(quiet, floor, thr, limits, tuple(disturbed), judged)
 
 
