@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from rinscal import _check, units
+from rinscal import _check
 from rinscal.calibration.imulog import check_recording_for_imu
 from rinscal.calibration.modelfile import POLICIES, ThermalModelFile
 from rinscal.errors import ConfigError, LogError
@@ -45,10 +45,12 @@ from rinscal.nav.recorded.noise import (
 )
 from rinscal.nav.recorded.window import (
     MIN_WINDOW_S,
+    Disturbance,
     Noise,
     align_config,
     check_at_rest,
     check_encoder,
+    check_never_at_rest,
     check_turning_without_encoder,
     find_window,
     seen_schedule,
@@ -341,14 +343,11 @@ def navigate_log(
         raise LogError(f"{path}{low}: {exc} [{_unit_source(log)}]") from None
     warnings += warn
     noise = imu_noise or _noise(log, blocks, window, reference.lat)
-    floor = window.quality.get("floor_ug", math.nan) * units.UG_TO_MPS2
-    expected = noise.accel_density / math.sqrt(dt)
-    if not noise.source.startswith("estimated on the window") and floor > 3 * expected:
-        warnings.append(
-            f"the quietest seconds of the recording scatter by {floor / units.UG_TO_MPS2:.0f} µg, "
-            f"{floor / expected:.1f} × the accelerometer noise of {noise.source} "
-            f"({expected / units.UG_TO_MPS2:.0f} µg a sample): the IMU may never have been at rest"
+    if not noise.source.startswith("estimated on the window"):
+        at_rest["scatter"], warn = check_never_at_rest(
+            blocks, window, noise.accel_density, noise.source
         )
+        warnings += warn
     align = align_config(noise, window)
 
     comps: dict[str, Any] = {"none": None}
@@ -401,6 +400,8 @@ def navigate_log(
             "length_s": window.length_s,
             "how": window.how,
             **window.quality,
+            "disturbed": [d.to_dict() for d in window.disturbed],
+            "motion_limits": window.limits,
         },
         "noise": noise.to_dict(),
         "at_rest": at_rest,
@@ -541,7 +542,22 @@ def heading_text(report: dict[str, Any]) -> str:
         f", |f| spread median {w['sd_ug_median']:.0f} µg against a floor of "
         f"{w['floor_ug']:.0f} µg, {100 * w['quiet_fraction']:.0f} % of its seconds quiet); "
         + noise_text(report["noise"])
+        + "".join(f"\n{_disturbed_text(d)}" for d in w.get("disturbed", [])[:5])
     )
+
+
+def _disturbed_text(d: dict[str, Any]) -> str:
+    """One disturbed stretch of the report, in words (as :meth:`Disturbance.text`)."""
+    tilt = [(s["time_s"], s["arcsec"]) for s in d.get("tilt_steps", [])]
+    return Disturbance(
+        d["start_s"],
+        d["end_s"],
+        d["seconds_moving"],
+        math.nan if d["gyro_peak_dph"] is None else d["gyro_peak_dph"],
+        math.nan if d["accel_peak_mg"] is None else d["accel_peak_mg"],
+        tuple(tilt),
+        d.get("tilt_count", len(tilt)),
+    ).text()
 
 
 __all__ = ["TEMPERATURE_STEP_S", "RecordedNavigation", "heading_text", "navigate_log", "parse_site"]

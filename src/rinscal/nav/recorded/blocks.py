@@ -2,7 +2,10 @@
 
 Every second of the recording is summed: the specific force magnitude ``|f|`` (its mean and
 spread), the mean rate and force vectors, the spread of first differences (white noise) and
-the encoder's turn (:class:`TableUnwrap`). The window, noise and checks of
+the encoder's turn (:class:`TableUnwrap`); and every tenth of a second (:data:`SUB_S`): the
+mean force and rate, whose largest deviation from their second's mean is what a sway at a
+few hertz leaves where a coarse count hides it sample by sample (a sum over k samples of
+counts with the remainder carried is exact to one count). The window, noise and checks of
 :mod:`rinscal.nav.recorded.window` are computed from these sums.
 """
 
@@ -22,6 +25,7 @@ __all__ = [
     "BLOCK_S",
     "ENCODER_JUMP_DEG",
     "ENCODER_JUMP_DPS",
+    "SUB_S",
     "BlockStats",
     "Blocks",
     "TableUnwrap",
@@ -29,6 +33,10 @@ __all__ = [
 
 #: Length of the blocks the first pass sums over [s].
 BLOCK_S = 1.0
+#: Length of the short blocks within a second whose means the first pass compares [s].
+SUB_S = 0.1
+#: Short blocks in a second.
+SUBS = round(BLOCK_S / SUB_S)
 #: An encoder step in one sample that differs from the gyro's turn about z by more than
 #: this [deg] (or than this rate [deg/s] times the interval, if larger) is a jump.
 ENCODER_JUMP_DEG = 5.0
@@ -64,6 +72,14 @@ class Blocks:
     gaps : ndarray of bool, optional
         Blocks holding an interval longer than :data:`GAP_FACTOR` × the usual.
     has_table : bool
+    f_dev : ndarray, optional [m/s²]
+        Largest deviation (norm) of the block's :data:`SUB_S` means of the force from its
+        mean, both turned with the table into the frame of the block's mid (the encoder's
+        angle, else the z gyro's); NaN for a block holding fewer than two short blocks (a
+        rate below 20 Hz).
+    w_dev_xy, w_dev_z : ndarray, optional [rad/s]
+        The same of the rate: its x-y part (turned with the table), and z less the encoder's
+        turn (without an encoder: z as it is).
     """
 
     t0: NDArray[np.float64]
@@ -81,6 +97,9 @@ class Blocks:
     table_start: float = 0.0
     dt_jitter: float = 0.0
     gaps: NDArray[np.bool_] | None = None
+    f_dev: NDArray[np.float64] | None = None
+    w_dev_xy: NDArray[np.float64] | None = None
+    w_dev_z: NDArray[np.float64] | None = None
 
     @property
     def size(self) -> int:
@@ -131,6 +150,8 @@ class BlockStats:
         self._dt_sum = 0.0
         self._dt_sq = 0.0
         self._dt_n = 0
+        self._psi = 0.0  # the z gyro's turn so far, without encoder [rad]
+        self._subs: list[dict[str, NDArray]] = []
 
     def add(self, s: NavSamples) -> None:
         """Add one piece (in time order)."""
@@ -158,6 +179,7 @@ class BlockStats:
         dw = np.diff(w, axis=0, prepend=pw)
         df = np.diff(f, axis=0, prepend=pf)
         self._prev_w, self._prev_f = w[-1:].copy(), f[-1:].copy()
+        first_table = s.table is not None and self._prev_table is None
         if s.table is not None:
             u = self._unwrap(s.table)
             if self._prev_table is None:
@@ -177,6 +199,40 @@ class BlockStats:
                 self.n_jumps += int(bad.size)
         else:
             turn = np.zeros(s.n)
+        # short blocks: the force and the rate beyond the encoder's turn, and the angle the
+        # table (else the z gyro) stands at, summed every SUB_S within each second
+        x = (s.t - 0.5 * dt - self._origin) / BLOCK_S - ids
+        ks = k * SUBS + np.minimum((x * SUBS).astype(np.int64), SUBS - 1)
+        if s.table is not None:
+            psi = u
+            wz = w[:, 2] - turn / dt
+            if first_table and s.n > 1:  # the first reading's turn is unknown: the next's
+                wz[0] = w[0, 2] - turn[1] / dt[1]
+        else:
+            psi = self._psi + np.cumsum(s.dtheta[:, 2])
+            self._psi = float(psi[-1])
+            wz = w[:, 2]
+        ms = m * SUBS
+        sn = np.bincount(ks, minlength=ms)
+        full = np.flatnonzero(sn)
+        self._subs.append(
+            {
+                "id": lo * SUBS + full,
+                "n": sn[full].astype(float),
+                **{
+                    key: np.bincount(ks, weights=v, minlength=ms)[full]
+                    for key, v in (
+                        ("fx", f[:, 0]),
+                        ("fy", f[:, 1]),
+                        ("fz", f[:, 2]),
+                        ("wx", w[:, 0]),
+                        ("wy", w[:, 1]),
+                        ("wz", wz),
+                        ("psi", psi),
+                    )
+                },
+            }
+        )
         # k is sorted (time increases): each block's first and last sample by bisection
         lo_i = np.searchsorted(k, np.arange(m), side="left")
         hi_i = np.searchsorted(k, np.arange(m), side="right") - 1
@@ -231,6 +287,7 @@ class BlockStats:
 
         n = merge("n")
         keep = n > 0
+        f_dev, w_dev_xy, w_dev_z = self._short_blocks(u[keep])
         n = n[keep]
         fm = merge("fm")[keep] / n
         var = np.maximum(merge("fm2")[keep] / n - fm * fm, 0.0)
@@ -255,4 +312,45 @@ class BlockStats:
             gaps=merge("gap")[keep] > 0,
             has_table=bool(self._has_table),
             table_start=self._table_start,
+            f_dev=f_dev,
+            w_dev_xy=w_dev_xy,
+            w_dev_z=w_dev_z,
         )
+
+    def _short_blocks(self, blocks: NDArray[np.int64]) -> tuple[NDArray, NDArray, NDArray]:
+        """Per block (ids ``blocks``): the largest deviation of its short blocks' mean force,
+        x-y rate and z rate from the block's own, turned into the frame of the block's mid."""
+        ids = np.concatenate([p["id"] for p in self._subs])
+        u, inv = np.unique(ids, return_inverse=True)
+        mu = u.size
+
+        def merged(key: str) -> NDArray:
+            x = np.concatenate([p[key] for p in self._subs])
+            return np.bincount(inv, weights=x, minlength=mu)
+
+        n = merged("n")
+        b = np.searchsorted(blocks, u // SUBS)  # every short block lies in a kept block
+        nb = np.bincount(b, weights=n, minlength=blocks.size)
+        count = np.bincount(b, minlength=blocks.size)
+        psi = merged("psi") / n
+        rel = psi - (np.bincount(b, weights=psi * n, minlength=blocks.size) / nb)[b]
+        c, sn = np.cos(rel), np.sin(rel)
+
+        def turned(kx: str, ky: str) -> tuple[NDArray, NDArray]:
+            x, y = merged(kx) / n, merged(ky) / n  # a body-fixed vector, seen by the IMU
+            return c * x - sn * y, sn * x + c * y  # turned by rel, is the same all second
+
+        def dev(parts: list[NDArray]) -> NDArray:
+            sq = np.zeros(mu)
+            for p in parts:
+                mean = np.bincount(b, weights=p * n, minlength=blocks.size) / nb
+                sq += (p - mean[b]) ** 2
+            start = np.flatnonzero(np.diff(b, prepend=-1))  # b is sorted: each block's first
+            out = np.full(blocks.size, np.nan)
+            out[b[start]] = np.sqrt(np.maximum.reduceat(sq, start))
+            out[count < 2] = np.nan
+            return out
+
+        fx, fy = turned("fx", "fy")
+        wx, wy = turned("wx", "wy")
+        return dev([fx, fy, merged("fz") / n]), dev([wx, wy]), dev([merged("wz") / n])

@@ -1,15 +1,9 @@
 """From the first pass's sums: the alignment window, the sensor noise, the plausibility checks
 and what the turntable did.
 
-What "quiet" means. The inertial-frame coarse alignment and the zero-velocity filter need
-the IMU's *centre* at rest; angular motion (the turntable turning, a base swinging about
-the IMU) is allowed, since the gyros follow it. So a second of data is quiet when ``|f|``
-is steady (rotation about the centre leaves it at g): its spread within the second is at
-most :data:`QUIET_FACTOR` × the recording's floor (the 10th percentile of every second's
-spread, i.e. the sensor noise where at least a tenth of the recording is at rest) and its
-mean moved by no more than that from the previous second. People walking around a vehicle
-shake the IMU's centre by millimetres at a few hertz, milli-g of acceleration, which this
-sees; a smooth constant acceleration it would not (a vehicle never drives that smoothly).
+What "quiet" means is told in :mod:`~rinscal.nav.recorded.motion` (:func:`motion`): the
+window is the earliest quiet stretch long enough; where the recording moved is reported with
+it. The checks at rest use means over the window (a median of magnitudes is biased low).
 """
 
 from __future__ import annotations
@@ -25,7 +19,20 @@ from numpy.typing import NDArray
 from rinscal import earth, units
 from rinscal.errors import ConfigError, LogError
 from rinscal.nav.align import AlignConfig
-from rinscal.nav.recorded.blocks import Blocks
+from rinscal.nav.recorded.blocks import BLOCK_S, Blocks
+from rinscal.nav.recorded.motion import (
+    FLOOR_PERCENTILE,
+    MAX_LISTED,
+    QUIET_FACTOR,
+    TABLE_RATE_DPS,
+    TABLE_STILL_DPS,
+    Disturbance,
+    Motion,
+    motion,
+    quiet_blocks,
+    robust_limit,
+    table_frame,
+)
 from rinscal.nav.scenario import align_from_noise
 
 __all__ = [
@@ -33,32 +40,34 @@ __all__ = [
     "LATITUDE_TOL_DEG",
     "MIN_WINDOW_S",
     "QUIET_FACTOR",
+    "Disturbance",
+    "Motion",
     "Noise",
     "Window",
     "align_config",
     "check_at_rest",
     "check_encoder",
+    "check_never_at_rest",
     "check_turning_without_encoder",
     "estimate_noise",
     "find_window",
+    "motion",
     "quiet_blocks",
+    "robust_limit",
     "seen_schedule",
+    "table_frame",
 ]
 
-#: A turn of the table about z: |ω_z − Ω sin L| above this [°/s] (a table turns at 1-20 °/s).
-TABLE_RATE_DPS = 1.0
 #: Turned about z at rest, in all, beyond which a log without encoder angle is warned of [°].
 TABLE_TURN_DEG = 20.0
 #: What "at rest" allows the horizontal specific force to change while turning [m/s²] (2 mg:
 #: a vehicle that turns at 1 °/s while moving at 1 m/s feels 17 mg).
 AT_REST_HORIZONTAL_MPS2 = 2e-3 * 9.80665
 
-#: A block is quiet when the spread of ``|f|`` within it is at most this many times the floor.
-QUIET_FACTOR = 3.0
 #: Shortest stretch the window finder accepts [s] (the issue's "at least 300 s").
 MIN_WINDOW_S = 300.0
-#: Percentile of the per-second spread of ``|f|`` taken as the noise floor.
-FLOOR_PERCENTILE = 10.0
+#: The averaging time at which the window's scatter is compared with the noise told [s].
+AT_REST_TAU_S = 10.0
 #: The latitude the gyros measure at rest may differ from the site's by this much [deg]
 #: before the site is questioned (a 0.1 °/h gyro bias moves it by about 0.4°).
 LATITUDE_TOL_DEG = 2.0
@@ -80,36 +89,31 @@ class Window:
         ``sd_ug_median`` and ``sd_ug_max`` (spread of ``|f|`` within the window's seconds),
         ``quiet_fraction`` (of its seconds), ``stretch_s`` (length of the quiet stretch it
         starts, when found).
+    disturbed : tuple of Disturbance
+        Where the recording moved (all of it, not only before the window).
+    limits : dict
+        The limits of motion judged (:attr:`Motion.limits`).
     """
 
     start_s: float
     length_s: float
     how: str
     quality: dict[str, float] = field(default_factory=dict)
+    disturbed: tuple[Disturbance, ...] = ()
+    limits: dict[str, float] = field(default_factory=dict)
+
+    def text(self) -> str:
+        """Where the recording moved and where the window lies, e.g. ``"0-540 s disturbed:
+        gyro peaks 730 °/h, tilt step at 540 s; window 560-1160 s"``."""
+        a = round(self.start_s, 3) + 0.0
+        said = [d.text() for d in self.disturbed[:MAX_LISTED]]
+        if len(self.disturbed) > MAX_LISTED:
+            said.append(f"{len(self.disturbed) - MAX_LISTED} more disturbed stretch(es)")
+        return "; ".join([*said, f"window {a:.0f}-{a + self.length_s:.0f} s"])
 
     @property
     def end_s(self) -> float:
         return self.start_s + self.length_s
-
-
-def quiet_blocks(blocks: Blocks) -> tuple[NDArray[np.bool_], float, float]:
-    """Which seconds are quiet, the floor and the threshold of ``|f|``'s spread [m/s²].
-
-    A block holding fewer than half the usual samples (the recording's ends) or a gap is
-    never quiet. One loud second between quiet ones (a turntable starting with a jerk) is
-    forgiven.
-    """
-    full = blocks.n >= 0.5 * np.median(blocks.n)
-    if blocks.gaps is not None:  # the aligner steps by the nominal interval: no gap in it
-        full = full & ~blocks.gaps
-    sd = blocks.fmag_sd
-    floor = float(np.percentile(sd[full], FLOOR_PERCENTILE)) if full.any() else float("nan")
-    thr = QUIET_FACTOR * max(floor, 1e-9)
-    jump = np.abs(np.diff(blocks.fmag_mean, prepend=blocks.fmag_mean[:1]))
-    quiet = full & (sd <= thr) & (jump <= thr)
-    lone = np.zeros_like(quiet)
-    lone[1:-1] = ~quiet[1:-1] & quiet[:-2] & quiet[2:] & full[1:-1]
-    return quiet | lone, floor, thr
 
 
 def _stretches(quiet: NDArray[np.bool_]) -> list[tuple[int, int]]:
@@ -147,9 +151,13 @@ def find_window(
     """
     if not (math.isfinite(align_s) and align_s > 0):
         raise ConfigError(f"alignment length must be > 0 s, got {align_s}")
-    quiet, floor, thr = quiet_blocks(blocks)
+    mot = motion(blocks)
+    quiet, floor, thr = mot.quiet, mot.floor, mot.threshold
     ug = units.UG_TO_MPS2
-    base = {"floor_ug": floor / ug, "threshold_ug": thr / ug}
+    base = {"floor_ug": floor / ug}
+    if math.isfinite(thr):  # at a low rate no spread is judged
+        base["threshold_ug"] = thr / ug
+    said = {"disturbed": mot.disturbed, "limits": mot.limits}
     t_first, t_last = float(blocks.t0[0]), float(blocks.t1[-1])
 
     def rate(sel: NDArray[np.bool_]) -> dict[str, float]:
@@ -168,7 +176,7 @@ def find_window(
                 f"alignment window {start_s:g}-{end:g} s lies outside the recording "
                 f"({t_first:g}-{t_last:g} s)"
             )
-        return Window(start_s, align_s, "given", rate(blocks.select(start_s, end)))
+        return Window(start_s, align_s, "given", rate(blocks.select(start_s, end)), **said)
     min_s = min(min_s, align_s)
     best: tuple[float, float] = (float("nan"), 0.0)
     for a, b in _stretches(quiet):
@@ -179,16 +187,16 @@ def find_window(
             length = min(t1 - t0, align_s)
             q = rate(blocks.select(t0, t0 + length))
             q["stretch_s"] = t1 - t0
-            return Window(t0, length, "found", q)
+            return Window(t0, length, "found", q, **said)
     what = (
         f"the longest quiet stretch is {best[1]:.0f} s from {best[0]:.0f} s"
         if best[1] > 0
         else "no second of it is quiet"
     )
+    moved = "; ".join(d.text() for d in mot.disturbed[:3])
     raise LogError(
-        f"no static window of at least {min_s:g} s to align on: {what} (quiet: the spread of "
-        f"|f| within a second at most {thr / ug:.0f} µg, {QUIET_FACTOR:g} × the recording's "
-        f"floor of {floor / ug:.0f} µg); set one by hand with --align-start-s and --align-s"
+        f"no static window of at least {min_s:g} s to align on: {what} (quiet: {mot.judged})"
+        f"{'; ' + moved if moved else ''}; set one by hand with --align-start-s and --align-s"
     )
 
 
@@ -311,24 +319,37 @@ def check_at_rest(
         )
     if abs(ratio - 1) > 0.01:
         warn.append(f"at rest |f| is {100 * (ratio - 1):+.2f} % from local gravity")
-    # rate at rest: the turntable's turn (encoder) removed from z, seconds it stood still
-    w = blocks.w_mean[sel].copy()
-    span = blocks.t1[sel] - blocks.t0[sel]
+    # rate at rest: means over the window (a median of magnitudes is biased low), with the
+    # turntable's turn taken out: by the encoder (turned back into the base's frame, where
+    # the Earth rate stands still), else dwell by dwell (the seconds the z gyro stands)
+    n_all = blocks.n[sel]
     if blocks.has_table:
-        w[:, 2] -= blocks.table_turn[sel] / np.maximum(span, 1e-9)
-        still = np.ones(w.shape[0], dtype=bool)
-    else:  # no encoder: the seconds whose rate is smallest (the table's dwells)
-        mag = np.linalg.norm(w, axis=1)
-        still = mag <= np.percentile(mag, 25)
-        turns = np.abs(w[:, 2]) > 5 * earth.RATE
-        if np.mean(turns) > 0.5 and np.median(np.abs(w[:, 2]) / np.maximum(mag, 1e-30)) > 0.99:
+        f_tab, w_tab = table_frame(blocks)
+        groups = [(w_tab[sel], f_tab[sel], n_all)]
+    else:
+        w_imu, f_imu = blocks.w_mean[sel], blocks.f_mean[sel]
+        mag = np.linalg.norm(w_imu, axis=1)
+        turns = np.abs(w_imu[:, 2]) > 5 * earth.RATE
+        if np.mean(turns) > 0.5 and np.median(np.abs(w_imu[:, 2]) / np.maximum(mag, 1e-30)) > 0.99:
             out["omega_checked"] = False
             warn.append(
                 "the gyros were not checked against the Earth rate: the table turns all "
                 "through the window and the log has no encoder angle"
             )
             return out, warn
-    wbar = float(np.median(np.linalg.norm(w[still], axis=1)))
+        table = np.abs(w_imu[:, 2]) > 0.5 * TABLE_RATE_DPS * units.DEG_TO_RAD
+        table[1:] |= table[:-1].copy()  # a start or a stop spills into the next second
+        table[:-1] |= table[1:].copy()
+        groups = [(w_imu[a:b], f_imu[a:b], n_all[a:b]) for a, b in _stretches(~table)]
+        out["dwells"] = len(groups)
+    wbar, lat_meas = _at_rest_means(groups)
+    if not math.isfinite(wbar):
+        out["omega_checked"] = False
+        warn.append(
+            "the gyros were not checked against the Earth rate: the table never stands "
+            "through the window and the log has no encoder angle"
+        )
+        return out, warn
     rr = wbar / earth.RATE
     out.update({"omega_dph": wbar / units.DPH_TO_RPS, "earth_rate_dph": earth.RATE /
                 units.DPH_TO_RPS, "omega_over_earth_rate": rr, "omega_checked": True})  # fmt: skip
@@ -347,10 +368,6 @@ def check_at_rest(
         )
         return out, warn
     # the latitude the IMU measures: the angle between the Earth rate and gravity
-    f = blocks.f_mean[sel][still]
-    ws = w[still]
-    cosang = np.einsum("ij,ij->i", ws, f) / (np.linalg.norm(ws, axis=1) * np.linalg.norm(f, axis=1))
-    lat_meas = float(np.median(np.arcsin(np.clip(cosang, -1.0, 1.0))))
     out["latitude_measured_deg"] = math.degrees(lat_meas)
     if abs(lat_meas - lat) > math.radians(LATITUDE_TOL_DEG):
         warn.append(
@@ -359,6 +376,122 @@ def check_at_rest(
             "is the site right (the sign of its latitude)?"
         )
     return out, warn
+
+
+def _at_rest_means(
+    groups: list[tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]],
+) -> tuple[float, float]:
+    """|ω| [rad/s] and the latitude [rad] the gyros measure at rest, from mean vectors.
+
+    Each group (a stretch in which the IMU does not turn against the base: per-second rates,
+    forces and sample counts) gives its mean rate ``m`` and force; ``|m|²`` less the variance
+    of ``m`` (from the scatter of its chunks' means) is unbiased for ``|ω|²`` whatever the
+    noise, and ``m · f`` for ``|ω| |f| sin L``; both are averaged over the groups, weighted
+    by their samples (:func:`_var_of_mean`).
+    """
+    w2 = w2_raw = dot = wt = 0.0
+    fbar = np.zeros(3)
+    for w, f, n in groups:
+        if n.size == 0:
+            continue
+        mw = np.sum(w * n[:, None], axis=0) / np.sum(n)
+        mf = np.sum(f * n[:, None], axis=0) / np.sum(n)
+        var = _var_of_mean(w)
+        k = float(np.sum(n))
+        w2 += k * (float(mw @ mw) - var)
+        w2_raw += k * float(mw @ mw)
+        dot += k * float(mw @ mf)
+        fbar += k * mf
+        wt += k
+    if wt == 0:
+        return math.nan, math.nan
+    # the scatter as large as the mean (a wrong unit, a table turning unseen): the biased
+    # magnitude, which the unit checks read as well
+    wbar = math.sqrt((w2 if w2 > 0.25 * w2_raw else w2_raw) / wt)
+    fmag = float(np.linalg.norm(fbar / wt))
+    sin_lat = dot / wt / max(wbar * fmag, 1e-300)
+    return wbar, math.asin(min(max(sin_lat, -1.0), 1.0))
+
+
+def check_never_at_rest(
+    blocks: Blocks, window: Window, accel_density: float, source: str
+) -> tuple[dict[str, float], list[str]]:
+    """The window's scatter against the accelerometer noise the filter is told.
+
+    Judged where a coarse count no longer hides the motion: the Allan deviation of the
+    force at τ = :data:`AT_REST_TAU_S` (non-overlapping means, each pair within one stretch
+    of consecutive seconds in which the table stands; the median of the axes) against what
+    the told noise gives, ``q / √τ``, and what a count can: quantisation falls as 1/τ (a sum
+    of counts with the remainder carried is exact to one count), so it is at most the
+    deviation measured at 1 s over τ. Beyond 3 × that is warned of: the IMU may never have
+    been at rest (motion does not average out as noise does).
+
+    Parameters
+    ----------
+    accel_density : float [m/s²/√Hz]
+    source : str
+        Where the noise came from (for the message).
+
+    Returns
+    -------
+    (dict, list of str)
+        ``adev_1s_ug``, ``adev_tau_ug``, ``expected_tau_ug``, ``tau_s`` and the warning.
+    """
+    sel = blocks.select(window.start_s, window.end_s)
+    span = np.maximum(blocks.t1 - blocks.t0, 1e-9)
+    turn = blocks.table_turn if blocks.has_table else blocks.w_mean[:, 2] * span
+    ok = sel & (np.abs(turn) < TABLE_STILL_DPS * units.DEG_TO_RAD * span)
+    ok[1:] &= (blocks.t0[1:] - blocks.t1[:-1]) <= 1.5 * blocks.dt
+    tau = max(1, round(AT_REST_TAU_S / BLOCK_S))
+    a1, at = _adev(blocks.f_mean, ok, 1), _adev(blocks.f_mean, ok, tau)
+    if not (math.isfinite(a1) and math.isfinite(at)):
+        return {}, []
+    tau_s = tau * BLOCK_S
+    expected = math.hypot(accel_density / math.sqrt(tau_s), a1 / tau)
+    ug = units.UG_TO_MPS2
+    info = {
+        "adev_1s_ug": a1 / ug,
+        "adev_tau_ug": at / ug,
+        "expected_tau_ug": expected / ug,
+        "tau_s": tau_s,
+    }
+    if not at > 3 * expected:
+        return info, []
+    return info, [
+        f"the accelerometers' Allan deviation over the window is {at / ug:.0f} µg at "
+        f"{tau_s:g} s, {at / expected:.1f} × what the noise of {source} and the counts' "
+        f"quantisation give ({expected / ug:.0f} µg): the IMU may never have been at rest"
+    ]
+
+
+def _adev(x: NDArray[np.float64], ok: NDArray[np.bool_], k: int) -> float:
+    """Allan deviation of per-block means ``x`` (m, 3) over clusters of ``k`` blocks, pairs
+    of clusters within one stretch of consecutive ``ok`` blocks; the median of the axes
+    (NaN with fewer than 3 pairs)."""
+    diffs = []
+    for a, b in _stretches(ok):
+        n = (b - a) // k
+        if n < 2:
+            continue
+        c = x[a : a + n * k].reshape(n, k, -1).mean(axis=1)
+        diffs.append(np.diff(c, axis=0))
+    if not diffs or sum(d.shape[0] for d in diffs) < 3:
+        return math.nan
+    d = np.concatenate(diffs)
+    return float(np.median(np.sqrt(0.5 * np.mean(d * d, axis=0))))
+
+
+def _var_of_mean(w: NDArray[np.float64]) -> float:
+    """The variance of the mean of per-second vectors (summed over the axes), from the
+    scatter of the means of up to 10 chunks of at least 10 s: white rate noise gives
+    ``var/N`` as independent seconds would; angle noise or a sway (whose seconds cancel)
+    far less, as their mean has."""
+    n = w.shape[0]
+    if n < 4:
+        return 0.0
+    m = max(2, min(10, n // 10))
+    chunks = np.array([c.mean(axis=0) for c in np.array_split(w, m)])
+    return float(np.sum(np.var(chunks, axis=0, ddof=1))) / m
 
 
 def check_encoder(blocks: Blocks) -> list[str]:
@@ -497,7 +630,7 @@ def _factor_hint(
     the magnitude measured, in SI (the columns' own number is said when both are known)."""
 
     def near(k: float) -> bool:
-        return abs(math.log(ratio / k)) < math.log(1.1)
+        return abs(math.log(max(ratio, 1e-300) / k)) < math.log(1.1)
 
     found = [(a, b) for k, a, b in _unit_mixups(sensor, declared) if near(k)]
     if found:
