@@ -92,6 +92,8 @@ def calibrate_imu_cmd(
     table_out = params_path(out, ".params.csv")
     inputs = [log] + ([map_file] if map_file is not None else [])
     refuse_inputs(out, inputs, also=[table_out])
+    if out.suffix.lower() != ".json":  # imu.json, read back by fit --imu-cal
+        raise fail(f"{out}: an IMU calibration is JSON; give --out a name ending in .json")
     try:
         src, meta = read_foreign_source(log, map_file, col, time_col, time_unit, sep, temp_col)
         result = calibrate_imu(
