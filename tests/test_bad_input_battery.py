@@ -175,6 +175,16 @@ def test_cli_refuses_at_the_boundary(files, case, argv, words, absent) -> None:
         assert not (d / absent).exists(), case
 
 
+@pytest.mark.parametrize("name", ["nope.parquet", "folder"])
+def test_calibrate_imu_names_a_missing_log_once(tmp_path, monkeypatch, name) -> None:
+    """Before: 'nope.parquet: nope.parquet: no such file'."""
+    monkeypatch.chdir(tmp_path)  # short relative paths: the message is not wrapped
+    (tmp_path / "folder").mkdir()
+    res = runner.invoke(app, ["calibrate-imu", name, "--out", "i.json"])
+    assert res.exit_code == 2, res.output
+    assert res.output.count(f"{name}:") == 1, res.output
+
+
 @pytest.mark.parametrize(
     ("sidecar", "words"),
     [

@@ -104,8 +104,9 @@ def calibrate_imu_cmd(
             max_degree=max_degree,
             motion_sigma=motion_sigma,
         )
-    except RinscalError as exc:
-        raise fail(f"{log}: {exc}") from None
+    except RinscalError as exc:  # the file named once (a reader's message names it already)
+        msg = str(exc)
+        raise fail(msg if msg.startswith(f"{log}:") else f"{log}: {msg}") from None
     text = json.dumps(result.file_dict(log.name), indent=2, allow_nan=False) + "\n"
     write_params(result.estimates, table_out)
     write_atomic(out, lambda tmp: tmp.write_text(text, encoding="utf-8"))
