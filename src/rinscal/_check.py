@@ -36,6 +36,7 @@ if TYPE_CHECKING:  # pandas is imported by the caller that has a table, never he
 
 __all__ = [
     "array",
+    "callback",
     "flag",
     "instance",
     "log_like",
@@ -201,6 +202,14 @@ def array(name: str, value: Any, *, last: int | None = None, optional: bool = Fa
             f"{name} must have {last} columns (shape (n, {last})), got shape {a.shape}"
         )
     return a
+
+
+def callback(name: str, value: Any) -> Any:
+    """A callable or None (a progress hook): a string or a number is refused at once, not
+    where the function first calls it."""
+    if value is not None and not callable(value):
+        raise wrong_type(name, value, "a callable (a function) or None")
+    return value
 
 
 def flag(name: str, value: Any, *, optional: bool = False) -> bool | None:

@@ -95,7 +95,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from rinscal._check import path_like, wrong_type
+from rinscal._check import array, path_like, wrong_type
 from rinscal._version import __version__
 from rinscal.calibration._domain import inside_domain
 from rinscal.calibration._modelcheck import (
@@ -272,6 +272,25 @@ class ThermalModelFile:
     source: dict[str, Any] = field(default_factory=dict)
     created_by: str = f"rinscal {__version__}"
     imu_stage: ImuStage | None = None
+
+    def __post_init__(self) -> None:
+        # a model built in code is checked as one read from a file is (_from_payload)
+        if not isinstance(self.method, str) or self.method not in (*METHODS, AUTO):
+            raise ConfigError(
+                f"method: unknown method {self.method!r}; "
+                f"expected one of {', '.join((*METHODS, AUTO))}"
+            )
+        chans = self.channels
+        if (
+            isinstance(chans, str)
+            or not chans
+            or not all(isinstance(c, str) and c in CHANNELS for c in chans)
+            or len(set(chans)) != len(chans)
+        ):
+            raise ConfigError(f"channels must be distinct names among {CHANNELS}, got {chans!r}")
+        missing = [c for c in chans if c not in self.models]
+        if missing:
+            raise ConfigError(f"models: no model for channel(s) {', '.join(missing)}")
 
     @property
     def imu_calibration(self) -> ImuCalibration | None:
@@ -663,14 +682,14 @@ class ThermalModelFile:
 
     def _inputs(self, temp: Any, rate: Any) -> tuple[np.ndarray, np.ndarray]:
         m = len(self.channels)
-        t = np.asarray(temp, dtype=np.float64)
-        r = np.asarray(rate, dtype=np.float64)
+        t = array("temp", temp)  # a wrong type is named here, not by numpy inside
+        r = array("rate", rate)
         if t.ndim == 1:
             t = np.repeat(t[:, None], m, axis=1)
         if r.ndim == 1:
             r = np.repeat(r[:, None], m, axis=1)
         if t.ndim != 2 or t.shape[1] != m or r.shape != t.shape:
-            raise ValueError(
+            raise ConfigError(
                 f"temp and rate must have shape (n,) or (n, {m}); got {np.shape(temp)} and "
                 f"{np.shape(rate)}"
             )

@@ -53,8 +53,9 @@ from rinscal.calibration.thermal.model import ThermalModel
 from rinscal.errors import ConfigError
 from rinscal.io.foreign import foreign_meta
 from rinscal.io.mapping import ColumnMapping
+from rinscal.io.metadata import meta_path
 from rinscal.io.streaming import LogStreamWriter, by_runs
-from rinscal.io.tables import SourceLog, format_of
+from rinscal.io.tables import SourceLog, check_mapping, format_of
 from rinscal.sensormodel import ImuCalibration
 
 __all__ = [
@@ -251,6 +252,7 @@ def fit(
     >>> result.save("regression.json")  # doctest: +SKIP
     """
     log = _check.log_like("log", log)
+    _mapping_for(log, mapping)
     _check.text("method", method)
     _check.mapping("meta", meta, optional=True)
     _check.numbers_of("orders", orders, optional=True, integer=True, min=0)
@@ -264,6 +266,8 @@ def fit(
     _check.strings("candidates", candidates, optional=True)
     _check.number("seed", seed, min=0, integer=True)
     _check.number("max_samples", max_samples, optional=True, integer=True, min=1)
+    _check.callback("on_run", on_run)
+    _check.callback("on_channel", on_channel)
     imucal_types = (str, os.PathLike, ImuCalibration)
     _check.instance(
         "imu_calibration", imu_calibration, imucal_types, IMUCAL_ACCEPTED, optional=True
@@ -476,6 +480,7 @@ def compensate(
     from rinscal.io.tables import read_log
 
     log = _check.log_like("log", log)
+    _mapping_for(log, mapping)
     check_policy(policy)
     _check.flag("causal", causal)
     mf = _model(model)
@@ -570,11 +575,18 @@ def compensate_file(
         A row outside the training data under ``policy="error"``.
     """
     log_path = _check.log_like("log", log, table=False)
+    _mapping_for(log_path, mapping)
     out_path = _check.path_like("out", out)
     check_policy(policy)
     _check.flag("causal", causal)
     _check.mapping("meta", meta, optional=True)
     _check.flag("ignore_units", ignore_units)
+    inputs = [log_path, meta_path(log_path)]
+    if isinstance(model, str | os.PathLike):
+        inputs.append(Path(model))
+    for src in inputs:  # a command never overwrites its input, the API neither
+        if _same_file(out_path, src):
+            raise ConfigError(f"out {out_path}: refusing to overwrite the input {src}")
     mf = _model(model)
     meta = dict(foreign_meta(log_path, mapping) if meta is None else meta)
     if not ignore_units:
@@ -600,6 +612,24 @@ def compensate_file(
     return CompensationSummary(
         rows, mf, policy, flagged, reference, missing, meta or None, tuple(notes)
     )
+
+
+def _mapping_for(log: Path | pd.DataFrame, mapping: object) -> None:
+    """Refuse a ``mapping=`` of a wrong type, or one given with a table (it says how to read
+    a file: a table is read already, and the mapping would be ignored)."""
+    check_mapping(mapping)
+    if mapping is not None and isinstance(log, pd.DataFrame):
+        raise ConfigError(
+            "mapping: a column mapping says how to read a log file; log is a DataFrame "
+            "already (read a foreign file with rinscal.read_log(path, mapping))"
+        )
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    """Whether two paths name the same file (also through links and relative paths)."""
+    if a.resolve() == b.resolve():
+        return True
+    return a.exists() and b.exists() and os.path.samefile(a, b)
 
 
 def _stage_notes(
@@ -723,6 +753,7 @@ def evaluate(
     >>> ev.table[["run", "channel", "rms_before", "rms_after"]]  # doctest: +SKIP
     """
     log = _check.log_like("log", log)
+    _mapping_for(log, mapping)
     check_policy(policy)
     _check.flag("causal", causal)
     _check.number("step_window_s", step_window_s, above=0.0, unit="s")

@@ -219,7 +219,10 @@ def refuse_inputs(
     """
     # deferred: loaded when the command runs, so that `rinscal --help` starts fast
     from rinscal.cli._app import fail
+    from rinscal.io.metadata import meta_path
 
+    # a log's sidecar metadata is read with it: it is an input too
+    inputs = [*inputs, *(meta_path(src) for src in inputs if src.suffix.lower() != ".json")]
     for src in inputs:
         if is_same_file(out, src):
             raise fail(f"{out}: refusing to overwrite the input {src}; choose another {what}")

@@ -87,6 +87,11 @@ def _static_options(
     out: dict[str, Any] = {}
     if (latitude is None) != (heading is None):
         raise fail("--latitude and --heading go together (the static output needs both)")
+    if latitude is not None and static_ref is not None:
+        raise fail(
+            "--static-ref and --latitude/--heading both give the static output compensation "
+            "keeps: give one (the site for a known latitude and heading, --static-ref otherwise)"
+        )
     if latitude is not None:
         out["latitude_deg"], out["heading_deg"] = float(latitude), float(heading or 0.0)
     if static_ref is not None:
@@ -292,6 +297,8 @@ def fit(
     inputs = [log] + ([map_file] if map_file is not None else [])
     inputs += [imu_cal] if imu_cal is not None else []
     refuse_inputs(out, inputs)
+    if out.suffix.lower() != ".json":  # else a log-named model would be read as a log later
+        raise fail(f"{out}: a model file is JSON; give --out a name ending in .json")
     try:
         with Progress(
             TextColumn("{task.description}"),
@@ -403,7 +410,10 @@ def select(
     ] = None,
     settings: Annotated[
         str | None,
-        typer.Option("--settings", help="Orders or neuron counts to try, e.g. 1,2,3,4."),
+        typer.Option(
+            "--settings",
+            help="regression/neural: orders or neuron counts to try, e.g. 1,2,3,4.",
+        ),
     ] = None,
     window: Annotated[
         float,
@@ -430,6 +440,14 @@ def select(
 ) -> None:
     """Held-out RMS per channel: of every auto candidate, or of orders 1-4 / 1-8 neurons."""
 
+    if method == "auto" and settings is not None:
+        # deferred: loaded when the command runs, so that `rinscal --help` starts fast
+        from rinscal.cli._app import fail
+
+        raise fail(
+            "--settings applies to --method regression or neural (orders or neuron counts); "
+            "auto tries every candidate family: choose them with --candidates"
+        )
     if method == "auto":
         _select_auto(
             log,

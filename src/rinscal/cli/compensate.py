@@ -30,6 +30,9 @@ from rinscal.cli._options import (
 )
 from rinscal.cli.calibrate import IgnoreUnitsOpt, JsonOpt, ModelOpt, _fmt, _mapping_meta
 
+#: The figures ``evaluate --allan-plot`` writes, by suffix (as ``rinscal plot``).
+ALLAN_SUFFIXES = (".png", ".pdf", ".svg")
+
 
 @app.command("compensate")
 def compensate_cmd(
@@ -131,7 +134,7 @@ def evaluate_cmd(
         typer.Option(
             "--allan-plot",
             help="Write the Allan deviation of raw and compensated output (log-log, one "
-            "panel per channel, longest run) to this PNG.",
+            "panel per channel, longest run) to this figure (.png, .pdf or .svg).",
         ),
     ] = None,
     as_json: JsonOpt = False,
@@ -162,6 +165,12 @@ def evaluate_cmd(
         raise fail(f"--policy must be one of {', '.join(POLICIES)}, got {policy!r}")
     inputs = [log, model] + ([map_file] if map_file is not None else [])
     if allan_plot is not None:
+        suffix = allan_plot.suffix.lower()
+        if suffix not in ALLAN_SUFFIXES:
+            raise fail(
+                f"--allan-plot {allan_plot}: unknown figure suffix {suffix or '(none)'!r}; "
+                "use .png, .pdf or .svg"
+            )
         refuse_inputs(allan_plot, inputs, what="--allan-plot")
     try:
         mf = load_model(model)
@@ -263,7 +272,8 @@ def _write_allan_plot(path: Path, curves: Any, mf: Any, name: str) -> None:
     )
     units = {c: mf.models[c].unit or "?" for c in mf.channels}
     fig = allan_figure(curves[run], units, title=f"{name}, run {run}: Allan deviation")
-    write_atomic(path, lambda tmp: fig.savefig(tmp, format="png", dpi=110))
+    fmt = path.suffix.lower().lstrip(".")  # .png, .pdf or .svg (checked before any work)
+    write_atomic(path, lambda tmp: fig.savefig(tmp, format=fmt, dpi=110))
 
 
 @app.command("export")

@@ -92,6 +92,8 @@ def calibrate_imu_cmd(
     table_out = params_path(out, ".params.csv")
     inputs = [log] + ([map_file] if map_file is not None else [])
     refuse_inputs(out, inputs, also=[table_out])
+    if out.suffix.lower() != ".json":  # imu.json, read back by fit --imu-cal
+        raise fail(f"{out}: an IMU calibration is JSON; give --out a name ending in .json")
     try:
         src, meta = read_foreign_source(log, map_file, col, time_col, time_unit, sep, temp_col)
         result = calibrate_imu(
@@ -102,8 +104,9 @@ def calibrate_imu_cmd(
             max_degree=max_degree,
             motion_sigma=motion_sigma,
         )
-    except RinscalError as exc:
-        raise fail(f"{log}: {exc}") from None
+    except RinscalError as exc:  # the file named once (a reader's message names it already)
+        msg = str(exc)
+        raise fail(msg if msg.startswith(f"{log}:") else f"{log}: {msg}") from None
     text = json.dumps(result.file_dict(log.name), indent=2, allow_nan=False) + "\n"
     write_params(result.estimates, table_out)
     write_atomic(out, lambda tmp: tmp.write_text(text, encoding="utf-8"))

@@ -214,6 +214,22 @@ def simulate(
             turntable_error,
         )  # fmt: skip
         return
+    given = [
+        flag
+        for flag, on in (
+            ("--sequence", sequence != "19"),
+            ("--set-points", set_points is not None),
+            ("--ramp", ramp),
+            ("--dwell", dwell != 120.0),
+            ("--rates", rates is not None),
+            ("--turntable-error", turntable_error),
+        )
+        if on
+    ]
+    if given:  # as --hours for multiposition: an option that would be ignored is refused
+        from rinscal.cli._app import fail
+
+        raise fail(f"{', '.join(given)}: multiposition only, not {protocol}")
     # deferred: loaded when the command runs, so that `rinscal --help` starts fast
     from dataclasses import replace
 

@@ -87,7 +87,42 @@ def read_meta(logpath: str | os.PathLike[str]) -> dict[str, Any] | None:
         raise LogError(f"{mp}: not valid JSON metadata: {exc}") from None
     if not isinstance(meta, dict):
         raise LogError(f"{mp}: metadata must be a JSON object, got {type(meta).__name__}")
+    _check_meta(meta, mp)
     return meta
+
+
+#: Metadata keys that hold an object of per-channel (or per-sensor) entries, and the type of
+#: an entry; keys that hold a number.
+_META_TABLES = {"units": str, "unit_to_si": float}
+_META_NUMBERS = ("latitude_deg", "heading_deg", "altitude_m", "rate_hz")
+
+
+def _check_meta(meta: Mapping[str, Any], mp: Path) -> None:
+    """The types of the keys a reader uses, so that an edited sidecar is refused naming the
+    file and the key (not a crash inside, not a value ignored)."""
+
+    def is_number(v: Any) -> bool:
+        return isinstance(v, int | float) and not isinstance(v, bool) and np.isfinite(v)
+
+    for key, kind in _META_TABLES.items():
+        table = meta.get(key)
+        if table is None:
+            continue
+        if not isinstance(table, dict):
+            raise LogError(
+                f"{mp}: {key} must be an object of channel: value, got {type(table).__name__}"
+            )
+        for name, v in table.items():
+            if v is None:  # not given
+                continue
+            ok = isinstance(v, str) if kind is str else (is_number(v) and v > 0)
+            if not ok:
+                want = "a unit name" if kind is str else "a positive number"
+                raise LogError(f"{mp}: {key}.{name} must be {want}, got {v!r}")
+    for key in _META_NUMBERS:
+        v = meta.get(key)
+        if v is not None and not is_number(v):
+            raise LogError(f"{mp}: {key} must be a finite number, got {v!r}")
 
 
 def write_meta(meta: Mapping[str, Any], logpath: str | os.PathLike[str]) -> Path:

@@ -42,6 +42,7 @@ if TYPE_CHECKING:
 __all__ = [
     "FORMATS",
     "SourceLog",
+    "check_mapping",
     "format_of",
     "is_flight_log",
     "read_log",
@@ -391,7 +392,28 @@ def read_log(
     """
     _check.path_like("path", path)
     _check.text("fmt", fmt, optional=True)
+    check_mapping(mapping)
     return read_log_source(path, mapping, fmt=fmt).log
+
+
+def check_mapping(mapping: object) -> None:
+    """Refuse a ``mapping=`` that is neither a :class:`ColumnMapping`, a
+    :class:`~rinscal.io.flightinfo.FlightLogOptions` nor None (a TOML file's path given as
+    is), naming the argument.
+
+    Raises
+    ------
+    ArgumentTypeError
+    """
+    if mapping is None or isinstance(mapping, ColumnMapping):
+        return
+    from rinscal.io.flightinfo import FlightLogOptions  # deferred: it loads numba
+
+    accepted = (
+        "a ColumnMapping (rinscal.io.mapping.read_mapping reads a TOML file), "
+        "a FlightLogOptions or None"
+    )
+    _check.instance("mapping", mapping, (ColumnMapping, FlightLogOptions), accepted)
 
 
 def _log_path(
@@ -399,6 +421,7 @@ def _log_path(
 ) -> tuple[Path, Format]:
     p = Path(path)
     f = format_of(p, fmt)
+    check_mapping(mapping)
     if mapping is not None and not isinstance(mapping, ColumnMapping):
         raise LogError(f"{p}: --instance applies to PX4 .ulg and ArduPilot .bin logs only")
     if not p.exists():

@@ -25,8 +25,9 @@ from rinscal import _check
 from rinscal.calibration.imulog import check_recording_for_imu
 from rinscal.calibration.modelfile import POLICIES, ThermalModelFile
 from rinscal.errors import ConfigError, LogError
+from rinscal.io.navmapping import NavMapping
 from rinscal.io.navopen import nav_log_header, open_nav_log
-from rinscal.io.track import read_track
+from rinscal.io.track import parse_utc, read_track
 from rinscal.nav.recorded.blocks import BlockStats
 from rinscal.nav.recorded.compensation import CausalModelCompensator
 from rinscal.nav.recorded.kind import (
@@ -180,6 +181,13 @@ def navigate_log(
         window finder names the rate.
     """
     _check.path_like("log", path)  # the types here (named as rinscal.navigate's), ranges below
+    _check.instance(
+        "mapping",
+        mapping,
+        NavMapping,
+        "a NavMapping (rinscal.io.navmapping.read_nav_mapping reads a TOML file)",
+        optional=True,
+    )
     _check.instance("models", models, (list, tuple), "a list of model files' paths")
     for k, m in enumerate(models):
         _check.instance(f"models[{k}]", m, (str, os.PathLike), "a model file's path")
@@ -200,6 +208,13 @@ def navigate_log(
     )
     if policy not in POLICIES:
         raise ConfigError(f"--policy must be one of {', '.join(POLICIES)}, got {policy!r}")
+    if track_utc_start is not None:  # checked before the log is read, not only with a track
+        if track is None:
+            raise ConfigError(
+                "track_utc_start (--track-utc-start) sets the clock of a reference track: "
+                "give the track (--track) or drop it"
+            )
+        parse_utc(track_utc_start, "track_utc_start (--track-utc-start)")
     # what the recording is, first: a calibration log is named before its units are read
     head = nav_log_header(path, mapping)
     cal_kind, refuse = calibration_log(path, head.columns, head.meta, head.runs, run)

@@ -62,6 +62,10 @@ from rinscal.thermal.field import ChamberProfile
 SCENARIOS = ("quasi-static", "swing", "vehicle", "ramp")
 #: Default length of each scenario [h] (vehicle: driving time after the alignment).
 DEFAULT_HOURS = {"quasi-static": 4.0, "swing": 2.0, "vehicle": 1.9, "ramp": 4.5}
+#: The longest scenario [h] and the highest IMU rate [Hz] :func:`preset` takes (the ranges of
+#: ``rinscal navigate --hours/--rate``).
+MAX_HOURS = 72.0
+MAX_RATE_HZ = 2000.0
 #: Lab temperature of the quasi-static and swing cold starts [°C].
 LAB_C = 20.0
 #: Vehicle cold start: the cabin warms from this ambient [°C] ...
@@ -102,9 +106,10 @@ def preset(
     name : str
         One of :data:`SCENARIOS`.
     hours : float, optional [h]
-        Length of the run (vehicle: of the drive); default :data:`DEFAULT_HOURS`.
+        Length of the run (vehicle: of the drive), at most :data:`MAX_HOURS`; default
+        :data:`DEFAULT_HOURS`.
     rate_hz : float [Hz]
-        IMU rate.
+        IMU rate, at most :data:`MAX_RATE_HZ`.
     align : AlignConfig, optional
         Alignment settings (default :class:`AlignConfig`).
     schedule : RotationSchedule, optional
@@ -113,8 +118,8 @@ def preset(
     _check.text("name", name)
     if name not in SCENARIOS:
         raise ConfigError(f"unknown scenario {name!r}; choose one of {', '.join(SCENARIOS)}")
-    _check.number("hours", hours, optional=True, unit="h")  # its range below
-    _check.number("rate_hz", rate_hz, above=0.0, unit="Hz")
+    _check.number("hours", hours, optional=True, max=MAX_HOURS, unit="h")  # > 0 below
+    _check.number("rate_hz", rate_hz, above=0.0, max=MAX_RATE_HZ, unit="Hz")
     _check.instance("align", align, AlignConfig, "an AlignConfig", optional=True)
     _check.instance("schedule", schedule, RotationSchedule, "a RotationSchedule", optional=True)
     hours = DEFAULT_HOURS[name] if hours is None else float(hours)

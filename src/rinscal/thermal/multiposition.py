@@ -698,13 +698,13 @@ def _check_args(
     if len(set_points_c) < 1 or (ramp and len(set_points_c) < 2):
         raise ConfigError("set_points_c: need at least one set point (two for a ramp)")
     for c in set_points_c:
-        finite("set point [°C]", float(c), -70.0)
+        finite("set_points_c: a set point [°C]", float(c), -70.0)
         if c > 150:
             raise ConfigError(f"set point {c} °C outside the chamber range -70..150 °C")
     if len({run_name("cal", c) for c in set_points_c}) != len(set_points_c):
         raise ConfigError(f"set_points_c {list(set_points_c)}: two round to the same °C")
     for w in rates_dps:
-        finite("rate [deg/s]", float(w), 0.0)
+        finite("rates_dps (--rates): a rate test's rate [deg/s]", float(w), 0.0)
     finite("dwell_s", dwell_s, 0.0)
     finite("warmup_s", warmup_s, 0.0, strict=False)
     finite("rate_hz", rate_hz, 0.0)

@@ -56,6 +56,10 @@ RAMP_START_C, RAMP_END_C, RAMP_RATE_C_PER_MIN = -2.0, 50.0, 0.2
 REPEAT_C = 25.0
 #: Protocol names.
 PROTOCOLS = ("soak", "ramp", "repeat")
+#: The longest run [h] and the highest sample rate [Hz] :func:`simulate_protocol` takes (the
+#: ranges of ``rinscal simulate --hours/--rate``).
+MAX_HOURS = 72.0
+MAX_RATE_HZ = 2000.0
 #: Grid step of the thermal network [s]; temperatures are interpolated to the sample rate.
 THERMAL_DT_S = 1.0
 
@@ -333,9 +337,9 @@ def simulate_protocol(
     protocol : {"soak", "ramp", "repeat"}
         Which protocol.
     hours : float, optional [h]
-        Recording length per run (see :func:`protocol_runs`).
+        Recording length per run (see :func:`protocol_runs`), at most :data:`MAX_HOURS`.
     rate_hz : float [Hz]
-        Sample rate.
+        Sample rate, at most :data:`MAX_RATE_HZ`.
     seed : int
         Seed of every random number.
     imu : str, PathLike or ImuConfig, optional
@@ -355,8 +359,10 @@ def simulate_protocol(
         Sidecar metadata (see :func:`log_meta`).
     """
     _check.one_of("protocol", protocol, PROTOCOLS)
-    hours = _check.number("hours", hours, above=0.0, optional=True, unit="h")
-    rate_hz = _check.number("rate_hz", rate_hz, above=0.0, unit="Hz")
+    # the ranges of `rinscal simulate` (--hours 0.01-72, --rate 0.01-2000): beyond them the
+    # time grid alone would not fit in memory (hours=1e9 was a numpy MemoryError)
+    hours = _check.number("hours", hours, above=0.0, max=MAX_HOURS, optional=True, unit="h")
+    rate_hz = _check.number("rate_hz", rate_hz, above=0.0, max=MAX_RATE_HZ, unit="Hz")
     seed = _check.number("seed", seed, min=0, integer=True)
     config = resolve_imu(imu, config)
     runs = list(iter_protocol(protocol, config, hours, rate_hz, seed))

@@ -433,7 +433,7 @@ def calibrate_imu(
         term (they need rate tests at two or more rates of both signs about each axis);
         ``False`` leaves them at zero.
     max_degree : int
-        Highest degree of a law in temperature (0 for one set point).
+        Highest degree of a law in temperature, 0-3 (0 for one set point).
     motion_sigma : float
         A position whose deleted residual exceeds this many robust residual scales is
         refused as not static.
@@ -467,7 +467,7 @@ def calibrate_imu(
         ("scatter_limit", scatter_limit),
     ):
         _check.number(name, v)
-    _check.number("max_degree", max_degree, integer=True)
+    _check.number("max_degree", max_degree, integer=True, min=0, max=3)  # as --max-degree
     _check.number("min_samples", min_samples, integer=True, min=1)
     _check.flag("nonlinear", nonlinear)
     missing = [c for c in (TIME, RUN, *CHANNELS, *TABLE_COLUMNS) if c not in log.columns]

@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from rinscal import _check
 from rinscal._version import __version__
 from rinscal.calibration.inference import METHODS, n_inputs, predict_params
 from rinscal.calibration.modelfile import AUTO, ChannelModel, ThermalModelFile
@@ -66,12 +67,13 @@ from rinscal.calibration.thermal.guards import (
 )
 from rinscal.calibration.thermal.runs import FACTOR_METHODS, FALLBACK_DEGREE, RowSample, RunFits
 from rinscal.earth import static_outputs_r
-from rinscal.errors import ConfigError
+from rinscal.errors import ConfigError, LogError
 from rinscal.schema import (
     CHAMBER,
     CHANNELS,
     RUN,
     TEMP_OUT,
+    TIME,
     sensor_type,
     temperature_column,
     unit_factors,
@@ -207,6 +209,17 @@ class ThermalModel:
     ) -> None:
         if method not in FIT_METHODS:
             raise ConfigError(f"method must be one of {', '.join(FIT_METHODS)}, got {method!r}")
+        # the types at the boundary (a public class): "1,1,0" is not three orders
+        _check.numbers_of("orders", orders, optional=True, integer=True)
+        _check.number("hidden", hidden, optional=True, integer=True, min=1)
+        _check.numbers_of("edges", edges, optional=True)
+        _check.strings("channels", channels)
+        _check.strings("candidates", candidates)
+        _check.number("tolerance", tolerance, min=0.0)
+        _check.numbers_of("temp_range", temp_range, length=2)
+        _check.number("random_state", random_state, min=0, integer=True)
+        _check.mapping("estimator_params", estimator_params, optional=True)
+        _check.flag("use_gradient", use_gradient, optional=True)
         self.candidates = tuple(candidates)
         self.tolerance = float(tolerance)
         self.temp_range = (float(temp_range[0]), float(temp_range[1]))
@@ -377,6 +390,15 @@ class ThermalModel:
             When the model is only weakly determined (coarse temperature resolution, an
             ill-conditioned design).
         """
+        log = _check.log_table("log", log, validate=False)  # rows checked, not re-validated
+        missing = [c for c in (RUN, TIME, *self.channels) if c not in log.columns]
+        if missing:
+            raise LogError(
+                f"log has no column {', '.join(missing)}; give a calibration log "
+                "(rinscal.read_log or rinscal.simulate)"
+            )
+        _check.mapping("meta", meta, optional=True)
+        _check.callback("on_channel", on_channel)
         where = f"{source}: " if source else ""
         _, _, rows = run_slices(log[RUN])
         res = self._check_temperatures(log, rows, 0, where)  # before any feature is built
