@@ -127,27 +127,47 @@ def test_a_folder_without_write_permission_is_refused_before_any_work(
             "--record",
             "{new}/r.csv",
             "--out",
-            "{new}/nav",
+            "{out}",
         ],
     ],
-    ids=["fit", "simulate", "export", "navigate --record"],
+    ids=["fit", "simulate", "export", "navigate --record"],  # --record beside --out
 )
-def test_missing_folders_are_created(inputs, tmp_path, args) -> None:
+def test_a_file_into_a_missing_folder_is_refused_naming_it(inputs, tmp_path, args) -> None:
+    """One rule: a file goes into a folder that exists; none is created to hold it."""
     new = tmp_path / "a" / "b"
-    subs = {"log": inputs["log"], "model": inputs["model"], "new": new}
+    subs = {"log": inputs["log"], "model": inputs["model"], "new": new, "out": tmp_path / "nav"}
+    code, text = _invoke([a.format(**subs) for a in args])
+    assert code == 2, text
+    assert "does not exist" in text and str(tmp_path / "a") in text, text
+    assert "Traceback" not in text
+    assert not (tmp_path / "a").exists()  # nothing created, nothing left behind
+    new.mkdir(parents=True)  # the folder made: the same command runs
     code, text = _invoke([a.format(**subs) for a in args])
     assert code == 0, text
     assert any(new.iterdir())
 
 
+def test_a_folder_output_is_created_with_its_parents(tmp_path) -> None:
+    """--out DIR (and a --record file inside it) is created: the folder is the output."""
+    out = tmp_path / "runs" / "nav"
+    code, text = _invoke(
+        ["navigate", "-s", "quasi-static", "--hours", "0.05", "--align-s", "60", "--rate", "5",
+         "--record", out / "r.csv", "--out", out]
+    )  # fmt: skip
+    assert code == 0, text
+    assert (out / "summary.json").exists() and (out / "r.csv").exists()
+
+
 def test_a_failed_command_leaves_no_folder_it_created(tmp_path) -> None:
     bad = tmp_path / "bad.csv"
     bad.write_text("time_s,run,gyro_x\n0,a,1\n1,a,2\n", encoding="utf-8")
-    code, text = _invoke(["fit", bad, "--out", tmp_path / "new" / "sub" / "m.json"])
-    assert code == 2 and "missing required column" in text, text
+    out = tmp_path / "new" / "sub" / "nav"
+    code, text = _invoke(["navigate", "--log", bad, "--site", "34,108,400", "--out", out])
+    assert code == 2 and "Traceback" not in text, text
     assert not (tmp_path / "new").exists()
     (tmp_path / "kept").mkdir()  # a folder that was there stays
-    code, _ = _invoke(["fit", bad, "--out", tmp_path / "kept" / "sub" / "m.json"])
+    code, _ = _invoke(["navigate", "--log", bad, "--site", "34,108,400", "--out",
+                       tmp_path / "kept" / "sub"])  # fmt: skip
     assert code == 2 and (tmp_path / "kept").is_dir() and not (tmp_path / "kept" / "sub").exists()
 
 
@@ -167,7 +187,7 @@ def test_a_write_that_fails_late_is_a_message_not_a_traceback(tmp_path, monkeypa
         return real_replace(src, dst)
 
     monkeypatch.setattr(os, "replace", full)
-    out = tmp_path / "cal" / "imu.json"
+    out = tmp_path / "imu.json"
     code, text = _invoke(["calibrate-imu", log, "--out", out])
     assert code == 2, text
     assert f"{out}: cannot write: No space left on device; the disk is full" in text

@@ -12,7 +12,7 @@ from typer.testing import CliRunner
 from rinscal.cli import app
 from rinscal.io.metadata import write_meta
 from rinscal.io.tables import write_log
-from tests.cli.test_cli_honesty import _log
+from tests._shared import linear_log
 
 runner = CliRunner()
 ENV = {"COLUMNS": "80", "TERM": "dumb"}
@@ -41,7 +41,7 @@ def test_help_keeps_every_unit_and_fits_80_columns(name) -> None:
 
 def test_evaluate_table_cuts_no_number_at_80_columns(tmp_path) -> None:
     log = tmp_path / "log.csv"
-    write_log(_log(), log)
+    write_log(linear_log(), log)
     write_meta({"units": {"gyro": "deg/h", "accel": "ug"}}, log)
     model = tmp_path / "m.json"
     assert (

@@ -182,25 +182,30 @@ def prepare_outputs(
 ) -> None:
     """Check every output of a command, then create their missing folders; exit if one fails.
 
-    The rule of every command that writes: the missing folders of its outputs are created,
-    after every output (``(option, path)``: ``files`` and ``folders`` the command writes
-    into) has been checked, before any work; a path that goes through a file, a folder that
-    cannot be written, a folder where a file goes is refused with a message naming the path.
+    The rule of every command that writes (:data:`rinscal.io.atomic.OUTPUT_RULE`): a file
+    (``files``: ``(option, path)``) goes into a folder that exists, or that one of the
+    command's own folder outputs creates; a folder it writes into (``folders``) is created
+    with its missing parents, after every output has been checked, before any work; a path
+    that goes through a file, a folder that cannot be written, a folder where a file goes,
+    a file whose folder is missing is refused with a message naming the path.
     If the command then fails, the folders it created are removed again when empty
     (:func:`rinscal.cli._app.guard_os_errors`).
     """
     # deferred: loaded when the command runs, so that `rinscal --help` starts fast
     from rinscal.cli._app import created_folders, fail
     from rinscal.errors import OutputError
-    from rinscal.io.atomic import check_output, make_folders
+    from rinscal.io.atomic import check_output, make_folders, missing_folder_error
 
     todo: list[Path] = []
     try:
-        for kind, items in ((False, files), (True, folders)):
-            for what, path in items:
-                for f in check_output(path, what=what, folder=kind):
-                    if f not in todo:
-                        todo.append(f)
+        for what, path in folders:
+            for f in check_output(path, what=what, folder=True):
+                if f not in todo:
+                    todo.append(f)
+        for what, path in files:  # into a folder that exists or that a folder output creates
+            missing = check_output(path, what=what, folder=False)
+            if any(f not in todo for f in missing):
+                raise missing_folder_error(path, missing, what=what)
         todo.sort(key=lambda f: len(f.parts))  # outermost first, across outputs
         created_folders.extend(make_folders(todo))
     except OutputError as exc:
@@ -213,8 +218,8 @@ def refuse_inputs(
     """Exit with a message, before any work, if an output cannot be written whole.
 
     ``out`` must not be one of ``inputs``, and neither ``out`` nor a file written beside it
-    (``also``: a truth file, sidecar metadata) may be a folder or go through a file; their
-    missing folders are created (:func:`prepare_outputs`): a command that is refused leaves
+    (``also``: a truth file, sidecar metadata) may be a folder, go through a file or lie in a
+    folder that does not exist (:func:`prepare_outputs`): a command that is refused leaves
     nothing behind.
     """
     # deferred: loaded when the command runs, so that `rinscal --help` starts fast

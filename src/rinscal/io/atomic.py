@@ -16,9 +16,11 @@ from pathlib import Path
 from rinscal.errors import OutputError, describe_os_error
 
 __all__ = [
+    "OUTPUT_RULE",
     "atomic_path",
     "check_output",
     "make_folders",
+    "missing_folder_error",
     "prepare_output",
     "remove_empty_folders",
     "write_atomic",
@@ -62,13 +64,23 @@ def write_atomic(path: str | os.PathLike[str], writer: Callable[[Path], None]) -
         writer(tmp)
 
 
+#: The one rule for outputs, in the words the README and the docs use.
+OUTPUT_RULE = (
+    "a file is written into a folder that exists (no folder is created to hold it, so a "
+    "mistyped folder is refused, naming it); a folder a command writes into (--out DIR) is "
+    "created with its missing parents"
+)
+
+
 def check_output(
     path: str | os.PathLike[str], *, what: str = "--out", folder: bool = False
 ) -> list[Path]:
     """Check, creating nothing, that ``path`` can be written; return the folders to create.
 
-    The rule every command follows: the missing folders of an output are created (by
-    :func:`make_folders`, once every output of the command has been checked), an output whose
+    The rule every command follows (:data:`OUTPUT_RULE`): a file is written into a folder
+    that exists, and no folder is created to hold it (a mistyped folder is refused, naming it);
+    a folder the command writes into (``--out DIR``) is created, with its missing parents (by
+    :func:`make_folders`, once every output of the command has been checked). An output whose
     path goes through a file, or whose folder cannot be written, is refused before any work.
 
     Parameters
@@ -83,7 +95,9 @@ def check_output(
     Returns
     -------
     list of Path
-        The missing folders, outermost first (empty when the folder exists).
+        The missing folders, outermost first (empty when the folder exists); for a file,
+        those of its folder, which the caller refuses (:func:`missing_folder_error`) unless
+        one of the command's folder outputs creates them.
 
     Raises
     ------
@@ -146,11 +160,28 @@ def make_folders(folders: list[Path]) -> list[Path]:
     return created
 
 
+def missing_folder_error(
+    path: str | os.PathLike[str], missing: list[Path], *, what: str = "--out"
+) -> OutputError:
+    """The refusal of a file whose folder does not exist (``missing``: outermost first)."""
+    p = Path(path)
+    label = f"{what} {p}" if what else str(p)
+    return OutputError(
+        f"{label}: the folder {missing[0]} does not exist; a file is written into a folder "
+        f"that exists (no folder is created to hold it): create it first (mkdir -p "
+        f"{missing[-1]}) or choose another location"
+    )
+
+
 def prepare_output(
     path: str | os.PathLike[str], *, what: str = "--out", folder: bool = False
 ) -> list[Path]:
-    """:func:`check_output`, then create the missing folders; return those created."""
-    return make_folders(check_output(path, what=what, folder=folder))
+    """:func:`check_output`; a folder output's missing folders are created (returned), a
+    file's missing folder is refused (:func:`missing_folder_error`)."""
+    missing = check_output(path, what=what, folder=folder)
+    if missing and not folder:
+        raise missing_folder_error(path, missing, what=what)
+    return make_folders(missing)
 
 
 def remove_empty_folders(folders: list[Path]) -> None:
