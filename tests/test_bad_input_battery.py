@@ -156,6 +156,24 @@ CLI_CASES: list[tuple[str, list[str], list[str], str | None]] = [
         ["--track-utc-start", "--track"],
         "nav",
     ),
+    (
+        "navigate --log a folder",
+        ["navigate", "--log", "{d}", "--site", "30,100,0", "--out", "{d}/nav"],
+        ["is a folder, not a file"],
+        "nav",
+    ),
+    (
+        "navigate --model a folder",
+        ["navigate", "-s", "quasi-static", "--model", "{d}", "--out", "{d}/nav"],
+        ["is a folder, not a file"],
+        "nav",
+    ),
+    (
+        "simulate --out into a missing folder",
+        ["simulate", "soak", "--hours", "0.05", "--rate", "1", "--out", "{d}/nodir/s.csv"],
+        ["nodir", "does not exist"],
+        "nodir",
+    ),
 ]
 
 

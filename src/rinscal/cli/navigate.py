@@ -10,7 +10,7 @@ from typing import Annotated, Any
 
 import typer
 
-from rinscal.cli._app import app
+from rinscal.cli._app import app, fail
 from rinscal.cli._options import PolicyOpt, is_same_file, prepare_outputs
 from rinscal.thermal.presets import DEFAULT_PRESET, PRESETS
 
@@ -26,6 +26,14 @@ _OUTPUTS = (
     "trajectory.png",
     "temperatures.png",
 )
+
+
+def _input_file(src: Path) -> None:
+    """Exit naming ``src`` when it is not a file to read: missing, or a folder."""
+    if src.is_dir():
+        raise fail(f"{src}: is a folder, not a file")
+    if not src.is_file():
+        raise fail(f"{src}: file not found")
 
 
 @app.command("navigate")
@@ -243,8 +251,7 @@ def navigate(
     models = list(model or [])
     inputs = [*models, *([imu_file] if imu_file is not None else [])]
     for src in inputs:
-        if not src.is_file():
-            raise fail(f"{src}: file not found")
+        _input_file(src)
     out_paths = [out / name for name in _OUTPUTS]
     from rinscal.io.metadata import meta_path
 
@@ -420,8 +427,7 @@ def _navigate_log(log: Path, out: Path, models: list[Path], policy: str, **kw: o
     inputs = [log, *models, *([kw["mapping"]] if kw["mapping"] else []),
               *([kw["track"]] if kw["track"] else [])]  # fmt: skip
     for src in inputs:
-        if not Path(src).is_file():  # type: ignore[arg-type]
-            raise fail(f"{src}: file not found")
+        _input_file(Path(src))  # type: ignore[arg-type]
     for name in _OUTPUTS:
         for src in inputs:
             if is_same_file(out / name, Path(src)):  # type: ignore[arg-type]
