@@ -32,6 +32,7 @@ def _simulate(path: Path, seed: int) -> None:
 
 def test_fleet_over_a_simulated_folder_skips_the_truth_files(tmp_path) -> None:
     runs = tmp_path / "runs"
+    runs.mkdir()  # a file goes into a folder that exists
     for k in (1, 2):
         _simulate(runs / f"SN{k}.parquet", k)
     given = sorted(runs.glob("*.parquet"))  # what the shell gives for runs/*.parquet
