@@ -191,6 +191,7 @@ _GYRO_UNITS = {
     "b": ("bias instability B", 1.0 / units.DPH_TO_RPS, "°/h"),
     "k": ("rate random walk K", 60.0 / units.DPH_TO_RPS, "°/h/√h"),
     "r": ("rate ramp R", 3600.0 / units.DPH_TO_RPS, "°/h/h"),
+    "m": ("correlated angle noise M", 1.0 / units.ARCSEC_TO_RAD, "″"),
 }
 _ACCEL_UNITS = {
     "q": ("white velocity noise Q", 1e3, "mm/s"),
@@ -198,6 +199,7 @@ _ACCEL_UNITS = {
     "b": ("bias instability B", 1.0 / units.UG_TO_MPS2, "µg"),
     "k": ("rate random walk K", 60.0 / units.UG_TO_MPS2, "µg/√h"),
     "r": ("rate ramp R", 3600.0 / units.UG_TO_MPS2, "µg/h"),
+    "m": ("correlated velocity noise M", 1e3, "mm/s"),
 }
 
 
@@ -227,6 +229,12 @@ def _fit_dict(
         "tau_s": list(fit.tau_s),
         "tau_reliable_s": fit.tau_reliable_s,
         "chi2_dof": fit.chi2_dof,
+        "correlated": {
+            "kept": fit.tau_c_s is not None,
+            "tau_c_s": fit.tau_c_s,
+            "tau_c_range_s": list(fit.tau_c_range_s) if fit.tau_c_range_s else None,
+            "weight": fit.markov_weight,
+        },
         "adev": {
             "tau_s": curve.tau_s.tolist(),
             "value": (curve.adev * scale).tolist(),
@@ -242,10 +250,20 @@ def _fmt(x: float) -> str:
 
 def _sensor_text(name: str, d: dict[str, Any]) -> str:
     parts = []
-    for key in ("q", "n", "b", "k"):
+    for key in ("q", "m", "n", "b", "k"):
         t = d["terms"][key]
         sym = key.upper()
-        if t["resolved"]:
+        corr = d.get("correlated") or {}
+        if key == "m" and corr.get("kept") and t["value"] > 0:
+            sep = "" if t["unit"] == "″" else " "
+            state = "resolved" if t["resolved"] else "not resolved"
+            parts.append(
+                f"M {_fmt(t['value'])}{sep}{t['unit']} correlated over τc "
+                f"{corr['tau_c_s']:.0f} s ({state})"
+            )
+        elif key == "m":
+            continue
+        elif t["resolved"]:
             dom = t["dominant_tau_s"]
             where = ""
             if dom:
@@ -258,8 +276,10 @@ def _sensor_text(name: str, d: dict[str, Any]) -> str:
             sep = "" if t["unit"] == "″" else " "
             parts.append(f"Q ≈ {_fmt(t['value'])}{sep}{t['unit']} (not resolved)")
         elif key == "n" and "bound" in t:
+            fit = f"; fit {_fmt(t['value'])}" if t["value"] > 0 else ""
             parts.append(
-                f"N ≤ {_fmt(t['bound'])} {t['unit']} (bound at τ = {t['bound_tau_s']:g} s)"
+                f"N ≤ {_fmt(t['bound'])} {t['unit']} (bound at τ = {t['bound_tau_s']:g} s{fit}, "
+                "not told from a correlated angle noise)"
             )
     lo, hi = d["tau_s"]
     return f"{name} on τ {lo:g}-{hi:g} s: " + ", ".join(parts or ["no term resolved"])
@@ -267,13 +287,18 @@ def _sensor_text(name: str, d: dict[str, Any]) -> str:
 
 def noise_text(report_noise: dict[str, Any]) -> str:
     """The filter's noise in one line for the terminal (from ``Noise.to_dict()``)."""
+    allan = report_noise.get("allan")
+    told = (allan or {}).get("filter", {})
+    how_g = f" ({told['gyro_n']})" if "gyro_n" in told else ""
+    how_a = f" ({told['accel_n']})" if "accel_n" in told else ""
     used = (
-        f"ARW {_fmt(report_noise['gyro_arw_deg_per_rth'])} °/√h, "
-        f"VRW {_fmt(report_noise['accel_vrw_ug_per_rthz'])} µg/√Hz"
+        f"ARW {_fmt(report_noise['gyro_arw_deg_per_rth'])} °/√h{how_g}, "
+        f"VRW {_fmt(report_noise['accel_vrw_ug_per_rthz'])} µg/√Hz{how_a}"
     )
     if "velocity_meas_sd_mm_per_s" in report_noise:
         used += f", velocity measurement sd {report_noise['velocity_meas_sd_mm_per_s']:.2f} mm/s"
-    allan = report_noise.get("allan")
+        if "gyro_angle_noise_arcsec" in told:
+            used += f" (angle noise {_fmt(told['gyro_angle_noise_arcsec'])}″)"
     if not allan or "gyro" not in allan:
         return f"filter noise {report_noise['source']}: {used}"
     return (
@@ -281,6 +306,15 @@ def noise_text(report_noise: dict[str, Any]) -> str:
         f"{_sensor_text('gyro', allan['gyro'])}; {_sensor_text('accel', allan['accel'])}; "
         f"filter: {used}"
     )
+
+
+def _told(fit: NoiseFit, resolved: bool) -> str:
+    """What the filter was told of N, in words."""
+    if resolved:
+        return "resolved"
+    if fit.n.value > 0 or fit.n.bound is None:
+        return "the fit's N, unresolved"
+    return f"bound at τ = {fit.n.bound_tau_s:g} s"
 
 
 def estimate_noise_allan(
@@ -339,13 +373,14 @@ def estimate_noise_allan(
         gc = _pooled(_series(blocks.w_mean, grid, ok), taus)
         ac = _pooled(_series(blocks.f_mean, grid, ok), taus)
         gf = fit_noise_terms(gc)
-        af = fit_noise_terms(ac)
+        af = fit_noise_terms(ac, correlated=False)  # the correlated angle is the dither's
     except ConfigError as exc:  # too little for a fit
         raise LogError(f"noise from the alignment window: {exc}") from None
     n_g, g_res = gf.n_for_filter()
     n_a, a_res = af.n_for_filter()
     q_g, q_a = gf.q.value, af.q.value
-    vsd = velocity_meas_sd(q_a, q_g, T, g)
+    # the angle (velocity) noise that does not accumulate: white and correlated
+    vsd = velocity_meas_sd(math.hypot(q_a, af.m.value), math.hypot(q_g, gf.m.value), T, g)
     allan = {
         "method": (
             "IEEE 952 terms fitted to the overlapping Allan variance of the window's "
@@ -356,8 +391,10 @@ def estimate_noise_allan(
         "gyro": _fit_dict(gf, gc, _GYRO_UNITS),
         "accel": _fit_dict(af, ac, _ACCEL_UNITS),
         "filter": {
-            "gyro_n": "resolved" if g_res else f"bound at τ = {gf.n.bound_tau_s:g} s",
-            "accel_n": "resolved" if a_res else f"bound at τ = {af.n.bound_tau_s:g} s",
+            "gyro_n": _told(gf, g_res),
+            "accel_n": _told(af, a_res),
+            "gyro_angle_noise_arcsec": math.hypot(q_g, gf.m.value) / units.ARCSEC_TO_RAD,
+            "accel_velocity_noise_mm_per_s": 1e3 * math.hypot(q_a, af.m.value),
             "kf_interval_s": T,
         },
         "first_differences": fd,
@@ -367,7 +404,7 @@ def estimate_noise_allan(
         return ", ".join(t.name.upper() for t in fit.terms if t.resolved) or "none"
 
     def said(fit: NoiseFit, resolved: bool) -> str:
-        return "" if resolved else f", N its bound at τ {fit.n.bound_tau_s:g} s"
+        return "" if resolved else f", N {_told(fit, resolved)}"
 
     return Noise(
         gyro_density=n_g,
