@@ -619,8 +619,8 @@ class NoiseFit:
         return (self.q, self.n, self.b, self.k, self.r, self.m)
 
     def n_for_filter(self) -> tuple[float, bool]:
-        """The random walk a filter should assume: the fit's ``N``; its bound where the fit
-        put none.
+        """The random walk a filter should assume: the fit's ``N`` (unresolved: at most its
+        bound); the bound where the fit put none.
 
         Returns ``(value [u·√s], resolved)``. An unresolved ``N`` that the fit puts above
         zero is still the curve's best estimate: on a 10 min window of a dithered laser
@@ -629,8 +629,10 @@ class NoiseFit:
         larger heading errors (``docs/navigation.md``, *The filter's noise*). Where the
         fit put no ``N`` (white angle noise all the way), the bound, the safe side.
         """
-        if self.n.value > 0 or self.n.bound is None:
+        if self.n.bound is None or self.n.resolved:
             return self.n.value, self.n.resolved
+        if self.n.value > 0:  # never above what the curve allows
+            return min(self.n.value, self.n.bound), False
         return self.n.bound, False
 
     def model(self, tau_s: ArrayLike) -> NDArray[np.float64]:
@@ -829,8 +831,11 @@ def fit_noise_terms(
     x = theta[sel]
     keep = w > 1e-12
     var_x = np.sum(w[keep, None] * (var[keep] + (theta[keep] - x) ** 2), axis=0)
-    if grid:  # N with the correlated noise in the model (its best τc), whatever was kept
-        var_x[1] = max(var_x[1], float(var[j6, 1] + (theta[j6, 1] - x[1]) ** 2))
+    if grid:  # N with the correlated noise in the model, whatever was kept: at its best τc,
+        # and as far as another τc the curve allows (χ² within 1 of the best) moves it
+        near = chi2[1:] <= chi2[j6] + c_hat
+        spread = float(np.max((theta[1:, 1][near] - x[1]) ** 2))
+        var_x[1] = max(var_x[1], float(var[j6, 1] + (theta[j6, 1] - x[1]) ** 2), spread)
     tau_c = tau_c_range = None
     if sel:
         tau_c = grid[sel - 1]
