@@ -555,8 +555,8 @@ class NoiseTerm:
         First and last τ (with enough clusters) where its contribution to σ² is the largest.
     bound : float or None
         Upper bound on the term from the curve alone (``N`` and ``K``, whatever the other
-        terms): ``N ≤ σ(τ)·√τ`` and ``K ≤ σ(τ)·√(3/τ)`` at the τ that gives the smallest,
-        each σ raised by its 1σ, over the points with enough clusters.
+        terms), each σ raised by its 1σ: ``N ≤ σ(τ)·√τ`` at the longest τ with enough
+        clusters, ``K ≤ σ(τ)·√(3/τ)`` at the τ with enough clusters that gives the smallest.
     bound_tau_s : float or None [s]
         The τ of that bound.
     """
@@ -771,8 +771,9 @@ def fit_noise_terms(
     at most 30 %, or when it dominates σ² somewhere among the points with at least
     ``min_clusters`` clusters and its relative 1σ is at most 50 % (``N`` where ``M`` is
     kept: only the first). ``N`` and ``K`` also get bounds from the curve alone: every term
-    adds to σ², so ``N²/τ ≤ σ²(τ)`` and ``K²τ/3 ≤ σ²(τ)`` at every τ; the bound is the
-    smallest ``(σ + 1σ)·√τ`` (``·√(3/τ)``) over the points with enough clusters.
+    adds to σ², so ``N²/τ ≤ σ²(τ)`` and ``K²τ/3 ≤ σ²(τ)`` at every τ; the bound is
+    ``(σ + 1σ)·√τ`` at the longest τ with enough clusters (``K``: the smallest
+    ``(σ + 1σ)·√(3/τ)`` over those points).
 
     Parameters
     ----------
@@ -867,7 +868,8 @@ def fit_noise_terms(
         if power in (-1, 1) and np.any(reliable):
             b_all = upper / np.sqrt(_TERMS[j][2] * tau**power)
             b_all = np.where(reliable, b_all, np.inf)
-            i = int(np.argmin(b_all))
+            # N: at the longest reliable τ (the smallest of many noisy points is biased low)
+            i = int(np.flatnonzero(reliable)[-1]) if power == -1 else int(np.argmin(b_all))
             bound, bound_tau = float(b_all[i]), float(tau[i])
         terms[name] = NoiseTerm(name, value, sd, bool(resolved), dom_tau, bound, bound_tau)
     return NoiseFit(
