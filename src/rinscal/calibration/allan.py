@@ -43,11 +43,14 @@ Confidence
 The five terms fitted together
     :func:`fit_noise_terms` fits the whole IEEE 952 model, ``σ²(τ) = 3Q²/τ² + N²/τ +
     (2 ln 2/π) B² + K² τ/3 + R² τ²/2``, to every point of a curve by non-negative weighted
-    least squares on the Allan variance, each point weighted by its clusters, and says which
-    terms the curve resolves and on which τ; ``N`` and ``K`` get upper bounds where it does
-    not (a dithered laser gyro's white angle noise ``Q``, slope −1, hiding the random walk
-    on a 10 min record). :func:`noise_parameters` is the slope reading of Annex C, kept for
-    the calibration report's table.
+    least squares on the Allan variance, each point weighted by its clusters, with an
+    exponentially correlated (Gauss-Markov) angle noise ``M`` of correlation time ``τc``
+    kept where the information criterion says so (:func:`markov_angle_avar`), and says
+    which terms the curve resolves and on which τ; ``N`` and ``K`` get upper bounds where it
+    does not (a dithered laser gyro's white angle noise ``Q``, slope −1, and its correlated
+    angle, slope −1/2 below τc, hiding the random walk on a 10 min record).
+    :func:`noise_parameters` is the slope reading of Annex C, kept for the calibration
+    report's table.
 
 Why one module
     The Allan variance, its confidence (the clusters of each τ) and the two readings of it
@@ -77,6 +80,7 @@ __all__ = [
     "allan_deviation",
     "allan_deviations",
     "fit_noise_terms",
+    "markov_angle_avar",
     "noise_parameters",
     "pool_curves",
 ]
