@@ -60,8 +60,9 @@ def test_white_angle_noise_is_q_and_no_random_walk() -> None:
     # the random walk is bounded by the curve: σ(τ)·√τ at the longest reliable τ
     assert f.n.bound is not None and f.n.bound_tau_s == f.tau_reliable_s
     assert f.n.bound == pytest.approx(math.sqrt(3.0) * q / math.sqrt(f.tau_reliable_s), rel=0.35)
-    value, resolved = f.n_for_filter()
-    assert not resolved and value == f.n.bound
+    value, resolved = f.n_for_filter()  # the fit's (≈ 0) where above 0, else the bound
+    assert not resolved and value == (min(f.n.value, f.n.bound) if f.n.value > 0 else f.n.bound)
+    assert value <= f.n.bound
     np.testing.assert_allclose(f.model(c.tau_s), math.sqrt(3.0) * q / c.tau_s, rtol=0.06)
 
 
@@ -71,8 +72,12 @@ def test_white_rate_noise_is_n_and_no_quantisation() -> None:
     y = rng.normal(0.0, sd, 100 * 600)
     f = fit_noise_terms(allan_deviation(y, rate))
     n_true = sd / math.sqrt(rate)
-    assert f.n.resolved and f.n.value == pytest.approx(n_true, rel=0.05)
-    assert f.n_for_filter() == (f.n.value, True)
+    # on 600 s, a correlated angle noise of τc ≈ 300 s could stand in for N: the fit's N is
+    # right, resolved or not, and the filter gets it
+    assert f.n.value == pytest.approx(n_true, rel=0.05)
+    told, resolved = f.n_for_filter()
+    assert resolved == f.n.resolved and told == pytest.approx(n_true, rel=0.05)
+    assert f.tau_c_s is None  # no correlated noise kept
     assert not f.q.resolved and not f.k.resolved and not f.r.resolved
     # the bound (σ + 1σ)·√τ, the smallest over τ: the truth under it, to the 1σ of the
     # best-determined point (60 000 clusters at 0.01 s: 0.3 %)
@@ -91,11 +96,10 @@ def test_white_angle_plus_white_rate_both_resolved_where_the_record_reaches() ->
     q2, n2 = 3.0, 0.3
     y2 = white_angle(rng, q2, 600, 1.0) + rng.normal(0.0, n2, 600)
     f2 = fit_noise_terms(allan_deviation(y2, 1.0))
-    value, resolved = f2.n_for_filter()
-    if resolved:
-        assert value == pytest.approx(n2, rel=0.5)
-    else:
-        assert n2 <= value <= 4.0 * n2
+    value, resolved = f2.n_for_filter()  # the fit's N, resolved or not
+    assert value == pytest.approx(n2, rel=0.5)
+    if not resolved:
+        assert n2 <= f2.n.bound <= 4.0 * n2
 
 
 def test_rate_random_walk_is_k() -> None:
@@ -103,7 +107,10 @@ def test_rate_random_walk_is_k() -> None:
     n_s, k, n = 40000, 0.01, 0.3  # 11 h at 1 Hz; K √τ0 steps, white rate N
     y = np.cumsum(rng.normal(0.0, k, n_s)) + rng.normal(0.0, n, n_s)
     f = fit_noise_terms(allan_deviation(y, 1.0))
-    assert f.n.resolved and f.n.value == pytest.approx(n, rel=0.1)
+    # N dominates only to 32 s: a correlated angle noise of τc ≥ 60 s with the rate random
+    # walk beyond could stand in for it (the fit says so); the fit's N is right all the same
+    assert f.n.value == pytest.approx(n, rel=0.1)
+    assert f.n_for_filter()[0] == pytest.approx(n, rel=0.1)
     assert f.k.resolved and f.k.value == pytest.approx(k, rel=0.3)
     assert f.k.dominant_tau_s is not None and f.k.dominant_tau_s[1] == f.tau_reliable_s
     assert f.k.bound is not None and f.k.bound >= k

@@ -43,11 +43,14 @@ Confidence
 The five terms fitted together
     :func:`fit_noise_terms` fits the whole IEEE 952 model, ``σ²(τ) = 3Q²/τ² + N²/τ +
     (2 ln 2/π) B² + K² τ/3 + R² τ²/2``, to every point of a curve by non-negative weighted
-    least squares on the Allan variance, each point weighted by its clusters, and says which
-    terms the curve resolves and on which τ; ``N`` and ``K`` get upper bounds where it does
-    not (a dithered laser gyro's white angle noise ``Q``, slope −1, hiding the random walk
-    on a 10 min record). :func:`noise_parameters` is the slope reading of Annex C, kept for
-    the calibration report's table.
+    least squares on the Allan variance, each point weighted by its clusters, with an
+    exponentially correlated (Gauss-Markov) angle noise ``M`` of correlation time ``τc``
+    kept where the information criterion says so (:func:`markov_angle_avar`), and says
+    which terms the curve resolves and on which τ; ``N`` and ``K`` get upper bounds where it
+    does not (a dithered laser gyro's white angle noise ``Q``, slope −1, and its correlated
+    angle, slope −1/2 below τc, hiding the random walk on a 10 min record).
+    :func:`noise_parameters` is the slope reading of Annex C, kept for the calibration
+    report's table.
 
 Why one module
     The Allan variance, its confidence (the clusters of each τ) and the two readings of it
@@ -77,6 +80,7 @@ __all__ = [
     "allan_deviation",
     "allan_deviations",
     "fit_noise_terms",
+    "markov_angle_avar",
     "noise_parameters",
     "pool_curves",
 ]
@@ -503,6 +507,9 @@ MIN_CLUSTERS = 10.0
 RESOLVED_REL_SD = 0.3
 #: A term dominating somewhere is resolved if its relative 1σ is at most this.
 DOMINANT_REL_SD = 0.5
+#: Correlation times τc [s] tried for the exponentially correlated angle noise: 8 a decade
+#: from 5 to 500 s, those within the τ of the points fitted.
+MARKOV_TAU_C_GRID_S = tuple(float(t) for t in np.geomspace(5.0, 500.0, 17))
 
 #: The IEEE 952 terms in the fit: name, power of τ in σ²(τ), coefficient, and what it is.
 _TERMS: tuple[tuple[str, int, float, str], ...] = (
@@ -514,29 +521,46 @@ _TERMS: tuple[tuple[str, int, float, str], ...] = (
 )
 
 
+def markov_angle_avar(tau_s: ArrayLike, tau_c_s: float) -> NDArray[np.float64]:
+    """Allan variance [1/s²] of a rate whose angle is Gauss-Markov noise of unit sd.
+
+    An angle of stationary sd ``M`` and autocovariance ``M² e^{−|s|/τc}`` (the slowly
+    wandering dither residual of a laser gyro; IEEE 952 Annex C's exponentially correlated
+    noise, on the angle): the rate averaged over τ is ``(θ(t+τ) − θ(t))/τ``, so
+    ``σ²(τ) = E[(θ₂ − 2θ₁ + θ₀)²]/(2τ²) = M² (3 − 4e^{−τ/τc} + e^{−2τ/τc})/τ²``; this is
+    that, for ``M = 1``. For τ ≪ τc it is an angle random walk of ``N² = 2M²/τc`` (slope
+    −1/2), for τ ≫ τc white angle noise of ``Q = M`` (slope −1).
+    """
+    t = np.asarray(tau_s, dtype=np.float64)
+    x = t / float(tau_c_s)
+    return np.asarray((np.expm1(-2.0 * x) - 4.0 * np.expm1(-x)) / t**2, dtype=np.float64)
+
+
 @dataclass(frozen=True)
 class NoiseTerm:
-    """One IEEE 952 term fitted to an Allan variance curve (``u`` the unit of the curve).
+    """One term fitted to an Allan variance curve (``u`` the unit of the curve).
 
     Attributes
     ----------
-    name : {"q", "n", "b", "k", "r"}
+    name : {"q", "n", "b", "k", "r", "m"}
         Quantisation / white angle noise ``Q`` [u·s], angle random walk ``N`` [u·√s], bias
-        instability ``B`` [u], rate random walk ``K`` [u/√s], rate ramp ``R`` [u/s].
+        instability ``B`` [u], rate random walk ``K`` [u/√s], rate ramp ``R`` [u/s],
+        exponentially correlated angle noise ``M`` [u·s] (its stationary sd; its
+        correlation time is :attr:`NoiseFit.tau_c_s`).
     value : float
         The fitted value (≥ 0; 0 where the fit put none).
     sd : float
-        Its 1σ from the weighted least squares (``inf`` where the curve cannot tell it).
+        Its 1σ, over the models the criterion weighs (``inf`` where the curve cannot tell).
     resolved : bool
         The curve determines it: relative 1σ ≤ :data:`RESOLVED_REL_SD`, or it is the
         largest term at some τ with at least :data:`MIN_CLUSTERS` clusters and its relative
-        1σ ≤ :data:`DOMINANT_REL_SD`.
+        1σ ≤ :data:`DOMINANT_REL_SD` (``N`` only by the first rule where ``M`` is fitted).
     dominant_tau_s : tuple of float or None [s]
         First and last τ (with enough clusters) where its contribution to σ² is the largest.
     bound : float or None
         Upper bound on the term from the curve alone (``N`` and ``K``, whatever the other
-        terms): ``N ≤ σ(τ)·√τ`` and ``K ≤ σ(τ)·√(3/τ)`` at the τ that gives the smallest,
-        each σ raised by its 1σ, over the points with enough clusters.
+        terms), each σ raised by its 1σ: ``N ≤ σ(τ)·√τ`` at the longest τ with enough
+        clusters, ``K ≤ σ(τ)·√(3/τ)`` at the τ with enough clusters that gives the smallest.
     bound_tau_s : float or None [s]
         The τ of that bound.
     """
@@ -557,12 +581,12 @@ class NoiseTerm:
 
 @dataclass(frozen=True)
 class NoiseFit:
-    """The five IEEE 952 terms fitted to one Allan curve, and what the curve could show.
+    """The IEEE 952 terms fitted to one Allan curve, and what the curve could show.
 
     Attributes
     ----------
-    q, n, b, k, r : NoiseTerm
-        See :class:`NoiseTerm`.
+    q, n, b, k, r, m : NoiseTerm
+        See :class:`NoiseTerm` (``m`` zero where the correlated angle noise was not kept).
     tau_s : tuple of float [s]
         First and last τ of the points fitted.
     tau_reliable_s : float [s]
@@ -570,8 +594,14 @@ class NoiseFit:
     points : int
         Points fitted.
     chi2_dof : float
-        Weighted residual sum of squares per degree of freedom (≈ 1 when the model and the
-        confidence agree; below 1 is usual, the overlapping points being correlated).
+        Weighted residual sum of squares per degree of freedom of the model kept (≈ 1 when
+        the model and the confidence agree; below 1 is usual, the points being correlated).
+    tau_c_s : float or None [s]
+        Correlation time of ``m`` where it was kept, else None.
+    tau_c_range_s : tuple of float or None [s]
+        Its 1σ range (the criterion's weights over the τc grid, in log τc).
+    markov_weight : float
+        The criterion's weight of the models with ``m`` (0-1; kept above 1/2).
     """
 
     q: NoiseTerm
@@ -583,27 +613,39 @@ class NoiseFit:
     tau_reliable_s: float
     points: int
     chi2_dof: float
+    m: NoiseTerm = NoiseTerm("m", 0.0, math.inf, False)
+    tau_c_s: float | None = None
+    tau_c_range_s: tuple[float, float] | None = None
+    markov_weight: float = 0.0
 
     @property
     def terms(self) -> tuple[NoiseTerm, ...]:
-        return (self.q, self.n, self.b, self.k, self.r)
+        return (self.q, self.n, self.b, self.k, self.r, self.m)
 
     def n_for_filter(self) -> tuple[float, bool]:
-        """The random walk a filter should assume: ``N`` if resolved, else its bound.
+        """The random walk a filter should assume: the fit's ``N`` (unresolved: at most its
+        bound); the bound where the fit put none.
 
-        Returns ``(value [u·√s], resolved)``; the bound is the safe side (the truth lies
-        under it), the fitted value of an unresolved ``N`` is not.
+        Returns ``(value [u·√s], resolved)``. An unresolved ``N`` that the fit puts above
+        zero is still the curve's best estimate: on a 10 min window of a dithered laser
+        gyro it holds the correlated angle noise that the window cannot tell from it (up
+        to 2×), its bound more (2.5×); told to an alignment filter, the bound gave the
+        larger heading errors (``docs/navigation.md``, *The filter's noise*). Where the
+        fit put no ``N`` (white angle noise all the way), the bound, the safe side.
         """
-        if self.n.resolved or self.n.bound is None:
+        if self.n.bound is None or self.n.resolved:
             return self.n.value, self.n.resolved
+        if self.n.value > 0:  # never above what the curve allows
+            return min(self.n.value, self.n.bound), False
         return self.n.bound, False
 
     def model(self, tau_s: ArrayLike) -> NDArray[np.float64]:
         """The fitted Allan deviation at ``tau_s`` [s] (unit of the curve)."""
         t = np.asarray(tau_s, dtype=np.float64)
-        var = sum(
-            c * term.value**2 * t**p for (_, p, c, _), term in zip(_TERMS, self.terms, strict=True)
-        )
+        five = self.terms[:5]
+        var = sum(c * e.value**2 * t**p for (_, p, c, _), e in zip(_TERMS, five, strict=True))
+        if self.tau_c_s is not None:
+            var = var + self.m.value**2 * markov_angle_avar(t, self.tau_c_s)
         return np.sqrt(var)
 
 
@@ -632,7 +674,7 @@ def _nnls(a: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]
     """Non-negative least squares ``min ‖a x − y‖, x ≥ 0`` of a few unknowns, exactly.
 
     The solution is the unconstrained least squares on its own support (the terms it
-    keeps); with five terms every support (31) is tried and the best feasible one kept.
+    keeps); with five or six terms every support is tried and the best feasible one kept.
     Columns are scaled to unit norm first (the terms differ by many decades).
     """
     k = a.shape[1]
@@ -661,40 +703,81 @@ def _cov(a: NDArray[np.float64], cols: list[int]) -> NDArray[np.float64]:
     return np.asarray(np.linalg.pinv(sub.T @ sub), dtype=np.float64)
 
 
+def _fit_linear(
+    basis: NDArray[np.float64], y: NDArray[np.float64], dof_w: NDArray[np.float64], iters: int
+) -> tuple[NDArray[np.float64], NDArray[np.float64], float, int]:
+    """Iteratively reweighted NNLS of ``y = basis θ``: ``(θ, var θ, χ², terms kept)``."""
+    model = y.copy()
+    x = np.zeros(basis.shape[1])
+    for _ in range(max(1, int(iters))):
+        s = model / np.sqrt(dof_w)  # 1σ of each σ² point
+        x = _nnls(basis / s[:, None], y / s)
+        fitted = basis @ x
+        model = np.where(fitted > 0, fitted, y)  # a point the model calls zero: its own
+    s = model / np.sqrt(dof_w)
+    aw = basis / s[:, None]
+    chi2 = float(np.sum(((y - basis @ x) / s) ** 2))
+    active = [j for j in range(x.size) if x[j] > 0]
+    inflate = max(chi2 / max(y.size - len(active), 1), 1.0)
+    var = np.full(x.size, np.inf)
+    if active:
+        var[active] = np.diag(_cov(aw, active)) * inflate
+    for j in range(x.size):
+        if j not in active:  # the 1σ it would have had if freed alone
+            var[j] = _cov(aw, [*active, j])[-1, -1] * inflate
+    return x, var, chi2, len(active)
+
+
 def fit_noise_terms(
-    curve: AllanCurve, *, min_clusters: float = MIN_CLUSTERS, iterations: int = 4
+    curve: AllanCurve,
+    *,
+    min_clusters: float = MIN_CLUSTERS,
+    iterations: int = 4,
+    correlated: bool = True,
 ) -> NoiseFit:
-    """Fit the IEEE Std 952-1997 model to every point of an Allan curve.
+    """Fit the IEEE Std 952-1997 model, and a correlated angle noise, to an Allan curve.
 
     The model (IEEE Std 952-1997 Annex C, eq. C.15; El-Sheimy, Hou & Niu 2008, IEEE Trans.
-    Instrum. Meas. 57(1), Table I) is the sum of the Allan variances of five independent
+    Instrum. Meas. 57(1), Table I) is the sum of the Allan variances of independent
     processes, ``u`` the unit of the curve (a rate):
 
-    ``σ²(τ) = 3Q²/τ² + N²/τ + (2 ln 2/π) B² + K² τ/3 + R² τ²/2``
+    ``σ²(τ) = 3Q²/τ² + N²/τ + (2 ln 2/π) B² + K² τ/3 + R² τ²/2
+    [+ M² (3 − 4e^{−τ/τc} + e^{−2τ/τc})/τ²]``
 
     with ``Q`` the quantisation / white angle noise [u·s] (slope −1: a pulse-output gyro's
     count, a dithered laser gyro's angle noise, an accelerometer's velocity count), ``N``
     the angle (velocity) random walk [u·√s] (slope −1/2), ``B`` the bias instability [u]
-    (flat; the flicker floor's Allan variance, exact only where τ is well inside the
-    flicker band), ``K`` the rate random walk [u/√s] (+1/2) and ``R`` the rate ramp [u/s]
-    (+1). It is linear in ``(Q², N², B², K², R²)``, which are found by **non-negative
-    weighted least squares** on the Allan *variance* of every point (not only those with
-    many clusters: a point's weight is its confidence). The variance of an Allan variance
-    estimated from ``M`` independent clusters is ``2σ⁴/(M − 1)`` (from IEEE 952's
-    ``σ/√(2(M − 1))`` on the deviation), so each point is weighted by ``(M − 1)/(2σ⁴)``,
-    σ the model's (iteratively reweighted: the measured σ⁴ would favour points that came
-    out low). The covariance of the terms the fit kept is the inverse normal matrix, scaled
-    by the residual χ² per degree of freedom where above 1; a term the fit put at zero gets
-    the 1σ it would have had if freed alone.
+    (flat; exact only well inside the flicker band), ``K`` the rate random walk [u/√s]
+    (+1/2), ``R`` the rate ramp [u/s] (+1) and ``M`` an exponentially correlated
+    (Gauss-Markov) angle noise [u·s] of correlation time ``τc`` (:func:`markov_angle_avar`;
+    a dithered laser gyro's slowly wandering angle: for τ ≪ τc it looks exactly like a
+    random walk of ``√2 M/√τc``, and only the bend at τ ≈ τc tells it from ``N``). For a
+    given τc the model is linear in ``(Q², N², B², K², R², M²)``, found by **non-negative
+    weighted least squares** on the Allan *variance* of every point (a point's weight is
+    its confidence: the variance of an Allan variance from ``M`` clusters is
+    ``2σ⁴/(M − 1)``, σ the model's, iteratively reweighted). Each term's covariance is the
+    inverse normal matrix, scaled by the residual χ² per degree of freedom where above 1;
+    a term the fit put at zero gets the 1σ it would have had if freed alone.
+
+    **Whether ``M`` is there, and its τc** (``correlated``): the five-term model and the
+    six-term model at every τc of :data:`MARKOV_TAU_C_GRID_S` within the curve's τ are
+    fitted and weighed by the Bayesian information criterion ``BIC = χ²/ĉ + p ln n``
+    (``n`` points, ``p`` = 5 parameters without ``M``, 7 with ``M`` and τc; ``ĉ`` the
+    six-term model's best χ² per degree of freedom where above 1, as a quasi-likelihood
+    allows for correlated points): model ``j`` gets the weight ``∝ π_j e^{−BIC_j/2}``, the
+    prior ``π`` one half without ``M`` and one half spread evenly over the τc grid. ``M``
+    is kept where the models with it weigh more than one half, at the τc of the largest
+    weight; the values reported are that model's. Each term's 1σ is taken over all the
+    models by their weights (``var = Σ w_j (var_j + (θ_j − θ)²)``), so a random walk that
+    the correlated noise can stand in for (another τc, another ``M``) is not resolved.
 
     What the curve shows (:class:`NoiseTerm`): a term is *resolved* when its relative 1σ is
     at most 30 %, or when it dominates σ² somewhere among the points with at least
-    ``min_clusters`` clusters and its relative 1σ is at most 50 %. ``N`` and ``K`` also get
-    bounds from the curve alone: every term adds to σ², so ``N²/τ ≤ σ²(τ)`` and
-    ``K²τ/3 ≤ σ²(τ)`` at every τ; the bound is the smallest ``(σ + 1σ)·√τ`` (``·√(3/τ)``)
-    over the points with enough clusters. Where quantisation dominates up to the longest
-    such τ (a dithered laser gyro on a 10 min window), ``N ≤ σ(τ_max)·√τ_max`` is what the
-    curve can say, and :meth:`NoiseFit.n_for_filter` hands that bound on.
+    ``min_clusters`` clusters and its relative 1σ is at most 50 % (``N`` where ``M`` is
+    kept: only the first). ``N`` and ``K`` also get bounds from the curve alone: every term
+    adds to σ², so ``N²/τ ≤ σ²(τ)`` and ``K²τ/3 ≤ σ²(τ)`` at every τ; the bound is
+    ``(σ + 1σ)·√τ`` at the longest τ with enough clusters (``K``: the smallest
+    ``(σ + 1σ)·√(3/τ)`` over those points).
 
     Parameters
     ----------
@@ -705,6 +788,8 @@ def fit_noise_terms(
         Clusters a point needs to show a dominating term or give a bound (default 10).
     iterations : int
         Reweighting passes (≥ 1).
+    correlated : bool
+        Weigh the correlated angle noise ``M`` (default True); False: the five terms only.
 
     Returns
     -------
@@ -727,63 +812,77 @@ def fit_noise_terms(
     sig = curve.adev[use]
     m = curve.clusters[use]
     y = sig**2
-    basis = np.stack([c * tau**p for _, p, c, _ in _TERMS], axis=1)
     dof_w = np.maximum(m - 1.0, 1.0) / 2.0  # 1 / relative variance of σ²
-    model = y.copy()
-    x = np.zeros(len(_TERMS))
-    for _ in range(max(1, int(iterations))):
-        s = model / np.sqrt(dof_w)  # 1σ of each σ² point
-        x = _nnls(basis / s[:, None], y / s)
-        fitted = basis @ x
-        # guard: a point the model calls zero keeps its own variance as its scale
-        model = np.where(fitted > 0, fitted, y)
-    s = model / np.sqrt(dof_w)
-    aw = basis / s[:, None]
-    resid = (y - basis @ x) / s
-    active = [j for j in range(len(_TERMS)) if x[j] > 0]
-    dof = max(tau.size - len(active), 1)
-    chi2 = float(np.sum(resid**2) / dof)
-    inflate = max(chi2, 1.0)
-    var_theta = np.full(len(_TERMS), np.inf)
-    if active:
-        cov = _cov(aw, active) * inflate
-        for i, j in enumerate(active):
-            var_theta[j] = cov[i, i]
-    for j in range(len(_TERMS)):
-        if j not in active:
-            cov = _cov(aw, [*active, j]) * inflate
-            var_theta[j] = cov[-1, -1]
+    base = np.stack([c * tau**p for _, p, c, _ in _TERMS], axis=1)
+    grid = [tc for tc in MARKOV_TAU_C_GRID_S if tau[0] <= tc <= tau[-1]] if correlated else []
+    bases = [np.column_stack([base, np.zeros(tau.size)])]
+    bases += [np.column_stack([base, markov_angle_avar(tau, tc)]) for tc in grid]
+    fits = [_fit_linear(b, y, dof_w, iterations) for b in bases]
+    theta = np.array([f[0] for f in fits])
+    var = np.array([f[1] for f in fits])
+    theta[0, -1] = var[0, -1] = 0.0  # no M in the five-term model
+    chi2 = np.array([f[2] for f in fits])
+    n_pts = tau.size
+    c_hat = 1.0
+    if grid:
+        j6 = 1 + int(np.argmin(chi2[1:]))
+        c_hat = max(1.0, chi2[j6] / max(n_pts - fits[j6][3] - 1, 1))
+    bic = chi2 / c_hat + np.array([5.0] + [7.0] * len(grid)) * math.log(n_pts)
+    prior = np.array([0.5] + [0.5 / len(grid)] * len(grid)) if grid else np.ones(1)
+    w = prior * np.exp(-0.5 * (bic - bic.min()))
+    w /= w.sum()
+    w_markov = float(w[1:].sum())
+    sel = 1 + int(np.argmax(w[1:])) if w_markov > 0.5 else 0
+    x = theta[sel]
+    keep = w > 1e-12
+    var_x = np.sum(w[keep, None] * (var[keep] + (theta[keep] - x) ** 2), axis=0)
+    if grid:  # N with the correlated noise in the model, whatever was kept: at its best τc,
+        # and as far as another τc the curve allows (χ² within 1 of the best) moves it
+        near = chi2[1:] <= chi2[j6] + c_hat
+        spread = float(np.max((theta[1:, 1][near] - x[1]) ** 2))
+        var_x[1] = max(var_x[1], float(var[j6, 1] + (theta[j6, 1] - x[1]) ** 2), spread)
+    tau_c = tau_c_range = None
+    if sel:
+        tau_c = grid[sel - 1]
+        lt, wm = np.log(grid), w[1:] / w_markov
+        mu = float(np.sum(wm * lt))
+        sd_lt = math.sqrt(float(np.sum(wm * (lt - mu) ** 2)))
+        tau_c_range = (math.exp(mu - sd_lt), math.exp(mu + sd_lt))
+    chi2_dof = float(chi2[sel] / max(n_pts - fits[sel][3] - (1 if sel else 0), 1))
 
     reliable = m >= min_clusters
     tau_rel = float(tau[reliable][-1]) if np.any(reliable) else float(tau[0])
-    contrib = basis * x  # each term's σ² at each point
+    contrib = bases[sel] * x  # each term's σ² at each point
     largest = np.argmax(contrib, axis=1)
-    rel_dev = 1.0 / np.sqrt(2.0 * np.maximum(m - 1.0, 1.0))
-    upper = sig * (1.0 + rel_dev)
-    terms: list[NoiseTerm] = []
-    for j, (name, power, coef, _) in enumerate(_TERMS):
-        theta = float(x[j])
-        value = math.sqrt(theta)
-        sd_theta = math.sqrt(var_theta[j]) if np.isfinite(var_theta[j]) else math.inf
+    upper = sig * (1.0 + 1.0 / np.sqrt(2.0 * np.maximum(m - 1.0, 1.0)))
+    terms: dict[str, NoiseTerm] = {}
+    for j, (name, power) in enumerate([(t[0], t[1]) for t in _TERMS] + [("m", None)]):
+        value = math.sqrt(x[j])
+        sd_theta = math.sqrt(var_x[j]) if np.isfinite(var_x[j]) else math.inf
         # σ of √θ: sd_θ / (2√θ) where θ > 0; at θ = 0 the 1σ of √θ is √(sd_θ)
         sd = sd_theta / (2.0 * value) if value > 0 else math.sqrt(sd_theta)
-        dom = reliable & (largest == j) & (theta > 0)
+        dom = reliable & (largest == j) & (x[j] > 0)
         dom_tau = (float(tau[dom][0]), float(tau[dom][-1])) if np.any(dom) else None
         rel = sd / value if value > 0 else math.inf
-        resolved = value > 0 and (
-            rel <= RESOLVED_REL_SD or (dom_tau is not None and rel <= DOMINANT_REL_SD)
-        )
+        by_dominance = dom_tau is not None and rel <= DOMINANT_REL_SD
+        if name == "n" and grid:
+            by_dominance = False  # a random walk the correlated noise can stand in for
+        resolved = value > 0 and (rel <= RESOLVED_REL_SD or by_dominance)
         bound = bound_tau = None
         if power in (-1, 1) and np.any(reliable):
-            b_all = upper / np.sqrt(coef * tau**power)
+            b_all = upper / np.sqrt(_TERMS[j][2] * tau**power)
             b_all = np.where(reliable, b_all, np.inf)
-            i = int(np.argmin(b_all))
+            # N: at the longest reliable τ (the smallest of many noisy points is biased low)
+            i = int(np.flatnonzero(reliable)[-1]) if power == -1 else int(np.argmin(b_all))
             bound, bound_tau = float(b_all[i]), float(tau[i])
-        terms.append(NoiseTerm(name, value, sd, bool(resolved), dom_tau, bound, bound_tau))
+        terms[name] = NoiseTerm(name, value, sd, bool(resolved), dom_tau, bound, bound_tau)
     return NoiseFit(
-        *terms,
+        **terms,
         tau_s=(float(tau[0]), float(tau[-1])),
         tau_reliable_s=tau_rel,
-        points=int(tau.size),
-        chi2_dof=chi2,
+        points=int(n_pts),
+        chi2_dof=chi2_dof,
+        tau_c_s=tau_c,
+        tau_c_range_s=tau_c_range,
+        markov_weight=w_markov,
     )
