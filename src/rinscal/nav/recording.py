@@ -497,7 +497,8 @@ def _declared_units(log: Any) -> dict[str, str | None]:
 def _unit_source(log: Any) -> str:
     """Where the log's units came from, for a message about them."""
     if log.kind == "counts":
-        return "counts × the mapping's [weights]"
+        given = log.mapping is not None and bool(getattr(log.mapping, "weights", None))
+        return "counts × the " + ("mapping's [weights]" if given else "metadata's weights")
     if log.kind == "increments":
         return "increments in rad and m/s"
     src = (
