@@ -23,7 +23,7 @@ from rinscal.io.mapping import SEPARATORS, channel_unit
 from rinscal.io.metadata import read_meta
 from rinscal.io.navlog import NavLog
 from rinscal.io.navmapping import Kind, NavMapping, parse_weight
-from rinscal.io.tables import _check_parquet, _sniff_text, format_of
+from rinscal.io.tables import Format, _check_parquet, _sniff_text, format_of
 from rinscal.io.track import parse_utc
 from rinscal.schema import (
     CHAMBER,
@@ -300,6 +300,17 @@ class NavHeader:
     runs: list[str] | None
 
 
+def _existing_log(path: str | os.PathLike[str], fmt: str | None) -> tuple[Path, Format]:
+    """The log's path and format, refusing a missing file or a folder (naming it)."""
+    p = Path(path)
+    f = format_of(p, fmt)
+    if not p.exists():
+        raise LogError(f"{p}: no such file")
+    if p.is_dir():
+        raise LogError(f"{p}: is a folder, not a log file")
+    return p, f
+
+
 def nav_log_header(
     path: str | os.PathLike[str], mapping: NavMapping | None = None, *, fmt: str | None = None
 ) -> NavHeader:
@@ -310,12 +321,7 @@ def nav_log_header(
     LogError
         As :func:`open_nav_log` for a missing file, an unknown format or an unreadable header.
     """
-    p = Path(path)
-    f = format_of(p, fmt)
-    if not p.exists():
-        raise LogError(f"{p}: no such file")
-    if p.is_dir():
-        raise LogError(f"{p}: is a folder, not a log file")
+    p, f = _existing_log(path, fmt)
     cols, sep, _ = _header(p, f, mapping)
     meta = read_meta(p)
     run_col = RUN
@@ -378,12 +384,7 @@ def open_nav_log(
     ConfigError
         For a mapping that does not fit the file (``[units]`` on increments).
     """
-    p = Path(path)
-    f = format_of(p, fmt)
-    if not p.exists():
-        raise LogError(f"{p}: no such file")
-    if p.is_dir():
-        raise LogError(f"{p}: is a folder, not a log file")
+    p, f = _existing_log(path, fmt)
     cols, sep, n_rows = _header(p, f, mapping)
     names = _resolve(p, cols, mapping)
     if TIME not in names:
