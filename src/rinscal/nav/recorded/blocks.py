@@ -109,6 +109,32 @@ class Blocks:
         """Blocks lying within ``[start_s, end_s]`` (to half a block)."""
         return (self.t0 >= start_s - 0.5 * BLOCK_S) & (self.t1 <= end_s + 0.5 * BLOCK_S)
 
+    @property
+    def span(self) -> NDArray[np.float64]:
+        """Each block's length [s] (at least 1 ns: a block of one sample has none)."""
+        return np.maximum(self.t1 - self.t0, 1e-9)
+
+    def turn(self) -> NDArray[np.float64]:
+        """The table's turn in each block [rad]: the encoder's, else the z gyro's."""
+        return self.table_turn if self.has_table else self.w_mean[:, 2] * self.span
+
+    def table_still(self, limit_dps: float) -> NDArray[np.bool_]:
+        """Blocks in which the table turns slower than ``limit_dps`` [deg/s]."""
+        return np.abs(self.turn()) < limit_dps * units.DEG_TO_RAD * self.span
+
+    def consecutive(self) -> NDArray[np.bool_]:
+        """Blocks that follow the one before without a gap (the first: True)."""
+        ok = np.ones(self.size, dtype=bool)
+        ok[1:] = (self.t0[1:] - self.t1[:-1]) <= 1.5 * self.dt
+        return ok
+
+    def rate_less_table(self) -> NDArray[np.float64]:
+        """Each block's mean rate [rad/s], z less the encoder's turn (no encoder: as read)."""
+        w = self.w_mean.copy()
+        if self.has_table:
+            w[:, 2] -= self.table_turn / self.span
+        return w
+
 
 class TableUnwrap:
     """Unwraps an encoder angle across pieces (±180° or 0-360° wrap-around): a step of more

@@ -321,10 +321,7 @@ def motion(
       the recording's median direction of ``f``, less its median; a tilted IMU on a turning
       table moves it by twice its tilt (0.2 m/s² for 1°), a parked vehicle by less.
     """
-    span = np.maximum(blocks.t1 - blocks.t0, 1e-9)
-    w = blocks.w_mean.copy()
-    if blocks.has_table:
-        w[:, 2] -= blocks.table_turn / span
+    w = blocks.rate_less_table()
     f = blocks.f_mean
     u = np.median(f, axis=0)
     u = u / max(float(np.linalg.norm(u)), 1e-300)
@@ -343,7 +340,7 @@ def motion(
     force = np.linalg.norm(perp - np.median(perp, axis=0), axis=1)
     by_rate = (beyond > MOVING_RATE_DPS * units.DEG_TO_RAD) & gyro_ok
     if blocks.has_table:  # where the table turns, a wrong encoder unit or sign would pass
-        by_rate &= np.abs(blocks.table_turn / span) < 0.1 * units.DEG_TO_RAD  # for motion
+        by_rate &= np.abs(blocks.table_turn / blocks.span) < 0.1 * units.DEG_TO_RAD  # for motion
     by_force = (force > MOVING_FORCE_MPS2) & accel_ok
     if track is not None:
         speed = track_speed(*track, at=0.5 * (blocks.t0 + blocks.t1))

@@ -99,10 +99,7 @@ def table_frame(blocks: Blocks) -> tuple[NDArray[np.float64], NDArray[np.float64
         out[:, 1] = s * v[:, 0] + c * v[:, 1]
         return out
 
-    w = turned(blocks.w_mean)
-    if blocks.has_table:
-        w[:, 2] -= blocks.table_turn / np.maximum(blocks.t1 - blocks.t0, 1e-9)
-    return turned(blocks.f_mean), w
+    return turned(blocks.f_mean), turned(blocks.rate_less_table())
 
 
 def robust_limit(x: NDArray[np.float64], floor: float = 0.0) -> tuple[float, float, float]:
@@ -349,13 +346,9 @@ def motion(blocks: Blocks) -> Motion:
     full = blocks.n >= 0.5 * np.median(blocks.n)
     if blocks.gaps is not None:  # the aligner steps by the nominal interval: no gap in it
         full = full & ~blocks.gaps
-    ok = full.copy()
-    ok[1:] &= (blocks.t0[1:] - blocks.t1[:-1]) <= 1.5 * blocks.dt  # consecutive
-    # steps only between blocks the table stands in: a turn moves the biases (IMU-fixed)
-    # against the tilt and the Earth rate (base-fixed), a step in either frame
-    span = np.maximum(blocks.t1 - blocks.t0, 1e-9)
-    turn = blocks.table_turn if blocks.has_table else blocks.w_mean[:, 2] * span
-    ok &= np.abs(turn) < TABLE_STILL_DPS * units.DEG_TO_RAD * span
+    # steps only between consecutive blocks the table stands in: a turn moves the biases
+    # (IMU-fixed) against the tilt and the Earth rate (base-fixed), a step in either frame
+    ok = full & blocks.consecutive() & blocks.table_still(TABLE_STILL_DPS)
     g = 9.80665
     ug, dph = units.UG_TO_MPS2, units.DPH_TO_RPS
     f_floor, w_floor = 1e-5 * g, 0.1 * earth.RATE  # 10 µg (2″ of tilt), 1.5 °/h

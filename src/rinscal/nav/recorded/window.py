@@ -438,10 +438,7 @@ def check_never_at_rest(
         ``adev_1s_ug``, ``adev_tau_ug``, ``expected_tau_ug``, ``tau_s`` and the warning.
     """
     sel = blocks.select(window.start_s, window.end_s)
-    span = np.maximum(blocks.t1 - blocks.t0, 1e-9)
-    turn = blocks.table_turn if blocks.has_table else blocks.w_mean[:, 2] * span
-    ok = sel & (np.abs(turn) < TABLE_STILL_DPS * units.DEG_TO_RAD * span)
-    ok[1:] &= (blocks.t0[1:] - blocks.t1[:-1]) <= 1.5 * blocks.dt
+    ok = sel & blocks.table_still(TABLE_STILL_DPS) & blocks.consecutive()
     tau = max(1, round(AT_REST_TAU_S / BLOCK_S))
     a1, at = _adev(blocks.f_mean, ok, 1), _adev(blocks.f_mean, ok, tau)
     if not (math.isfinite(a1) and math.isfinite(at)):
@@ -504,7 +501,7 @@ def check_encoder(blocks: Blocks) -> list[str]:
     """
     if not blocks.has_table:
         return []
-    span = np.maximum(blocks.t1 - blocks.t0, 1e-9)
+    span = blocks.span
     gyro = blocks.w_mean[:, 2] * span
     fast = 1.0 * units.DEG_TO_RAD * span
     both = (np.abs(gyro) > fast) & (np.abs(blocks.table_turn) > fast)
@@ -556,7 +553,7 @@ def check_turning_without_encoder(
     """
     if blocks.has_table or blocks.t0.size < 3:
         return {}, []
-    span = np.maximum(blocks.t1 - blocks.t0, 1e-9)
+    span = blocks.span
     wz = blocks.w_mean[:, 2] - earth.RATE * math.sin(lat)
     turning = np.abs(wz) > TABLE_RATE_DPS * units.DEG_TO_RAD
     still = np.abs(wz) < 0.1 * TABLE_RATE_DPS * units.DEG_TO_RAD
@@ -656,8 +653,7 @@ def seen_schedule(blocks: Blocks) -> dict[str, Any]:
     """What the encoder says the turntable did: positions held, dwell, turning rate."""
     if not blocks.has_table:
         return {"source": "none (no encoder angle: the IMU is fixed to the body)"}
-    span = np.maximum(blocks.t1 - blocks.t0, 1e-9)
-    rate = blocks.table_turn / span
+    rate = blocks.table_turn / blocks.span
     angle = blocks.table_start + np.cumsum(blocks.table_turn)  # at each block's end
     still = np.abs(rate) < 0.1 * units.DEG_TO_RAD
     dwell = [(a, b) for a, b in _stretches(still) if b - a >= 2]
