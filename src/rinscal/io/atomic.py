@@ -21,7 +21,6 @@ __all__ = [
     "check_output",
     "make_folders",
     "missing_folder_error",
-    "prepare_output",
     "remove_empty_folders",
     "write_atomic",
 ]
@@ -171,17 +170,6 @@ def missing_folder_error(
         f"that exists (no folder is created to hold it): create it first (mkdir -p "
         f"{missing[-1]}) or choose another location"
     )
-
-
-def prepare_output(
-    path: str | os.PathLike[str], *, what: str = "--out", folder: bool = False
-) -> list[Path]:
-    """:func:`check_output`; a folder output's missing folders are created (returned), a
-    file's missing folder is refused (:func:`missing_folder_error`)."""
-    missing = check_output(path, what=what, folder=folder)
-    if missing and not folder:
-        raise missing_folder_error(path, missing, what=what)
-    return make_folders(missing)
 
 
 def remove_empty_folders(folders: list[Path]) -> None:

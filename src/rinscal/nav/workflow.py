@@ -136,7 +136,6 @@ def navigate_scenario(
     quantise: bool | None = None,
     disturbed_start_min: float | None = None,
     progress: Callable[[float, float], None] | None = None,
-    before_run: Callable[[], None] | None = None,
 ) -> Navigation:
     """Navigate a single-axis RINS through a simulated cold start, per compensation variant.
 
@@ -187,9 +186,6 @@ def navigate_scenario(
         :data:`MIN_DISTURBED_RATE_HZ` or more.
     progress : callable, optional
         Called with (simulated seconds done, total seconds).
-    before_run : callable, optional
-        Called once everything is checked and built, before the (long) run: where a
-        command makes its output folder, so that bad arguments leave nothing behind.
 
     Returns
     -------
@@ -242,8 +238,6 @@ def navigate_scenario(
     named = _named_models(models)
     for name, m in named.items():
         comps[name] = model_compensator(m, plant, policy=policy)
-    if before_run is not None:
-        before_run()
     if record is None:
         result = run_scenario(cfg, plant, comps, progress=progress)
     else:
