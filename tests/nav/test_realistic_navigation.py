@@ -2,20 +2,19 @@
 
 The recordings of ``tests/nav/_realistic.py`` hold what the real ring-laser recording of the
 issue held and our simulator used not to make: integer counts of 0.1″ and 125 µg·s at
-100 Hz, a dithered laser gyro's angle noise (σ ≈ 4 °/h at τ = 1 s, slope about −0.8 out to
-100 s) over a true random walk of 0.0075 °/√h, and a parked vehicle with people about it for
+100 Hz, a dithered laser gyro's white angle noise (σ ≈ 3.2 °/h at τ = 1 s, slope about −0.84 out
+to 100 s) over a true random walk of 0.01 °/√h, and a parked vehicle with people about it for
 the first 9 minutes. Each test navigates such a recording with default options (the noise,
 the window, the checks all from the data) and again with the true noise written into its
 metadata on the same window, and compares.
 
-What a single run can show and what it cannot. The heading a 10 min gyrocompass hands over
-scatters by about 400″ (rms) on this unit whatever the filter is told (the correlated angle
-noise moves the east gyro's mean by ~0.016 °/h over the window), and two filters tuned
-differently on the same data land at different points of that scatter: on seed 35 the
-default gives −528″ where the true noise gives −277″. So the per-run test asks the position
-error (which the whole run decides) to be within 1.5× of the true-noise run's, and the
-heading to be within the scatter; the slow test compares the rms over seeds, which is what
-"as well as its data allow" means.
+What a single run can show. The heading a 10 min gyrocompass hands over scatters by about
+476″ (rms over seeds 35-40 with the true noise told; N/(Ω cos L·√T) = 410″ for the random
+walk alone), so one run's heading is compared with the true-noise run's on the same data
+(1.5× plus 30″ where both are small), and the slow test compares the rms over seeds, which is
+what "as well as its data allow" means. The same curve made by a correlated angle noise over
+a smaller random walk (``ring_laser_correlated``) is the case a window cannot resolve: its
+slow test is an expected failure that says by how much.
 """
 
 from __future__ import annotations
@@ -33,11 +32,6 @@ from rinscal.cli import app
 from tests.nav._realistic import Realistic, write_realistic
 
 runner = CliRunner()
-
-#: Heading scatter of a 10 min alignment on the ring-laser unit [arcsec]: the rms over 30
-#: windows and seeds with the true noise told was 393″ (docs/navigation.md); a run beyond
-#: 3 × that is not scatter.
-HEADING_SCATTER_ARCSEC = 400.0
 
 
 def _navigate(log: Path, out: Path, *extra: str) -> tuple[dict[str, Any], str]:
@@ -103,13 +97,12 @@ def test_a_ring_laser_recording_navigates_as_well_as_its_data_allow(
     warnings = " ".join(default["recording"]["warnings"])
     assert "latitude" not in warnings and "never" not in warnings, warnings
     assert default["recording"]["recording_kind"]["kind"].startswith("at rest")
-    # the position error within 1.5× of the true noise's on the same window; the heading
-    # within the alignment's own scatter
+    # heading and position error within 1.5× of the true noise's on the same window
     h_def, e_def = _errors(default)
     h_true, e_true = _errors(true)
     assert e_def <= 1.5 * e_true, (e_def, e_true)
     assert e_def < 0.1
-    assert abs(h_def) <= 3 * HEADING_SCATTER_ARCSEC and abs(h_true) <= 3 * HEADING_SCATTER_ARCSEC
+    assert abs(h_def) <= 1.5 * abs(h_true) + 30.0, (h_def, h_true)
 
 
 def test_a_fog_like_unit_is_no_worse_than_with_its_true_noise(
@@ -124,36 +117,53 @@ def test_a_fog_like_unit_is_no_worse_than_with_its_true_noise(
     assert abs(h_def) <= 1.5 * abs(h_true) + 30.0, (h_def, h_true)
 
 
-@pytest.mark.slow
-@pytest.mark.xfail(
-    strict=True,
-    reason=(
-        "issue 35 open: on the windows found after the disturbance (seeds 35-40) the rms "
-        "heading error with default options is 697″ against 405″ with the true noise (1.7×; "
-        "maximum horizontal error 0.095 against 0.091 nmi rms). A 10 min window cannot tell the "
-        "gyro's correlated angle noise (6″, τc 100 s) from a random walk, so the filter is "
-        "told the fit's N (0.014-0.017 °/√h, truth 0.0075) and weights its oldest data "
-        "less; the heading grows monotonically with the N told (0.0075: 405″ rms). "
-        "Choosing the least random walk the curve allows fixes it (1.2×) but tells a unit "
-        "of pure random walk half its noise: the two are the same curve on 10 min."
-    ),
-)
-def test_over_seeds_the_default_matches_the_true_noise(tmp_path: Path) -> None:
-    """rms over six cold starts: heading and maximum horizontal error with default options
-    within 1.5× of the same windows' with the true noise told (about 3 min)."""
+def _over_seeds(variant: str, tmp_path: Path) -> tuple[dict[str, list[float]], ...]:
+    """Heading [arcsec] and maximum horizontal error [nmi] per seed 35-40, with default
+    options and with the true noise told on the window the default found."""
     heads: dict[str, list[float]] = {"default": [], "true": []}
     errs: dict[str, list[float]] = {"default": [], "true": []}
     for seed in range(35, 41):
         (tmp_path / f"s{seed}").mkdir()
-        rec = write_realistic(tmp_path / f"s{seed}", "ring_laser", seed=seed)
+        rec = write_realistic(tmp_path / f"s{seed}", variant, seed=seed)
         default, true, _ = _pair(rec, tmp_path / f"n{seed}")
         for name, s in (("default", default), ("true", true)):
             h, e = _errors(s)
             heads[name].append(h)
             errs[name].append(e)
+    return heads, errs
 
-    def rms(x: list[float]) -> float:
-        return math.sqrt(sum(v * v for v in x) / len(x))
 
-    assert rms(heads["default"]) <= 1.5 * rms(heads["true"]), heads
-    assert rms(errs["default"]) <= 1.5 * rms(errs["true"]), errs
+def _rms(x: list[float]) -> float:
+    return math.sqrt(sum(v * v for v in x) / len(x))
+
+
+@pytest.mark.slow
+def test_over_seeds_the_default_matches_the_true_noise(tmp_path: Path) -> None:
+    """rms over six cold starts: heading and maximum horizontal error with default options
+    within 1.5× of the same windows' with the true noise told (about 3 min). Measured:
+    heading 487″ against 476″ (1.02), maximum error 0.096 against 0.098 nmi (0.98)."""
+    heads, errs = _over_seeds("ring_laser", tmp_path)
+    assert _rms(heads["default"]) <= 1.5 * _rms(heads["true"]), heads
+    assert _rms(errs["default"]) <= 1.5 * _rms(errs["true"]), errs
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(
+    strict=True,
+    raises=AssertionError,
+    reason=(
+        "the limit of a 10 min window: where the Allan curve's bend is a correlated angle "
+        "noise (6″, τc 100 s) over a random walk of 0.0075 °/√h, the window cannot tell it "
+        "from a random walk of 0.014 °/√h, the filter is told the fit's N (0.014-0.017 °/√h) "
+        "and weights its oldest data less: rms heading 697″ against 405″ with the true noise "
+        "(1.7×) on seeds 35-40, maximum horizontal error 0.095 against 0.091 nmi. Choosing "
+        "the least random walk the curve allows fixes it (1.2×) but tells a unit of pure "
+        "random walk half its noise: the two are the same curve on 10 min. Give the noise "
+        "(metadata, --imu) of such a unit."
+    ),
+)
+def test_a_correlated_angle_noise_is_beyond_a_window(tmp_path: Path) -> None:
+    """The same comparison on ``ring_laser_correlated`` (about 3 min)."""
+    heads, errs = _over_seeds("ring_laser_correlated", tmp_path)
+    assert _rms(heads["default"]) <= 1.5 * _rms(heads["true"]), heads
+    assert _rms(errs["default"]) <= 1.5 * _rms(errs["true"]), errs

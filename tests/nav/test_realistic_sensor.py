@@ -144,16 +144,17 @@ def _allan_of_noise(cfg, rate_hz: float = 100.0, seconds: float = 1200.0) -> np.
 
 
 def test_dithered_angle_noise_has_the_real_units_allan_curve_and_can_be_switched_off() -> None:
-    """The ring laser's angle noise gives σ ≈ 4 °/h at 1 s falling at about −0.8 to 100 s
+    """The ring laser's angle noise gives σ ≈ 3.2 °/h at 1 s falling at about −0.84 to 100 s
     (a real unit's curve); switched off in [effects], only the angle random walk is left
-    (0.0075 °/√h: 0.45 °/h at 1 s, slope −½)."""
+    (0.01 °/√h: 0.6 °/h at 1 s, slope −½)."""
     cfg = load_imu("ring_laser")
     on = _allan_of_noise(cfg)
     assert np.all((on[:, 0] > 3.0) & (on[:, 0] < 5.0)), on
     slope = np.log10(on[:, 2] / on[:, 0]) / 2.0
     assert np.all((slope > -0.95) & (slope < -0.7)), slope
     off = _allan_of_noise(replace(cfg, effects=replace(cfg.effects, angle_noise=False)))
-    arw_1s = 0.0075 * 60.0  # deg/√h -> deg/h at τ = 1 s
+    arw_1s = cfg.noise.gyro_arw_deg_rth * 60.0  # deg/√h -> deg/h at τ = 1 s
+    assert arw_1s == pytest.approx(0.6)
     assert np.allclose(off[:, 0], arw_1s, rtol=0.1), off
     slope_off = np.log10(off[:, 1] / off[:, 0])
     assert np.all(np.abs(slope_off + 0.5) < 0.1), slope_off

@@ -503,6 +503,9 @@ def noise_parameters(
 #: Fewest independent clusters (dimensionless) of a point that may show a term dominating
 #: or bound the random walk: 10 (relative 1σ of the deviation 1/√18 = 24 %).
 MIN_CLUSTERS = 10.0
+#: How many 1σ of the deviation a bound adds (dimensionless): 2, so that the truth lies
+#: under it about 98 % of the time (1σ left it under in only 84 %).
+BOUND_SIGMAS = 2.0
 #: Largest relative 1σ (dimensionless) of a fitted term's value that makes it resolved.
 RESOLVED_REL_SD = 0.3
 #: A term dominating somewhere is resolved if its relative 1σ is at most this.
@@ -776,8 +779,8 @@ def fit_noise_terms(
     ``min_clusters`` clusters and its relative 1σ is at most 50 % (``N`` where ``M`` is
     kept: only the first). ``N`` and ``K`` also get bounds from the curve alone: every term
     adds to σ², so ``N²/τ ≤ σ²(τ)`` and ``K²τ/3 ≤ σ²(τ)`` at every τ; the bound is
-    ``(σ + 1σ)·√τ`` at the longest τ with enough clusters (``K``: the smallest
-    ``(σ + 1σ)·√(3/τ)`` over those points).
+    ``(σ + 2σ)·√τ`` at the longest τ with enough clusters (``K``: the smallest
+    ``(σ + 2σ)·√(3/τ)`` over those points; :data:`BOUND_SIGMAS`).
 
     Parameters
     ----------
@@ -854,7 +857,7 @@ def fit_noise_terms(
     tau_rel = float(tau[reliable][-1]) if np.any(reliable) else float(tau[0])
     contrib = bases[sel] * x  # each term's σ² at each point
     largest = np.argmax(contrib, axis=1)
-    upper = sig * (1.0 + 1.0 / np.sqrt(2.0 * np.maximum(m - 1.0, 1.0)))
+    upper = sig * (1.0 + BOUND_SIGMAS / np.sqrt(2.0 * np.maximum(m - 1.0, 1.0)))
     terms: dict[str, NoiseTerm] = {}
     for j, (name, power) in enumerate([(t[0], t[1]) for t in _TERMS] + [("m", None)]):
         value = math.sqrt(x[j])
