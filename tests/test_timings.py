@@ -5,9 +5,7 @@ Nothing is measured here."""
 
 from __future__ import annotations
 
-import importlib.util
 import re
-import sys
 from pathlib import Path
 from types import ModuleType
 
@@ -17,19 +15,14 @@ from typer.testing import CliRunner
 from rinscal.cli import app
 from rinscal.cli.reproduce import expected_time
 from rinscal.timings import format_duration, load_timings, timing, timing_phrase
+from tests._shared import docs_script
 
 ROOT = Path(__file__).resolve().parents[1]
-SCRIPT = ROOT / "docs" / "scripts" / "timings.py"
 ENV = {"COLUMNS": "80", "TERM": "dumb"}
 
 
 def _script() -> ModuleType:
-    spec = importlib.util.spec_from_file_location("timings_script", SCRIPT)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules.setdefault("timings_script", module)
-    spec.loader.exec_module(module)
-    return module
+    return docs_script("timings")
 
 
 def _flat(text: str) -> str:
