@@ -14,9 +14,10 @@ clockwise). With the table indexing through the four positions, the body-frame b
 with it: a constant bias is a square wave in the navigation frame, which the filter
 separates from the tilt and estimates, so it leaves almost no heading error; a ramp is
 followed by the filter's Gauss-Markov bias states, and what they leave is a fraction of the
-fixed-IMU figure that the formula does not give (resolving it with the attitude at each
-instant averages it to about zero, with the hand-over attitude gives ±557″ for the ramp
-here, against 19-58″ measured), so the mechanism gives no prediction for such runs.
+fixed-IMU figure that the formula does not give: resolved with the attitude at each instant
+it gives −23″ for the constant gyro bias (−1″ measured) and +200″ for a ramp case (+58″
+measured); resolved with the hand-over attitude, as the table did before, ±557″ for a single
+ramp (19-58″ measured). So the mechanism gives no prediction for such runs.
 """
 
 from __future__ import annotations
@@ -32,7 +33,9 @@ import pytest
 from rinscal import earth, units
 from rinscal.experiments.paper.mechanism import (
     PREDICTED_COLUMN,
+    _C_nr,
     alignment_mechanism,
+    fixed_imu_heading_error,
     mechanism_summary,
     mechanism_table,
 )
@@ -120,6 +123,12 @@ def test_indexing_table_the_filter_takes_up_the_biases_and_no_prediction_is_made
     # a ramp is followed by the bias states: a fraction of the fixed-IMU figure is left
     assert 0.0 < abs(_measured(both)) < 0.3 * abs(fixed_both)
     assert math.isnan(both.mechanism["none"]["predicted_heading_arcsec"])
+    # why none is made: the formula with each instant's attitude (table angle included)
+    # misses the filter by far more than 10 % (−23″ against −1″; +200″ against +58″)
+    for r, g_, ra in ((only_gyro, gyro, (0.0, 0.0)), (both, gyro, ramp)):
+        assert abs(_formula_at_each_instant(r.cfg, _errors(g_, ra)) - _measured(r)) > 2 * abs(
+            _measured(r)
+        )
     table = mechanism_table([only_gyro, both])
     assert PREDICTED_COLUMN not in table  # no run held its table still
     s = mechanism_summary(table, _decomposition(), table.iloc[:0])
@@ -138,6 +147,15 @@ def test_summary_words_follow_the_runs_with_a_prediction() -> None:
     words = mechanism_words({**s, "n_runs": 2})
     assert "In 1 of 2 runs the table held still" in words
     assert "In 1 of 2 runs the table indexes" in words
+
+
+def _formula_at_each_instant(cfg, err) -> float:
+    """The fixed-IMU formula on the residual resolved with the true attitude at each second
+    of the fine alignment, whatever the table does [″]."""
+    lat = cfg.trajectory.lat0
+    g = float(earth.gravity(lat, cfg.trajectory.alt0))
+    t = np.arange(cfg.align_start_s + cfg.align.coarse_s, cfg.nav_start_s + 1e-9, 1.0)
+    return fixed_imu_heading_error(lat, g, t, _C_nr(cfg, t), err(t)) / units.ARCSEC_TO_RAD
 
 
 def _decomposition():

@@ -23,7 +23,7 @@ def expected_time(quick: bool) -> str:
     name = "quick_reproduction" if quick else "full_reproduction"
     t = timing(name)
     if t is None:
-        return "its wall time has not been measured (python docs/scripts/timings.py)"
+        return "its wall time is not measured yet (python docs/scripts/timings.py --write --full)"
     return (
         f"expect about {format_duration(t.wall_s)} (measured on {t.cores} cores, load "
         f"{max(t.load, default=float('nan')):.1f}, {t.measured[:10]})"

@@ -128,8 +128,10 @@ def mechanism_words(summary: Mapping[str, Any]) -> str:
         "the table still, a constant horizontal gyro bias and an accelerometer bias rate "
         "give the formula's heading error within 10 %, each term resolved with the "
         "attitude at its instant; with the table indexing, the constant gyro bias leaves "
-        "almost no heading error and a bias rate a fraction of the formula's (under a "
-        "third), so the table leaves the prediction out rather than claim it."
+        "almost no heading error and a bias rate a fraction of the fixed-IMU figure (under a "
+        "third), and the formula, even resolved with the attitude at each instant, misses "
+        "both by more than twice their size; so the table leaves the prediction out rather "
+        "than claim it."
     )
 
 

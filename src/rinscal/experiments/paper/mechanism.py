@@ -52,6 +52,7 @@ __all__ = [
     "PREDICTED_COLUMN",
     "alignment_mechanism",
     "error_growth_table",
+    "fixed_imu_heading_error",
     "group_cep_table",
     "mechanism_summary",
     "mechanism_table",
@@ -139,7 +140,7 @@ def alignment_mechanism(
         eps_r = d[fine, 0:2].mean(axis=0) if t_fine.size else np.full(2, np.nan)
         pred = math.nan
         if C_fine is not None:
-            pred = _fixed_imu_heading(lat, g, t_fine, C_fine, d[fine])
+            pred = fixed_imu_heading_error(lat, g, t_fine, C_fine, d[fine])
         ch = (
             max_change_within(grid[nav], d[nav][:, [0, 1, 3, 4]], period)
             if np.count_nonzero(nav) >= 2
@@ -161,7 +162,7 @@ def alignment_mechanism(
     return out
 
 
-def _fixed_imu_heading(
+def fixed_imu_heading_error(
     lat: float, g: float, t: np.ndarray, C_nr: np.ndarray, d: np.ndarray
 ) -> float:
     """The gyrocompass formula on a residual resolved at each instant [rad].
