@@ -6,7 +6,10 @@ runs every test on real data.
 
 from __future__ import annotations
 
+import importlib.util
+import sys
 from pathlib import Path
+from types import ModuleType
 
 import numpy as np
 import pandas as pd
@@ -40,3 +43,15 @@ def linear_log(n: int = 400, runs: int = 2, t0: float = 1.0) -> pd.DataFrame:
             frame[c] = (j + 1) * 0.1 * (temp - 25.0) + rng.normal(0, 0.01, n)
         parts.append(pd.DataFrame(frame))
     return pd.concat(parts, ignore_index=True)
+
+
+def docs_script(name: str) -> ModuleType:
+    """``docs/scripts/<name>.py`` imported as the module ``name`` (once per session)."""
+    if name in sys.modules:
+        return sys.modules[name]
+    spec = importlib.util.spec_from_file_location(name, REPO / "docs" / "scripts" / f"{name}.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
+    return module

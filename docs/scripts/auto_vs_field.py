@@ -1,6 +1,6 @@
 """The table of docs/calibration.md "auto against the field's own fits": every figure measured.
 
-Run from the repository root (about 2 minutes on one core)::
+Run from the repository root (one core)::
 
     python docs/scripts/auto_vs_field.py
 

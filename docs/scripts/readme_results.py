@@ -484,13 +484,16 @@ def render_block(runs: Mapping[str, Run]) -> str:
     return "\n".join(lines)
 
 
-def replace_block(readme: str, block: str, where: str = "README.md") -> str:
-    """``readme`` with the text from BEGIN through END replaced by ``block``."""
-    start = readme.find(BEGIN)
-    end = readme.find(END)
-    if start < 0 or end < 0 or end < start:
-        raise MetricsError(f"{where}: the markers {BEGIN!r} … {END!r} are missing")
-    return readme[:start] + block + readme[end + len(END) :]
+def replace_block(
+    readme: str, block: str, where: str = "README.md", begin: str = BEGIN, end: str = END
+) -> str:
+    """``readme`` with the text from ``begin`` through ``end`` (default this block's
+    markers) replaced by ``block``."""
+    i = readme.find(begin)
+    j = readme.find(end)
+    if i < 0 or j < 0 or j < i:
+        raise MetricsError(f"{where}: the markers {begin!r} … {end!r} are missing")
+    return readme[:i] + block + readme[j + len(end) :]
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -8,16 +8,13 @@ instead of its whole grid (about a minute per preset), so an edited coefficient 
 
 from __future__ import annotations
 
-import importlib.util
 import math
 import re
-import sys
 from functools import cache
-from pathlib import Path
-from types import ModuleType
 
 import numpy as np
 import pytest
+from tests._shared import docs_script
 
 from rinscal.schema import CHANNELS
 from rinscal.thermal.config import ImuConfig, load_imu
@@ -25,21 +22,8 @@ from rinscal.thermal.field import N_GYROS
 from rinscal.thermal.presets import PRESETS
 from rinscal.thermal.protocols import simulate_protocol
 
-ROOT = Path(__file__).resolve().parents[2]
-SCRIPTS = ROOT / "docs" / "scripts"
-
-
-def _script(name: str) -> ModuleType:
-    spec = importlib.util.spec_from_file_location(name, SCRIPTS / f"{name}.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules.setdefault(name, module)
-    spec.loader.exec_module(module)
-    return module
-
-
-fm = _script("fit_mechanistic")
-mh = _script("mechanistic_heldout")
+fm = docs_script("fit_mechanistic")
+mh = docs_script("mechanistic_heldout")
 
 MECH = {"paper": "paper_mechanistic", "navigation_grade": "navigation_grade_mechanistic"}
 

@@ -14,10 +14,20 @@ from rich.text import Text
 from rinscal.cli._app import app, print_table
 from rinscal.cli._options import AlignLengthOpt, AlignStartOpt, ImuOpt, WorkersOpt
 from rinscal.thermal.presets import DEFAULT_PRESET
+from rinscal.timings import format_duration, timing, timing_phrase
 
-#: Measured wall time of the full reproduction on a 2-core machine [min] (4 min 7 s with
-#: 2 workers; the calibration stage, which runs in one process, is most of it).
-FULL_EXPECTED_MIN = 5
+
+def expected_time(quick: bool) -> str:
+    """The console's line on how long this reproduction takes, from the package's measured
+    timings (:mod:`rinscal.timings`, written by ``docs/scripts/timings.py``)."""
+    name = "quick_reproduction" if quick else "full_reproduction"
+    t = timing(name)
+    if t is None:
+        return "its wall time is not measured yet (python docs/scripts/timings.py --write --full)"
+    return (
+        f"expect about {format_duration(t.wall_s)} (measured on {t.cores} cores, load "
+        f"{max(t.load, default=float('nan')):.1f}, {t.measured[:10]})"
+    )
 
 
 def _print_headline(console: Any, rows: list[dict[str, Any]]) -> None:
@@ -44,8 +54,10 @@ def reproduce(
         bool,
         typer.Option(
             "--quick",
-            help="Shorter runs, lower rates: about 2 min with 2 workers on 2 cores (measured "
-            "120 s the first time after install, numba compiling into its cache, 110 s later).",
+            help="Shorter runs, lower rates: "
+            + timing_phrase("quick_reproduction")
+            + " (docs/scripts/timings.py measures it; the first run after an install "
+            "also compiles numba's kernels into its cache).",
         ),
     ] = False,
     workers: WorkersOpt = None,
@@ -125,14 +137,11 @@ def reproduce(
         highlight=False,
     )
     if quick:
-        console.print(
-            f"quick reproduction, seed {seed}: expect about 1 minute on 2 cores", highlight=False
-        )
+        console.print(f"quick reproduction, seed {seed}: {expected_time(True)}", highlight=False)
     else:
         console.print(
-            f"full reproduction, seed {seed}, {jobs} worker(s): expect about "
-            f"{FULL_EXPECTED_MIN if jobs > 1 else FULL_EXPECTED_MIN + 1} minutes on a 2-core "
-            "machine (use --quick for a 1-minute version)",
+            f"full reproduction, seed {seed}, {jobs} worker(s): {expected_time(False)}; "
+            f"--quick: {timing_phrase('quick_reproduction')}",
             highlight=False,
         )
     timings: dict[str, float] = {}

@@ -18,6 +18,7 @@ from rinscal.cli._options import (
     prepare_outputs,
 )
 from rinscal.thermal.presets import PRESETS
+from rinscal.timings import timing_phrase
 
 
 @app.command("study")
@@ -43,7 +44,14 @@ def study(
         ),
     ] = None,
     quick: Annotated[
-        bool, typer.Option("--quick", help="The spec's [quick] sizes: lower rates, shorter runs.")
+        bool,
+        typer.Option(
+            "--quick",
+            help="The spec's [quick] sizes: lower rates, shorter runs ("
+            + timing_phrase("quick_study", sized=True)
+            + "; docs/scripts/timings.py measures it; the wall time grows with units × "
+            "plants / workers).",
+        ),
     ] = False,
     workers: WorkersOpt = None,
     scheduler: SchedulerOpt = None,

@@ -239,7 +239,7 @@ class ReproConfig:
 
     @classmethod
     def quick_preset(cls, seed: int = 0, jobs: int = 1, **overrides: Any) -> ReproConfig:
-        """Shorter runs at lower rates; the same experiments (about 2 minutes on 2 cores).
+        """Shorter runs at lower rates; the same experiments (wall time: rinscal.timings).
 
         ``overrides`` sets other fields (``imu``, ``align_s``, ``align_start_s``).
         """

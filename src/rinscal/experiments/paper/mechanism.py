@@ -5,11 +5,13 @@ The chain a navigation engineer checks, per run and variant, on the *residual* t
 (the plant's true thermal bias minus what the variant subtracts, i.e. what the alignment
 and the navigation see):
 
-1. the levelled accelerometer bias rate during the fine alignment [µg/min] and the tilt rate
-   it implies (rate / g) [″/min];
-2. the heading error the textbook gyrocompass formula predicts from it for a *fixed* IMU
-   (:func:`rinscal.nav.metrics.gyrocompass_heading_error`) beside the one measured at the
-   start of free navigation;
+1. the horizontal accelerometer residual's rate and the horizontal gyro residual during the
+   fine alignment, in the IMU frame [µg/min, °/h];
+2. the heading error measured at the start of free navigation, and beside it, only where
+   the table held still through the fine alignment, the one the textbook gyrocompass
+   formula predicts (:func:`rinscal.nav.metrics.gyrocompass_heading_error`, the residual
+   resolved with the attitude at each instant): with the table indexing the filter
+   estimates the horizontal biases and the formula does not apply;
 3. the bias change within one modulation period (rotation modulation assumes it constant);
 4. the error growth: drift rate [nmi/h] beside the maximum, and the CEP of each group.
 
@@ -47,8 +49,10 @@ from rinscal.nav.trajectory import C_nb_from_euler
 __all__ = [
     "ORACLE_NO_OFFSETS",
     "ORACLE_NO_OFFSETS_LABEL",
+    "PREDICTED_COLUMN",
     "alignment_mechanism",
     "error_growth_table",
+    "fixed_imu_heading_error",
     "group_cep_table",
     "mechanism_summary",
     "mechanism_table",
@@ -78,6 +82,17 @@ def alignment_mechanism(
 ) -> dict[str, dict[str, float]]:
     """The mechanism numbers of one run, per variant.
 
+    The residual is a bias in the IMU frame ``r``; the gyrocompass formula
+    (:func:`rinscal.nav.metrics.gyrocompass_heading_error`) needs it levelled, in ``n``.
+    Each sample of the fine alignment is resolved with the true attitude at its own
+    instant (``C_nr(t)``, trajectory and table angle), never with one attitude for the
+    whole alignment. The formula's prediction is given only where the table holds still
+    through the fine alignment: with the table indexing, the filter of
+    :mod:`rinscal.nav.align` separates the horizontal biases from the tilt and its
+    Gauss-Markov bias states follow a drift, so its heading error is set by how they
+    follow it, which the formula does not describe (``tests/experiments/
+    test_mechanism_prediction.py`` measures both cases against the filter).
+
     Parameters
     ----------
     config : ScenarioConfig
@@ -93,20 +108,20 @@ def alignment_mechanism(
     Returns
     -------
     dict of str to dict
-        Per variant: ``accel_rate_n_ug_min`` (least-squares slope of each horizontal
-        accelerometer's residual over the fine alignment, resolved north with the attitude
-        at the hand-over) [µg/min]; ``tilt_rate_arcsec_min`` (that rate / g, the rate of
-        the east tilt the levelling follows) [″/min]; ``gyro_e_dph`` (the east gyro
-        residual, mean over the fine alignment, resolved east at the hand-over) [°/h];
-        ``predicted_heading_arcsec`` (the fixed-IMU gyrocompass formula from those two)
-        [″]; ``predicted_rate_only_arcsec`` (its accelerometer-rate term alone) [″];
-        ``accel_change_period_ug`` and ``gyro_change_period_dph`` (largest peak-to-peak
-        change of a horizontal residual within any window of one modulation period during
-        free navigation) [µg, °/h]; ``accel_change_period_align_ug`` (the same for the
-        accelerometers during the alignment, warm-up transient included) [µg];
-        ``gyro_z_nav_dph`` (the vertical gyro's residual, mean over free navigation:
-        unmodulated, it turns heading at that rate) [°/h]; ``gyro_z_offset_dph`` (the
-        vertical gyro's turn-on offset) [°/h].
+        Per variant: ``accel_rate_ug_min`` (the horizontal accelerometers' residual rate
+        in the IMU frame, the length of the least-squares slopes of x and y over the fine
+        alignment) [µg/min]; ``gyro_h_dph`` (the horizontal gyros' residual in the IMU
+        frame, length of their means over the fine alignment) [°/h];
+        ``predicted_heading_arcsec`` (the fixed-IMU gyrocompass formula with the levelled
+        north accelerometer rate, the east gyro residual and the east accelerometer
+        residual at the hand-over, each resolved at its instant; NaN where the table
+        turns during the fine alignment) [″]; ``accel_change_period_ug`` and
+        ``gyro_change_period_dph`` (largest peak-to-peak change of a horizontal residual
+        within any window of one modulation period during free navigation) [µg, °/h];
+        ``accel_change_period_align_ug`` (the same for the accelerometers during the
+        alignment, warm-up transient included) [µg]; ``gyro_z_nav_dph`` (the vertical
+        gyro's residual, mean over free navigation: unmodulated, it turns heading at that
+        rate) [°/h]; ``gyro_z_offset_dph`` (the vertical gyro's turn-on offset) [°/h].
     """
     al = config.align
     lat = config.trajectory.lat0
@@ -114,20 +129,18 @@ def alignment_mechanism(
     t_nav = config.nav_start_s
     fine = (grid >= a0) & (grid <= t_nav)
     nav = grid >= t_nav
-    C_hand = _C_nr(config, np.array([t_nav]))[0]
     period = config.schedule.period if config.schedule.period > 0 else 60.0
     g = float(earth.gravity(lat, config.trajectory.alt0))
+    t_fine = grid[fine]
+    still = t_fine.size >= 2 and np.ptp(config.schedule.angle(t_fine)) == 0.0
+    C_fine = _C_nr(config, t_fine) if still else None
     out: dict[str, dict[str, float]] = {}
     for v, d in residual.items():
-        k_r = np.zeros(3)
-        eps_r = np.zeros(3)
-        if np.count_nonzero(fine) >= 2:
-            k_r[:2] = slope(grid[fine], d[fine, 3:5])
-            eps_r[:2] = d[fine, 0:2].mean(axis=0)
-        k_n = C_hand @ k_r
-        eps_n = C_hand @ eps_r
-        pred = gyrocompass_heading_error(lat, accel_rate_n=k_n[1], gyro_e=eps_n[0], g=g)
-        pred_rate = gyrocompass_heading_error(lat, accel_rate_n=k_n[1], g=g)
+        k_r = slope(t_fine, d[fine, 3:5]) if t_fine.size >= 2 else np.full(2, np.nan)
+        eps_r = d[fine, 0:2].mean(axis=0) if t_fine.size else np.full(2, np.nan)
+        pred = math.nan
+        if C_fine is not None:
+            pred = fixed_imu_heading_error(lat, g, t_fine, C_fine, d[fine])
         ch = (
             max_change_within(grid[nav], d[nav][:, [0, 1, 3, 4]], period)
             if np.count_nonzero(nav) >= 2
@@ -135,11 +148,9 @@ def alignment_mechanism(
         )
         ch_al = max_change_within(grid[~nav], d[~nav][:, [3, 4]], period)
         out[v] = {
-            "accel_rate_n_ug_min": float(k_n[1] * 60.0 / units.UG_TO_MPS2),
-            "tilt_rate_arcsec_min": float(k_n[1] / g * 60.0 / units.ARCSEC_TO_RAD),
-            "gyro_e_dph": float(eps_n[0] / units.DPH_TO_RPS),
+            "accel_rate_ug_min": float(np.hypot(*k_r) * 60.0 / units.UG_TO_MPS2),
+            "gyro_h_dph": float(np.hypot(*eps_r) / units.DPH_TO_RPS),
             "predicted_heading_arcsec": float(pred / units.ARCSEC_TO_RAD),
-            "predicted_rate_only_arcsec": float(pred_rate / units.ARCSEC_TO_RAD),
             "accel_change_period_ug": float(ch[2:].max() / units.UG_TO_MPS2),
             "gyro_change_period_dph": float(ch[:2].max() / units.DPH_TO_RPS),
             "accel_change_period_align_ug": float(ch_al.max() / units.UG_TO_MPS2),
@@ -149,6 +160,28 @@ def alignment_mechanism(
             "gyro_z_offset_dph": float(offsets[2] / units.DPH_TO_RPS),
         }
     return out
+
+
+def fixed_imu_heading_error(
+    lat: float, g: float, t: np.ndarray, C_nr: np.ndarray, d: np.ndarray
+) -> float:
+    """The gyrocompass formula on a residual resolved at each instant [rad].
+
+    ``t`` [s] the fine alignment's times, ``C_nr`` (n, 3, 3) the true attitude at each,
+    ``d`` (n, 6) [rad/s ×3, m/s² ×3] the residual in ``r``: the levelled north
+    accelerometer's least-squares rate, the east gyro's mean and the east accelerometer at
+    the hand-over (last sample) go into
+    :func:`rinscal.nav.metrics.gyrocompass_heading_error`.
+    """
+    eps_n = np.einsum("kij,kj->ki", C_nr, d[:, 0:3])
+    f_n = np.einsum("kij,kj->ki", C_nr, d[:, 3:6])
+    return gyrocompass_heading_error(
+        lat,
+        accel_rate_n=float(slope(t, f_n[:, 1])),
+        gyro_e=float(eps_n[:, 0].mean()),
+        accel_e=float(f_n[-1, 0]),
+        g=g,
+    )
 
 
 def _run_name(r: Any) -> str:
@@ -167,9 +200,18 @@ def _heading(r: Any, v: str) -> float:
     return float(att.get("heading_arcsec", math.nan))
 
 
+#: The mechanism table's column of the fixed-IMU prediction (present only where a run's
+#: table held still through its fine alignment).
+PREDICTED_COLUMN = "predicted δψ, table still [″]"
+
+
 def mechanism_table(results: Sequence[Any], variants: Sequence[str] | None = None) -> pd.DataFrame:
-    """Alignment mechanism per run and variant: bias rate → tilt rate → predicted heading
-    error (fixed IMU) beside the measured one and its thermal part (variant − oracle)."""
+    """Alignment mechanism per run and variant: the residual's horizontal accelerometer rate
+    and gyro bias in the IMU frame [µg/min, °/h], the measured heading error at the start of
+    navigation and its thermal part (variant − oracle) [″]; beside them
+    :data:`PREDICTED_COLUMN`, the fixed-IMU formula's heading error [″], only when some run's
+    table held still through its fine alignment (the formula does not describe an indexing
+    alignment, see :func:`alignment_mechanism`)."""
     rows = []
     for r in results:
         mech = r.mechanism or {}
@@ -183,15 +225,17 @@ def mechanism_table(results: Sequence[Any], variants: Sequence[str] | None = Non
                 {
                     "run": _run_name(r),
                     "variant": v,
-                    "accel rate N [µg/min]": m["accel_rate_n_ug_min"],
-                    "tilt rate [″/min]": m["tilt_rate_arcsec_min"],
-                    "east gyro [°/h]": m["gyro_e_dph"],
-                    "predicted δψ [″]": m["predicted_heading_arcsec"],
+                    "accel rate, IMU x-y [µg/min]": m["accel_rate_ug_min"],
+                    "gyro, IMU x-y [°/h]": m["gyro_h_dph"],
+                    PREDICTED_COLUMN: m["predicted_heading_arcsec"],
                     "measured δψ [″]": h,
                     "thermal part of δψ [″]": h - h_true,
                 }
             )
-    return pd.DataFrame(rows)
+    df = pd.DataFrame(rows)
+    if PREDICTED_COLUMN in df and not np.isfinite(df[PREDICTED_COLUMN].to_numpy(float)).any():
+        df = df.drop(columns=PREDICTED_COLUMN)
+    return df
 
 
 def modulation_table(results: Sequence[Any], variants: Sequence[str] | None = None) -> pd.DataFrame:
@@ -357,19 +401,26 @@ def mechanism_summary(
     Returns
     -------
     dict
-        ``n_runs``; over the runs' uncompensated variant: ``median_predicted_arcsec``
-        (fixed-IMU formula), ``median_abs_predicted_arcsec``,
-        ``median_abs_thermal_heading_arcsec`` (measured thermal part of δψ, absolute),
-        ``same_sign`` (runs where predicted and measured thermal part share a sign),
-        ``attenuation`` (median |measured thermal part| / |predicted|),
-        ``median_accel_rate_ug_min`` (|rate|); ``oracle_loses`` (runs where the oracle's
+        ``n_runs``; over the runs' uncompensated variant: ``median_accel_rate_ug_min``
+        (horizontal accelerometer residual rate in the IMU frame) [µg/min],
+        ``median_abs_thermal_heading_arcsec`` (measured thermal part of δψ, absolute) [″];
+        ``n_predicted`` (runs with a fixed-IMU prediction: the table held still through the
+        fine alignment) and over those ``median_abs_predicted_arcsec`` [″], ``same_sign``
+        (predicted and measured thermal part share a sign) and ``attenuation`` (median
+        |measured thermal part| / |predicted|); ``oracle_loses`` (runs where the oracle's
         maximum exceeds no compensation's), ``oracle_losses`` (:func:`oracle_loss_reasons`),
         ``median_offsets_cost_nmi`` (oracle − oracle without offsets, maxima, median over
-        runs).
+        runs) [nmi].
     """
     none = mechanism[mechanism["variant"] == "none"]
-    pred = none["predicted δψ [″]"].to_numpy(dtype=float)
-    meas = none["thermal part of δψ [″]"].to_numpy(dtype=float)
+    meas_all = none["thermal part of δψ [″]"].to_numpy(dtype=float)
+    pred = (
+        none[PREDICTED_COLUMN].to_numpy(dtype=float)
+        if PREDICTED_COLUMN in none
+        else np.full(len(none), np.nan)
+    )
+    ok = np.isfinite(pred)
+    pred, meas = pred[ok], meas_all[ok]
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.abs(meas) / np.abs(pred)
     losses = oracle_loss_reasons(decomposition, modulation)
@@ -377,16 +428,16 @@ def mechanism_summary(
     cost = (d["oracle [nmi]"] - d["oracle w/o offsets [nmi]"]).to_numpy(dtype=float)
     return {
         "n_runs": len(d),
-        "median_predicted_arcsec": float(np.median(pred)) if pred.size else math.nan,
-        "median_abs_predicted_arcsec": float(np.median(np.abs(pred))) if pred.size else math.nan,
-        "median_abs_thermal_heading_arcsec": float(np.median(np.abs(meas)))
-        if meas.size
-        else math.nan,
-        "same_sign": int(np.sum(np.sign(pred) == np.sign(meas))),
-        "attenuation": float(np.nanmedian(ratio)) if np.any(np.isfinite(ratio)) else math.nan,
-        "median_accel_rate_ug_min": float(np.median(np.abs(none["accel rate N [µg/min]"])))
+        "median_accel_rate_ug_min": float(np.median(none["accel rate, IMU x-y [µg/min]"]))
         if len(none)
         else math.nan,
+        "median_abs_thermal_heading_arcsec": float(np.median(np.abs(meas_all)))
+        if meas_all.size
+        else math.nan,
+        "n_predicted": int(ok.sum()),
+        "median_abs_predicted_arcsec": float(np.median(np.abs(pred))) if pred.size else math.nan,
+        "same_sign": int(np.sum(np.sign(pred) == np.sign(meas))),
+        "attenuation": float(np.nanmedian(ratio)) if np.any(np.isfinite(ratio)) else math.nan,
         "oracle_loses": len(losses),
         "oracle_losses": losses,
         "median_offsets_cost_nmi": float(np.nanmedian(cost))
