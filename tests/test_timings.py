@@ -13,8 +13,8 @@ import pytest
 from typer.testing import CliRunner
 
 from rinscal.cli import app
+from rinscal.cli._timings import format_duration, load_timings, timing, timing_phrase
 from rinscal.cli.reproduce import expected_time
-from rinscal.timings import format_duration, load_timings, timing, timing_phrase
 from tests._shared import docs_script
 
 ROOT = Path(__file__).resolve().parents[1]

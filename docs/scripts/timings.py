@@ -10,7 +10,7 @@ Run from the repository root::
 Each measured command runs in a fresh folder, with this checkout's ``src`` first on the
 path, under a wrapper process that reads the peak resident memory of its largest process
 (``getrusage(RUSAGE_CHILDREN)``: Dask's worker processes included). The file
-``src/rinscal/data/timings.json`` (shipped in the package, read by :mod:`rinscal.timings`)
+``src/rinscal/data/timings.json`` (shipped in the package, read by :mod:`rinscal.cli._timings`)
 gets, per command, the wall time (median of ``--runs``), each run's wall time, the peak
 memory, the 1-minute load average before and after, and the machine (CPU model, cores);
 commands not measured in this call keep their earlier entry. ``--write`` then rewrites the
@@ -51,7 +51,7 @@ sys.path.insert(0, str(ROOT / "src"))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from readme_results import replace_block  # noqa: E402
 
-from rinscal.timings import format_duration, timing  # noqa: E402
+from rinscal.cli._timings import format_duration, timing  # noqa: E402
 
 #: What each entry measures: (words, command with {out} for a fresh folder).
 COMMANDS: dict[str, tuple[str, str]] = {

@@ -13,13 +13,13 @@ from rich.text import Text
 
 from rinscal.cli._app import app, print_table
 from rinscal.cli._options import AlignLengthOpt, AlignStartOpt, ImuOpt, WorkersOpt
+from rinscal.cli._timings import format_duration, timing, timing_phrase
 from rinscal.thermal.presets import DEFAULT_PRESET
-from rinscal.timings import format_duration, timing, timing_phrase
 
 
 def expected_time(quick: bool) -> str:
     """The console's line on how long this reproduction takes, from the package's measured
-    timings (:mod:`rinscal.timings`, written by ``docs/scripts/timings.py``)."""
+    timings (:mod:`rinscal.cli._timings`, written by ``docs/scripts/timings.py``)."""
     name = "quick_reproduction" if quick else "full_reproduction"
     t = timing(name)
     if t is None:

@@ -17,8 +17,8 @@ from rinscal.cli._options import (
     cluster_options,
     prepare_outputs,
 )
+from rinscal.cli._timings import timing_phrase
 from rinscal.thermal.presets import PRESETS
-from rinscal.timings import timing_phrase
 
 
 @app.command("study")

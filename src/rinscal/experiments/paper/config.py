@@ -239,7 +239,7 @@ class ReproConfig:
 
     @classmethod
     def quick_preset(cls, seed: int = 0, jobs: int = 1, **overrides: Any) -> ReproConfig:
-        """Shorter runs at lower rates; the same experiments (wall time: rinscal.timings).
+        """Shorter runs at lower rates; the same experiments (wall time: data/timings.json).
 
         ``overrides`` sets other fields (``imu``, ``align_s``, ``align_start_s``).
         """
