@@ -61,7 +61,9 @@ def _name(v: str) -> str:
 
 
 def _sg(x: float, nd: int) -> str:
-    return f"{x:+.{nd}f}".replace("-", "−")
+    """``+0.12`` / ``−0.12`` (a true minus sign); ``0.00`` without a sign."""
+    s = f"{x:+.{nd}f}"
+    return s[1:] if float(s) == 0 else s.replace("-", "−")
 
 
 def _mean_cell(mean: float, lo: float, hi: float) -> str:
@@ -95,13 +97,14 @@ def verdict_table(means: pd.DataFrame, claims: pd.DataFrame, what: str = "runs")
     plants = means["plant"].nunique() if not means.empty else 0
     key = claims.set_index(["plant", "group", "method", "reference"]) if len(claims) else None
     rows = []
+    last = None
     for _, r in means.iterrows():
         if r["method"] == "true":
             continue
+        where = _where(r["plant"], r["group"], plants)
         row = {
-            "runs" if what == "runs" else "plant · scenario": _where(
-                r["plant"], r["group"], plants
-            ),
+            # a group's name on its first row only
+            "runs" if what == "runs" else "plant · scenario": "" if where == last else where,
             "method": _name(r["method"]),
             f"n ({what})": int(r["n"]),
             f"max error [nmi]: mean [{CONFIDENCE:.0%} interval]": _mean_cell(
@@ -117,6 +120,7 @@ def verdict_table(means: pd.DataFrame, claims: pd.DataFrame, what: str = "runs")
             d = f" ({_sg(float(c['mean_nmi']), 2)})" if math.isfinite(c["mean_nmi"]) else ""
             row[head] = f"{c['verdict']}{d}"
         rows.append(row)
+        last = where
     return pd.DataFrame(rows)
 
 
