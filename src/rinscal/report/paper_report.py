@@ -294,7 +294,7 @@ def build_report(
     )
     v.table(
         "verdict",
-        verdict_table(tables["verdict_means"], tables["claims"]),
+        tables["verdict"],
         "Maximum position error per group of runs [nmi], and the verdict on 'method better "
         "than' each reference (paired mean difference method − reference [nmi])",
     )
@@ -312,15 +312,9 @@ def build_report(
         RULE + " The paper's own comparisons (method 1 → 2, 2 → 3, 1 → 3), paired run by "
         "run; every claim of the verdict table is in claims.csv beside this page."
     )
-    paper_pairs = tables["claims"][
-        [
-            (m, r) in PAPER_PAIRS
-            for m, r in zip(tables["claims"]["method"], tables["claims"]["reference"], strict=True)
-        ]
-    ]
     s.table(
         "paired_paper",
-        claims_view(paper_pairs),
+        tables["paired_paper"],
         "The paper's own comparisons: method minus reference, paired over the runs of a group "
         "[nmi] (negative: the method has less error)",
     )
@@ -748,6 +742,17 @@ def reproduction_tables(
     tables = dict(cal.tables)
     tables["claims"] = paired_claims(maxerr, plant)
     tables["verdict_means"] = group_means(maxerr, plant)
+    tables["verdict"] = verdict_table(tables["verdict_means"], tables["claims"])
+    tables["paired_paper"] = claims_view(
+        tables["claims"][
+            [
+                (m, r) in PAPER_PAIRS
+                for m, r in zip(
+                    tables["claims"]["method"], tables["claims"]["reference"], strict=True
+                )
+            ]
+        ]
+    )
     tables["lab_max"] = maxerr[maxerr["experiment"] == "lab"].drop(columns="experiment")
     veh = maxerr[maxerr["experiment"] == "vehicle"].drop(columns="experiment").copy()
     veh["decrease m1→m3 [%]"] = decrease_pct(veh["sectional"], veh["neural"])

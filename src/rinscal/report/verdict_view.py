@@ -40,7 +40,7 @@ __all__ = [
 #: The references of the verdict table's columns, with their headers.
 REFERENCES = {
     "sectional": "vs method 1",
-    "none": "vs no compensation",
+    "none": "vs none",
     "poly-t": "vs cubic in T",
 }
 #: Short names of the variants in the verdict table and paragraph.
@@ -67,12 +67,12 @@ def _sg(x: float, nd: int) -> str:
 
 
 def _mean_cell(mean: float, lo: float, hi: float) -> str:
-    """``0.478 [0.310, 0.646]``, or ``0.478 (no interval)`` below the rule's minimum n."""
+    """``0.48 [0.31, 0.65]``, or ``0.48 (no interval)`` below the rule's minimum n."""
     if not math.isfinite(mean):
         return ""
-    m = f"{mean:.3f}"
+    m = f"{mean:.2f}"
     if math.isfinite(lo) and math.isfinite(hi):
-        return f"{m} [{lo:.3f}, {hi:.3f}]".replace("-", "−")
+        return f"{m} [{lo:.2f}, {hi:.2f}]".replace("-", "−")
     return f"{m} (no interval)"
 
 
