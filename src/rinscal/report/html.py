@@ -205,6 +205,7 @@ class Report:
         toc = "".join(
             f'<li><a href="#{s.ident}">{html.escape(s.title)}</a></li>' for s in self.sections
         )
+
         def render(sections: list[Section]) -> str:
             out = []
             for s in sections:

@@ -254,7 +254,7 @@ def uncompensated_wins(pairs: pd.DataFrame) -> list[str]:
             name = LABELS[r["b"]]
             # difference is a − b = none − method; the verdict is on method − none
             lo, hi = -r["diff ci high"], -r["diff ci low"]
-            words = r["verdict"] if r["verdict"] != TOO_FEW else too_few(int(r["n units"]))
+            words = r["verdict"] if r["verdict"] != TOO_FEW else too_few(int(r["n units"]), "units")
             ci = f" [{lo:+.3f}, {hi:+.3f}]" if math.isfinite(lo) and math.isfinite(hi) else ""
             out.append(
                 f"{r['plant_label']}, {r['scenario']}: no compensation has the lower mean "
