@@ -30,6 +30,7 @@ from rinscal.io.atomic import write_atomic
 
 __all__ = [
     "REFERENCES",
+    "claim_words",
     "claims_lines",
     "claims_view",
     "verdict_paragraph",
@@ -61,9 +62,9 @@ def _name(v: str) -> str:
 
 
 def _sg(x: float, nd: int) -> str:
-    """``+0.12`` / ``−0.12`` (a true minus sign); ``0.00`` without a sign."""
-    s = f"{x:+.{nd}f}"
-    return s[1:] if float(s) == 0 else s.replace("-", "−")
+    """``+0.12`` / ``−0.12`` (a true minus sign), ``+0.00`` for a small positive bound;
+    ``0.00`` for zero (to rounding of the sums, 1e-12)."""
+    return f"{0.0:.{nd}f}" if abs(x) < 1e-12 else f"{x:+.{nd}f}".replace("-", "−")
 
 
 def _mean_cell(mean: float, lo: float, hi: float) -> str:
@@ -124,7 +125,7 @@ def verdict_table(means: pd.DataFrame, claims: pd.DataFrame, what: str = "runs")
     return pd.DataFrame(rows)
 
 
-def _claim_words(c: pd.Series, what: str) -> str:
+def claim_words(c: pd.Series, what: str) -> str:
     """``holds: −0.12 nmi [−0.20, −0.05], 38 % less`` for one claim row."""
     v = str(c["verdict"])
     if v == TOO_FEW:
@@ -142,7 +143,7 @@ def _group_sentence(g: pd.DataFrame, what: str) -> str:
     for m, ref in PAPER_PAIRS:
         if (m, ref) in c.index:
             parts.append(
-                f"{_name(m)} better than {_name(ref)}: {_claim_words(c.loc[(m, ref)], what)}"
+                f"{_name(m)} better than {_name(ref)}: {claim_words(c.loc[(m, ref)], what)}"
             )
     for ref in ("none", "poly-t"):
         h = g[g["reference"] == ref]
@@ -216,7 +217,7 @@ def claims_view(claims: pd.DataFrame, what: str = "runs") -> pd.DataFrame:
 def claims_lines(claims: pd.DataFrame, what: str = "runs") -> list[str]:
     """One line per claim for a console: ``plant · group: claim — verdict: Δ [interval]``."""
     return [
-        f"{c['plant']} · {c['group']}: {c['claim']} — {_claim_words(c, what)}"
+        f"{c['plant']} · {c['group']}: {c['claim']} — {claim_words(c, what)}"
         for _, c in claims.iterrows()
     ]
 
