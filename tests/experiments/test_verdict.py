@@ -120,8 +120,9 @@ def test_claims_csv_and_the_reports_words(tmp_path: Path) -> None:
     assert "method 2 better than method 1: holds: −0.50 nmi [−0.51, −0.49]" in text
     assert "method 3 better than method 2: reversed: +0.50 nmi" in text
     assert "method 3 better than method 1: no resolved difference: 0.00 nmi" in text
-    assert "p, vehicle (n = 3 runs): method 2 better than method 1: not enough runs (n = 3; " in (
-        text
+    assert (
+        "On p, vehicle (n = 3 runs): method 2 better than method 1: not enough runs (n = 3; "
+        in (text)
     )
     k = csv["verdict"].value_counts()
     assert f"{k['holds']} hold, {k['reversed']} are reversed" in text

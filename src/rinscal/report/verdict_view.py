@@ -154,7 +154,7 @@ def _group_sentence(g: pd.DataFrame, what: str) -> str:
         bits = [f"{v} for {', '.join(ms)}" for v, ms in by.items() if ms]
         parts.append(f"against {_name(ref)}: " + "; ".join(bits))
     n = int(g["n"].max())
-    return f"{g['plant'].iloc[0]}, {g['group'].iloc[0]} (n = {n} {what}): " + "; ".join(parts)
+    return f"On {g['plant'].iloc[0]}, {g['group'].iloc[0]} (n = {n} {what}): " + "; ".join(parts)
 
 
 def verdict_paragraph(claims: pd.DataFrame, what: str = "runs", detail: int = 2) -> str:
