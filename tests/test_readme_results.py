@@ -78,11 +78,15 @@ def test_table_figures_are_the_metrics() -> None:
         assert f"method 2 {triple}" in block, preset
 
 
-def _with_nav(run: Any, variant: str, mean_nmi: float) -> Any:
+def _with_nav(run: Any, variant: str, mean_nmi: float, scale: float = 1.0) -> Any:
+    """``run`` with ``variant``'s mean over the lab and vehicle runs set to ``mean_nmi`` and
+    its error in every single run multiplied by ``scale`` (the runs the verdicts pair)."""
     metrics = copy.deepcopy(run.metrics)
     for r in metrics["nav_by_method"]:
         if r["variant"] == variant and r["runs"] == "lab + vehicle":
             r["max error mean [nmi]"] = mean_nmi
+    for n in metrics["navigation"]:
+        n["summary"]["variants"][variant]["max_error_nmi"] *= scale
     return rr.Run(metrics, run.where)
 
 
@@ -91,18 +95,45 @@ def test_prose_follows_the_numbers() -> None:
     p, g = runs["paper"], runs["navigation_grade"]
     best = min(p.err(v) for v in rr.VARIANTS)
     # method 3 made the best of all on both presets: the words turn round, the bold moves
+    # method 3's error halved in every run: the paired verdicts turn round, the bold moves
     flipped = {
-        "paper": _with_nav(p, "neural", best / 2),
-        "navigation_grade": _with_nav(g, "neural", min(g.err(v) for v in rr.VARIANTS) / 2),
+        "paper": _with_nav(p, "neural", best / 2, 0.5),
+        "navigation_grade": _with_nav(g, "neural", min(g.err(v) for v in rr.VARIANTS) / 2, 0.5),
     }
     text = " ".join(rr.render_block(flipped).split())
     assert "**Method 3 is better than method 2** on both presets" in text
     assert f"| method 3 (BP network) | **{best / 2:.2f} ± " in rr.render_block(flipped)
+    assert "method 3 beat both uncompensated and poly-t (paired, resolved)" in text
     assert "the paper's methods pay." in text
-    # method 1 made better than no compensation on navigation_grade
-    g1 = _with_nav(g, "sectional", g.err("none") / 2)
+    # the committed runs: no resolved difference between methods 3 and 2 (the means differ)
+    text = " ".join(rr.render_block(runs).split())
+    assert "**Method 3 against method 2: no resolved difference** on both presets" in text
+    # method 1's error a tenth in every run on navigation_grade: it beats no compensation
+    g1 = _with_nav(g, "sectional", g.err("none") / 10, 0.1)
     text = " ".join(rr.render_block({"paper": p, "navigation_grade": g1}).split())
-    assert "Method 1 is better than no compensation" in text
+    assert "Method 1 better than uncompensated: holds (−" in text
+
+
+def test_verdicts_are_the_rules_on_the_runs() -> None:
+    """The verdict table's cells are the claims of the one rule on the committed runs' per-run
+    errors, and agree with their intervals."""
+    from rinscal.experiments.verdict import t_interval
+
+    runs = committed_runs()
+    block = rr.render_block(runs)
+    for run in runs.values():
+        me = run.maxerr()
+        lab = me[me["experiment"].isin(["lab", "vehicle"])]
+        d = (lab["regression"] - lab["sectional"]).to_numpy()
+        c = run.claim("regression", "sectional")
+        assert c["mean_nmi"] == pytest.approx(d.mean())
+        assert (c["ci_low_nmi"], c["ci_high_nmi"]) == pytest.approx(t_interval(d))
+        for (_g, _m, _r), row in run.claims.iterrows():
+            assert (row["verdict"] == "holds") == (row["ci_high_nmi"] < 0)
+            assert (row["verdict"] == "reversed") == (row["ci_low_nmi"] > 0)
+    p, g = runs["paper"], runs["navigation_grade"]
+    row = [rr.said(r.claim("regression", "sectional")) for r in (p, g)]
+    assert f"| method 2 better than method 1 | {row[0]} | {row[1]} |" in block
 
 
 def test_check_mode_and_rewrite(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -38,6 +38,11 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+import pandas as pd
+
+from rinscal.experiments.paper.claims import CLAIM_PAIRS, paired_claims
+from rinscal.experiments.verdict import CONFIDENCE, HOLDS, MIN_N, REVERSED, TOO_FEW, too_few
+
 ROOT = Path(__file__).resolve().parents[2]
 README = ROOT / "README.md"
 RESULTS = ROOT / "docs" / "results"
@@ -107,6 +112,35 @@ class Run:
         self.steps = _get(metrics, "repeat_steps", where)
         self.navigation = _get(metrics, "navigation", where)
         self.findings = _get(metrics, "findings", where)
+        self.claims = paired_claims(self.maxerr(), self.preset).set_index(
+            ["group", "method", "reference"]
+        )
+
+    def maxerr(self) -> pd.DataFrame:
+        """Max position error [nmi] per navigation run (row) and variant (column)."""
+        rows = []
+        for n in self.navigation:
+            v = n["summary"]["variants"]
+            rows.append(
+                {
+                    "experiment": n["experiment"],
+                    "scenario": n["scenario"],
+                    **{k: float(v[k]["max_error_nmi"]) for k in VARIANTS if k in v},
+                }
+            )
+        return pd.DataFrame(rows)
+
+    def claim(self, method: str, reference: str, runs: str = ALL_RUNS) -> Mapping[str, Any]:
+        """The claim "method better than reference" over a group of runs, under the one rule
+        (:mod:`rinscal.experiments.verdict`): ``n, mean_nmi, ci_low_nmi, ci_high_nmi,
+        verdict``."""
+        key = (runs, method, reference)
+        if key not in self.claims.index:
+            raise MetricsError(f"{self.where}: no runs for {method} against {reference} ({runs})")
+        return self.claims.loc[key]
+
+    def verdict(self, method: str, reference: str, runs: str = ALL_RUNS) -> str:
+        return str(self.claim(method, reference, runs)["verdict"])
 
     def nav_row(self, variant: str, runs: str = ALL_RUNS) -> Mapping[str, Any]:
         return _row(self.nav, f"{self.where} nav_by_method", runs=runs, variant=variant)
@@ -146,8 +180,9 @@ class Run:
         return [float(n["summary"]["variants"][variant]["max_error_nmi"]) for n in rows]
 
     def uncompensated_beats(self, runs: str) -> list[str]:
-        beats = self.findings.get("uncompensated_beats_nav_nmi", {}).get(runs, {})
-        return [m for m in MODELS if m in beats]
+        """The models that no compensation beats in a group of runs: "model better than no
+        compensation" reversed under the rule."""
+        return [m for m in MODELS if self.verdict(m, "none", runs) == REVERSED]
 
 
 def load_run(folder: Path) -> Run:
@@ -178,8 +213,11 @@ def ug(x: float) -> str:
 
 
 def span(lo: float, hi: float) -> str:
-    """A range of per-run percentages: ``69–94`` or ``−477 to 60``."""
-    return f"{pct(lo)}–{pct(hi)}" if lo >= 0 else f"{pct(lo)} to {pct(hi)}"
+    """A range of per-run decreases [%]: ``69–94 %``, ``−47 to 60 %``; a decrease below
+    −100 % (more than twice the error) as a ratio: ``2.6× worse to 69 %``."""
+    if lo < -100.0:
+        return f"{1.0 - lo / 100.0:.1f}× worse to {pct(hi)} %"
+    return f"{pct(lo)}–{pct(hi)} %" if lo >= 0 else f"{pct(lo)} to {pct(hi)} %"
 
 
 NBSP = "\u00a0"  # textwrap splits on ASCII whitespace only
@@ -215,8 +253,28 @@ def _decrease(run: Run, quantity: str) -> tuple[float, float, float, float, floa
     return (*(float(r[k]) for k in keys), float("nan") if up_to is None else float(up_to))
 
 
-def _than(a: float, b: float) -> str:
-    return "better than" if a < b else "worse than"
+def signed(x: float) -> str:
+    """``+0.12``, ``−0.12``, ``+0.00`` for a small positive bound; ``0.00`` for zero."""
+    return "0.00" if abs(x) < 1e-12 else f"{x:+.2f}".replace("-", "−")
+
+
+def nums(c: Mapping[str, Any]) -> str:
+    """A claim's paired difference with its interval: ``−1.86 nmi [−2.47, −1.24]``."""
+    if c["verdict"] == TOO_FEW:
+        return too_few(int(c["n"]))
+    return f"{signed(c['mean_nmi'])} nmi [{signed(c['ci_low_nmi'])}, {signed(c['ci_high_nmi'])}]"
+
+
+def said(c: Mapping[str, Any]) -> str:
+    """A claim's verdict with its paired difference: ``holds (−1.86 nmi [−2.47, −1.24])``."""
+    if c["verdict"] == TOO_FEW:
+        return too_few(int(c["n"]))
+    return f"{c['verdict']} ({nums(c)})"
+
+
+#: The claims of the verdict table, in order: the paper's comparisons, then each method
+#: against no compensation and against the cubic in T.
+_REF_WORDS = {"none": "uncompensated", "poly-t": "poly-t"}
 
 
 # ----------------------------------------------------------------------------- the block
@@ -238,6 +296,19 @@ def _table(p: Run, g: Run) -> list[str]:
             cells.append(f"**{e}**" if best_here else e)
             h, h_sd = run.heading(v)
             cells.append(f"{h:.0f} ± {h_sd:.0f}")
+        lines.append("| " + " | ".join(cells) + " |")
+    return lines
+
+
+def _verdicts(p: Run, g: Run) -> list[str]:
+    """The claims of both runs over all lab and vehicle runs, as a table."""
+    lines = [
+        "| claim (method better than reference) | `paper` | `navigation_grade` |",
+        "|---|---|---|",
+    ]
+    for m, ref in CLAIM_PAIRS:
+        cells = [f"{SHORT[m]} better than {_REF_WORDS.get(ref, SHORT[ref])}"]
+        cells += [said(run.claim(m, ref)) for run in (p, g)]
         lines.append("| " + " | ".join(cells) + " |")
     return lines
 
@@ -271,24 +342,27 @@ def _bullet_m1_m2(p: Run) -> str:
     qs = _decrease(p, "lab quasi-static: decrease of max position error, method 1 → 2")
     sw = _decrease(p, "lab swing: decrease of max position error, method 1 → 2")
     n_qs, n_sw = p.n_runs("lab quasi-static"), p.n_runs("lab swing")
-    if qs[0] > 0 and sw[0] > 0:
+    c_qs = p.claim("regression", "sectional", "lab quasi-static")
+    c_sw = p.claim("regression", "sectional", "lab swing")
+    if c_qs["verdict"] == c_sw["verdict"] == HOLDS:
         size = "larger than" if qs[0] > qs[4] and sw[0] > sw[4] else "not as large as"
         head = (
-            f"**On the paper's own IMU the paper's method 1 → 2 ranking appears, {size} "
-            "it claims.**"
+            f"**On the paper's own IMU the paper's method 1 → 2 ranking holds, {size} it claims.**"
         )
     else:
-        head = "**On the paper's own IMU the paper's method 1 → 2 ranking does not appear.**"
+        head = "**On the paper's own IMU the paper's method 1 → 2 ranking is not shown.**"
     h1, h1_sd = p.heading("sectional")
     h2, h2_sd = p.heading("regression")
     ho, _ = p.heading("true")
     gap = p.err("regression") - p.err("true")
     verb = "cuts" if min(qs[0], sw[0]) > 0 else '"decreases"'
     text = (
-        f"{head} Method 2 {verb} the quasi-static cold-start error of method 1 by "
-        f"{pct(qs[0])} ± {pct(qs[1])} % ({span(qs[2], qs[3])} % over {n_qs} runs; the paper: "
+        f"{head} Paired run by run, method 2 better than method 1 {said(c_qs)} in the "
+        f"quasi-static runs and {said(c_sw)} in the swing. As a description, method 2 {verb} "
+        f"the quasi-static cold-start error of method 1 by "
+        f"{pct(qs[0])} ± {pct(qs[1])} % ({span(qs[2], qs[3])} over {n_qs} runs; the paper: "
         f'"up to" {qs[4]:.1f} %), in the swing by {pct(sw[0])} ± {pct(sw[1])} % '
-        f"({span(sw[2], sw[3])} % over {n_sw} runs; paper up to {sw[4]:.1f} %)."
+        f"({span(sw[2], sw[3])} over {n_sw} runs; paper up to {sw[4]:.1f} %)."
     )
     if h1 > h2:
         text += (
@@ -307,10 +381,10 @@ def _bullet_uncompensated(p: Run) -> str | None:
     for runs in ("lab quasi-static", "lab swing", "vehicle"):
         more = [m for m in p.uncompensated_beats(runs) if m not in beaten]
         if more:
-            items = [f"{SHORT[m]} ({nmi(p.err(m, runs))})" for m in more]
+            items = [f"{SHORT[m]} ({nums(p.claim(m, 'none', runs))})" for m in more]
             extra.append(
-                f"in the {runs.removeprefix('lab ')} runs alone uncompensated "
-                f"({nmi(p.err('none', runs))} nmi) also beats {_join(items)}"
+                f"in the {runs.removeprefix('lab ')} runs alone the claim 'better than "
+                f"uncompensated' is also reversed for {_join(items)}"
             )
     if not beaten and not extra:
         return None
@@ -318,11 +392,11 @@ def _bullet_uncompensated(p: Run) -> str | None:
         return (
             "**No compensation beats a model only in part of the runs:** " + "; ".join(extra) + "."
         )
-    items = [f"{SHORT[m]} ({nmi(p.err(m))})" for m in beaten]
+    items = [f"{SHORT[m]} ({nums(p.claim(m, 'none'))})" for m in beaten]
     text = (
         f"**No compensation beats {_join([SHORT[m] for m in beaten])} there.** On `paper`, "
-        f"uncompensated ({nmi(p.err('none'))} nmi) navigates better than {_join(items)} over "
-        f"the {p.n_runs()} runs"
+        f"over the {p.n_runs()} runs, 'better than uncompensated' ({nmi(p.err('none'))} nmi) "
+        f"is reversed for {_join(items)}"
     )
     if set(beaten) <= {"poly-t", "sectional"}:
         text += (
@@ -335,14 +409,22 @@ def _bullet_uncompensated(p: Run) -> str | None:
 
 
 def _bullet_m3(p: Run, g: Run) -> str:
-    worse = [run.preset for run in (p, g) if run.err("neural") > run.err("regression")]
-    better = [run.preset for run in (p, g) if run.preset not in worse]
-    if not better:
-        head = "**Method 3 is worse than method 2** on both presets"
-    elif not worse:
-        head = "**Method 3 is better than method 2** on both presets"
+    kinds = {run.preset: run.verdict("neural", "regression") for run in (p, g)}
+    if len(set(kinds.values())) == 1:
+        v = next(iter(kinds.values()))
+        head = {
+            HOLDS: "**Method 3 is better than method 2** on both presets",
+            REVERSED: "**Method 3 is worse than method 2** on both presets",
+        }.get(v, f"**Method 3 against method 2: {v}** on both presets")
     else:
-        head = f"**Method 3 is worse than method 2 on `{worse[0]}`**, better on `{better[0]}`"
+        head = (
+            "**Method 3 against method 2: "
+            + "; ".join(f"{v} on `{k}`" for k, v in kinds.items())
+            + "**"
+        )
+    paired_words = "; ".join(
+        f"`{run.preset}`: {nums(run.claim('neural', 'regression'))}" for run in (p, g)
+    )
     figs = "; ".join(
         f"`{run.preset}`: {nmi(run.err('neural'))} against {nmi(run.err('regression'))} nmi"
         for run in (p, g)
@@ -359,41 +441,50 @@ def _bullet_m3(p: Run, g: Run) -> str:
     veh = _decrease(p, "vehicle: decrease of max position error, method 1 → 3")
     paper_mean = p.summary("vehicle: decrease of max position error, method 1 → 3")["paper: mean"]
     verb = "cuts" if veh[0] > 0 else "does not cut"
+    n_veh = p.n_runs("vehicle")
+    veh_claim = p.claim("neural", "sectional", "vehicle")
     return (
-        f"{head} ({figs}; on `paper` the heading error at the start of navigation is "
-        f'{h3:.0f}″ against {h2:.0f}″). On `paper` method 2 → 3 "decreases" the '
+        f"{head}, paired over the {p.n_runs()} runs ({paired_words}). The means: {figs}; "
+        f"on `paper` the heading error at the start of navigation is "
+        f'{h3:.0f}″ against {h2:.0f}″. On `paper` method 2 → 3 "decreases" the '
         f"quasi-static error by {pct(qs[0])} ± {pct(qs[1])} % and the swing error by "
         f"{pct(sw[0])} ± {pct(sw[1])} %, where the paper claims up to {qs[4]:.1f} % and "
         f"{sw[4]:.1f} %: method 3 is "
-        f"worse in {counts[0]} and {counts[1]}. In the vehicle runs method 3 {verb} method "
-        f"1's error, by {pct(veh[0])} ± {pct(veh[1])} % ({pct(veh[2])}–{pct(veh[3])} %), "
-        f"against the paper's {float(paper_mean):.0f} % mean (up to {veh[4]:.1f} %)."
+        f"worse in {counts[0]} and {counts[1]}. In the {n_veh} vehicle runs method 3 {verb} "
+        f"method 1's error on average, by {pct(veh[0])} ± {pct(veh[1])} % ({span(veh[2], veh[3])}"
+        "), against the paper's {float(paper_mean):.0f} % mean (up to "
+        f"{veh[4]:.1f} %); paired, that claim has {said(veh_claim)}."
+        if veh_claim["verdict"] == TOO_FEW
+        else f"worse in {counts[0]} and {counts[1]}. In the {n_veh} vehicle runs method 3 "
+        f"better than method 1 {said(veh_claim)}; on average it {verb} method 1's error by "
+        f"{pct(veh[0])} ± {pct(veh[1])} % ({span(veh[2], veh[3])}), against the "
+        f"paper's {float(paper_mean):.0f} % mean (up to {veh[4]:.1f} %)."
     )
 
 
 def _bullet_navgrade(g: Run) -> str:
     ranked = sorted((v for v in VARIANTS if v != "true"), key=g.err)
-    ours = min(("sectional", "regression", "neural"), key=g.err)
-    field = min(("none", "poly-t"), key=g.err)
-    if nmi(g.err(ours)) == nmi(g.err(field)):
+    ours = ("sectional", "regression", "neural")
+    pays = [m for m in ours if g.verdict(m, "none") == g.verdict(m, "poly-t") == HOLDS]
+    if pays:
         head = (
-            f"**On our navigation-grade unit the paper's best method ({SHORT[ours]}) only "
-            f"ties with {SHORT[field]}.**"
+            f"**On our navigation-grade unit {_join([SHORT[m] for m in pays])} beat both "
+            "uncompensated and poly-t (paired, resolved): the paper's methods pay.**"
         )
-    elif g.err(ours) < g.err(field):
-        head = "**On our navigation-grade unit the paper's methods pay.**"
     else:
-        head = "**On our navigation-grade unit the paper's methods do not pay.**"
+        head = (
+            "**On our navigation-grade unit no method of the paper beats both uncompensated "
+            "and poly-t (paired, resolved): the paper's methods do not pay.**"
+        )
     order = ", ".join(f"{SHORT[v]} {nmi(g.err(v))}" for v in ranked)
     qs = _decrease(g, "lab quasi-static: decrease of max position error, method 1 → 2")
-    m1, none = g.err("sectional"), g.err("none")
     return (
         f"{head} Its thermal sensitivities are 4–100× smaller and lean on T. In order: "
         f"{order} nmi, the oracle {nmi(g.err('true'))} (the best "
         f'{nmi(g.err(ranked[0]) - g.err("true"))} nmi above it). Method 1 → 2 "decreases" '
-        f"the quasi-static error by {pct(qs[0])} ± {pct(qs[1])} % ({span(qs[2], qs[3])} % over "
-        f"{g.n_runs('lab quasi-static')} runs). Method 1 is {_than(m1, none)} no compensation "
-        f"({nmi(m1)} against {nmi(none)} nmi)."
+        f"the quasi-static error by {pct(qs[0])} ± {pct(qs[1])} % ({span(qs[2], qs[3])} over "
+        f"{g.n_runs('lab quasi-static')} runs). Method 1 better than uncompensated: "
+        f"{said(g.claim('sectional', 'none'))}."
     )
 
 
@@ -472,6 +563,17 @@ def render_block(runs: Mapping[str, Run]) -> str:
         ),
         "",
         *_table(p, g),
+        "",
+        *wrap(
+            "Each claim, paired run by run under one rule (`rinscal.experiments.verdict`, the "
+            "one the reports, `claims.csv` and the console use): the mean of method − "
+            f"reference [nmi] over the {p.n_runs()} lab and vehicle runs with its "
+            f"{CONFIDENCE:.0%} Student-t interval; it holds when the interval lies below zero, "
+            f"is reversed when above, and below {MIN_N} runs there is no interval. Percentages "
+            "below only describe:"
+        ),
+        "",
+        *_verdicts(p, g),
         "",
         *(line for par in _residuals(p, g) for line in wrap(par)),
         "",

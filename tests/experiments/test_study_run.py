@@ -77,6 +77,14 @@ def one_worker(tiny_spec: Path, tmp_path_factory: pytest.TempPathFactory) -> pd.
     assert r.returncode == 0, r.stdout + r.stderr
     assert "computed 16 task(s)" in r.stdout
     assert (out / "report.html").is_file() and (out / "tables" / "method_summary.csv").is_file()
+    # claims.csv beside the report: 4 units are below the rule's minimum, and it says so
+    claims = pd.read_csv(out / "claims.csv")
+    assert list(claims.columns) == [
+        "claim", "plant", "group", "n", "mean_nmi", "ci_low_nmi", "ci_high_nmi", "verdict"
+    ]  # fmt: skip
+    assert len(claims) > 0 and set(claims["verdict"]) == {"not enough runs"}
+    assert (claims["n"] == 4).all() and claims["ci_low_nmi"].isna().all()
+    assert "not enough runs (n = 4 units; needs 5)" in " ".join(r.stdout.split())
     table = _table(out, tiny_spec)
     assert len(table) == 4 * 3 * 4  # units × starts × variants
     return table

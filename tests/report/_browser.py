@@ -63,27 +63,34 @@ def chromium() -> str | None:
     return shutil.which("chromium") or shutil.which("chromium-browser")
 
 
-def rendered_inventory(page: Path, width: int = 1200) -> dict:
-    """Figures (decoded pixel width), tables (row counts) and ``overflow`` (elements whose
-    content is wider than their box, with the table or figure they belong to) as Chromium
-    rendered the page in a window ``width`` px wide."""
+def _probe(page: Path, script: str, pre_id: str, width: int, height: int) -> dict:
+    """Open a copy of ``page`` with ``script`` injected in Chromium (a ``width`` x ``height``
+    window) and read back the JSON the script left in ``<pre id=pre_id>``."""
     exe = chromium()
     assert exe is not None
     html = page.read_text(encoding="utf-8")
-    probe = page.with_name(page.stem + ".browser-check.html")
-    probe.write_text(html.replace("</body>", _CHECK_SCRIPT + "</body>"), encoding="utf-8")
+    probe = page.with_name(f"{page.stem}.{pre_id}.html")
+    probe.write_text(html.replace("</body>", script + "</body>"), encoding="utf-8")
     try:
         with tempfile.TemporaryDirectory() as profile:
             out = subprocess.run(
-                [exe, *CHROMIUM_FLAGS, f"--user-data-dir={profile}", f"--window-size={width},900",
-                 "--virtual-time-budget=10000", "--dump-dom", probe.resolve().as_uri()],
+                [exe, *CHROMIUM_FLAGS, f"--user-data-dir={profile}",
+                 f"--window-size={width},{height}", "--virtual-time-budget=10000", "--dump-dom",
+                 probe.resolve().as_uri()],
                 capture_output=True, text=True, timeout=120, check=True,
             )  # fmt: skip
     finally:
         probe.unlink(missing_ok=True)
-    m = re.search(r'<pre id="browser-check">(.*?)</pre>', out.stdout, re.S)
+    m = re.search(rf'<pre id="{pre_id}">(.*?)</pre>', out.stdout, re.S)
     assert m, "Chromium did not run the check: " + out.stderr[-2000:]
     return json.loads(m.group(1).replace("&quot;", '"').replace("&amp;", "&"))
+
+
+def rendered_inventory(page: Path, width: int = 1200) -> dict:
+    """Figures (decoded pixel width), tables (row counts) and ``overflow`` (elements whose
+    content is wider than their box, with the table or figure they belong to) as Chromium
+    rendered the page in a window ``width`` px wide."""
+    return _probe(page, _CHECK_SCRIPT, "browser-check", width, 900)
 
 
 def screenshot(page: Path, png: Path, width: int = 1200, height: int = 2400) -> Path:
@@ -97,3 +104,31 @@ def screenshot(page: Path, png: Path, width: int = 1200, height: int = 2400) -> 
             capture_output=True, timeout=120, check=True,
         )  # fmt: skip
     return png
+
+
+# Injected into a copy of the page: the first <table> of the document, where its top edge
+# and its first body row lie at load, and the window's height.
+_FIRST_TABLE_SCRIPT = """
+<script>
+window.addEventListener('load', () => {
+  const t = document.querySelector('table');
+  const row = t ? t.querySelector('tbody tr') : null;
+  const pre = document.createElement('pre');
+  pre.id = 'first-table';
+  pre.textContent = JSON.stringify({
+    id: t ? t.dataset.table : null,
+    top: t ? t.getBoundingClientRect().top + window.scrollY : null,
+    row_bottom: row ? row.getBoundingClientRect().bottom + window.scrollY : null,
+    window_height: window.innerHeight});
+  document.body.appendChild(pre);
+});
+</script>
+"""
+
+
+def first_table(page: Path, width: int = 1280, height: int = 800) -> dict:
+    """The first ``<table>`` of ``page`` as Chromium lays it out in a ``width`` x ``height``
+    window: ``id`` (its ``data-table``), ``top`` and ``row_bottom`` (the top of the table
+    and the bottom of its first body row, px from the top of the document) and
+    ``window_height`` [px]."""
+    return _probe(page, _FIRST_TABLE_SCRIPT, "first-table", width, height)

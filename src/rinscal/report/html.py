@@ -81,6 +81,8 @@ class Section:
     title: str
     ident: str
     blocks: list[Block] = field(default_factory=list)
+    #: Shown before the contents list (the verdict that opens a report).
+    lead: bool = False
 
     def text(self, text: str, css: str = "") -> None:
         """Add a paragraph of plain text (escaped)."""
@@ -183,9 +185,10 @@ class Report:
     subtitle: str = ""
     sections: list[Section] = field(default_factory=list)
 
-    def section(self, title: str, ident: str) -> Section:
-        """Start a new section and return it."""
-        s = Section(title, ident)
+    def section(self, title: str, ident: str, lead: bool = False) -> Section:
+        """Start a new section and return it; a ``lead`` section is shown first, before the
+        contents list."""
+        s = Section(title, ident, lead=lead)
         self.sections.append(s)
         return s
 
@@ -202,18 +205,24 @@ class Report:
         toc = "".join(
             f'<li><a href="#{s.ident}">{html.escape(s.title)}</a></li>' for s in self.sections
         )
-        body = []
-        for s in self.sections:
-            body.append(f'<section id="{s.ident}"><h2>{html.escape(s.title)}</h2>')
-            body.extend(b.html for b in s.blocks)
-            body.append("</section>")
+
+        def render(sections: list[Section]) -> str:
+            out = []
+            for s in sections:
+                out.append(f'<section id="{s.ident}"><h2>{html.escape(s.title)}</h2>')
+                out.extend(b.html for b in s.blocks)
+                out.append("</section>")
+            return "".join(out)
+
+        lead = render([s for s in self.sections if s.lead])
+        rest = render([s for s in self.sections if not s.lead])
         sub = f'<p class="note">{html.escape(self.subtitle)}</p>' if self.subtitle else ""
         return (
             '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
             '<meta name="viewport" content="width=device-width, initial-scale=1">'
             f"<title>{html.escape(self.title)}</title><style>{_CSS}</style></head><body>"
             f"<header><h1>{html.escape(self.title)}</h1>{sub}</header>"
-            f"<nav><ol>{toc}</ol></nav>{''.join(body)}</body></html>\n"
+            f"{lead}<nav><ol>{toc}</ol></nav>{rest}</body></html>\n"
         )
 
 

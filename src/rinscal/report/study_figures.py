@@ -253,7 +253,7 @@ def map_figure(cells: pd.DataFrame) -> Any:
     fig.suptitle(
         "method − reference, max position error [nmi], mean over units [95 % interval]: "
         "green = method better, red = worse (interval excludes zero); grey = not "
-        "resolved; white = not enough units for an interval",
+        "resolved; white = not enough runs (units) for an interval",
         fontsize=8,
         wrap=True,
     )

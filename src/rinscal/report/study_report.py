@@ -21,11 +21,10 @@ import pandas as pd
 
 from rinscal._version import __version__
 from rinscal.experiments.study.compare import (
-    MIN_SAMPLES,
     NO_DT_VARIANT,
     design_table,
-    not_enough,
     paired_against,
+    study_claims,
 )
 from rinscal.experiments.study.runner import RunSummary, StudyStore
 from rinscal.experiments.study.sensitivity import (
@@ -35,7 +34,6 @@ from rinscal.experiments.study.sensitivity import (
 )
 from rinscal.experiments.study.spec import StudySpec, plant_table, sweep_columns
 from rinscal.experiments.study.stats import (
-    CONFIDENCE,
     claims_table,
     method_summary,
     paired_differences,
@@ -43,6 +41,7 @@ from rinscal.experiments.study.stats import (
     structure_pairs,
     uncompensated_wins,
 )
+from rinscal.experiments.verdict import CONFIDENCE, MIN_N, RULE, too_few
 from rinscal.io.atomic import write_atomic
 from rinscal.report.html import Report, figure_to_png
 from rinscal.report.study_figures import (
@@ -55,7 +54,6 @@ from rinscal.report.study_words import (
     CODES_LEGEND,
     ablation_lines,
     claims_view,
-    comparison_lines,
     comparison_view,
     design_view,
     map_lines,
@@ -65,6 +63,12 @@ from rinscal.report.study_words import (
     sensitivities_view,
     summary_view,
     ul,
+)
+from rinscal.report.verdict_view import (
+    claims_lines,
+    verdict_paragraph,
+    verdict_table,
+    write_claims_csv,
 )
 
 __all__ = [
@@ -94,7 +98,8 @@ class StudyTables:
     (:func:`rinscal.experiments.study.compare.paired_against`); ``oracle``: no compensation
     against the oracle; ``ablation``: method 2 against method 2 without ``ΔT``; ``design``:
     each unit's soak design; ``sensitivities``: each plant variant's equivalent sensitivities;
-    ``sensitivity``: the map's cells.
+    ``sensitivity``: the map's cells; ``claim_rows``: the claims of ``claims.csv`` under the
+    one rule (:func:`rinscal.experiments.study.compare.study_claims`).
     """
 
     results: pd.DataFrame
@@ -111,6 +116,7 @@ class StudyTables:
     ablation: pd.DataFrame = field(default_factory=_empty)
     design: pd.DataFrame = field(default_factory=_empty)
     sensitivities: pd.DataFrame = field(default_factory=_empty)
+    claim_rows: pd.DataFrame = field(default_factory=_empty)
 
 
 @dataclass
@@ -154,6 +160,7 @@ def tables_from_results(
         ablation=paired_against(results, (NO_DT_VARIANT,), ("regression",)),
         design=design_table(results),
         sensitivities=sens,
+        claim_rows=study_claims(results),
     )
 
 
@@ -166,15 +173,11 @@ def study_tables(store: StudyStore, spec: StudySpec) -> StudyTables:
 
 
 def verdict_lines(t: StudyTables) -> list[str]:
-    """The findings in words: each claim's verdict, every method against no compensation
-    and the cubic in T, where no compensation wins, the oracle, the ΔT ablation, the
+    """The findings in words: each claim's verdict under the one rule (the paper's
+    comparisons, every method against no compensation and the cubic in T), where no
+    compensation wins, the oracle, the ΔT ablation, the
     structure findings and the sensitivity map's reading."""
-    out = [
-        f"{r['plant']}, {r['scenario']}: {r['claim']} — {r['verdict']}"
-        for _, r in t.claims.iterrows()
-    ]
-    if not t.comparisons.empty:
-        out += comparison_lines(t.comparisons)
+    out = claims_lines(t.claim_rows, "units") if not t.claim_rows.empty else []
     out.extend(t.uncompensated)
     if not t.oracle.empty:
         out += oracle_lines(t.oracle)
@@ -195,6 +198,8 @@ def build_report(spec: StudySpec, t: StudyTables, run: RunSummary | None) -> Rep
         + (" · quick sizes" if spec.quick else "")
         + " · every figure a simulation",
     )
+    if not t.results.empty:
+        _verdict_section(rep, t)
     _what_ran(rep, spec, t, run)
     if t.results.empty:
         return rep
@@ -206,16 +211,16 @@ def build_report(spec: StudySpec, t: StudyTables, run: RunSummary | None) -> Rep
             "same raw output of each cold start, averaged over a unit's starts, then over "
             f"units (Δ < 0: the method has less error), with a {CONFIDENCE:.0%} Student-t "
             "interval over units. The ratio of medians is the median over units of the "
-            "method's error over the median of the reference's. A verdict is 'resolved' only "
-            "where the interval excludes zero."
+            "method's error over the median of the reference's (a description). The verdict "
+            "is on 'method better than reference': holds only where the interval lies below "
+            "zero, reversed where above."
             + (
-                f" This study has {n_units} unit(s): {not_enough(n_units)}, so the interval "
-                "column is empty and no difference is decided."
-                if n_units < MIN_SAMPLES
+                f" This study has {n_units} unit(s): {too_few(n_units, 'units')}, so the "
+                "interval column is empty and no difference is decided."
+                if n_units < MIN_N
                 else ""
             )
         )
-        c.raw(ul(comparison_lines(t.comparisons)))
         for p in _shown(t):
             c.figure(
                 f"paired-p{p}",
@@ -240,12 +245,11 @@ def build_report(spec: StudySpec, t: StudyTables, run: RunSummary | None) -> Rep
     if not t.claims.empty:
         cl = rep.section("The paper's claims", "claims")
         cl.text(
-            "Each claim of the paper's Section 5 with our mean decrease of the maximum position "
-            "error and its interval (the paper's measure), the paired difference a − b in nmi "
-            "(> 0: b has less error) and a verdict. The paper's lab figures are its best run "
-            "('up to'); our mean is the figure to adopt a method on. Percent decreases of "
-            "means are unstable where a method's errors are heavy-tailed; the difference in "
-            "nmi is not."
+            "Each claim of the paper's Section 5 beside the paper's figure: the paired "
+            "difference method − reference [nmi] with its interval over units decides ("
+            + RULE
+            + "). The change of the mean error and the best single run only describe; the "
+            "paper's lab figures are its best run ('up to')."
         )
         cl.table(
             "claims", claims_view(t.claims), "The paper's claims with our interval and verdict"
@@ -305,6 +309,35 @@ def build_report(spec: StudySpec, t: StudyTables, run: RunSummary | None) -> Rep
     return rep
 
 
+def _verdict_section(rep: Report, t: StudyTables) -> None:
+    """The verdict that opens the report: per plant and scenario, each method's mean
+    maximum position error over units with its interval and its verdict against method
+    1, no compensation and the cubic in T; then one paragraph."""
+    s = t.summary[t.summary["metric"] == "max_error_nmi"]
+    means = pd.DataFrame(
+        {
+            "plant": s["plant_label"],
+            "group": s["scenario"],
+            "method": s["variant"],
+            "n": s["n units"],
+            "mean": s["mean"],
+            "lo": s["ci low"],
+            "hi": s["ci high"],
+        }
+    )
+    v = rep.section(
+        "Verdict: each method against method 1, none and the cubic", "verdict", lead=True
+    )
+    v.table(
+        "verdict",
+        verdict_table(means, t.claim_rows, "units"),
+        "Maximum position error per plant and scenario [nmi], mean over units, and the "
+        "verdict on 'method better than' each reference (paired mean difference method − "
+        "reference [nmi])",
+    )
+    v.text(verdict_paragraph(t.claim_rows, "units"))
+
+
 def _shown(t: StudyTables) -> list[Any]:
     plants = list(dict.fromkeys(t.results["plant"]))
     return plants if len(plants) <= 2 else plants[:1]
@@ -336,9 +369,8 @@ def _what_ran(rep: Report, spec: StudySpec, t: StudyTables, run: RunSummary | No
     s.text(
         "The units are the independent draws: a comparison is paired within a run (both "
         "methods on the same raw output), averaged over a unit's starts (they share its "
-        f"calibration), and given a {CONFIDENCE:.0%} interval over units: Student-t for "
-        "differences in nmi, BCa bootstrap for means and percent decreases. Below "
-        f"{MIN_SAMPLES} units no interval is computed and every verdict says so. Counts are "
+        f"calibration), and given a {CONFIDENCE:.0%} Student-t interval over units, for "
+        "means and differences in nmi alike. " + RULE + " Counts are "
         "counts ('2 of 3'). 'Best run' columns are maxima over single runs, the paper's 'up "
         "to' figures; they are not estimates.",
         "note",
@@ -492,7 +524,7 @@ def write_study_report(
         "oracle": t.oracle,
         "gradient_ablation": t.ablation,
         "soak_design": t.design,
-        "claims": t.claims,
+        "paper_claims": t.claims,
         "plant_sensitivities": t.sensitivities,
         "sensitivity_map": t.sensitivity,
         "failures": t.failures,
@@ -515,6 +547,7 @@ def write_study_report(
         "verdicts": verdicts,
         "structure": t.structure,
         "claims": t.claims.to_dict(orient="records"),
+        "verdicts_nmi": t.claim_rows.to_dict(orient="records"),
     }
     if run is not None:
         secs = {k: v for k, v in run.task_seconds.items() if v}
@@ -530,5 +563,6 @@ def write_study_report(
     text = json.dumps(summary, indent=1, allow_nan=True, default=str) + "\n"
     write_atomic(root / "summary.json", lambda tmp: tmp.write_text(text))
     page = build_report(spec, t, run).to_html()
+    write_claims_csv(root / "claims.csv", t.claim_rows)
     write_atomic(root / "report.html", lambda tmp: tmp.write_text(page, encoding="utf-8"))
     return WrittenStudy(root / "report.html", t, verdicts)

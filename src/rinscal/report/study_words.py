@@ -3,8 +3,8 @@
 Each view takes a table computed in :mod:`rinscal.experiments.study` and returns what the
 report prints: at most 8 columns, headers with units, intervals formatted as ``[−0.11,
 −0.03]`` with the decimals of the estimate beside them, counts as counts (``2 of 3``), and
-below :data:`rinscal.experiments.study.compare.MIN_SAMPLES` units the words "not enough units
-for an interval" instead of an interval. Nothing here computes a statistic.
+below :data:`rinscal.experiments.verdict.MIN_N` units the words "not enough runs (n = 3
+units; needs 5)" instead of an interval. Nothing here computes a statistic.
 """
 
 from __future__ import annotations
@@ -15,13 +15,8 @@ from typing import Any
 
 import pandas as pd
 
-from rinscal.experiments.study.compare import (
-    MIN_SAMPLES,
-    decide,
-    fmt_interval,
-    not_enough,
-)
-from rinscal.experiments.study.stats import CONFIDENCE
+from rinscal.experiments.study.compare import fmt_interval
+from rinscal.experiments.verdict import CONFIDENCE, MIN_N, TOO_FEW, too_few
 from rinscal.report.study_figures import short_label
 
 __all__ = [
@@ -59,7 +54,7 @@ def _delta_words(r: pd.Series, nd: int = 3) -> str:
     d = f"{r['delta']:+.{nd}f}".replace("-", "−")
     if ci:
         return f"{d} nmi {ci}"
-    return f"{d} nmi (no interval: n = {int(r['n units'])}; needs {MIN_SAMPLES})"
+    return f"{d} nmi (no interval: n = {int(r['n units'])}; needs {MIN_N})"
 
 
 def comparison_lines(comp: pd.DataFrame) -> list[str]:
@@ -71,7 +66,7 @@ def comparison_lines(comp: pd.DataFrame) -> list[str]:
     n_few = 0
     for (label, scen), g in comp.groupby(["plant_label", "scenario"], sort=False):
         n = int(g["n units"].max())
-        if n < MIN_SAMPLES:
+        if n < MIN_N:
             few.append(f"{label} · {scen}")
             n_few = n
             continue
@@ -97,7 +92,7 @@ def comparison_lines(comp: pd.DataFrame) -> list[str]:
         out.append(f"{label}, {scen} ({n} units): " + "; ".join(p for p in parts if p))
     if few:
         out.append(
-            f"{'; '.join(few)}: {not_enough(n_few)}. The differences in the table are point "
+            f"{'; '.join(few)}: {too_few(n_few, 'units')}. The differences in the table are point "
             "estimates; no method is said to beat or lose to another."
         )
     return out
@@ -109,11 +104,11 @@ def oracle_lines(oracle: pd.DataFrame) -> list[str]:
     out = []
     for _, r in oracle.iterrows():
         lost = int(r["runs method better"])
-        verdict = r["verdict"].replace("true bias (oracle)", "the oracle")
+        verdict = r["verdict"]
         out.append(
             f"{r['plant_label']}, {r['scenario']}: no compensation − oracle = "
             f"{_delta_words(r)} over {int(r['n units'])} units"
-            + ("" if verdict.startswith("not enough units") else f"; {verdict}")
+            + ("" if verdict == TOO_FEW else f"; no compensation better than the oracle: {verdict}")
             + f"; the oracle lost {_n_of(lost, int(r['n runs']))} single runs to no "
             "compensation"
         )
@@ -129,7 +124,11 @@ def ablation_lines(abl: pd.DataFrame, design: pd.DataFrame) -> list[str]:
         out.append(
             f"{r['plant_label']}, {r['scenario']}: method 2 − method 2 without ΔT = "
             f"{_delta_words(r)}"
-            + ("" if verdict.startswith("not enough units") else f"; {verdict}")
+            + (
+                ""
+                if verdict == TOO_FEW
+                else f"; method 2 better than method 2 without ΔT: {verdict}"
+            )
             + "; units where the ΔT terms help: "
             f"{_n_of(int(r['units method better']), int(r['n units']))}"
         )
@@ -167,7 +166,7 @@ def map_lines(cells: pd.DataFrame) -> list[str]:
             f"sensitivity map, {short_label(m)} against {name}: better in "
             f"{_n_of(int(k.get('better', 0)), len(g))} cells, worse in "
             f"{int(k.get('worse', 0))}, not resolved in {int(k.get('unresolved', 0))}, no "
-            f"interval (fewer than {MIN_SAMPLES} units) in {int(k.get('not enough units', 0))}"
+            f"interval (fewer than {MIN_N} units) in {int(k.get('not enough units', 0))}"
         )
     return out
 
@@ -201,9 +200,10 @@ def code(v: str) -> str:
     return CODES.get(v, v)
 
 
-def short_verdict(n: int, lo: float, hi: float, method: str, reference: str) -> str:
-    """The verdict of :func:`rinscal.experiments.study.compare.decide` with short names."""
-    return decide(n, lo, hi, code(reference), code(method))
+def short_verdict(n: int, verdict: str) -> str:
+    """A verdict of the one rule (:mod:`rinscal.experiments.verdict`) as a table shows it:
+    itself, or why there is none."""
+    return too_few(n, "units") if verdict == TOO_FEW else verdict
 
 
 def _where(label: str, scen: str) -> str:
@@ -224,7 +224,7 @@ def summary_view(summary: pd.DataFrame, metric: str) -> pd.DataFrame:
             "units (runs)": [f"{u} ({r})" for u, r in zip(s["n units"], s["n runs"], strict=True)],
             f"mean [{unit}]": [_num(m, nd) for m in s["mean"]],
             f"{CONFIDENCE:.0%} interval [{unit}]": [
-                fmt_interval(lo, hi, nd) or not_enough(int(n))
+                fmt_interval(lo, hi, nd) or too_few(int(n), "units")
                 for lo, hi, n in zip(s["ci low"], s["ci high"], s["n units"], strict=True)
             ],
             f"median [{unit}]": [_num(m, nd) for m in s["median"]],
@@ -258,16 +258,9 @@ def comparison_view(comp: pd.DataFrame, nd: int = 3) -> pd.DataFrame:
                 _n_of(int(k), int(n))
                 for k, n in zip(comp["units method better"], comp["n units"], strict=True)
             ],
-            "verdict": [
-                short_verdict(int(n), lo, hi, m, r)
-                for n, lo, hi, m, r in zip(
-                    comp["n units"],
-                    comp["delta ci low"],
-                    comp["delta ci high"],
-                    comp["method"],
-                    comp["reference"],
-                    strict=True,
-                )
+            "verdict: method better": [
+                short_verdict(int(n), v)
+                for n, v in zip(comp["n units"], comp["verdict"], strict=True)
             ],
         }
     )
@@ -301,9 +294,10 @@ def pairs_view(pairs: pd.DataFrame) -> pd.DataFrame:
 
 
 def claims_view(claims: pd.DataFrame) -> pd.DataFrame:
-    """The claims table as shown (7 columns): the claim where it was tested, the paper's
-    figure, our mean decrease [%] with its interval, the paired difference a − b [nmi] with
-    its interval, the count of units where b is better, the verdict."""
+    """The paper's claims as shown (7 columns): the claim where it was tested, the paper's
+    figure, our change of the mean error (a description), the paired difference method −
+    reference [nmi] with its interval, the count of units where the method is better, the
+    verdict of the one rule."""
     n = claims["n units"].astype(int)
     return pd.DataFrame(
         {
@@ -313,28 +307,21 @@ def claims_view(claims: pd.DataFrame) -> pd.DataFrame:
                     claims["claim"], claims["plant"], claims["scenario"], strict=True
                 )
             ],
-            "paper [%]": [
-                f"{p:.1f} ({'best run' if w == 'its best run' else 'mean'})"
-                for p, w in zip(claims["paper %"], claims["paper's figure is"], strict=True)
-            ],
-            "ours [%]": [_num(x, 0) for x in claims["ours: mean decrease %"]],
-            f"{CONFIDENCE:.0%} interval [%]": [
-                fmt_interval(lo, hi, 0)
-                for lo, hi in zip(claims["ci low"], claims["ci high"], strict=True)
-            ],
-            "a − b [nmi]": [
+            "paper": claims["paper"],
+            "ours: mean error": claims["ours: change"],
+            f"Δ [nmi], {CONFIDENCE:.0%} interval": [
                 _num(d, 2) + (f" {fmt_interval(lo, hi, 2)}" if math.isfinite(lo) else "")
                 for d, lo, hi in zip(
-                    claims["difference a − b [nmi]"],
-                    claims["diff ci low"],
-                    claims["diff ci high"],
-                    strict=True,
+                    claims["mean_nmi"], claims["ci_low_nmi"], claims["ci_high_nmi"], strict=True
                 )
             ],
-            "b better": [
+            "best run [%]": [_num(x, 0) for x in claims["ours: best run %"]],
+            "method better": [
                 _n_of(int(k), int(m)) for k, m in zip(claims["units b better"], n, strict=True)
             ],
-            "verdict": claims["verdict"],
+            "verdict": [
+                short_verdict(int(k), v) for k, v in zip(n, claims["verdict"], strict=True)
+            ],
         }
     )
 
@@ -357,7 +344,9 @@ def map_view(cells: pd.DataFrame) -> pd.DataFrame:
             row += [_num(r["delta"], 2), fmt_interval(r["delta ci low"], r["delta ci high"], 2)]
             verdict.append(f"{r['cell']} vs {code(ref)}")
         n = int(g["n units"].max())
-        row.append(not_enough(n) if all("not enough" in v for v in verdict) else "; ".join(verdict))
+        row.append(
+            too_few(n, "units") if all("not enough" in v for v in verdict) else "; ".join(verdict)
+        )
         rows.append(row)
     interval = f"{CONFIDENCE:.0%} interval"
     cols = ["plant", "warm-up [min]", "method", "− none [nmi]", interval, "− cubic [nmi]"]

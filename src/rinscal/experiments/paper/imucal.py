@@ -26,7 +26,7 @@ from rinscal.calibration.imu.workflow import ImuCalibrationResult, calibrate_imu
 from rinscal.calibration.modelfile import ThermalModelFile
 from rinscal.calibration.workflow import fit
 from rinscal.experiments.paper.config import ReproConfig
-from rinscal.experiments.paper.paired import CONFIDENCE, interval_text, paired_difference
+from rinscal.experiments.verdict import HOLDS, REVERSED, UNRESOLVED, interval_text, paired
 from rinscal.nav.sensors import SIGNAL_KINDS
 from rinscal.sensormodel import ImuCalibration
 from rinscal.thermal.config import ImuConfig
@@ -148,11 +148,12 @@ def imu_thermal_model(
     ).model
 
 
-#: The paired verdict (:attr:`PairedDifference.verdict`) in the words of this table.
+#: The verdict on "with it better than without" (:mod:`rinscal.experiments.verdict`) in the
+#: words of this table.
 _SAVING_WORDS = {
-    "better (resolved)": "the thermal model of scale factor and axes pays",
-    "worse (resolved)": "it costs: without it the error is smaller",
-    "no resolved difference": "not resolved: the interval contains zero",
+    HOLDS: "holds: the thermal model of scale factor and axes pays",
+    REVERSED: "reversed: it costs; without it the error is smaller",
+    UNRESOLVED: "no resolved difference: the interval contains zero",
 }
 
 
@@ -172,13 +173,13 @@ def paired_saving_table(
     -------
     DataFrame
         ``runs``, ``without [nmi]``, ``with [nmi]`` (means), ``saved: mean [nmi]``,
-        ``saved: 95 % interval [nmi]`` (empty below two runs, said in ``note``),
+        ``saved: 95 % interval [nmi]`` (empty below the rule's minimum n, said in ``note``),
         ``runs where it helps`` (a count), ``note``.
     """
     rows = []
     for (exp, scen), g in maxerr.groupby(["experiment", "scenario"], sort=False):
-        p = paired_difference(g[without], g[with_], CONFIDENCE)
-        note = _SAVING_WORDS.get(p.verdict, p.verdict)
+        p = paired(g[without], g[with_])  # with − without: negative = it helps
+        note = _SAVING_WORDS.get(p.verdict, p.words)
         rows.append(
             {
                 "experiment": exp,
@@ -186,8 +187,8 @@ def paired_saving_table(
                 "runs": p.n,
                 "without [nmi]": float(g[without].mean()),
                 "with [nmi]": float(g[with_].mean()),
-                "saved: mean [nmi]": p.mean,
-                "saved: 95 % interval [nmi]": interval_text(p.lo, p.hi, p.mean),
+                "saved: mean [nmi]": -p.mean,
+                "saved: 95 % interval [nmi]": interval_text(-p.hi, -p.lo, p.mean),
                 "runs where it helps": f"{p.better} of {p.n}",
                 "note": note,
             }

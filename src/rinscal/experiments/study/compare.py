@@ -8,14 +8,14 @@ are the independent draws and a unit's cold starts share its calibration:
    (``e`` the maximum horizontal position error [nmi]; negative: ``m`` has less error);
 2. **average within a unit**: the mean of ``d`` over the unit's starts;
 3. **interval over units**: the mean of the unit values with its Student-t interval
-   (:func:`t_interval`, 95 %), given only from :data:`MIN_SAMPLES` units on.
+   (95 %), given only from :data:`~rinscal.experiments.verdict.MIN_N` units on.
 
 The difference is in nmi, not a percentage of heavy-tailed means (a method that sometimes
 diverges makes a percent decrease of the mean meaningless). Where a ratio is wanted it is the
 ratio of the medians over units (:func:`median_ratio`), with a paired percentile bootstrap
-interval. The verdict (:func:`decide`) is one of four, never "within noise": the reference
-or the method wins with an interval that excludes zero, "no resolved difference", or "not
-enough units for an interval".
+interval. The verdict on "method better than reference" is the one rule of
+:mod:`rinscal.experiments.verdict`: ``holds``, ``reversed``, ``no resolved difference`` or
+``not enough runs``.
 
 The gradient ablation (:func:`design_table`) adds, per unit, how separable ``Ṫ`` and ``ΔT``
 were in its soak design: their correlation and the condition number of the standardised
@@ -33,27 +33,22 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
+from rinscal.experiments.paper.claims import CLAIM_PAIRS, claim_name
 from rinscal.experiments.paper.config import LABELS
-from rinscal.experiments.paper.paired import CONFIDENCE
-from rinscal.experiments.paper.paired import t_interval as paired_t_interval
+from rinscal.experiments.verdict import CLAIMS_COLUMNS, CONFIDENCE, MIN_N, paired
 
 __all__ = [
     "CONFIDENCE",
     "DESIGN_COLUMNS",
-    "MIN_SAMPLES",
+    "MIN_N",
     "NO_DT_VARIANT",
-    "decide",
     "design_table",
     "fmt_interval",
     "median_ratio",
-    "not_enough",
     "paired_against",
-    "t_interval",
+    "study_claims",
 ]
 
-#: Fewest units an interval is given for: below it no interval is computed (NaN), and the
-#: verdict says "not enough units for an interval".
-MIN_SAMPLES = 5
 #: Method 2 with its ``ΔT`` terms dropped (regression on ``T`` and ``Ṫ`` only).
 NO_DT_VARIANT = "regression-no-dT"
 #: Per-unit soak-design columns of the results (written by the calibration task): the
@@ -62,15 +57,6 @@ NO_DT_VARIANT = "regression-no-dT"
 DESIGN_COLUMNS = ("soak_rate_grad_corr", "soak_design_cond")
 #: Bootstrap resamples of a ratio-of-medians interval.
 _N_RESAMPLES = 4999
-
-
-def t_interval(
-    x: Sequence[float] | np.ndarray, confidence: float = CONFIDENCE
-) -> tuple[float, float]:
-    """Student-t interval of the mean of the finite values of ``x``: ``m ± t·s/√n`` with
-    ``t`` the ``(1 + confidence)/2`` quantile of Student's t with ``n − 1`` degrees of
-    freedom. NaN for fewer than :data:`MIN_SAMPLES` values; ``(m, m)`` for no spread."""
-    return paired_t_interval(x, confidence, min_n=MIN_SAMPLES)
 
 
 def _median_ratio(a: np.ndarray, b: np.ndarray, axis: int = -1) -> np.ndarray:
@@ -84,14 +70,15 @@ def median_ratio(
     seed: int = 0,
 ) -> tuple[float, float, float]:
     """``median(b) / median(a)`` over paired values (units) with a paired percentile
-    bootstrap interval; the interval is NaN below :data:`MIN_SAMPLES` pairs."""
+    bootstrap interval (a description, not a test); the interval is NaN below
+    :data:`MIN_N` pairs."""
     a, b = np.asarray(a, float), np.asarray(b, float)
     ok = np.isfinite(a) & np.isfinite(b)
     a, b = a[ok], b[ok]
     if a.size == 0 or np.median(a) == 0.0:
         return (math.nan, math.nan, math.nan)
     r = float(_median_ratio(a, b))
-    if a.size < MIN_SAMPLES:
+    if a.size < MIN_N:
         return (r, math.nan, math.nan)
     if np.ptp(a) == 0.0 and np.ptp(b) == 0.0:
         return (r, r, r)
@@ -108,28 +95,6 @@ def median_ratio(
             rng=np.random.default_rng(seed),
         ).confidence_interval
     return (r, float(ci.low), float(ci.high))
-
-
-def not_enough(n: int) -> str:
-    """``"not enough units for an interval (n = 3; needs 5)"``."""
-    return f"not enough units for an interval (n = {n}; needs {MIN_SAMPLES})"
-
-
-def decide(n: int, lo: float, hi: float, reference: str, method: str) -> str:
-    """The verdict on ``method − reference`` [nmi] from its 95 % interval ``[lo, hi]`` over
-    ``n`` units, in words (``reference`` and ``method`` are the names to print).
-
-    ``"<method> beats <reference> (resolved)"`` when the interval lies below zero,
-    ``"<reference> beats <method> (resolved)"`` when above, ``"no resolved difference"``
-    when it contains zero, :func:`not_enough` below :data:`MIN_SAMPLES` units.
-    """
-    if n < MIN_SAMPLES or not (math.isfinite(lo) and math.isfinite(hi)):
-        return not_enough(n)
-    if hi < 0:
-        return f"{method} beats {reference} (resolved)"
-    if lo > 0:
-        return f"{reference} beats {method} (resolved)"
-    return "no resolved difference"
 
 
 def fmt_interval(lo: float, hi: float, nd: int) -> str:
@@ -173,7 +138,8 @@ def paired_against(
         ``median ratio`` (median over units of the method's unit means over the reference's)
         with ``ratio ci low/high``, ``units method better`` (a count, of ``n units``),
         ``runs method better`` (a count, of ``n runs``),
-        ``verdict`` (:func:`decide`).
+        ``verdict`` on "method better than reference"
+        (:func:`rinscal.experiments.verdict.verdict`).
     """
     df = results[np.isfinite(results[metric].to_numpy(float))]
     runs = df.pivot_table(
@@ -208,9 +174,7 @@ def paired_against(
                 if pair.empty:
                     continue
                 unit = pair.groupby(level="unit").mean()
-                d = (unit[m] - unit[ref]).to_numpy(float)
-                n = int(d.size)
-                lo, hi = t_interval(d)
+                p = paired(unit[ref].to_numpy(float), unit[m].to_numpy(float))
                 ratio, rlo, rhi = median_ratio(unit[ref].to_numpy(), unit[m].to_numpy())
                 rows.append(
                     {
@@ -224,22 +188,72 @@ def paired_against(
                         "method": m,
                         "comparison": f"{_label(m)} − {_label(ref)}",
                         "metric": metric,
-                        "n units": n,
+                        "n units": p.n,
                         "n runs": len(pair),
                         "mean reference": float(unit[ref].mean()),
                         "mean method": float(unit[m].mean()),
-                        "delta": float(d.mean()),
-                        "delta ci low": lo,
-                        "delta ci high": hi,
+                        "delta": p.mean,
+                        "delta ci low": p.lo,
+                        "delta ci high": p.hi,
                         "median ratio": ratio,
                         "ratio ci low": rlo,
                         "ratio ci high": rhi,
-                        "units method better": int((d < 0).sum()),
+                        "units method better": p.better,
                         "runs method better": int((pair[m] < pair[ref]).sum()),
-                        "verdict": decide(n, lo, hi, _label(ref), _label(m)),
+                        "verdict": p.verdict,
                     }
                 )
     return pd.DataFrame(rows)
+
+
+def study_claims(
+    results: pd.DataFrame, pairs: Sequence[tuple[str, str]] = CLAIM_PAIRS
+) -> pd.DataFrame:
+    """The claims of ``claims.csv`` for a study: each ``(method, reference)`` of ``pairs``
+    (default the reproduction's, :data:`rinscal.experiments.paper.claims.CLAIM_PAIRS`) per
+    plant (its label) and scenario (the group), paired per unit (:func:`paired_against`).
+
+    Returns
+    -------
+    DataFrame
+        :data:`rinscal.experiments.verdict.CLAIMS_COLUMNS` (``n``: units; ``mean_nmi`` and
+        its interval: method − reference [nmi]), then ``method``, ``reference``,
+        ``mean_method_nmi``, ``mean_reference_nmi`` and ``better`` (units where the method
+        has less error).
+    """
+    refs = list(dict.fromkeys(r for _, r in pairs))
+    parts = [paired_against(results, (ref,), [m for m, r in pairs if r == ref]) for ref in refs]
+    comp = pd.concat([p for p in parts if not p.empty], ignore_index=True) if parts else None
+    extra = ["method", "reference", "mean_method_nmi", "mean_reference_nmi", "better"]
+    if comp is None or comp.empty:
+        return pd.DataFrame(columns=[*CLAIMS_COLUMNS, *extra])
+    order = {pair: i for i, pair in enumerate(pairs)}
+    comp = comp[[(m, r) in order for m, r in zip(comp["method"], comp["reference"], strict=True)]]
+    rank = [order[(m, r)] for m, r in zip(comp["method"], comp["reference"], strict=True)]
+    plant_rank = {p: i for i, p in enumerate(dict.fromkeys(results["plant"]))}
+    scen_rank = {s: i for i, s in enumerate(dict.fromkeys(results["scenario"]))}
+    comp = comp.assign(
+        _p=comp["plant"].map(plant_rank), _s=comp["scenario"].map(scen_rank), _c=rank
+    ).sort_values(["_p", "_s", "_c"], kind="stable")
+    return pd.DataFrame(
+        {
+            "claim": [
+                claim_name(m, r) for m, r in zip(comp["method"], comp["reference"], strict=True)
+            ],
+            "plant": comp["plant_label"].to_numpy(),
+            "group": comp["scenario"].to_numpy(),
+            "n": comp["n units"].to_numpy(),
+            "mean_nmi": comp["delta"].to_numpy(),
+            "ci_low_nmi": comp["delta ci low"].to_numpy(),
+            "ci_high_nmi": comp["delta ci high"].to_numpy(),
+            "verdict": comp["verdict"].to_numpy(),
+            "method": comp["method"].to_numpy(),
+            "reference": comp["reference"].to_numpy(),
+            "mean_method_nmi": comp["mean method"].to_numpy(),
+            "mean_reference_nmi": comp["mean reference"].to_numpy(),
+            "better": comp["units method better"].to_numpy(),
+        }
+    )
 
 
 def design_table(results: pd.DataFrame) -> pd.DataFrame:

@@ -26,16 +26,15 @@ plant variant and warm-up time (the scenario's ``align_start_s``), one row per c
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 
 import numpy as np
 import pandas as pd
 
 from rinscal import units
-from rinscal.experiments.study.compare import MIN_SAMPLES
 from rinscal.experiments.study.spec import StudySpec
 from rinscal.experiments.study.tasks import plant_config
+from rinscal.experiments.verdict import HOLDS, REVERSED, TOO_FEW, UNRESOLVED, verdict
 from rinscal.thermal.config import ImuConfig
 from rinscal.thermal.field import ThermalField, simulate_field
 from rinscal.thermal.protocols import THERMAL_DT_S, protocol_runs
@@ -187,6 +186,10 @@ def plant_sensitivities(spec: StudySpec) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+#: A map cell's name for each verdict on "method better than reference".
+_CELLS = {HOLDS: "better", REVERSED: "worse", UNRESOLVED: "unresolved", TOO_FEW: "not enough units"}
+
+
 def sensitivity_map(comparisons: pd.DataFrame, sens: pd.DataFrame) -> pd.DataFrame:
     """The map's cells, one row per plant variant, warm-up time, method and reference.
 
@@ -217,14 +220,7 @@ def sensitivity_map(comparisons: pd.DataFrame, sens: pd.DataFrame) -> pd.DataFra
     rows = []
     for _, r in c.iterrows():
         lo, hi, n = r["delta ci low"], r["delta ci high"], int(r["n units"])
-        if n < MIN_SAMPLES or not (math.isfinite(lo) and math.isfinite(hi)):
-            cell = "not enough units"
-        elif hi < 0:
-            cell = "better"
-        elif lo > 0:
-            cell = "worse"
-        else:
-            cell = "unresolved"
+        cell = _CELLS[verdict(n, lo, hi)]
         rows.append(
             {
                 "plant": r["plant"],

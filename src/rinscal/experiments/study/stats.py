@@ -1,41 +1,41 @@
-"""Statistics of a study: means with bootstrap confidence intervals, paired differences,
-the paper's claims with a verdict each, the sensitivity map.
+"""Statistics of a study: means with their intervals, paired differences, the paper's
+claims with a verdict each, the sensitivity map.
 
 The unit of analysis is the simulated IMU unit. Where a scenario has several cold starts per
-unit (the lab's five temperatures), they are averaged per unit first; the intervals are
-bootstrap intervals over units (:func:`scipy.stats.bootstrap`, BCa, 95 %), so that starts of
-the same unit, which share its calibration, are not counted as independent. Comparisons
-between methods are paired: both navigated on the same raw data of the same unit and start;
-a paired difference in nmi gets a Student-t interval over units
-(:func:`rinscal.experiments.study.compare.t_interval`). Below :data:`MIN_SAMPLES` units no
-interval is computed and every verdict says "not enough units for an interval".
+unit (the lab's five temperatures), they are averaged per unit first; intervals are over
+units, so that starts of the same unit, which share its calibration, are not counted as
+independent. Every interval and verdict is the one rule of :mod:`rinscal.experiments.verdict`:
+a 95 % Student-t interval over units, given from
+:data:`~rinscal.experiments.verdict.MIN_N` units on; comparisons between methods are paired
+(both navigated on the same raw data of the same unit and start) and decided on the
+difference in nmi. Percent decreases are descriptions of the same pairs, never the test.
 """
 
 from __future__ import annotations
 
 import itertools
 import math
-import warnings
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Iterator, Sequence
 from typing import Any
 
 import numpy as np
 import pandas as pd
-from scipy import stats
 
+from rinscal.experiments.paper.claims import claim_name
 from rinscal.experiments.paper.config import LABELS, PAPER
 from rinscal.experiments.paper.navigation import RESIDUAL_COLUMNS
-from rinscal.experiments.study.compare import (
+from rinscal.experiments.study.compare import NO_DT_VARIANT
+from rinscal.experiments.verdict import (
     CONFIDENCE,
-    MIN_SAMPLES,
-    NO_DT_VARIANT,
-    decide,
-    not_enough,
+    MIN_N,
+    TOO_FEW,
+    UNRESOLVED,
+    change_words,
+    paired,
     t_interval,
+    too_few,
 )
 
-#: Bootstrap resamples per interval.
-N_RESAMPLES = 4999
 #: The metrics summarised, with their unit: per run maximum horizontal position error,
 #: its thermal part (variant minus oracle), |heading error| at the start of navigation, and
 #: the model's held-out thermal residual on the cold start itself
@@ -52,74 +52,11 @@ METRICS = {
 PAIR_ORDER = ("none", "poly-t", "sectional", "regression", NO_DT_VARIANT, "neural")
 
 
-def _interval(
-    data: tuple[np.ndarray, ...],
-    statistic: Callable[..., Any],
-    confidence: float,
-    n_resamples: int,
-    seed: int,
-    paired: bool,
-) -> tuple[float, float]:
-    """:func:`scipy.stats.bootstrap` interval, BCa, or percentile where BCa is undefined."""
-    out = (math.nan, math.nan)
-    for method in ("BCa", "percentile"):
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            r = stats.bootstrap(
-                data,
-                statistic,
-                paired=paired,
-                vectorized=True,
-                confidence_level=confidence,
-                n_resamples=n_resamples,
-                method=method,
-                rng=np.random.default_rng(seed),
-            )
-        out = (float(r.confidence_interval.low), float(r.confidence_interval.high))
-        if all(map(math.isfinite, out)):
-            break
-    return out
-
-
-def bootstrap_ci(
-    x: Sequence[float] | np.ndarray,
-    statistic: Callable[..., Any] = np.mean,
-    confidence: float = CONFIDENCE,
-    n_resamples: int = N_RESAMPLES,
-    seed: int = 0,
-) -> tuple[float, float]:
-    """BCa bootstrap interval of ``statistic`` (vectorised, with an ``axis`` keyword) of the
-    finite values of ``x``. NaN for fewer than :data:`MIN_SAMPLES` values; the value itself
-    when all values are equal (no spread to resample)."""
-    v = np.asarray(x, dtype=float)
-    v = v[np.isfinite(v)]
-    if v.size < MIN_SAMPLES:
-        return (math.nan, math.nan)
-    if np.ptp(v) == 0.0:
-        s = float(statistic(v, axis=-1))
-        return (s, s)
-    return _interval((v,), statistic, confidence, n_resamples, seed, paired=False)
-
-
-def _decrease(a: np.ndarray, b: np.ndarray, axis: int = -1) -> np.ndarray:
-    """Decrease of the mean from ``a`` to ``b`` [%]: ``100 (mean a − mean b) / mean a``."""
-    ma = np.mean(a, axis=axis)
-    return 100.0 * (ma - np.mean(b, axis=axis)) / ma
-
-
-def paired_decrease_ci(
-    a: np.ndarray, b: np.ndarray, confidence: float = CONFIDENCE, seed: int = 0
-) -> tuple[float, float]:
-    """Bootstrap interval of the decrease of the mean from ``a`` to ``b`` [%], resampling
-    the pairs ``(a_i, b_i)`` together (BCa, falling back to percentile)."""
-    ok = np.isfinite(a) & np.isfinite(b)
-    a, b = np.asarray(a, float)[ok], np.asarray(b, float)[ok]
-    if a.size < MIN_SAMPLES:
-        return (math.nan, math.nan)
-    if np.ptp(a - b) == 0.0 and np.ptp(a) == 0.0:
-        d = float(_decrease(a, b))
-        return (d, d)
-    return _interval((a, b), _decrease, confidence, N_RESAMPLES, seed, paired=True)
+def _decrease(a: np.ndarray, b: np.ndarray) -> float:
+    """Decrease of the mean from ``a`` to ``b`` [%]: ``100 (mean a − mean b) / mean a``
+    (a description)."""
+    ma = float(np.mean(a))
+    return 100.0 * (ma - float(np.mean(b))) / ma if ma else math.nan
 
 
 def prepare(results: pd.DataFrame) -> pd.DataFrame:
@@ -172,7 +109,8 @@ def _groups(results: pd.DataFrame) -> Iterator[tuple[Any, ...]]:
 
 def method_summary(results: pd.DataFrame) -> pd.DataFrame:
     """Per plant, scenario, variant and metric (:data:`METRICS`): units, runs, mean with its
-    95 % bootstrap interval over units, median, standard deviation, min and max over runs."""
+    95 % Student-t interval over units (:func:`rinscal.experiments.verdict.t_interval`),
+    median, standard deviation, min and max over runs."""
     rows = []
     for metric, unit, (plant, label, scen), g, runs in _groups(results):
         for v in _variants(g.columns):
@@ -180,7 +118,7 @@ def method_summary(results: pd.DataFrame) -> pd.DataFrame:
                 continue  # zero by construction
             u = g[v].to_numpy(dtype=float)
             r = runs[v].to_numpy(dtype=float)
-            lo, hi = bootstrap_ci(u)
+            lo, hi = t_interval(u)
             rows.append(
                 {
                     "plant": plant,
@@ -210,11 +148,11 @@ def paired_differences(results: pd.DataFrame) -> pd.DataFrame:
 
     Columns: ``mean a``, ``mean b``, ``difference`` (mean of a − b over units, with ``diff
     ci low/high``, a Student-t interval over units), ``decrease %`` (of the mean, a → b,
-    with ``decrease ci low/high``, the paper's measure; heavy-tailed errors make it
-    unstable, so the report leads with the difference), ``units b better`` (a count, of
+    the paper's measure, a description only), ``units b better`` (a count, of
     ``n units``: units whose mean over their starts is lower with b), ``runs b better``
     (a count, of ``n runs``), ``best decrease over the runs %`` (the paper's "up to": the
-    largest single-run decrease; a maximum, not an estimate).
+    largest single-run decrease; a maximum, not an estimate), ``verdict`` (on "b better
+    than a", :func:`rinscal.experiments.verdict.verdict`).
     """
     rows = []
     for metric, unit, (plant, label, scen), g, runs in _groups(results):
@@ -225,8 +163,7 @@ def paired_differences(results: pd.DataFrame) -> pd.DataFrame:
                 continue
             ua, ub = g[a].to_numpy(float), g[b].to_numpy(float)
             ra, rb = runs[a].to_numpy(float), runs[b].to_numpy(float)
-            dlo, dhi = t_interval(ua - ub)
-            plo, phi = paired_decrease_ci(ua, ub)
+            p = paired(ua, ub)  # b − a: negative = b has less error
             with np.errstate(divide="ignore", invalid="ignore"):
                 per_run_dec = 100.0 * (ra - rb) / ra
             rows.append(
@@ -239,52 +176,42 @@ def paired_differences(results: pd.DataFrame) -> pd.DataFrame:
                     "a": a,
                     "b": b,
                     "comparison": f"{LABELS[a]} → {LABELS[b]}",
-                    "n units": len(ua),
+                    "n units": p.n,
                     "n runs": len(ra),
-                    "mean a": float(np.nanmean(ua)),
-                    "mean b": float(np.nanmean(ub)),
-                    "difference": float(np.nanmean(ua - ub)),
-                    "diff ci low": dlo,
-                    "diff ci high": dhi,
-                    "decrease %": float(_decrease(ua, ub)),
-                    "decrease ci low": plo,
-                    "decrease ci high": phi,
-                    "units b better": int(np.sum(ub < ua)),
+                    "mean a": p.mean_reference,
+                    "mean b": p.mean_method,
+                    "difference": -p.mean,
+                    "diff ci low": -p.hi,
+                    "diff ci high": -p.lo,
+                    "decrease %": _decrease(ua, ub),
+                    "units b better": p.better,
                     "runs b better": int(np.sum(rb < ra)),
                     "best decrease over the runs %": float(np.nanmax(per_run_dec)),
+                    "verdict": p.verdict,
                 }
             )
     return pd.DataFrame(rows)
 
 
-def resolved(lo: float, hi: float) -> str:
-    """``"b better"`` when a 95 % interval of a − b lies above zero, ``"a better"`` below,
-    ``"not resolved"`` when it contains zero (or is undefined)."""
-    if not (math.isfinite(lo) and math.isfinite(hi)):
-        return "not resolved"
-    if lo > 0:
-        return "b better"
-    if hi < 0:
-        return "a better"
-    return "not resolved"
-
-
 #: The paper's navigation claims: (scenario kind, method a, method b, the paper's figure,
-#: what the figure is).
+#: what the figure is); each is tested as "b better than a".
 PAPER_CLAIMS = (
     ("quasi-static", "sectional", "regression", PAPER["lab_qs_m1_to_m2_pct"], "up to"),
     ("swing", "sectional", "regression", PAPER["lab_swing_m1_to_m2_pct"], "up to"),
     ("quasi-static", "regression", "neural", PAPER["lab_qs_m2_to_m3_pct"], "up to"),
     ("swing", "regression", "neural", PAPER["lab_swing_m2_to_m3_pct"], "up to"),
     ("vehicle", "sectional", "neural", PAPER["vehicle_m1_to_m3_mean_pct"], "mean"),
-    ("vehicle", "sectional", "neural", PAPER["vehicle_m1_to_m3_max_pct"], "up to"),
 )
 
 
 def claims_table(results: pd.DataFrame, pairs: pd.DataFrame) -> pd.DataFrame:
-    """Each claim of the paper (:data:`PAPER_CLAIMS`) per plant and scenario of that kind:
-    our mean decrease of the maximum position error with its interval, our best run, and a
-    verdict in words."""
+    """Each claim of the paper (:data:`PAPER_CLAIMS`) per plant and scenario of that kind,
+    tested under the one rule: ``claim`` ("b better than a"), the paper's figure, ``n
+    units``, ``mean_nmi`` (b − a over units) with ``ci_low_nmi``/``ci_high_nmi``,
+    ``ours: change`` (the change of the mean error, a description: "38 % less",
+    "7.5× worse"), ``ours: best run %`` (the largest single-run decrease, the paper's
+    "up to"), ``units b better`` and ``verdict`` (:func:`rinscal.experiments.verdict.verdict`).
+    """
     kinds = results.drop_duplicates("scenario").set_index("scenario")["kind"]
     p = pairs[pairs["metric"] == "max_error_nmi"]
     rows = []
@@ -292,63 +219,34 @@ def claims_table(results: pd.DataFrame, pairs: pd.DataFrame) -> pd.DataFrame:
         for scen in kinds.index[kinds == kind]:
             sel = p[(p["scenario"] == scen) & (p["a"] == a) & (p["b"] == b)]
             for _, r in sel.iterrows():
-                lo, hi = r["decrease ci low"], r["decrease ci high"]
                 rows.append(
                     {
                         "plant": r["plant_label"],
                         "scenario": scen,
-                        "claim": f"{LABELS[a]} → {LABELS[b]}: {paper:.2f} % less max "
-                        f"position error ({what})",
-                        "paper %": paper,
-                        "paper's figure is": "its best run" if what == "up to" else "its mean",
-                        "n units": r["n units"],
-                        "ours: mean decrease %": r["decrease %"],
-                        "ci low": lo,
-                        "ci high": hi,
+                        "a": a,
+                        "b": b,
+                        "claim": claim_name(b, a),
+                        "paper": f"{paper:.2f} % less ("
+                        + ("its best run" if what == "up to" else "its mean")
+                        + ")",
+                        "n units": int(r["n units"]),
+                        "mean_nmi": -float(r["difference"]),
+                        "ci_low_nmi": -float(r["diff ci high"]),
+                        "ci_high_nmi": -float(r["diff ci low"]),
+                        "ours: change": change_words(r["mean a"], r["mean b"]),
                         "ours: best run %": r["best decrease over the runs %"],
-                        "difference a − b [nmi]": r["difference"],
-                        "diff ci low": r["diff ci low"],
-                        "diff ci high": r["diff ci high"],
-                        "units b better": r["units b better"],
-                        "verdict": claim_verdict(paper, what, lo, hi, r),
+                        "units b better": int(r["units b better"]),
+                        "verdict": r["verdict"],
                     }
                 )
     return pd.DataFrame(rows)
 
 
-def claim_verdict(paper: float, what: str, lo: float, hi: float, r: pd.Series) -> str:
-    """The verdict on one claim, in words, from our 95 % interval ``[lo, hi]`` of the mean
-    decrease [%] and the paper's figure (a best run for ``what == "up to"``)."""
-    if not (math.isfinite(lo) and math.isfinite(hi)):
-        n = int(r["n units"]) if "n units" in r else 0
-        return f"undecided: {not_enough(n)}"
-    if hi < 0:
-        worse = f"{LABELS[r['b']]} is worse"
-        if "mean a" in r and r["mean a"] > 0:
-            worse += f": its mean error is {r['mean b'] / r['mean a']:.1f}× {LABELS[r['a']]}'s"
-        return (
-            f"reversed: {worse} (decrease {r['decrease %']:.0f} %, interval {lo:.0f} … {hi:.0f} %)"
-        )
-    if lo <= 0:
-        return f"not shown: the interval {lo:.0f} … {hi:.0f} % contains zero"
-    base = f"direction holds: {r['decrease %']:.0f} % less on average ({lo:.0f} … {hi:.0f} %)"
-    if what == "up to":
-        best = r["best decrease over the runs %"]
-        return (
-            f"{base}; the paper's {paper:.1f} % is its best run, ours reaches {best:.0f} % "
-            "in a single run"
-        )
-    if lo <= paper <= hi:
-        return f"{base}; the paper's mean {paper:.1f} % lies inside"
-    side = "above" if paper > hi else "below"
-    return f"{base}; the paper's mean {paper:.1f} % lies {side} it"
-
-
 def uncompensated_wins(pairs: pd.DataFrame) -> list[str]:
     """Sentences for every plant, scenario and method where no compensation has the lower
     mean maximum position error, with the paired difference (method − none) [nmi], its
-    interval and the verdict (:func:`rinscal.experiments.study.compare.decide`): resolved
-    either way, no resolved difference, or not enough units for an interval."""
+    interval and the verdict on "method better than no compensation"
+    (:func:`rinscal.experiments.verdict.verdict`)."""
     p = pairs[(pairs["metric"] == "max_error_nmi") & (pairs["a"] == "none")]
     out = []
     for _, r in p.iterrows():
@@ -356,20 +254,15 @@ def uncompensated_wins(pairs: pd.DataFrame) -> list[str]:
             name = LABELS[r["b"]]
             # difference is a − b = none − method; the verdict is on method − none
             lo, hi = -r["diff ci high"], -r["diff ci low"]
-            verdict = decide(int(r["n units"]), lo, hi, "no compensation", name)
+            words = r["verdict"] if r["verdict"] != TOO_FEW else too_few(int(r["n units"]), "units")
             ci = f" [{lo:+.3f}, {hi:+.3f}]" if math.isfinite(lo) and math.isfinite(hi) else ""
             out.append(
                 f"{r['plant_label']}, {r['scenario']}: no compensation has the lower mean "
                 f"error ({r['mean a']:.3f} nmi against {r['mean b']:.3f} nmi with {name}; "
-                f"{name} − none = {-r['difference']:+.3f} nmi{ci}) — {verdict}"
+                f"{name} − none = {-r['difference']:+.3f} nmi{ci}) — {name} better than no "
+                f"compensation: {words}"
             )
     return out
-
-
-def _verdict_kind(verdict: str) -> str:
-    """The verdict's first words: ``direction holds``, ``not shown``, ``reversed`` or
-    ``undecided``."""
-    return verdict.split(":")[0]
 
 
 def structure_pairs(plants: pd.DataFrame) -> list[tuple[pd.Series, pd.Series]]:
@@ -396,9 +289,9 @@ def structure_findings(
     """Which findings survive a change of the plant's thermal law, in words.
 
     For every pair of plants that differ only in their law (:func:`structure_pairs`): each
-    claim's verdict on both, said to survive when the verdicts agree; with ``pairs``
-    (:func:`paired_differences`), whether each model beats no compensation on both (the
-    decrease of the mean maximum position error with its interval); and, as the reason, how
+    claim's verdict on both (the one rule), said to survive when the verdicts agree; with
+    ``pairs`` (:func:`paired_differences`), whether each model beats no compensation on both
+    (the paired difference model − none [nmi] with its interval); and, as the reason, how
     much of the horizontal accelerometers' thermal swing each model leaves on the cold starts
     of each plant (``accel_residual_pct``, mean over units with its interval): a model class
     that cannot follow the mechanistic law leaves more of it there.
@@ -413,10 +306,10 @@ def structure_findings(
                 if a.empty or b.empty:
                     continue
                 a, b = a.iloc[0], b.iloc[0]
-                ka, kb = _verdict_kind(a["verdict"]), _verdict_kind(b["verdict"])
-                fa = _pct_ci(a["ours: mean decrease %"], a["ci low"], a["ci high"])
-                fb = _pct_ci(b["ours: mean decrease %"], b["ci low"], b["ci high"])
-                tail = _survival(ka, kb)
+                ka, kb = a["verdict"], b["verdict"]
+                fa = _nmi_ci(a["mean_nmi"], a["ci_low_nmi"], a["ci_high_nmi"])
+                fb = _nmi_ci(b["mean_nmi"], b["ci_low_nmi"], b["ci_high_nmi"])
+                tail = _survival(ka, kb, n=min(int(a["n units"]), int(b["n units"])))
                 out.append(f"{scen}, {claim}: {ka} on {pl} ({fa}), {kb} on {ml} ({fb}) — {tail}")
         if pairs is not None and not pairs.empty:
             out += _against_none(pairs, pl, ml)
@@ -445,32 +338,22 @@ def structure_findings(
 
 
 def _against_none(pairs: pd.DataFrame, pl: str, ml: str) -> list[str]:
-    """Per scenario and model: does it beat no compensation on both plants (the paired
-    difference model − none [nmi] and its interval)?"""
+    """Per scenario and model: the verdict on "model better than no compensation" on both
+    plants (the paired difference model − none [nmi] and its interval)."""
     p = pairs[(pairs["metric"] == "max_error_nmi") & (pairs["a"] == "none")]
     out = []
-    kinds = {"b better": "beats no compensation", "a better": "loses to no compensation"}
     for (scen, b), g in p.groupby(["scenario", "b"], sort=False):
         ra, rb = g[g["plant_label"] == pl], g[g["plant_label"] == ml]
         if ra.empty or rb.empty:
             continue
         ra, rb = ra.iloc[0], rb.iloc[0]
-        k = [
-            kinds.get(resolved(r["diff ci low"], r["diff ci high"]), "no resolved difference")
-            for r in (ra, rb)
-        ]
-        n = min(int(ra["n units"]), int(rb["n units"]))
-        decided = all(math.isfinite(r["diff ci low"]) for r in (ra, rb))
-        tail = _survival(
-            *(k if decided else ("undecided",) * 2), unresolved="no resolved difference", n=n
-        )
+        k = [str(r["verdict"]) for r in (ra, rb)]
+        tail = _survival(*k, n=min(int(ra["n units"]), int(rb["n units"])))
         fa, fb = (
             _nmi_ci(-r["difference"], -r["diff ci high"], -r["diff ci low"]) for r in (ra, rb)
         )
-        if not decided:
-            k = ["undecided"] * 2
         out.append(
-            f"{scen}, {LABELS[b]} − no compensation: {k[0]} on {pl} ({fa}), "
+            f"{scen}, {LABELS[b]} better than no compensation: {k[0]} on {pl} ({fa}), "
             f"{k[1]} on {ml} ({fb}) — {tail}"
         )
     return out
@@ -483,14 +366,11 @@ def _nmi_ci(m: float, lo: float, hi: float) -> str:
     return f"{m:+.3f} nmi, no interval"
 
 
-def _survival(ka: str, kb: str, unresolved: str = "not shown", n: int | None = None) -> str:
-    """Whether a verdict survives the change of law, from its kinds on both plants
-    (``undecided``: no interval; ``unresolved``: the word for an interval containing 0)."""
-    if "undecided" in (ka, kb):
-        return "not decided: " + (
-            not_enough(n) if n is not None else "not enough units for an interval"
-        )
-    if ka == kb == unresolved:
+def _survival(ka: str, kb: str, n: int) -> str:
+    """Whether a verdict survives the change of law, from its verdicts on both plants."""
+    if TOO_FEW in (ka, kb):
+        return "not decided: " + too_few(n, "units")
+    if ka == kb == UNRESOLVED:
         return "resolved on neither plant"
     if ka == kb:
         return "survives the change of thermal law"
@@ -507,19 +387,13 @@ def _pct_ci(m: float, lo: float, hi: float) -> str:
 __all__ = [
     "CONFIDENCE",
     "METRICS",
-    "MIN_SAMPLES",
+    "MIN_N",
     "PAIR_ORDER",
     "PAPER_CLAIMS",
-    "bootstrap_ci",
-    "claim_verdict",
     "claims_table",
-    "decide",
     "method_summary",
-    "not_enough",
-    "paired_decrease_ci",
     "paired_differences",
     "prepare",
-    "resolved",
     "structure_findings",
     "structure_pairs",
     "uncompensated_wins",
