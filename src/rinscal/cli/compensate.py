@@ -156,6 +156,7 @@ def evaluate_cmd(
     # deferred: the library loads numpy, pandas and numba; `rinscal --help` must not
     from rich.table import Table
 
+    from rinscal.calibration.allan import NOISE_TERMS_WORDS, datasheet_units
     from rinscal.calibration.modelfile import POLICIES
     from rinscal.calibration.workflow import evaluate, load_model, model_label
     from rinscal.cli._app import console, err_console, fail
@@ -237,21 +238,22 @@ def evaluate_cmd(
     print_table(console, table)
     if not allan.empty:
         at = Table(
-            title="Allan deviation (overlapping), IEEE Std 952 slopes: N random walk "
-            "[unit·√s] at τ = 1 s, B bias instability [unit] (at τ), K rate random walk "
-            "[unit/√s] at τ = 3 s; '-' where the curve has no such region"
+            title="Allan deviation (overlapping), IEEE Std 952 slopes: "
+            f"{NOISE_TERMS_WORDS}; a channel logged in another unit u: N [u·√s], B [u], "
+            "K [u/√s]; '-' where the curve has no such region"
         )
         for name in ("run", "channel", "output", "N", "B", "τ(B) [s]", "K"):
             at.add_column(name, justify="left" if name in ("run", "channel", "output") else "right")
         for _, r in allan.iterrows():
+            u = datasheet_units(r["unit"])
             at.add_row(
                 str(r["run"]),
                 f"{r['channel']} ({r['unit'] or '?'})",
                 str(r["output"]),
-                _fmt(r["n"], 3),
+                _fmt(r["n"] * u.n_factor, 3),
                 _fmt(r["b"], 3),
                 _fmt(r["b_tau_s"], 3),
-                _fmt(r["k"], 3),
+                _fmt(r["k"] * u.k_factor, 3),
             )
         print_table(console, at)
     if allan_plot is not None:

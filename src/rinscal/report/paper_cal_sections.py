@@ -15,23 +15,16 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from rinscal.calibration.allan import NOISE_TERMS_WORDS
 from rinscal.experiments.paper.calibration import CalibrationResult
 from rinscal.experiments.paper.config import LABELS, METHODS
-from rinscal.report.html import Report, Section
+from rinscal.report.html import Report, Section, format_sig
 
 __all__ = ["add_calibration_sections", "format_sig"]
 
 _SUP = {"1": "¹", "2": "²", "3": "³", "4": "⁴"}
 _UNIT = {"accel": "µg", "gyro": "°/h"}
 _SENSOR = {"accel": "accelerometers", "gyro": "gyros"}
-
-
-def format_sig(x: Any, digits: int = 4) -> str:
-    """``x`` with ``digits`` significant digits in positional notation (no exponent);
-    blank for NaN or None."""
-    if x is None or (isinstance(x, float) and not np.isfinite(x)):
-        return ""
-    return np.format_float_positional(float(x), precision=digits, fractional=False, trim="-")
 
 
 def _fixed(x: Any, decimals: int) -> str:
@@ -89,6 +82,7 @@ def _table4(s: Section, tables: Mapping[str, pd.DataFrame]) -> None:
             pd.DataFrame(rows),
             f"Table 4 ({name}): method 1's coefficients per temperature segment, the paper's "
             "(converted from pulses) and ours; 4 significant digits",
+            fold=True,
         )
 
 
@@ -153,7 +147,7 @@ def _selection_table(
             f"noise floor [{u}]": [_fixed(x, dec) for x in t["noise floor"]],
         }
     )
-    s.table(f"{key}_{sensor}", view, caption)
+    s.table(f"{key}_{sensor}", view, caption, fold=True)
 
 
 def _recommended_words(cal: CalibrationResult) -> str:
@@ -215,7 +209,23 @@ def _table6(s: Section, tables: Mapping[str, pd.DataFrame], plant_name: str) -> 
             view,
             f"Table 6 ({_SENSOR[sensor]}): method 2's coefficients, paper / true plant / "
             "ours; 4 significant digits",
+            fold=True,
         )
+
+
+def _cond_words(r: pd.DataFrame, cond: Mapping[str, float]) -> str:
+    """What the reproduction's condition number is of, beside the study's (issue 36: "448"
+    here and "2.6" in the study are of different matrices)."""
+    worst = max(cond, key=cond.__getitem__)
+    n_cols = int((r["channel"] == worst).sum()) + 1  # its terms and the constant
+    return (
+        f"the condition number of method 2's whole design matrix is up to "
+        f"{cond[worst]:.0f} ({worst}: the constant and every power of T, Ṫ and ΔT, "
+        f"{n_cols} columns, each input centred and scaled as the fit does; the powers of "
+        "one input are nearly collinear, which alone makes it large. The study quotes the "
+        "condition number of the three inputs [T, Ṫ, ΔT] alone, each standardised, which "
+        "is 1 for independent inputs and much smaller)"
+    )
 
 
 def _recovery(s: Section, tables: Mapping[str, pd.DataFrame]) -> None:
@@ -268,11 +278,7 @@ def _recovery(s: Section, tables: Mapping[str, pd.DataFrame]) -> None:
             f"{len(missed)} misses are structural, not noise: Ṫ and ΔT move together in a "
             "cold start"
             + (f" (|corr(Ṫ, ΔT)| {min(cr):.2f} to {max(cr):.2f}" if cr else " (")
-            + (
-                f"; condition number of the scaled design up to {max(cond.values()):.0f})"
-                if cond
-                else ")"
-            )
+            + (f"; {_cond_words(r, cond)})" if cond else ")")
             + ", so the split between their terms is weakly determined; the rate is "
             "estimated from measured temperatures over a 60 s window while the plant uses "
             "the exact one; and effects outside the polynomial load onto its terms (the "
@@ -288,6 +294,7 @@ def _recovery(s: Section, tables: Mapping[str, pd.DataFrame]) -> None:
         view,
         "Coefficient recovery: method 2's fit against the true plant's thermal law, with "
         "95 % bootstrap intervals over the soak runs (physical units)",
+        fold=True,
     )
 
 
@@ -327,6 +334,7 @@ def _table8(s: Section, tables: Mapping[str, pd.DataFrame]) -> None:
             view,
             f"Table 8 ({name}): hidden weights w, biases b, output weights v; the output "
             "row's b is b′ (dimensionless, 3 significant digits)",
+            fold=True,
         )
 
 
@@ -407,6 +415,7 @@ def _heldout(
                 f"{name}_{sensor}",
                 _steps_view(tables[f"{name}_{sensor}"], sensor),
                 f"Steps at the sectional segment edges on {what}, {_SENSOR[sensor]}",
+                fold=True,
             )
     acc = tables["repeat_steps"]
     acc = acc[acc["channel"] == "accel_x"].set_index("method")["model_step"]
@@ -424,11 +433,8 @@ def _heldout(
     if "allan" in figures:
         s.text(
             "Noise parameters of the repeat run before and after method 2, read from its "
-            "overlapping Allan deviation by the IEEE Std 952 slopes: N, the angle random "
-            "walk of a gyro [°/√h] or the velocity random walk of an accelerometer "
-            "[µg/√Hz] (σ at τ = 1 s on the −½ line); B, the bias instability (the flat "
-            "minimum ÷ 0.664, at τ(B)); K, the rate random walk (σ at τ = 3 s on the +½ "
-            "line); blank where the curve has no region of that slope."
+            f"overlapping Allan deviation by the IEEE Std 952 slopes: {NOISE_TERMS_WORDS}; "
+            "blank where the curve has no region of that slope."
         )
         for sensor in ("gyro", "accel"):
             key = f"allan_repeat_{sensor}"
@@ -438,14 +444,19 @@ def _heldout(
             view = t.copy()
             for col in t.columns[2:]:
                 view[col] = [format_sig(x, 3) for x in t[col]]
-            s.table(key, view, f"Allan deviation noise parameters, {_SENSOR[sensor]}")
+            s.table(key, view, f"Allan deviation noise parameters, {_SENSOR[sensor]}", fold=True)
         s.text(
             "The figure below draws those Allan deviations, raw and compensated, per channel. "
             "Compensation acts at long averaging times: the thermal drift that bends a raw "
             "curve upwards there is what it removes; the white noise (the −½ slope at short "
             "times) is untouched."
         )
-        s.figure("allan", figures["allan"], "Allan deviation of the repeat run, raw and method 2")
+        s.figure(
+            "allan",
+            figures["allan"],
+            "Allan deviation of the repeat run, raw and method 2",
+            fold=True,
+        )
 
 
 # --------------------------------------------------------------------------- Table 9
@@ -461,7 +472,9 @@ def _table9(s: Section, tables: Mapping[str, pd.DataFrame]) -> None:
     view = t.copy()
     for col in t.columns[2:]:
         view[col] = [format_sig(x, 3) for x in t[col]]
-    s.table("table9", view, "Table 9: turntable conditions, the paper's as printed and ours")
+    s.table(
+        "table9", view, "Table 9: turntable conditions, the paper's as printed and ours", fold=True
+    )
 
 
 # --------------------------------------------------------------------------- entry point
@@ -521,7 +534,7 @@ def add_calibration_sections(
         "to show how little any setting moves off that floor; the star marks the setting "
         "recommended on held-out RMS. " + _recommended_words(cal)
     )
-    s.figure("selection", figures["selection"], "Tables 5 and 7 as curves")
+    s.figure("selection", figures["selection"], "Tables 5 and 7 as curves", fold=True)
 
     s = rep.section("Held-out runs: repeat start and chamber ramp (Figures 7, 8)", "heldout")
     _heldout(s, cal, tables, figures, heldout_words)

@@ -138,8 +138,10 @@ def ablation_lines(abl: pd.DataFrame, design: pd.DataFrame) -> list[str]:
         out.append(
             f"The soak design of the {len(design)} calibrated unit(s): Ṫ and ΔT correlate at "
             f"r = {_sg(c.median())} (median; {_sg(c.min())} to {_sg(c.max())}), and the "
-            f"standardised design [T, Ṫ, ΔT] has condition number {k.median():.1f} "
-            f"({k.min():.1f} to {k.max():.1f}; 1 for independent columns)"
+            f"design of the three inputs alone, [T, Ṫ, ΔT] each standardised, has condition "
+            f"number {k.median():.1f} ({k.min():.1f} to {k.max():.1f}; 1 for independent "
+            "columns; not the condition number of method 2's whole polynomial design, whose "
+            "powers of one input make it far larger)"
             + (
                 "; the units share one thermal network and soak protocol, so their designs "
                 "differ only by the thermometers' noise. "
