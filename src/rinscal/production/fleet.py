@@ -245,7 +245,7 @@ def fit_unit(
 
 #: The inputs of a regression model, in its ``orders``' order, and each one's unit.
 _INPUTS = (("T", "°C"), ("Ṫ", "°C/min"), ("ΔT", "°C"))
-_POWERS = {1: "", 2: "²", 3: "³", 4: "⁴", 5: "⁵"}
+_POWERS = {1: "¹", 2: "²", 3: "³", 4: "⁴", 5: "⁵"}
 
 
 def physical_coefficients(params: Mapping[str, Any]) -> dict[str, float]:
@@ -276,14 +276,14 @@ def physical_coefficients(params: Mapping[str, Any]) -> dict[str, float]:
 
 def coefficient_unit(term: str, unit: str) -> str:
     """The unit of a :func:`physical_coefficients` term of a channel logged in ``unit``:
-    ``T²`` of a gyro in °/h is in °/h/°C², ``Ṫ`` in °/h/(°C/min), ``a₀`` and ``T⁰`` in °/h."""
+    ``T²`` of a gyro in °/h is in °/h/°C², ``Ṫ¹`` in °/h/(°C/min), ``a₀`` and ``T⁰`` in °/h."""
     u = units.unit_words(unit) if unit else "unit"
     if term in ("a₀", "T⁰"):
         return u
     for name, per in _INPUTS:  # "T", "Ṫ" and "ΔT" start with different characters
         if term.startswith(name):
             base = f"({per})" if "/" in per else per
-            return f"{u}/{base}{term[len(name) :]}"
+            return f"{u}/{base}{term[len(name) :].replace('¹', '')}"
     return u
 
 
