@@ -112,3 +112,28 @@ def test_selection_figure_ticks_whole_orders() -> None:
     assert list(reg.get_xticks()) == [1, 2, 3, 4]  # not 1.0, 1.5, ... 4.0
     assert list(nn.get_xticks()) == list(range(1, 9))
     assert [t.get_text() for t in reg.get_xticklabels()] == ["1", "2", "3", "4"]
+
+
+def test_forest_plot_is_readable_and_holds_every_interval() -> None:
+    from rinscal.report.study_figures import MAX_WIDTH_IN, paired_figure
+
+    rows = []
+    scens = ("quasi-static", "swing", "vehicle")  # three panels: two rows of two
+    for k, scen in enumerate(scens):
+        for m in ("sectional", "regression", "neural"):
+            for ref in ("none", "poly-t"):
+                d = (-1.0 if m == "regression" else 2.0) * (k + 1)
+                rows.append({"plant": 0, "plant_label": "p", "scenario": scen, "method": m,
+                             "reference": ref, "delta": d, "delta ci low": d - 3.0 * (k + 1),
+                             "delta ci high": d + 3.0 * (k + 1)})  # fmt: skip
+    comp = pd.DataFrame(rows)
+    fig = paired_figure(comp, 0)
+    # drawn no wider than the page's column at 110 dpi: its titles are not shrunk to 7 px
+    assert fig.get_size_inches()[0] <= MAX_WIDTH_IN + 1e-9
+    axes = [ax for ax in fig.axes if ax.get_title()]
+    assert [ax.get_title() for ax in axes] == list(scens)
+    assert all(ax.title.get_fontsize() * 110 / 72 >= 15 for ax in axes)  # px at 110 dpi
+    lo, hi = comp["delta ci low"].min(), comp["delta ci high"].max()  # −12 and 15
+    for ax in axes:
+        left, right = ax.get_xlim()
+        assert left < lo and right > hi  # every interval inside the axes, on every panel

@@ -52,9 +52,9 @@ from rinscal.report.study_figures import (
     paired_figure,
 )
 from rinscal.report.study_words import (
-    CODES_LEGEND,
     ablation_lines,
     claims_view,
+    codes_legend,
     comparison_lines,
     comparison_view,
     design_view,
@@ -223,7 +223,7 @@ def build_report(spec: StudySpec, t: StudyTables, run: RunSummary | None) -> Rep
                 "Paired difference method − reference of the maximum position error [nmi]",
             )
         if t.sensitivity.empty:
-            c.text(CODES_LEGEND, "note")
+            c.text(codes_legend(_variants(t)), "note")
             c.table(
                 "against",
                 comparison_view(t.comparisons),
@@ -288,7 +288,7 @@ def build_report(spec: StudySpec, t: StudyTables, run: RunSummary | None) -> Rep
         "decrease from a to b [%], the paper's 'up to' figure: a maximum, not an estimate."
     )
     if t.sensitivity.empty:
-        pr.text(CODES_LEGEND, "note")
+        pr.text(codes_legend(_variants(t)), "note")
         pr.table("pairs", pairs_view(t.pairs), "Paired differences of the maximum position error")
     else:
         pr.text(f"The {len(t.pairs)} pairs of this sweep are in tables/paired_differences.csv.")
@@ -303,6 +303,11 @@ def build_report(spec: StudySpec, t: StudyTables, run: RunSummary | None) -> Rep
         )
         f.table("failures", t.failures, "Tasks that raised and their errors")
     return rep
+
+
+def _variants(t: StudyTables) -> set[str]:
+    """The variants the study navigated (the legend explains only those)."""
+    return set(t.results["variant"]) if "variant" in t.results else set()
 
 
 def _shown(t: StudyTables) -> list[Any]:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import html
 import math
+from collections.abc import Iterable
 from typing import Any
 
 import pandas as pd
@@ -30,6 +31,7 @@ __all__ = [
     "ablation_lines",
     "claims_view",
     "code",
+    "codes_legend",
     "comparison_lines",
     "comparison_view",
     "design_view",
@@ -189,13 +191,29 @@ CODES = {
     "neural": "m3",
     "true": "oracle",
 }
-#: What the short names mean.
-CODES_LEGEND = (
-    "none: no compensation; cubic: the cubic in T (baseline); m1, m2, m3: the paper's "
-    "methods 1 (sectional), 2 (regression), 3 (BP network); m2 w/o ΔT: method 2 without its "
-    "ΔT terms; m2+sf: method 2 behind the unit's scale-factor/axis calibration; oracle: the "
-    "true thermal bias."
-)
+#: What each short name means, in :data:`CODES`' order.
+_MEANINGS = {
+    "none": "no compensation",
+    "poly-t": "the cubic in T (baseline)",
+    "sectional": "the paper's method 1 (sectional)",
+    "regression": "the paper's method 2 (regression)",
+    "regression-no-dT": "method 2 without its ΔT terms",
+    "regression+sf": "method 2 behind the unit's scale-factor/axis calibration",
+    "neural": "the paper's method 3 (BP network)",
+    "true": "the true thermal bias",
+}
+
+
+def codes_legend(variants: Iterable[str] | None = None) -> str:
+    """What the short names of ``variants`` mean, in one sentence: only those the study ran
+    (every one without ``variants``)."""
+    ran = set(CODES) if variants is None else set(variants)
+    parts = [f"{CODES[v]}: {_MEANINGS[v]}" for v in CODES if v in ran]
+    return "; ".join(parts) + "." if parts else ""
+
+
+#: What every short name means (:func:`codes_legend` of every variant).
+CODES_LEGEND = codes_legend()
 
 
 def code(v: str) -> str:
