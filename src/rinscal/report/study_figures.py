@@ -115,12 +115,22 @@ def _panels(plt: Any, n: int, height_in: float) -> tuple[Any, list[Any]]:
 def interval_limits(
     lo: Sequence[float], hi: Sequence[float], d: Sequence[float]
 ) -> tuple[float, float]:
-    """x limits [nmi] that hold every interval ``[lo, hi]`` and estimate ``d`` (non-finite
-    ones left out) and zero, with a margin of 15 % of each side's extent."""
+    """x limits [nmi] of the symlog axis (linear within ±0.1 nmi) that hold every interval
+    ``[lo, hi]`` and estimate ``d`` (non-finite ones left out) and zero: each side 1.6 times
+    the farthest value (a fifth of a decade), at least 0.1 nmi, so no marker or cap sits on
+    the frame."""
     vals = np.asarray([*lo, *hi, *d, 0.0], dtype=float)
     vals = vals[np.isfinite(vals)]
-    left, right = float(vals.min()), float(vals.max())
-    return (left * 1.15 if left < 0 else -0.05, right * 1.15 if right > 0 else 0.05)
+    return (min(1.6 * float(vals.min()), -0.1), max(1.6 * float(vals.max()), 0.1))
+
+
+def _log_label(v: float, _pos: int) -> str:
+    """A log axis's tick as a plain number (0.3, 1, 2, not 3 × 10⁻¹), only at 1, 2, 3 and
+    5 times a power of ten so that the labels do not crowd."""
+    if not v > 0:
+        return ""
+    mantissa = v / 10.0 ** math.floor(math.log10(v) + 1e-9)
+    return f"{v:g}" if round(mantissa, 6) in (1.0, 2.0, 3.0, 5.0) else ""
 
 
 def distribution_figure(results: pd.DataFrame, plant: int) -> Any:
@@ -147,6 +157,8 @@ def distribution_figure(results: pd.DataFrame, plant: int) -> Any:
             fontsize=8,
         )
         ax.set_yscale("log")
+        ax.yaxis.set_major_formatter(plt.FuncFormatter(_log_label))
+        ax.yaxis.set_minor_formatter(plt.FuncFormatter(_log_label))
         ax.set_title(scen, fontsize=11)
         ax.set_ylabel("max horizontal position error [nmi]")
         ax.grid(axis="y", alpha=0.3)
