@@ -62,7 +62,7 @@ def test_evaluate_table_cuts_no_number_at_80_columns(tmp_path) -> None:
             assert _fmt(row[key]) in res.output, (key, _fmt(row[key]))
     # the Allan terms in the reports' units and words (issue 36): N in °/√h for a gyro
     # logged in deg/h, µg/√Hz for an accelerometer in ug, the value converted to it
-    from rinscal.calibration.allan import NOISE_TERMS_WORDS
+    from rinscal.calibration.allan_units import NOISE_TERMS_WORDS
 
     for unit in ("(deg/h)", "(ug)", "[°/√h]", "[µg/√Hz]", "τ(B)", "[s]"):
         assert unit in _squash(res.output)

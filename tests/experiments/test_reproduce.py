@@ -226,8 +226,9 @@ def test_every_figure_has_a_sentence_saying_what_it_shows(quick: Path) -> None:
     figures = list(re.finditer(r'<figure id="fig-([\w-]+)"', page))
     assert len(figures) == len(json.loads((quick / "metrics.json").read_text())["figures"])
     for f in figures:
-        # a folded figure: its sentence stands before the fold, visible
-        before = re.sub(r'<details class="fold"><summary>[^<]*</summary>$', "", page[: f.start()])
+        # a folded figure: its sentence stands before its fold (or its section's), visible
+        fold = r'(?:<details class="fold"><summary>[^<]*</summary>)+$'
+        before = re.sub(fold, "", page[: f.start()])
         assert before.endswith("</p>"), f"figure {f.group(1)} has no sentence before it"
         sentence = _text(before[before.rindex("<p") :])
         assert "figure below" in sentence and len(sentence) > 80, (f.group(1), sentence)

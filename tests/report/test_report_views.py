@@ -10,8 +10,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from rinscal.calibration.inference import coefficient_unit, physical_coefficients
 from rinscal.experiments.paper.config import LABELS
-from rinscal.production.fleet import coefficient_unit, physical_coefficients
 from rinscal.report.fleet_report import distribution_view
 from rinscal.report.paper_figures import fig_selection
 from rinscal.report.paper_nav_sections import run_table_view

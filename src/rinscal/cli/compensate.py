@@ -156,7 +156,7 @@ def evaluate_cmd(
     # deferred: the library loads numpy, pandas and numba; `rinscal --help` must not
     from rich.table import Table
 
-    from rinscal.calibration.allan import NOISE_TERMS_WORDS, datasheet_units
+    from rinscal.calibration.allan_units import NOISE_TERMS_WORDS, datasheet_units
     from rinscal.calibration.modelfile import POLICIES
     from rinscal.calibration.workflow import evaluate, load_model, model_label
     from rinscal.cli._app import console, err_console, fail

@@ -45,7 +45,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from rinscal import units
+from rinscal.calibration.inference import coefficient_unit
 from rinscal.cluster import TLSFiles, dask_client
 from rinscal.errors import ConfigError, RinscalError
 from rinscal.io.atomic import write_atomic
@@ -60,10 +60,8 @@ __all__ = [
     "FleetReport",
     "FleetRun",
     "FleetStore",
-    "coefficient_unit",
     "fit_unit",
     "fleet_report",
-    "physical_coefficients",
     "run_fleet",
     "split_side_files",
     "unit_names",
@@ -182,13 +180,13 @@ def fit_unit(
     -------
     dict
         ``model`` (model-file JSON text), ``export`` (text or None), ``channels`` (per channel:
-        ``model``, ``unit``, ``params`` (flat name -> value, the model's internal form),
-        ``coefficients`` (:func:`physical_coefficients`), ``heldout_rms``,
+        ``model``, ``unit``, ``params`` (flat name -> value, internal), ``coefficients``
+        (:func:`rinscal.calibration.inference.physical_coefficients`), ``heldout_rms``,
         ``thermal_span``, ``noise_density``), ``warnings``, ``elapsed_s``.
     """
     # deferred: the fitting stack (numba, the log readers) loads on the worker that fits
     from rinscal.calibration.export import to_ardupilot_parm, to_c_header, to_px4_params
-    from rinscal.calibration.inference import predict_params
+    from rinscal.calibration.inference import physical_coefficients, predict_params
     from rinscal.calibration.thermal.model import ThermalModel
     from rinscal.io.flightinfo import FlightLogOptions
     from rinscal.io.flightlog import scan_flight_log
@@ -241,50 +239,6 @@ def fit_unit(
         "warnings": sorted({f"{w.category.__name__}: {w.message}" for w in caught}),
         "elapsed_s": time.perf_counter() - t0,
     }
-
-
-#: The inputs of a regression model, in its ``orders``' order, and each one's unit.
-_INPUTS = (("T", "°C"), ("Ṫ", "°C/min"), ("ΔT", "°C"))
-_POWERS = {1: "¹", 2: "²", 3: "³", 4: "⁴", 5: "⁵"}
-
-
-def physical_coefficients(params: Mapping[str, Any]) -> dict[str, float]:
-    """A channel model's coefficients in physical units, named by their term.
-
-    The raw polynomial (:func:`rinscal.calibration.inference.raw_polynomial`): a ``poly-t``
-    model's ``T⁰ .. T³`` (coefficients of the powers of ``T`` [°C]); a ``regression``
-    model's constant ``a₀`` and the coefficients of ``T``, ``Ṫ`` [°C/min] and ``ΔT`` [°C]
-    and their powers. Each is in the channel's unit per its term's unit
-    (:func:`coefficient_unit`). Other methods (sectional, neural) have no such form: empty.
-    """
-    from rinscal.calibration.inference import raw_polynomial  # deferred with the fit stack
-
-    method = params.get("method")
-    if method == "poly-t":
-        coef = raw_polynomial(params)["coef"]
-        return {("T⁰" if k == 0 else f"T{_POWERS.get(k, f'^{k}')}"): float(c)
-                for k, c in enumerate(coef)}  # fmt: skip
-    if method != "regression":
-        return {}
-    raw = raw_polynomial(params)
-    out = {"a₀": float(raw["a0"])}
-    for (name, _), coefs in zip(_INPUTS, raw["coef"], strict=False):
-        for k, c in enumerate(coefs, start=1):
-            out[f"{name}{_POWERS.get(k, f'^{k}')}"] = float(c)
-    return out
-
-
-def coefficient_unit(term: str, unit: str) -> str:
-    """The unit of a :func:`physical_coefficients` term of a channel logged in ``unit``:
-    ``T²`` of a gyro in °/h is in °/h/°C², ``Ṫ¹`` in °/h/(°C/min), ``a₀`` and ``T⁰`` in °/h."""
-    u = units.unit_words(unit) if unit else "unit"
-    if term in ("a₀", "T⁰"):
-        return u
-    for name, per in _INPUTS:  # "T", "Ṫ" and "ΔT" start with different characters
-        if term.startswith(name):
-            base = f"({per})" if "/" in per else per
-            return f"{u}/{base}{term[len(name) :].replace('¹', '')}"
-    return u
 
 
 def _flat_params(params: Mapping[str, Any]) -> dict[str, float]:
@@ -653,9 +607,8 @@ class FleetReport:
         One row per unit: ``unit``, ``verdict`` (``pass``, ``fail`` or ``failed``), ``why``.
     figures : DataFrame
         Long form, one row per unit, channel and figure (``heldout_rms``, ``thermal_span``,
-        ``noise_density`` [unit·√s] in the log's unit, and every coefficient of
-        :func:`physical_coefficients` in its own unit): ``unit, channel, model, unit_of,
-        name, value``.
+        ``noise_density`` [unit·√s] in the log's unit, every physical coefficient in its own):
+        ``unit, channel, model, unit_of, name, value``.
     distribution : DataFrame
         Per channel, model and figure (with its ``unit_of``) across units: ``n, mean, sd,
         min, median, max``.
@@ -664,6 +617,9 @@ class FleetReport:
     verdicts: pd.DataFrame
     figures: pd.DataFrame
     distribution: pd.DataFrame
+
+
+_KEYS = ("channel", "model", "name", "unit_of")  # one row of the distribution
 
 
 def fleet_report(store: FleetStore, limits: FleetLimits | None = None) -> FleetReport:
@@ -678,19 +634,14 @@ def fleet_report(store: FleetStore, limits: FleetLimits | None = None) -> FleetR
                 "thermal_span": ch.get("thermal_span"),
                 "noise_density": ch.get("noise_density"),
             }
-            # the figures in the log's unit, the coefficients in physical units (a summary
-            # written before they were kept has none: the model's internals are not shown)
+            # never the model's internals: an old summary without coefficients shows none
             for name, value in [*figures.items(), *ch.get("coefficients", {}).items()]:
                 rows.append(
                     {
                         "unit": unit,
                         "channel": c,
                         "model": ch["model"],
-                        "unit_of": (
-                            ch.get("unit") or ""
-                            if name in figures
-                            else coefficient_unit(name, ch.get("unit") or "")
-                        ),
+                        "unit_of": coefficient_unit(name, ch.get("unit") or "", figures),
                         "name": name,
                         "value": np.nan if value is None else float(value),
                     }
@@ -712,24 +663,11 @@ def fleet_report(store: FleetStore, limits: FleetLimits | None = None) -> FleetR
         verdicts.append({"unit": unit, "verdict": "failed", "why": error})
     figures = pd.DataFrame(rows, columns=["unit", "channel", "model", "unit_of", "name", "value"])
     dist = (
-        figures.groupby(["channel", "model", "name", "unit_of"], sort=False)["value"]
+        figures.groupby(list(_KEYS), sort=False)["value"]
         .agg(n="count", mean="mean", sd="std", min="min", median="median", max="max")
         .reset_index()
         if not figures.empty
-        else pd.DataFrame(
-            columns=[
-                "channel",
-                "model",
-                "name",
-                "unit_of",
-                "n",
-                "mean",
-                "sd",
-                "min",
-                "median",
-                "max",
-            ]
-        )
+        else pd.DataFrame(columns=[*_KEYS, "n", "mean", "sd", "min", "median", "max"])
     )
     verd = pd.DataFrame(verdicts, columns=["unit", "verdict", "why"]).sort_values("unit")
     return FleetReport(verd.reset_index(drop=True), figures, dist)

@@ -14,7 +14,7 @@ import numpy as np
 import pandas as pd
 
 from rinscal import units
-from rinscal.calibration.allan import datasheet_units
+from rinscal.calibration.allan_units import datasheet_units
 from rinscal.report.html import Report, figure_to_png, format_sig
 
 __all__ = ["FIGURES", "distribution_view", "fleet_figure", "fleet_html", "physical_figures"]
@@ -29,7 +29,7 @@ FIGURES: dict[str, str] = {
 
 def physical_figures(figures: pd.DataFrame) -> pd.DataFrame:
     """``FleetReport.figures`` (or its distribution) with every unit in words and the
-    white-noise density in its data-sheet unit (:func:`rinscal.calibration.allan.
+    white-noise density in its data-sheet unit (:func:`rinscal.calibration.allan_units.
     datasheet_units`: a gyro's in °/√h, an accelerometer's in µg/√Hz; the limits and CSV
     files keep the log's unit·√s). Value columns: ``value`` or ``mean, sd, min, median,
     max``."""

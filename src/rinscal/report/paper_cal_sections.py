@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from rinscal.calibration.allan import NOISE_TERMS_WORDS
+from rinscal.calibration.allan_units import NOISE_TERMS_WORDS
 from rinscal.experiments.paper.calibration import CalibrationResult
 from rinscal.experiments.paper.config import LABELS, METHODS
 from rinscal.report.html import Report, Section, format_sig

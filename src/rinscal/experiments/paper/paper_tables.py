@@ -35,7 +35,7 @@ import numpy as np
 import pandas as pd
 
 from rinscal import earth, units
-from rinscal.calibration.allan import datasheet_units
+from rinscal.calibration.allan_units import datasheet_units
 from rinscal.calibration.compensate import model_features, predict_log
 from rinscal.calibration.inference import raw_polynomial
 from rinscal.calibration.modelfile import ThermalModelFile
