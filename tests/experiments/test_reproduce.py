@@ -134,6 +134,10 @@ def test_plant_is_named_in_report_and_metrics(quick: Path) -> None:
     assert f"seed 0. Plant: {name} (--imu {IMU})" in text  # subtitle
     assert f"Plant: {name} (preset {IMU}" in text  # banner
     assert all(f"--imu {p}" in text for p in others)  # how to run the other preset
+    # "How this was made" gives the exact command, the output folder included (issue 36)
+    assert f"Command: {metrics['command']}" in text and metrics["command"].endswith(
+        f"--out {quick}"
+    )
 
 
 def test_headline_table_gives_the_mean_and_spread_over_the_runs(quick: Path) -> None:

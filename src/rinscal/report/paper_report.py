@@ -40,6 +40,7 @@ from rinscal.experiments.paper.config import (
     PAPER,
     VARIANTS,
     ReproConfig,
+    group_label,
     load_plant,
     plant_info,
 )
@@ -561,7 +562,7 @@ def _imu_section(rep: Any, cal: CalibrationResult, tables: Mapping[str, pd.DataF
     )
     s.table(
         "imu_saving",
-        tables["imu_saving"],
+        _grouped(tables["imu_saving"]),
         "Maximum position error without and with the scale-factor/misalignment thermal "
         "model, and what it saves [nmi]",
     )
@@ -588,6 +589,14 @@ def imu_recovery_view(rec: pd.DataFrame) -> pd.DataFrame:
             "estimated slope [unit/°C]": [format_sig(x, 3) for x in rec["estimated slope /°C"]],
         }
     )
+
+
+def _grouped(df: pd.DataFrame) -> pd.DataFrame:
+    """``experiment`` and ``scenario`` as one ``runs`` column in words ("ramp", "lab
+    quasi-static": never "ramp ramp"); a ``runs`` count becomes ``n runs``."""
+    names = [group_label(e, s) for e, s in zip(df["experiment"], df["scenario"], strict=True)]
+    rest = df.drop(columns=["experiment", "scenario"]).rename(columns={"runs": "n runs"})
+    return pd.concat([pd.DataFrame({"runs": names}, index=df.index), rest], axis=1)
 
 
 def _nav_labels() -> dict[str, str]:
