@@ -204,6 +204,8 @@ def evaluate_cmd(
             "out_of_range": "samples outside the training range or joint domain",
             "rows": json.loads(res.to_json(orient="records")),
             "allan": json.loads(allan.to_json(orient="records")),
+            "allan_units": "n [unit·√s], b [unit], k [unit/√s] in the log's unit; the table "
+            "quotes them as a data sheet does (n/60 in °/√h for deg/h, µg/√Hz for ug)",
         }
         typer.echo(json.dumps(doc, indent=1))
         return
