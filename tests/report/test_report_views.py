@@ -13,9 +13,9 @@ import pytest
 from rinscal.calibration.inference import coefficient_unit, physical_coefficients
 from rinscal.experiments.paper.config import LABELS
 from rinscal.report.fleet_report import distribution_view
+from rinscal.report.paper_cal_sections import imu_recovery_view
 from rinscal.report.paper_figures import fig_selection
 from rinscal.report.paper_nav_sections import run_table_view
-from rinscal.report.paper_report import imu_recovery_view
 
 
 def test_per_run_table_has_readable_headers_with_units() -> None:

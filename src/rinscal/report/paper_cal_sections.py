@@ -15,12 +15,13 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from rinscal import units
 from rinscal.calibration.allan_units import NOISE_TERMS_WORDS
 from rinscal.experiments.paper.calibration import CalibrationResult
 from rinscal.experiments.paper.config import LABELS, METHODS
 from rinscal.report.html import Report, Section, format_sig
 
-__all__ = ["add_calibration_sections", "format_sig"]
+__all__ = ["add_calibration_sections", "format_sig", "imu_recovery_view"]
 
 _SUP = {"1": "¹", "2": "²", "3": "³", "4": "⁴"}
 _UNIT = {"accel": "µg", "gyro": "°/h"}
@@ -457,6 +458,26 @@ def _heldout(
             "Allan deviation of the repeat run, raw and method 2",
             fold=True,
         )
+
+
+# --------------------------------------------------------------------------- IMU calibration
+def imu_recovery_view(rec: pd.DataFrame) -> pd.DataFrame:
+    """The scale-factor/misalignment calibration's recovery table for the page: every
+    figure to 3 significant digits in its own row's unit (the rows mix °/h, ppm, ″, µg,
+    so no column has one scale: a column format would round the small ones to 0), the unit
+    in words (°/h, µg, not deg/h, ug)."""
+    unit = [units.unit_words(str(u)) for u in rec["unit"]]
+    return pd.DataFrame(
+        {
+            "parameter": rec["parameter"].to_numpy(),
+            "unit": unit,
+            "set points": rec["set points"].to_numpy(),
+            "max |error| [unit]": [format_sig(x, 3) for x in rec["max |error|"]],
+            "max |error| / sd": [format_sig(x, 3) for x in rec["max |error|/sd"]],
+            "true slope [unit/°C]": [format_sig(x, 3) for x in rec["truth slope /°C"]],
+            "estimated slope [unit/°C]": [format_sig(x, 3) for x in rec["estimated slope /°C"]],
+        }
+    )
 
 
 # --------------------------------------------------------------------------- Table 9

@@ -21,6 +21,7 @@ from rinscal.experiments.paper.mechanism import MIN_CEP_RUNS, ORACLE_NO_OFFSETS
 __all__ = [
     "MECHANISM_TABLES",
     "SHOWN_VARIANTS",
+    "groups_view",
     "mechanism_section",
     "nav_sections",
     "oracle_loss_words",
@@ -64,6 +65,14 @@ def run_table_view(df: pd.DataFrame, labels: Mapping[str, str], unit: str) -> pd
             continue
         out[f"{labels[c]} [{unit}]" if c in labels else c] = df[c]
     return out.reset_index(drop=True)
+
+
+def groups_view(df: pd.DataFrame) -> pd.DataFrame:
+    """``experiment`` and ``scenario`` as one ``runs`` column in words ("ramp", "lab
+    quasi-static": never "ramp ramp"); a ``runs`` count becomes ``n runs``."""
+    names = [group_label(e, s) for e, s in zip(df["experiment"], df["scenario"], strict=True)]
+    rest = df.drop(columns=["experiment", "scenario"]).rename(columns={"runs": "n runs"})
+    return pd.concat([pd.DataFrame({"runs": names}, index=df.index), rest], axis=1)
 
 
 def _f(x: float, spec: str = ".3g") -> str:

@@ -40,7 +40,6 @@ from rinscal.experiments.paper.config import (
     PAPER,
     VARIANTS,
     ReproConfig,
-    group_label,
     load_plant,
     plant_info,
 )
@@ -60,9 +59,9 @@ from rinscal.experiments.paper.navigation import (
 )
 from rinscal.io.atomic import write_atomic
 from rinscal.report.allan_plot import allan_figure
-from rinscal.report.html import Report, figure_to_png, format_sig
+from rinscal.report.html import Report, figure_to_png
 from rinscal.report.logplot import plot_log
-from rinscal.report.paper_cal_sections import add_calibration_sections
+from rinscal.report.paper_cal_sections import add_calibration_sections, imu_recovery_view
 from rinscal.report.paper_figures import (
     fig_heading_velocity,
     fig_lab_bars,
@@ -72,7 +71,12 @@ from rinscal.report.paper_figures import (
     fig_temperatures,
     fig_vehicle_track,
 )
-from rinscal.report.paper_nav_sections import MECHANISM_TABLES, nav_sections, run_table_view
+from rinscal.report.paper_nav_sections import (
+    MECHANISM_TABLES,
+    groups_view,
+    nav_sections,
+    run_table_view,
+)
 
 #: The sections that show their lead paragraph and fold the rest (the verdict and the
 #: summary stay open): the quick report reads in at most 15 screens before its folds.
@@ -562,7 +566,7 @@ def _imu_section(rep: Any, cal: CalibrationResult, tables: Mapping[str, pd.DataF
     )
     s.table(
         "imu_saving",
-        _grouped(tables["imu_saving"]),
+        groups_view(tables["imu_saving"]),
         "Maximum position error without and with the scale-factor/misalignment thermal "
         "model, and what it saves [nmi]",
     )
@@ -570,33 +574,6 @@ def _imu_section(rep: Any, cal: CalibrationResult, tables: Mapping[str, pd.DataF
     for r in tables["imu_saving"].itertuples(index=False):
         verdicts.append(f"{r.scenario}: {r.note}")
     s.text("In words: " + "; ".join(verdicts) + ".")
-
-
-def imu_recovery_view(rec: pd.DataFrame) -> pd.DataFrame:
-    """The scale-factor/misalignment calibration's recovery table for the page: every
-    figure to 3 significant digits in its own row's unit (the rows mix °/h, ppm, ″, µg,
-    so no column has one scale: a column format would round the small ones to 0), the unit
-    in words (°/h, µg, not deg/h, ug)."""
-    unit = [units.unit_words(str(u)) for u in rec["unit"]]
-    return pd.DataFrame(
-        {
-            "parameter": rec["parameter"].to_numpy(),
-            "unit": unit,
-            "set points": rec["set points"].to_numpy(),
-            "max |error| [unit]": [format_sig(x, 3) for x in rec["max |error|"]],
-            "max |error| / sd": [format_sig(x, 3) for x in rec["max |error|/sd"]],
-            "true slope [unit/°C]": [format_sig(x, 3) for x in rec["truth slope /°C"]],
-            "estimated slope [unit/°C]": [format_sig(x, 3) for x in rec["estimated slope /°C"]],
-        }
-    )
-
-
-def _grouped(df: pd.DataFrame) -> pd.DataFrame:
-    """``experiment`` and ``scenario`` as one ``runs`` column in words ("ramp", "lab
-    quasi-static": never "ramp ramp"); a ``runs`` count becomes ``n runs``."""
-    names = [group_label(e, s) for e, s in zip(df["experiment"], df["scenario"], strict=True)]
-    rest = df.drop(columns=["experiment", "scenario"]).rename(columns={"runs": "n runs"})
-    return pd.concat([pd.DataFrame({"runs": names}, index=df.index), rest], axis=1)
 
 
 def _nav_labels() -> dict[str, str]:
