@@ -145,6 +145,6 @@ def fleet_html(report: Any, limits_source: str, options: dict[str, Any]) -> str:
             "Every figure and coefficient across units, per channel and model: mean, sample "
             "sd over the units, min, median and max, in physical units (the coefficients of "
             "the model's polynomial in T [°C], Ṫ [°C/min] and ΔT [°C]; distribution.csv "
-            "holds the same in the log's units)",
+            "holds the same, with the white-noise density in the log's unit·√s as the limits)",
         )
     return page.to_html()
