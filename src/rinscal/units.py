@@ -84,3 +84,15 @@ def check_sensor_unit(sensor: str, unit: str, unit_to_si: float | None = None) -
         and not math.isclose(unit_to_si, want, rel_tol=1e-9)
     ):
         raise ValueError(f"unit_to_si {unit_to_si!r} is not the SI value of one {unit} ({want!r})")
+
+
+#: How the reports write a unit name of the logs and model files (ASCII there).
+_UNIT_WORDS = (("deg", "°"), ("ug", "µg"), ("^2", "²"), ("^3", "³"))
+
+
+def unit_words(unit: str) -> str:
+    """A log's unit name as the reports write it: ``deg/h`` → ``°/h``, ``ug`` → ``µg``,
+    ``ug/g^2`` → ``µg/g²``, ``ppm/(deg/s)`` → ``ppm/(°/s)``; others unchanged."""
+    for ascii_name, word in _UNIT_WORDS:
+        unit = unit.replace(ascii_name, word)
+    return unit

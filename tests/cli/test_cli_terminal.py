@@ -60,8 +60,15 @@ def test_evaluate_table_cuts_no_number_at_80_columns(tmp_path) -> None:
     for row in doc["rows"]:  # every RMS printed whole
         for key in ("rms_before", "rms_after"):
             assert _fmt(row[key]) in res.output, (key, _fmt(row[key]))
-    for unit in ("(deg/h)", "(ug)", "[unit·√s]", "τ(B)", "[s]"):
+    # the Allan terms in the reports' units and words (issue 36): N in °/√h for a gyro
+    # logged in deg/h, µg/√Hz for an accelerometer in ug, the value converted to it
+    from rinscal.calibration.allan_units import NOISE_TERMS_WORDS
+
+    for unit in ("(deg/h)", "(ug)", "[°/√h]", "[µg/√Hz]", "τ(B)", "[s]"):
         assert unit in _squash(res.output)
+    assert _squash(NOISE_TERMS_WORDS) in _squash(res.output)
+    gyro = next(r for r in doc["allan"] if r["channel"] == "gyro_x" and r["n"] is not None)
+    assert _fmt(gyro["n"] / 60.0, 3) in res.output  # deg/h·√s ÷ 60 = °/√h
 
 
 def test_config_errors_keep_their_section_names(tmp_path) -> None:

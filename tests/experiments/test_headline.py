@@ -6,6 +6,8 @@ table, per-method statistics and sentences are checked against hand-computed val
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -194,6 +196,11 @@ def test_config_and_command_line_carry_the_plant_and_alignment() -> None:
     )
     late = ReproConfig.quick_preset(0, 1, align_start_s=120.0)
     assert command_line(late).endswith("--align-s 600 --align-start-s 120")
+    # the exact command, as "How this was made" gives it: the study's units and --out
+    # (quoted where the folder's name needs it)
+    assert command_line(cfg, Path("/tmp/my run"), units=5).endswith(
+        "--align-s 300 --units 5 --out '/tmp/my run'"
+    )
     with pytest.raises(ConfigError, match="align_start_s"):
         ReproConfig.full(align_start_s=-1.0)
     with pytest.raises(ConfigError, match="alignment ends"):

@@ -84,3 +84,16 @@ def test_drift_rate_and_cep_of_a_group() -> None:
     cep = group_cep_table(g, runs)
     assert cep["CEP (median final) [nmi]"].iloc[0] == pytest.approx(2.0)
     assert cep["n runs"].iloc[0] == 3
+    assert cep["runs"].iloc[0] == "lab quasi-static"
+
+
+def test_no_cep_from_one_run_and_no_group_named_twice() -> None:
+    # issue 36: a group of one run (the chamber ramp) gets no CEP, and is called "ramp",
+    # not "ramp ramp"; the page says n = 1 where the CEP would stand
+    ramp = _run(1, (0.0, 0.0), (1.0, 0.0))
+    ramp.job = SimpleNamespace(experiment="ramp", scenario="ramp", index=1)
+    g = error_growth_table([ramp], ["true"])
+    cep = group_cep_table(g, [ramp])
+    assert list(cep["runs"]) == ["ramp"] and cep["n runs"].iloc[0] == 1
+    assert np.isnan(cep["CEP (median final) [nmi]"].iloc[0])
+    assert cep["median max [nmi]"].iloc[0] == pytest.approx(1.0)  # the run's own figures stay

@@ -178,6 +178,10 @@ def test_plant_is_named_in_report_and_metrics(quick: Path) -> None:
     assert f"seed 0. Plant: {name} (--imu {IMU})" in text  # subtitle
     assert f"Plant: {name} (preset {IMU}" in text  # banner
     assert all(f"--imu {p}" in text for p in others)  # how to run the other preset
+    # "How this was made" gives the exact command, the output folder included (issue 36)
+    assert f"Command: {metrics['command']}" in text and metrics["command"].endswith(
+        f"--out {quick}"
+    )
 
 
 def test_headline_table_gives_the_mean_and_spread_over_the_runs(quick: Path) -> None:
@@ -270,7 +274,9 @@ def test_every_figure_has_a_sentence_saying_what_it_shows(quick: Path) -> None:
     figures = list(re.finditer(r'<figure id="fig-([\w-]+)"', page))
     assert len(figures) == len(json.loads((quick / "metrics.json").read_text())["figures"])
     for f in figures:
-        before = page[: f.start()]
+        # a folded figure: its sentence stands before its fold (or its section's), visible
+        fold = r'(?:<details class="fold"><summary>[^<]*</summary>)+$'
+        before = re.sub(fold, "", page[: f.start()])
         assert before.endswith("</p>"), f"figure {f.group(1)} has no sentence before it"
         sentence = _text(before[before.rindex("<p") :])
         assert "figure below" in sentence and len(sentence) > 80, (f.group(1), sentence)
@@ -278,8 +284,35 @@ def test_every_figure_has_a_sentence_saying_what_it_shows(quick: Path) -> None:
     assert "extrapolation" in ramp and "maximum errors" in ramp  # data-aware, from the run
 
 
+@pytest.fixture(scope="module")
+def inventory(quick: Path) -> dict:
+    """The quick report as Chromium renders it at 1 280 × 800 (tests/report/_browser.py)."""
+    if chromium() is None:
+        pytest.skip("Chromium (Debian package) is not installed")
+    return rendered_inventory(quick / "report.html", width=1280, height=800)
+
+
+#: Per-run tables: long, and folded on the page (their CSV files hold them too).
+PER_RUN_TABLES = ("lab_max", "mechanism", "modulation", "error_growth",
+                  "oracle_decomposition", "thermal_part", "heading_at_nav_start")  # fmt: skip
+
+
+def test_quick_report_reads_in_15_screens_before_its_folds(quick: Path, inventory: dict) -> None:
+    # issue 36: at 1 280 × 800, the page with every <details> closed is at most 15 screens
+    assert inventory["folds"] > 0
+    assert inventory["foldedHeight"] <= 15 * 800, inventory["foldedHeight"]
+    # and the long per-run tables are what folds: each sits in a closed <details>
+    page = (quick / "report.html").read_text(encoding="utf-8")
+    for ident in PER_RUN_TABLES:
+        at = page.index(f'<table id="tab-{ident}"')
+        opened, closed = page.rfind("<details", 0, at), page.rfind("</details>", 0, at)
+        assert opened > closed, f"table {ident} is not folded"
+
+
 @pytest.mark.skipif(chromium() is None, reason="Chromium (Debian package) is not installed")
-def test_report_opens_in_a_browser_with_every_table_and_figure(quick: Path) -> None:
+def test_report_opens_in_a_browser_with_every_table_and_figure(
+    quick: Path, inventory: dict
+) -> None:
     metrics = json.loads((quick / "metrics.json").read_text())
     page = quick / "report.html"
     text = page.read_text(encoding="utf-8")
@@ -289,7 +322,7 @@ def test_report_opens_in_a_browser_with_every_table_and_figure(quick: Path) -> N
     body = text.split("<body>")[1]
     links = re.findall(r"""(?:src|href)\s*=\s*["']?([^"' >]*)""", body)
     assert links and all(u.startswith(("data:", "#")) for u in links), links[:5]
-    inv = rendered_inventory(page, width=1280)
+    inv = inventory  # every fold open for the overflow check
     # at 1 280 px nothing hides behind a scrollbar: no element's content wider than its box
     assert inv["overflow"] == [], inv["overflow"]
     assert [f["id"] for f in inv["figures"]] == metrics["figures"]

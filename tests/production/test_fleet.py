@@ -123,7 +123,11 @@ def test_fleet_fits_flags_and_reports(units, client, tmp_path) -> None:
     # the distribution across units: every channel's figures and coefficients over 5 units
     dist = report.distribution.set_index(["channel", "name"])
     assert (dist.xs("noise_density", level="name")["n"] == 5).all()
-    assert (dist.xs("coef[1]", level="name")["n"] == 5).all()
+    # the coefficients in physical units, named by their term (no internal coef[1])
+    assert (dist.xs("T¹", level="name")["n"] == 5).all()
+    assert not any("[" in str(n) for n in report.distribution["name"])
+    t1 = report.distribution.set_index(["channel", "name"]).loc[("gyro_x", "T¹"), "unit_of"]
+    assert t1 == "°/h/°C"
     span = dist.loc[("accel_z", "thermal_span")]
     assert span["min"] <= span["median"] <= span["max"] and span["sd"] > 0
 

@@ -23,10 +23,13 @@ CHROMIUM_FLAGS = [
 
 # Injected into a copy of the page: after load, list every figure (and whether its image
 # decoded), every table (and its row count) and every element whose content is wider than
-# its box into a <pre id="browser-check">.
+# its box (with every <details> fold open, so folded tables are checked too) into a
+# <pre id="browser-check">; then close every fold and record the page's height.
 _CHECK_SCRIPT = """
 <script>
 window.addEventListener('load', () => {
+  const folds = [...document.querySelectorAll('details')];
+  folds.forEach(d => { d.open = true; });
   const figs = [...document.querySelectorAll('figure[data-figure]')].map(f => {
     const img = f.querySelector('img');
     return {id: f.dataset.figure, width: img ? img.naturalWidth : 0,
@@ -48,10 +51,18 @@ window.addEventListener('load', () => {
                  text: (el.textContent || '').slice(0, 60)});
     }
   }
+  const scrollWidth = document.documentElement.scrollWidth;
+  // the height a reader scrolls before opening any fold
+  folds.forEach(d => { d.open = false; });
+  const visible = el => el.getClientRects().length > 0;
   const pre = document.createElement('pre');
   pre.id = 'browser-check';
   pre.textContent = JSON.stringify({figures: figs, tables: tabs, overflow: over,
-                                    scrollWidth: document.documentElement.scrollWidth});
+                                    scrollWidth: scrollWidth, folds: folds.length,
+                                    foldedHeight: document.documentElement.scrollHeight,
+                                    firstVisibleTable: ([...document.querySelectorAll(
+                                      'table[data-table]')].find(visible) || {dataset: {}})
+                                      .dataset.table || null});
   document.body.appendChild(pre);
 });
 </script>
@@ -86,11 +97,14 @@ def _probe(page: Path, script: str, pre_id: str, width: int, height: int) -> dic
     return json.loads(m.group(1).replace("&quot;", '"').replace("&amp;", "&"))
 
 
-def rendered_inventory(page: Path, width: int = 1200) -> dict:
+def rendered_inventory(page: Path, width: int = 1200, height: int = 900) -> dict:
     """Figures (decoded pixel width), tables (row counts) and ``overflow`` (elements whose
-    content is wider than their box, with the table or figure they belong to) as Chromium
-    rendered the page in a window ``width`` px wide."""
-    return _probe(page, _CHECK_SCRIPT, "browser-check", width, 900)
+    content is wider than their box, with the table or figure they belong to, every fold
+    open) as Chromium rendered the page in a window ``width`` x ``height`` px; ``folds``
+    (the number of ``<details>``), ``foldedHeight`` (the document's scrollHeight [px] with
+    every fold closed: what a reader scrolls before opening one) and ``firstVisibleTable``
+    (the first table shown with the folds closed)."""
+    return _probe(page, _CHECK_SCRIPT, "browser-check", width, height)
 
 
 def screenshot(page: Path, png: Path, width: int = 1200, height: int = 2400) -> Path:

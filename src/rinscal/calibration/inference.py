@@ -36,15 +36,19 @@ Parameter dictionaries (every number a float, every array a nested list)
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Container, Mapping, Sequence
 from math import comb
 from typing import Any
 
 import numpy as np
 
+from rinscal import units
+
 __all__ = [
     "METHODS",
+    "coefficient_unit",
     "n_inputs",
+    "physical_coefficients",
     "poly_shift",
     "predict_params",
     "raw_polynomial",
@@ -415,3 +419,48 @@ def validate_params(params: Any) -> None:
             _num(params, key)
         if params["y_scale"] <= 0:
             raise ValueError("'y_scale' must be positive")
+
+
+#: The inputs of a regression model, in its ``orders``' order, and each one's unit.
+_INPUTS = (("T", "°C"), ("Ṫ", "°C/min"), ("ΔT", "°C"))
+_POWERS = {1: "¹", 2: "²", 3: "³", 4: "⁴", 5: "⁵"}
+
+
+def physical_coefficients(params: Mapping[str, Any]) -> dict[str, float]:
+    """A channel model's coefficients in physical units, named by their term.
+
+    The raw polynomial (:func:`rinscal.calibration.inference.raw_polynomial`): a ``poly-t``
+    model's ``T⁰ .. T³`` (coefficients of the powers of ``T`` [°C]); a ``regression``
+    model's constant ``a₀`` and the coefficients of ``T``, ``Ṫ`` [°C/min] and ``ΔT`` [°C]
+    and their powers. Each is in the channel's unit per its term's unit
+    (:func:`coefficient_unit`). Other methods (sectional, neural) have no such form: empty.
+    """
+    method = params.get("method")
+    if method == "poly-t":
+        coef = raw_polynomial(params)["coef"]
+        return {("T⁰" if k == 0 else f"T{_POWERS.get(k, f'^{k}')}"): float(c)
+                for k, c in enumerate(coef)}  # fmt: skip
+    if method != "regression":
+        return {}
+    raw = raw_polynomial(params)
+    out = {"a₀": float(raw["a0"])}
+    for (name, _), coefs in zip(_INPUTS, raw["coef"], strict=False):
+        for k, c in enumerate(coefs, start=1):
+            out[f"{name}{_POWERS.get(k, f'^{k}')}"] = float(c)
+    return out
+
+
+def coefficient_unit(term: str, unit: str, same: Container[str] = ()) -> str:
+    """The unit of a :func:`physical_coefficients` term of a channel logged in ``unit``:
+    ``T²`` of a gyro in deg/h is in °/h/°C², ``Ṫ¹`` in °/h/(°C/min), ``a₀`` and ``T⁰`` in
+    °/h; a term in ``same`` (a figure in the log's unit) keeps ``unit`` as it is."""
+    if term in same:
+        return unit
+    u = units.unit_words(unit) if unit else "unit"
+    if term in ("a₀", "T⁰"):
+        return u
+    for name, per in _INPUTS:  # "T", "Ṫ" and "ΔT" start with different characters
+        if term.startswith(name):
+            base = f"({per})" if "/" in per else per
+            return f"{u}/{base}{term[len(name) :].replace('¹', '')}"
+    return u

@@ -156,6 +156,7 @@ def evaluate_cmd(
     # deferred: the library loads numpy, pandas and numba; `rinscal --help` must not
     from rich.table import Table
 
+    from rinscal.calibration.allan_units import NOISE_TERMS_WORDS, datasheet_units
     from rinscal.calibration.modelfile import POLICIES
     from rinscal.calibration.workflow import evaluate, load_model, model_label
     from rinscal.cli._app import console, err_console, fail
@@ -203,6 +204,8 @@ def evaluate_cmd(
             "out_of_range": "samples outside the training range or joint domain",
             "rows": json.loads(res.to_json(orient="records")),
             "allan": json.loads(allan.to_json(orient="records")),
+            "allan_units": "n [unit·√s], b [unit], k [unit/√s] in the log's unit; the table "
+            "quotes them as a data sheet does (n/60 in °/√h for deg/h, µg/√Hz for ug)",
         }
         typer.echo(json.dumps(doc, indent=1))
         return
@@ -237,21 +240,22 @@ def evaluate_cmd(
     print_table(console, table)
     if not allan.empty:
         at = Table(
-            title="Allan deviation (overlapping), IEEE Std 952 slopes: N random walk "
-            "[unit·√s] at τ = 1 s, B bias instability [unit] (at τ), K rate random walk "
-            "[unit/√s] at τ = 3 s; '-' where the curve has no such region"
+            title="Allan deviation (overlapping), IEEE Std 952 slopes: "
+            f"{NOISE_TERMS_WORDS}; a channel logged in another unit u: N [u·√s], B [u], "
+            "K [u/√s]; '-' where the curve has no such region"
         )
         for name in ("run", "channel", "output", "N", "B", "τ(B) [s]", "K"):
             at.add_column(name, justify="left" if name in ("run", "channel", "output") else "right")
         for _, r in allan.iterrows():
+            u = datasheet_units(r["unit"])
             at.add_row(
                 str(r["run"]),
                 f"{r['channel']} ({r['unit'] or '?'})",
                 str(r["output"]),
-                _fmt(r["n"], 3),
+                _fmt(r["n"] * u.n_factor, 3),
                 _fmt(r["b"], 3),
                 _fmt(r["b_tau_s"], 3),
-                _fmt(r["k"], 3),
+                _fmt(r["k"] * u.k_factor, 3),
             )
         print_table(console, at)
     if allan_plot is not None:

@@ -45,6 +45,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from rinscal.calibration.inference import coefficient_unit
 from rinscal.cluster import TLSFiles, dask_client
 from rinscal.errors import ConfigError, RinscalError
 from rinscal.io.atomic import write_atomic
@@ -179,12 +180,13 @@ def fit_unit(
     -------
     dict
         ``model`` (model-file JSON text), ``export`` (text or None), ``channels`` (per channel:
-        ``model``, ``unit``, ``params`` (flat name -> value), ``heldout_rms``,
+        ``model``, ``unit``, ``params`` (flat name -> value, internal), ``coefficients``
+        (:func:`rinscal.calibration.inference.physical_coefficients`), ``heldout_rms``,
         ``thermal_span``, ``noise_density``), ``warnings``, ``elapsed_s``.
     """
     # deferred: the fitting stack (numba, the log readers) loads on the worker that fits
     from rinscal.calibration.export import to_ardupilot_parm, to_c_header, to_px4_params
-    from rinscal.calibration.inference import predict_params
+    from rinscal.calibration.inference import physical_coefficients, predict_params
     from rinscal.calibration.thermal.model import ThermalModel
     from rinscal.io.flightinfo import FlightLogOptions
     from rinscal.io.flightlog import scan_flight_log
@@ -217,6 +219,7 @@ def fit_unit(
             "model": sel["chosen"] if sel else cm.params["method"],
             "unit": cm.unit,
             "params": _flat_params(cm.params),
+            "coefficients": physical_coefficients(cm.params),
             "heldout_rms": heldout,
             "train_rms": cm.metrics.get("rms_train_about_run_mean"),
             "thermal_span": float(np.ptp(pred)) if pred.size else math.nan,
@@ -604,15 +607,19 @@ class FleetReport:
         One row per unit: ``unit``, ``verdict`` (``pass``, ``fail`` or ``failed``), ``why``.
     figures : DataFrame
         Long form, one row per unit, channel and figure (``heldout_rms``, ``thermal_span``,
-        ``noise_density`` and every model parameter): ``unit, channel, model, unit_of, name,
-        value``.
+        ``noise_density`` [unit·√s] in the log's unit, every physical coefficient in its own):
+        ``unit, channel, model, unit_of, name, value``.
     distribution : DataFrame
-        Per channel, model and figure across units: ``n, mean, sd, min, median, max``.
+        Per channel, model and figure (with its ``unit_of``) across units: ``n, mean, sd,
+        min, median, max``.
     """
 
     verdicts: pd.DataFrame
     figures: pd.DataFrame
     distribution: pd.DataFrame
+
+
+_KEYS = ("channel", "model", "name", "unit_of")  # one row of the distribution
 
 
 def fleet_report(store: FleetStore, limits: FleetLimits | None = None) -> FleetReport:
@@ -627,13 +634,14 @@ def fleet_report(store: FleetStore, limits: FleetLimits | None = None) -> FleetR
                 "thermal_span": ch.get("thermal_span"),
                 "noise_density": ch.get("noise_density"),
             }
-            for name, value in [*figures.items(), *ch.get("params", {}).items()]:
+            # never the model's internals: an old summary without coefficients shows none
+            for name, value in [*figures.items(), *ch.get("coefficients", {}).items()]:
                 rows.append(
                     {
                         "unit": unit,
                         "channel": c,
                         "model": ch["model"],
-                        "unit_of": ch.get("unit") or "",
+                        "unit_of": coefficient_unit(name, ch.get("unit") or "", figures),
                         "name": name,
                         "value": np.nan if value is None else float(value),
                     }
@@ -655,13 +663,11 @@ def fleet_report(store: FleetStore, limits: FleetLimits | None = None) -> FleetR
         verdicts.append({"unit": unit, "verdict": "failed", "why": error})
     figures = pd.DataFrame(rows, columns=["unit", "channel", "model", "unit_of", "name", "value"])
     dist = (
-        figures.groupby(["channel", "model", "name"], sort=False)["value"]
+        figures.groupby(list(_KEYS), sort=False)["value"]
         .agg(n="count", mean="mean", sd="std", min="min", median="median", max="max")
         .reset_index()
         if not figures.empty
-        else pd.DataFrame(
-            columns=["channel", "model", "name", "n", "mean", "sd", "min", "median", "max"]
-        )
+        else pd.DataFrame(columns=[*_KEYS, "n", "mean", "sd", "min", "median", "max"])
     )
     verd = pd.DataFrame(verdicts, columns=["unit", "verdict", "why"]).sort_values("unit")
     return FleetReport(verd.reset_index(drop=True), figures, dist)

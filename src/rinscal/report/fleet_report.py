@@ -13,16 +13,54 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from rinscal.report.html import Report, figure_to_png
+from rinscal import units
+from rinscal.calibration.allan_units import datasheet_units
+from rinscal.report.html import Report, figure_to_png, format_sig
 
-__all__ = ["FIGURES", "fleet_figure", "fleet_html"]
+__all__ = ["FIGURES", "distribution_view", "fleet_figure", "fleet_html", "physical_figures"]
 
 #: The per-channel figures drawn, with their labels.
 FIGURES: dict[str, str] = {
     "heldout_rms": "held-out RMS (training RMS if not auto)",
     "thermal_span": "modelled thermal span",
-    "noise_density": "white-noise density [unit·√s]",
+    "noise_density": "white-noise density (ARW, VRW)",
 }
+
+
+def physical_figures(figures: pd.DataFrame) -> pd.DataFrame:
+    """``FleetReport.figures`` (or its distribution) with every unit in words and the
+    white-noise density in its data-sheet unit (:func:`rinscal.calibration.allan_units.
+    datasheet_units`: a gyro's in °/√h, an accelerometer's in µg/√Hz; the limits and CSV
+    files keep the log's unit·√s). Value columns: ``value`` or ``mean, sd, min, median,
+    max``."""
+    out = figures.copy()
+    cols = [c for c in ("value", "mean", "sd", "min", "median", "max") if c in out]
+    noise = out["name"] == "noise_density"
+    for i in out.index[noise]:
+        u = datasheet_units(str(out.at[i, "unit_of"]))
+        out.loc[i, cols] = out.loc[i, cols].astype(float) * u.n_factor
+        out.at[i, "unit_of"] = u.n_unit
+    out["unit_of"] = [units.unit_words(str(u)) for u in out["unit_of"]]
+    return out
+
+
+def distribution_view(dist: pd.DataFrame) -> pd.DataFrame:
+    """The distribution across units for the page: each figure and coefficient named in
+    words with its physical unit, every number to 3 significant digits of its own row (the
+    rows mix °/h, µg and their coefficients: one column format would round the gyros' to
+    0)."""
+    d = physical_figures(dist)
+    words = {k: v.split(" (")[0] for k, v in FIGURES.items()}
+    return pd.DataFrame(
+        {
+            "channel": d["channel"].to_numpy(),
+            "model": d["model"].to_numpy(),
+            "figure or coefficient": [words.get(n, n) for n in d["name"]],
+            "unit": d["unit_of"].to_numpy(),
+            "units": d["n"].astype(int).to_numpy(),
+            **{k: [format_sig(x, 3) for x in d[k]] for k in ("mean", "sd", "min", "median", "max")},
+        }
+    )
 
 
 def fleet_figure(figures: pd.DataFrame) -> Any:
@@ -40,6 +78,7 @@ def fleet_figure(figures: pd.DataFrame) -> Any:
     # deferred: matplotlib loads in ~0.3 s; the report's tables do not need it
     from matplotlib.figure import Figure
 
+    figures = physical_figures(figures)
     fig = Figure(figsize=(11, 6), layout="constrained")
     axes = fig.subplots(2, len(FIGURES), squeeze=False)
     for i, sensor in enumerate(("gyro", "accel")):
@@ -54,7 +93,7 @@ def fleet_figure(figures: pd.DataFrame) -> Any:
                 ax.plot(x + jitter, v, "o", ms=4, alpha=0.7)
             ax.set_xticks(range(len(chans)), chans)
             unit = part["unit_of"].iloc[0] if len(part) else ""
-            ax.set_title(f"{sensor}: {label}" + (f" ({unit})" if unit else ""), fontsize=9)
+            ax.set_title(f"{sensor}: {label}" + (f" [{unit}]" if unit else ""), fontsize=10)
             finite = part["value"].to_numpy(dtype=np.float64)
             finite = finite[np.isfinite(finite)]  # no held-out RMS without auto: all NaN
             if finite.size and finite.min() > 0:
@@ -102,7 +141,10 @@ def fleet_html(report: Any, limits_source: str, options: dict[str, Any]) -> str:
         )
         s.table(
             "distribution",
-            report.distribution,
-            "every figure and coefficient across units, per channel and model",
+            distribution_view(report.distribution),
+            "Every figure and coefficient across units, per channel and model: mean, sample "
+            "sd over the units, min, median and max, in physical units (the coefficients of "
+            "the model's polynomial in T [°C], Ṫ [°C/min] and ΔT [°C]; distribution.csv "
+            "holds the same, with the white-noise density in the log's unit·√s as the limits)",
         )
     return page.to_html()

@@ -13,7 +13,7 @@ import io
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
@@ -48,6 +48,8 @@ td.wrap { white-space: normal; text-align: left; min-width: 14ch; max-width: 36c
 .verdict-pass { color: #1a7f37; font-weight: 600; }
 .verdict-fail { color: #cf222e; font-weight: 600; }
 nav ol { columns: 2; font-size: .92rem; }
+details.fold { margin: .4rem 0 .8rem; }
+details.fold > summary { cursor: pointer; color: var(--accent); font-size: .92rem; }
 @media (max-width: 600px) { body { font-size: 15px; padding: .6rem; } nav ol { columns: 1; } }
 @media print { body { max-width: none; } a { color: inherit; text-decoration: none; }
                .table-wrap { overflow: visible; } }
@@ -85,25 +87,28 @@ class Section:
     lead: bool = False
 
     def text(self, text: str, css: str = "") -> None:
-        """Add a paragraph of plain text (escaped)."""
+        """Add a paragraph of plain text (escaped; negative numbers with the minus sign)."""
         cls = f' class="{css}"' if css else ""
-        self.blocks.append(Block("text", f"<p{cls}>{html.escape(text)}</p>"))
+        self.blocks.append(Block("text", f"<p{cls}>{_esc(text)}</p>"))
 
     def raw(self, fragment: str) -> None:
-        """Add trusted HTML made by this package (lists, verdicts)."""
-        self.blocks.append(Block("raw", fragment))
+        """Add trusted HTML made by this package (lists, verdicts); its negative numbers
+        get the minus sign (:func:`typographic_minus`: no attribute here holds one)."""
+        self.blocks.append(Block("raw", typographic_minus(fragment)))
 
-    def figure(self, ident: str, png: bytes, caption: str) -> None:
-        """Add a PNG figure with a caption; ``ident`` names it for tests and links."""
+    def figure(self, ident: str, png: bytes, caption: str, fold: bool = False) -> None:
+        """Add a PNG figure with a caption; ``ident`` names it for tests and links.
+
+        ``fold``: the figure sits in a closed ``<details>`` whose summary is the caption,
+        so the page reads short and a reader opens it where wanted."""
         data = base64.b64encode(png).decode("ascii")
-        cap = html.escape(caption)
+        cap = _esc(caption)
+        fig = (
+            f'<figure id="fig-{ident}" data-figure="{ident}"><img alt="{cap}" '
+            f'src="data:image/png;base64,{data}"><figcaption>{cap}</figcaption></figure>'
+        )
         self.blocks.append(
-            Block(
-                "figure",
-                f'<figure id="fig-{ident}" data-figure="{ident}"><img alt="{cap}" '
-                f'src="data:image/png;base64,{data}"><figcaption>{cap}</figcaption></figure>',
-                ident,
-            )
+            Block("figure", _fold(fig, f"Figure: {caption}") if fold else fig, ident)
         )
 
     def table(
@@ -113,6 +118,7 @@ class Section:
         caption: str,
         float_format: str = "{:.4g}",
         formats: Mapping[str, str] | None = None,
+        fold: bool = False,
     ) -> None:
         """Add a table; ``ident`` names it for tests and for its CSV file.
 
@@ -120,6 +126,9 @@ class Section:
         of ``float_format`` at the column's largest value), so the decimals line up down a
         column; ``formats`` overrides it per column (``{"ambient [°C]": "{:.0f}"}``).
         Headers and long text wrap, so a table is as wide as its numbers, not its words.
+        Negative numbers carry the minus sign (U+2212), as in the text.
+        ``fold``: the table sits in a closed ``<details>`` whose summary is its caption,
+        its row count and its CSV file (``tables/<ident>.csv``), for long per-run tables.
         """
         digits = _digits(float_format)
         fmts = {c: column_format(df[c], digits) for c in df.columns}
@@ -130,25 +139,67 @@ class Section:
                 return "" if pd.isna(v) else fmts[col].format(v)
             return str(v)
 
-        head = "".join(f"<th>{html.escape(str(c))}</th>" for c in df.columns)
+        head = "".join(f"<th>{_esc(str(c))}</th>" for c in df.columns)
         rows = []
         for row in df.itertuples(index=False):
             cells = "".join(
-                f'<td class="wrap">{html.escape(fmt(c, v))}</td>'
+                f'<td class="wrap">{_esc(fmt(c, v))}</td>'
                 if isinstance(v, str) and len(v) > 24
-                else f"<td>{html.escape(fmt(c, v))}</td>"
+                else f"<td>{_esc(fmt(c, v))}</td>"
                 for c, v in zip(df.columns, row, strict=True)
             )
             rows.append(f"<tr>{cells}</tr>")
-        self.blocks.append(
-            Block(
-                "table",
-                f'<div class="table-wrap"><table id="tab-{ident}" data-table="{ident}">'
-                f"<caption>{html.escape(caption)}</caption><thead><tr>{head}</tr></thead>"
-                f"<tbody>{''.join(rows)}</tbody></table></div>",
-                ident,
-            )
+        tab = (
+            f'<div class="table-wrap"><table id="tab-{ident}" data-table="{ident}">'
+            f"<caption>{_esc(caption)}</caption><thead><tr>{head}</tr></thead>"
+            f"<tbody>{''.join(rows)}</tbody></table></div>"
         )
+        if fold:
+            n = len(df)
+            tab = _fold(tab, f"Table: {caption} ({n} row{'s' if n != 1 else ''}; "
+                             f"also tables/{ident}.csv)")  # fmt: skip
+        self.blocks.append(Block("table", tab, ident))
+
+
+# a hyphen-minus that starts a number: not after a letter, digit or point (ranges such as
+# "1-8", names such as "fig-1" and exponents keep theirs)
+_NEGATIVE = re.compile(r"(?<![\w.\-])-(?=\.?\d)")
+
+
+def typographic_minus(text: str) -> str:
+    """``text`` with every negative number's hyphen-minus replaced by the minus sign
+    U+2212 ("-0.59" → "−0.59", "[-1, 2]" → "[−1, 2]"); ranges ("1-8"), options ("--seed 0")
+    and names keep their hyphens. The reports' one convention for negative numbers."""
+    return _NEGATIVE.sub("\u2212", text)
+
+
+def _esc(text: str) -> str:
+    """HTML-escaped ``text`` with the typographic minus (:func:`typographic_minus`)."""
+    return html.escape(typographic_minus(text))
+
+
+def _contents(blocks: list[Block]) -> str:
+    """What a fold holds, in words: "2 tables, 1 figure and 3 paragraphs"."""
+    n = {k: sum(b.kind == k for b in blocks) for k in ("table", "figure")}
+    words = [f"{v} {k}{'s' if v != 1 else ''}" for k, v in n.items() if v]
+    rest = len(blocks) - sum(n.values())
+    if rest:
+        words.append(f"{rest} paragraph{'s' if rest != 1 else ''}")
+    return words[0] if len(words) == 1 else ", ".join(words[:-1]) + " and " + words[-1]
+
+
+def _fold(inner: str, summary: str) -> str:
+    """``inner`` HTML in a closed ``<details>`` headed by ``summary`` (plain text)."""
+    return f'<details class="fold"><summary>{_esc(summary)}</summary>{inner}</details>'
+
+
+def format_sig(x: Any, digits: int = 4) -> str:
+    """``x`` with ``digits`` significant digits in positional notation (no exponent);
+    blank for NaN or None. For a column whose rows differ in unit or scale, where one
+    column format would round the small ones to 0."""
+    if x is None or (isinstance(x, float | np.floating) and not np.isfinite(x)):
+        return ""
+    return np.format_float_positional(float(x), precision=digits, fractional=False, trim="-")
 
 
 def _digits(float_format: str) -> int:
@@ -179,11 +230,16 @@ def column_format(col: pd.Series, digits: int = 4) -> str:
 
 @dataclass
 class Report:
-    """A report under construction."""
+    """A report under construction.
+
+    ``folded``: the identifiers of the sections that show only their lead (the first block,
+    where it is a paragraph) and fold the rest into one closed ``<details>``, so that the
+    page reads short and its verdict comes first; the others show every block."""
 
     title: str
     subtitle: str = ""
     sections: list[Section] = field(default_factory=list)
+    folded: tuple[str, ...] = ()
 
     def section(self, title: str, ident: str, lead: bool = False) -> Section:
         """Start a new section and return it; a ``lead`` section is shown first, before the
@@ -202,21 +258,28 @@ class Report:
 
     def to_html(self) -> str:
         """The whole page as one string."""
-        toc = "".join(
-            f'<li><a href="#{s.ident}">{html.escape(s.title)}</a></li>' for s in self.sections
-        )
+        toc = "".join(f'<li><a href="#{s.ident}">{_esc(s.title)}</a></li>' for s in self.sections)
 
         def render(sections: list[Section]) -> str:
-            out = []
+            body = []
             for s in sections:
-                out.append(f'<section id="{s.ident}"><h2>{html.escape(s.title)}</h2>')
-                out.extend(b.html for b in s.blocks)
-                out.append("</section>")
-            return "".join(out)
+                body.append(f'<section id="{s.ident}"><h2>{_esc(s.title)}</h2>')
+                blocks = s.blocks
+                if s.ident in self.folded and blocks:
+                    first = 1 if blocks[0].kind == "text" else 0
+                    body.extend(b.html for b in blocks[:first])
+                    blocks = blocks[first:]
+                    if blocks:
+                        inner = "".join(b.html for b in blocks)
+                        body.append(_fold(inner, f"The detail: {_contents(blocks)}"))
+                        blocks = []
+                body.extend(b.html for b in blocks)
+                body.append("</section>")
+            return "".join(body)
 
         lead = render([s for s in self.sections if s.lead])
         rest = render([s for s in self.sections if not s.lead])
-        sub = f'<p class="note">{html.escape(self.subtitle)}</p>' if self.subtitle else ""
+        sub = f'<p class="note">{_esc(self.subtitle)}</p>' if self.subtitle else ""
         return (
             '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
             '<meta name="viewport" content="width=device-width, initial-scale=1">'
@@ -226,4 +289,11 @@ class Report:
         )
 
 
-__all__ = ["Report", "Section", "column_format", "figure_to_png"]
+__all__ = [
+    "Report",
+    "Section",
+    "column_format",
+    "figure_to_png",
+    "format_sig",
+    "typographic_minus",
+]

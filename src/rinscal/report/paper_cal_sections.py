@@ -15,23 +15,18 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from rinscal import units
+from rinscal.calibration.allan_units import NOISE_TERMS_WORDS
 from rinscal.experiments.paper.calibration import CalibrationResult
 from rinscal.experiments.paper.config import LABELS, METHODS
-from rinscal.report.html import Report, Section
+from rinscal.report.html import Report, Section, format_sig
+from rinscal.report.paper_nav_sections import groups_view
 
-__all__ = ["add_calibration_sections", "format_sig"]
+__all__ = ["add_calibration_sections", "format_sig", "imu_recovery_view", "imu_section"]
 
 _SUP = {"1": "¹", "2": "²", "3": "³", "4": "⁴"}
 _UNIT = {"accel": "µg", "gyro": "°/h"}
 _SENSOR = {"accel": "accelerometers", "gyro": "gyros"}
-
-
-def format_sig(x: Any, digits: int = 4) -> str:
-    """``x`` with ``digits`` significant digits in positional notation (no exponent);
-    blank for NaN or None."""
-    if x is None or (isinstance(x, float) and not np.isfinite(x)):
-        return ""
-    return np.format_float_positional(float(x), precision=digits, fractional=False, trim="-")
 
 
 def _fixed(x: Any, decimals: int) -> str:
@@ -89,6 +84,7 @@ def _table4(s: Section, tables: Mapping[str, pd.DataFrame]) -> None:
             pd.DataFrame(rows),
             f"Table 4 ({name}): method 1's coefficients per temperature segment, the paper's "
             "(converted from pulses) and ours; 4 significant digits",
+            fold=True,
         )
 
 
@@ -153,7 +149,7 @@ def _selection_table(
             f"noise floor [{u}]": [_fixed(x, dec) for x in t["noise floor"]],
         }
     )
-    s.table(f"{key}_{sensor}", view, caption)
+    s.table(f"{key}_{sensor}", view, caption, fold=True)
 
 
 def _recommended_words(cal: CalibrationResult) -> str:
@@ -215,7 +211,23 @@ def _table6(s: Section, tables: Mapping[str, pd.DataFrame], plant_name: str) -> 
             view,
             f"Table 6 ({_SENSOR[sensor]}): method 2's coefficients, paper / true plant / "
             "ours; 4 significant digits",
+            fold=True,
         )
+
+
+def _cond_words(r: pd.DataFrame, cond: Mapping[str, float]) -> str:
+    """What the reproduction's condition number is of, beside the study's (issue 36: "448"
+    here and "2.6" in the study are of different matrices)."""
+    worst = max(cond, key=cond.__getitem__)
+    n_cols = int((r["channel"] == worst).sum()) + 1  # its terms and the constant
+    return (
+        f"the condition number of method 2's whole design matrix is up to "
+        f"{cond[worst]:.0f} ({worst}: the constant and every power of T, Ṫ and ΔT, "
+        f"{n_cols} columns, each input centred and scaled as the fit does; the powers of "
+        "one input are nearly collinear, which alone makes it large. The study quotes the "
+        "condition number of the three inputs [T, Ṫ, ΔT] alone, each standardised, which "
+        "is 1 for independent inputs and much smaller)"
+    )
 
 
 def _recovery(s: Section, tables: Mapping[str, pd.DataFrame]) -> None:
@@ -268,11 +280,7 @@ def _recovery(s: Section, tables: Mapping[str, pd.DataFrame]) -> None:
             f"{len(missed)} misses are structural, not noise: Ṫ and ΔT move together in a "
             "cold start"
             + (f" (|corr(Ṫ, ΔT)| {min(cr):.2f} to {max(cr):.2f}" if cr else " (")
-            + (
-                f"; condition number of the scaled design up to {max(cond.values()):.0f})"
-                if cond
-                else ")"
-            )
+            + (f"; {_cond_words(r, cond)})" if cond else ")")
             + ", so the split between their terms is weakly determined; the rate is "
             "estimated from measured temperatures over a 60 s window while the plant uses "
             "the exact one; and effects outside the polynomial load onto its terms (the "
@@ -288,6 +296,7 @@ def _recovery(s: Section, tables: Mapping[str, pd.DataFrame]) -> None:
         view,
         "Coefficient recovery: method 2's fit against the true plant's thermal law, with "
         "95 % bootstrap intervals over the soak runs (physical units)",
+        fold=True,
     )
 
 
@@ -327,6 +336,7 @@ def _table8(s: Section, tables: Mapping[str, pd.DataFrame]) -> None:
             view,
             f"Table 8 ({name}): hidden weights w, biases b, output weights v; the output "
             "row's b is b′ (dimensionless, 3 significant digits)",
+            fold=True,
         )
 
 
@@ -407,6 +417,7 @@ def _heldout(
                 f"{name}_{sensor}",
                 _steps_view(tables[f"{name}_{sensor}"], sensor),
                 f"Steps at the sectional segment edges on {what}, {_SENSOR[sensor]}",
+                fold=True,
             )
     acc = tables["repeat_steps"]
     acc = acc[acc["channel"] == "accel_x"].set_index("method")["model_step"]
@@ -424,11 +435,8 @@ def _heldout(
     if "allan" in figures:
         s.text(
             "Noise parameters of the repeat run before and after method 2, read from its "
-            "overlapping Allan deviation by the IEEE Std 952 slopes: N, the angle random "
-            "walk of a gyro [°/√h] or the velocity random walk of an accelerometer "
-            "[µg/√Hz] (σ at τ = 1 s on the −½ line); B, the bias instability (the flat "
-            "minimum ÷ 0.664, at τ(B)); K, the rate random walk (σ at τ = 3 s on the +½ "
-            "line); blank where the curve has no region of that slope."
+            f"overlapping Allan deviation by the IEEE Std 952 slopes: {NOISE_TERMS_WORDS}; "
+            "blank where the curve has no region of that slope."
         )
         for sensor in ("gyro", "accel"):
             key = f"allan_repeat_{sensor}"
@@ -438,14 +446,39 @@ def _heldout(
             view = t.copy()
             for col in t.columns[2:]:
                 view[col] = [format_sig(x, 3) for x in t[col]]
-            s.table(key, view, f"Allan deviation noise parameters, {_SENSOR[sensor]}")
+            s.table(key, view, f"Allan deviation noise parameters, {_SENSOR[sensor]}", fold=True)
         s.text(
             "The figure below draws those Allan deviations, raw and compensated, per channel. "
             "Compensation acts at long averaging times: the thermal drift that bends a raw "
             "curve upwards there is what it removes; the white noise (the −½ slope at short "
             "times) is untouched."
         )
-        s.figure("allan", figures["allan"], "Allan deviation of the repeat run, raw and method 2")
+        s.figure(
+            "allan",
+            figures["allan"],
+            "Allan deviation of the repeat run, raw and method 2",
+            fold=True,
+        )
+
+
+# --------------------------------------------------------------------------- IMU calibration
+def imu_recovery_view(rec: pd.DataFrame) -> pd.DataFrame:
+    """The scale-factor/misalignment calibration's recovery table for the page: every
+    figure to 3 significant digits in its own row's unit (the rows mix °/h, ppm, ″, µg,
+    so no column has one scale: a column format would round the small ones to 0), the unit
+    in words (°/h, µg, not deg/h, ug)."""
+    unit = [units.unit_words(str(u)) for u in rec["unit"]]
+    return pd.DataFrame(
+        {
+            "parameter": rec["parameter"].to_numpy(),
+            "unit": unit,
+            "set points": rec["set points"].to_numpy(),
+            "max |error| [unit]": [format_sig(x, 3) for x in rec["max |error|"]],
+            "max |error| / sd": [format_sig(x, 3) for x in rec["max |error|/sd"]],
+            "true slope [unit/°C]": [format_sig(x, 3) for x in rec["truth slope /°C"]],
+            "estimated slope [unit/°C]": [format_sig(x, 3) for x in rec["estimated slope /°C"]],
+        }
+    )
 
 
 # --------------------------------------------------------------------------- Table 9
@@ -461,7 +494,9 @@ def _table9(s: Section, tables: Mapping[str, pd.DataFrame]) -> None:
     view = t.copy()
     for col in t.columns[2:]:
         view[col] = [format_sig(x, 3) for x in t[col]]
-    s.table("table9", view, "Table 9: turntable conditions, the paper's as printed and ours")
+    s.table(
+        "table9", view, "Table 9: turntable conditions, the paper's as printed and ours", fold=True
+    )
 
 
 # --------------------------------------------------------------------------- entry point
@@ -521,10 +556,59 @@ def add_calibration_sections(
         "to show how little any setting moves off that floor; the star marks the setting "
         "recommended on held-out RMS. " + _recommended_words(cal)
     )
-    s.figure("selection", figures["selection"], "Tables 5 and 7 as curves")
+    s.figure("selection", figures["selection"], "Tables 5 and 7 as curves", fold=True)
 
     s = rep.section("Held-out runs: repeat start and chamber ramp (Figures 7, 8)", "heldout")
     _heldout(s, cal, tables, figures, heldout_words)
 
     s = rep.section("Turntable conditions of the lab runs (Table 9)", "table9")
     _table9(s, tables)
+
+
+def imu_section(rep: Any, cal: CalibrationResult, tables: Mapping[str, pd.DataFrame]) -> None:
+    """Scale factor and misalignment over temperature: the IMU calibration of reference 29,
+    its recovery of the plant, and what its thermal model saves in navigation."""
+    stage = cal.imu_cal
+    res = stage.result
+    temps = sorted(set(res.estimates["temperature_c"]))
+    s = rep.section("Scale factor and misalignment over temperature (reference 29)", "imu-cal")
+    s.text(
+        "Before any thermal bias model, the paper calibrates the IMU on the two-axis "
+        "turntable to turn pulses into rates and specific forces (its reference 29). We "
+        f"simulate that calibration on the same plant: 19 static positions and rate tests "
+        f"about each axis at {len(temps)} chamber set points ({', '.join(f'{t:g}' for t in temps)}"
+        f" °C), an ideal turntable, {stage.rows:,} rows, and fit every bias, scale factor, "
+        "nonlinear scale-factor term and misalignment at each set point, then each as a "
+        "polynomial in temperature chosen on held-out set points (rinscal calibrate-imu). "
+        f"The fit warned {len(res.warnings)} time(s)."
+    )
+    s.table(
+        "imu_recovery",
+        imu_recovery_view(tables["imu_recovery"]),
+        "The calibration against the plant's truth: largest error over the set points, in "
+        "the parameter's unit and in units of its estimated sd; slopes per °C",
+        fold=True,
+    )
+    if "imu_saving" not in tables:
+        return
+    s.text(
+        "What the thermal model of scale factor and misalignment is worth: the navigation "
+        "computer holds the calibration made at the lab's temperature, as every run above "
+        "does; the variant 'method 2 + scale factor/axes' also applies the calibration's "
+        "change with temperature to the raw signal (the z gyro's scale factor times the "
+        "indexing rate feeds heading; horizontal scale factors and misalignments couple "
+        "into the modulation), with a method-2 model fitted behind it on soak output "
+        "corrected the same way. Both navigate the same raw output: the difference is "
+        "paired. Positive = the model saves; the interval is Student's t over the runs of "
+        "a group (none for a single run)."
+    )
+    s.table(
+        "imu_saving",
+        groups_view(tables["imu_saving"]),
+        "Maximum position error without and with the scale-factor/misalignment thermal "
+        "model, and what it saves [nmi]",
+    )
+    verdicts = []
+    for r in tables["imu_saving"].itertuples(index=False):
+        verdicts.append(f"{r.scenario}: {r.note}")
+    s.text("In words: " + "; ".join(verdicts) + ".")

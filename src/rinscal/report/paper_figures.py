@@ -135,6 +135,8 @@ def fig_selection(cal: CalibrationResult) -> Figure:
             what = "order p = q = s" if method == "regression" else "hidden neurons n"
             unit = "µg" if row == 0 else "°/h"
             ax.set_xlabel(what)
+            # an order or a neuron count is a whole number: ticks at the settings tried
+            ax.set_xticks(sorted({int(x) for x in sel["setting"]}))
             ax.set_ylabel(f"RMS (Eq. 16, about run mean) [{unit}]")
             ax.set_title(f"{method}: training vs leave-one-run-out (★ recommended)", fontsize=10)
             ax.grid(alpha=0.3)

@@ -15,16 +15,19 @@ from typing import Any
 
 import pandas as pd
 
-from rinscal.experiments.paper.mechanism import ORACLE_NO_OFFSETS, PREDICTED_COLUMN
+from rinscal.experiments.paper.config import group_label
+from rinscal.experiments.paper.mechanism import MIN_CEP_RUNS, ORACLE_NO_OFFSETS, PREDICTED_COLUMN
 
 __all__ = [
     "MECHANISM_TABLES",
     "SHOWN_VARIANTS",
+    "groups_view",
     "mechanism_section",
     "mechanism_words",
     "nav_sections",
     "oracle_loss_words",
     "oracle_section",
+    "run_table_view",
 ]
 
 #: The tables these sections add to the reproduction (written to tables/<name>.csv).
@@ -37,6 +40,40 @@ def _shown(df: pd.DataFrame, labels: Mapping[str, str]) -> pd.DataFrame:
     d = df[df["variant"].isin(SHOWN_VARIANTS)].copy()
     d["variant"] = d["variant"].map(lambda v: labels.get(v, v))
     return d
+
+
+def run_table_view(df: pd.DataFrame, labels: Mapping[str, str], unit: str) -> pd.DataFrame:
+    """A per-run table (columns ``experiment``/``scenario``/``number``/``ambient_c``/
+    ``hours`` and one per variant) with readable headers for the page: the run named in
+    words ("lab quasi-static 1", "ramp 1"), the ambient in °C ("chamber ramp" where it
+    varies), the duration in h and each variant by its label with ``unit`` (e.g. "nmi",
+    "″"). Other columns pass unchanged; the CSV file keeps the raw names."""
+    exp = df["experiment"] if "experiment" in df else df["scenario"]
+    out = pd.DataFrame(index=df.index)
+    out["run"] = [
+        f"{group_label(str(e), str(s))} {int(n)}"
+        for e, s, n in zip(exp, df["scenario"], df["number"], strict=True)
+    ]
+    if "ambient_c" in df:
+        out["ambient [°C]"] = [
+            "chamber ramp" if pd.isna(a) else f"{float(a):g}" for a in df["ambient_c"]
+        ]
+    if "hours" in df:
+        out["duration [h]"] = df["hours"].astype(float)
+    skip = {"experiment", "scenario", "number", "ambient_c", "hours"}
+    for c in df.columns:
+        if c in skip:
+            continue
+        out[f"{labels[c]} [{unit}]" if c in labels else c] = df[c]
+    return out.reset_index(drop=True)
+
+
+def groups_view(df: pd.DataFrame) -> pd.DataFrame:
+    """``experiment`` and ``scenario`` as one ``runs`` column in words ("ramp", "lab
+    quasi-static": never "ramp ramp"); a ``runs`` count becomes ``n runs``."""
+    names = [group_label(e, s) for e, s in zip(df["experiment"], df["scenario"], strict=True)]
+    rest = df.drop(columns=["experiment", "scenario"]).rename(columns={"runs": "n runs"})
+    return pd.concat([pd.DataFrame({"runs": names}, index=df.index), rest], axis=1)
 
 
 def _f(x: float, spec: str = ".3g") -> str:
@@ -171,6 +208,7 @@ def mechanism_section(
         + ", ".join(labels.get(v, v) for v in SHOWN_VARIANTS)
         + " (every variant in tables/mechanism.csv)",
         float_format="{:.3g}",
+        fold=True,
     )
     s.text(
         "How far from constant the residual bias is within one rotation period (the "
@@ -184,6 +222,7 @@ def mechanism_section(
         "Bias change within one modulation period [µg, °/h] and the vertical gyro's "
         "residual and turn-on offset [°/h] (every variant in tables/modulation.csv)",
         float_format="{:.3g}",
+        fold=True,
     )
     s.text(
         "Error growth beside the maximum: the drift rate is the least-squares slope of the "
@@ -198,15 +237,23 @@ def mechanism_section(
         "Maximum and final radial error [nmi] and drift rate [nmi/h] per run "
         "(every variant in tables/error_growth.csv)",
         float_format="{:.3g}",
+        fold=True,
     )
     cep = tables["cep"].copy()
     cep["variant"] = cep["variant"].map(lambda v: labels.get(v, v))
+    col = "CEP (median final) [nmi]"
+    cep[col] = [
+        _f(x) if n >= MIN_CEP_RUNS else f"none (n = {n})"
+        for x, n in zip(cep[col], cep["n runs"], strict=True)
+    ]
     s.table(
         "cep",
         cep,
         "CEP per group of runs (median of the final radial errors) beside the median "
-        "maximum and the median drift rate [nmi, nmi/h]",
+        "maximum and the median drift rate [nmi, nmi/h]; no CEP for a group of fewer than "
+        f"{MIN_CEP_RUNS} runs",
         float_format="{:.3g}",
+        fold=True,
     )
     if "heading_velocity" in figures:
         s.text(
@@ -221,6 +268,7 @@ def mechanism_section(
             figures["heading_velocity"],
             "Heading error and |velocity error| per variant (first quasi-static and first "
             "vehicle run)",
+            fold=True,
         )
 
 
@@ -228,8 +276,11 @@ def oracle_section(
     rep: Any,
     tables: Mapping[str, pd.DataFrame],
     summary: Mapping[str, Any],
+    labels: Mapping[str, str] | None = None,
 ) -> None:
-    """ "The oracle: what the thermal model alone costs" (section id ``thermal-part``)."""
+    """ "The oracle: what the thermal model alone costs" (section id ``thermal-part``);
+    ``labels`` name the variants in the per-run tables' headers."""
+    labels = labels or {}
     s = rep.section("The oracle: what the thermal model alone costs", "thermal-part")
     s.text(
         "Every variant of a run navigates the same raw output, and the navigation errors "
@@ -249,6 +300,7 @@ def oracle_section(
         "the maxima) [nmi]; angle between the thermal part's and the rest's error vectors at "
         "the oracle's maximum [°]; heading error at the start of navigation [″]",
         float_format="{:.3g}",
+        fold=True,
     )
     n, k = summary["n_runs"], summary["oracle_loses"]
     if k == 0:
@@ -275,14 +327,16 @@ def oracle_section(
     )
     s.table(
         "thermal_part",
-        tables["thermal_part"],
+        run_table_view(tables["thermal_part"], labels, "nmi"),
         "Maximum position error caused by the thermal-model error alone [nmi]",
+        fold=True,
     )
     s.table(
         "heading_at_nav_start",
-        tables["heading_at_nav_start"],
+        run_table_view(tables["heading_at_nav_start"], labels, "″"),
         "Heading error at the start of free navigation per run and variant [arcsec] "
         "(signed; blank where the navigation summary does not report it)",
+        fold=True,
     )
 
 
@@ -301,10 +355,12 @@ def nav_sections(
     oracle's thermal-part tables."""
     if summary is None or not all(t in tables for t in MECHANISM_TABLES):
         s = rep.section("The oracle: what the thermal model alone costs", "thermal-part")
-        s.table("thermal_part", tables["thermal_part"], "Maximum position error caused by the "
-                "thermal-model error alone [nmi]")  # fmt: skip
-        s.table("heading_at_nav_start", tables["heading_at_nav_start"], "Heading error at the "
-                "start of free navigation per run and variant [arcsec]")  # fmt: skip
+        s.table("thermal_part", run_table_view(tables["thermal_part"], labels, "nmi"),
+                "Maximum position error caused by the thermal-model error alone [nmi]",
+                fold=True)  # fmt: skip
+        s.table("heading_at_nav_start", run_table_view(tables["heading_at_nav_start"], labels,
+                "″"), "Heading error at the start of free navigation per run and variant "
+                "[arcsec]", fold=True)  # fmt: skip
         return
     mechanism_section(rep, tables, figures, summary, labels)
-    oracle_section(rep, tables, summary)
+    oracle_section(rep, tables, summary, labels)

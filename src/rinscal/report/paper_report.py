@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import html
 import json
+import shlex
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -64,7 +65,7 @@ from rinscal.io.atomic import write_atomic
 from rinscal.report.allan_plot import allan_figure
 from rinscal.report.html import Report, figure_to_png
 from rinscal.report.logplot import plot_log
-from rinscal.report.paper_cal_sections import add_calibration_sections
+from rinscal.report.paper_cal_sections import add_calibration_sections, imu_section
 from rinscal.report.paper_figures import (
     fig_heading_velocity,
     fig_lab_bars,
@@ -74,13 +75,24 @@ from rinscal.report.paper_figures import (
     fig_temperatures,
     fig_vehicle_track,
 )
-from rinscal.report.paper_nav_sections import MECHANISM_TABLES, nav_sections
+from rinscal.report.paper_nav_sections import (
+    MECHANISM_TABLES,
+    nav_sections,
+    run_table_view,
+)
 from rinscal.report.verdict_view import (
     claims_view,
     verdict_paragraph,
     verdict_table,
     write_claims_csv,
 )
+
+#: The sections that show their lead paragraph and fold the rest (the verdict and the
+#: summary stay open): the quick report reads in at most 15 screens before its folds.
+DETAIL_SECTIONS = (
+    "calibration-data", "method1", "method2", "method3", "heldout", "table9", "ramp", "lab",
+    "vehicle", "mechanism", "thermal-part", "imu-cal", "method",
+)  # fmt: skip
 
 
 def _verdict(ok: bool) -> str:
@@ -268,13 +280,15 @@ def build_report(
     timings: Mapping[str, float],
     plant: Mapping[str, Any] | None = None,
     study: Any = None,
+    out: Path | None = None,
 ) -> Report:
     """Assemble the report: every table and figure, the paper's numbers beside ours.
 
     ``plant`` is :func:`rinscal.experiments.paper.config.plant_info` of the IMU that ran (default:
     from ``cfg.imu`` and ``cal.imu``). ``study`` is the
     :class:`rinscal.report.study_report.StudyTables` of ``--units N`` (its report is in
-    ``study/report.html``).
+    ``study/report.html``). ``out``: the output folder, named in the command the report
+    gives.
     """
     if plant is None:
         plant = plant_info(cfg.imu, cal.imu or load_plant(cfg.imu))
@@ -286,6 +300,7 @@ def build_report(
             f"{plant['name']} (--imu {plant['spec']}). Every number of ours comes from "
             "that simulated plant; none is the paper's."
         ),
+        folded=DETAIL_SECTIONS,
     )
     v = rep.section(
         f"Verdict on {plant['spec']}: each method against method 1, none and the cubic",
@@ -392,6 +407,7 @@ def build_report(
         "selection_vs_paper",
         tables["selection_vs_paper"],
         "Tables 5 and 7: training RMS, the paper's beside ours (units differ)",
+        fold=True,
     )
 
     if study is not None and not study.claim_rows.empty:
@@ -428,7 +444,9 @@ def build_report(
         "model never sees here (other rates of warming, other gradients) is what the "
         "held-out runs below test."
     )
-    s.figure("soak", figures["soak"], "Figure 3: outputs and temperatures of the soak runs")
+    s.figure(
+        "soak", figures["soak"], "Figure 3: outputs and temperatures of the soak runs", fold=True
+    )
 
     add_calibration_sections(rep, cal, tables, figures, words[:-1])
 
@@ -444,7 +462,11 @@ def build_report(
             f"models: {_ramp_domain_words(tables)} On this run: {_max_words(r)}."
         )
     s.figure("nav_ramp", figures["nav_ramp"], "Figure 9: quasi-static RINS, chamber −2 → 50 °C")
-    s.table("ramp_max", tables["ramp_max"], "Chamber ramp: maximum position error [nmi]")
+    s.table(
+        "ramp_max",
+        run_table_view(tables["ramp_max"], LABELS, "nmi"),
+        "Chamber ramp: maximum position error [nmi]",
+    )
 
     s = rep.section("Lab cold starts: quasi-static and swing (Figures 11-13)", "lab")
     start = f" starting {cfg.align_start_s:g} s after power-on" if cfg.align_start_s else ""
@@ -467,10 +489,15 @@ def build_report(
             )
         fig_no = 11 if scen == "quasi-static" else 12
         number = f", experiment {r.job.index}" if r is not None else ""
-        s.figure(key, figures[key], f"Figure {fig_no}: {scen}{number}")
+        s.figure(key, figures[key], f"Figure {fig_no}: {scen}{number}", fold=True)
     s.text(_lab_bars_words(tables["lab_max"]))
     s.figure("lab_bars", figures["lab_bars"], "Figure 13: maximum errors of experiments 1-10")
-    s.table("lab_max", tables["lab_max"], "Maximum horizontal position error [nmi]")
+    s.table(
+        "lab_max",
+        run_table_view(tables["lab_max"], LABELS, "nmi"),
+        "Maximum horizontal position error [nmi]",
+        fold=True,
+    )
 
     s = rep.section("Vehicle experiments (Figures 15, 16, Table 10)", "vehicle")
     veh = [r for r in nav if r.job.experiment == "vehicle"]
@@ -481,7 +508,7 @@ def build_report(
             "each compensation's INS computed on it, to show where the tracks part from the "
             f"truth; {_max_words(r, ('none', 'sectional', 'regression', 'neural'))}."
         )
-    s.figure("vehicle_track", figures["vehicle_track"], "Figure 15: trajectories, run 1")
+    s.figure("vehicle_track", figures["vehicle_track"], "Figure 15: trajectories, run 1", fold=True)
     if veh:
         r = veh[0]
         t_max = {
@@ -504,22 +531,27 @@ def build_report(
     s.figure("nav_vehicle", figures["nav_vehicle"], "Figure 16: position errors, run 1")
     s.table(
         "table10",
-        tables["table10"],
+        run_table_view(tables["table10"], LABELS, "nmi"),
         "Table 10: maximum position error [nmi] and decrease from method 1 to 3",
     )
     s.text(_temperature_words(nav, t_lo, t_hi))
-    s.figure("temperatures", figures["temperatures"], "Thermal scenarios of the navigation runs")
+    s.figure(
+        "temperatures",
+        figures["temperatures"],
+        "Thermal scenarios of the navigation runs",
+        fold=True,
+    )
 
     nav_sections(rep, tables, figures, _mechanism_summary(tables), _nav_labels())
 
     if cal.imu_cal is not None:
-        _imu_section(rep, cal, tables)
+        imu_section(rep, cal, tables)
 
     s = rep.section("How this was made", "method")
     rows = "".join(f"<li>{_esc(k)}: {v:.1f} s</li>" for k, v in timings.items())
+    s.text(f"Command: {command_line(cfg, out, _study_units(study))}")
     s.raw(
-        f"<p>Command: <code>{_esc(command_line(cfg))}</code>. {_plant_html(plant)} "
-        "Settings:</p><ul>"
+        f"<p>{_plant_html(plant)} Settings:</p><ul>"
         + "".join(f"<li><code>{_esc(f'{k} = {v}')}</code></li>" for k, v in vars(cfg).items())
         + "</ul><p>Stage times (wall clock of each stage, as the progress bar counted "
         f"them; the report's own stage and the total are in metrics.json, timings_s):</p>"
@@ -527,54 +559,6 @@ def build_report(
     )
     _ = PAPER
     return rep
-
-
-def _imu_section(rep: Any, cal: CalibrationResult, tables: Mapping[str, pd.DataFrame]) -> None:
-    """Scale factor and misalignment over temperature: the IMU calibration of reference 29,
-    its recovery of the plant, and what its thermal model saves in navigation."""
-    stage = cal.imu_cal
-    res = stage.result
-    temps = sorted(set(res.estimates["temperature_c"]))
-    s = rep.section("Scale factor and misalignment over temperature (reference 29)", "imu-cal")
-    s.text(
-        "Before any thermal bias model, the paper calibrates the IMU on the two-axis "
-        "turntable to turn pulses into rates and specific forces (its reference 29). We "
-        f"simulate that calibration on the same plant: 19 static positions and rate tests "
-        f"about each axis at {len(temps)} chamber set points ({', '.join(f'{t:g}' for t in temps)}"
-        f" °C), an ideal turntable, {stage.rows:,} rows, and fit every bias, scale factor, "
-        "nonlinear scale-factor term and misalignment at each set point, then each as a "
-        "polynomial in temperature chosen on held-out set points (rinscal calibrate-imu). "
-        f"The fit warned {len(res.warnings)} time(s)."
-    )
-    s.table(
-        "imu_recovery",
-        tables["imu_recovery"],
-        "The calibration against the plant's truth: largest error over the set points, in "
-        "the parameter's unit and in units of its estimated sd; slopes per °C",
-    )
-    if "imu_saving" not in tables:
-        return
-    s.text(
-        "What the thermal model of scale factor and misalignment is worth: the navigation "
-        "computer holds the calibration made at the lab's temperature, as every run above "
-        "does; the variant 'method 2 + scale factor/axes' also applies the calibration's "
-        "change with temperature to the raw signal (the z gyro's scale factor times the "
-        "indexing rate feeds heading; horizontal scale factors and misalignments couple "
-        "into the modulation), with a method-2 model fitted behind it on soak output "
-        "corrected the same way. Both navigate the same raw output: the difference is "
-        "paired. Positive = the model saves; the interval is Student's t over the runs of "
-        "a group (none for a single run)."
-    )
-    s.table(
-        "imu_saving",
-        tables["imu_saving"],
-        "Maximum position error without and with the scale-factor/misalignment thermal "
-        "model, and what it saves [nmi]",
-    )
-    verdicts = []
-    for r in tables["imu_saving"].itertuples(index=False):
-        verdicts.append(f"{r.scenario}: {r.note}")
-    s.text("In words: " + "; ".join(verdicts) + ".")
 
 
 def _nav_labels() -> dict[str, str]:
@@ -590,19 +574,32 @@ def _mechanism_summary(tables: Mapping[str, pd.DataFrame]) -> dict[str, Any] | N
     )
 
 
-def command_line(cfg: ReproConfig) -> str:
-    """The ``rinscal reproduce`` command that re-runs ``cfg`` (output folder left out)."""
+def command_line(cfg: ReproConfig, out: Path | None = None, units: int = 0) -> str:
+    """The ``rinscal reproduce`` command that re-runs ``cfg``: with ``--units`` where a
+    study of ``units`` units ran and ``--out`` where the output folder ``out`` is given
+    (the report's "How this was made" gives both: the exact command)."""
     parts = ["rinscal reproduce"]
     if cfg.quick:
         parts.append("--quick")
     parts += [f"--seed {cfg.seed}", f"--imu {cfg.imu}", f"--align-s {cfg.align_s:g}"]
     if cfg.align_start_s:
         parts.append(f"--align-start-s {cfg.align_start_s:g}")
+    if units:
+        parts.append(f"--units {units}")
+    if out is not None:
+        parts.append(f"--out {shlex.quote(str(out))}")
     return " ".join(parts)
 
 
 def _esc(text: str) -> str:
     return html.escape(text)
+
+
+def _study_units(study: Any) -> int:
+    """How many units the ``--units`` study of a reproduction ran (0: none)."""
+    if study is None or study.results.empty:
+        return 0
+    return int(study.results["unit"].nunique())
 
 
 def _maxerr_from(tables: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
@@ -833,14 +830,16 @@ def write_reproduction(
         write_atomic(out / "tables" / f"{name}.csv", lambda tmp, df=df: df.to_csv(tmp, index=False))
     for m, model in {**cal.models, **cal.extra_models}.items():
         model.save(out / "models" / f"{m}.json")
-    rep = build_report(cfg, cal, nav, tables, checked, figures, timings, plant=plant, study=study)
+    rep = build_report(
+        cfg, cal, nav, tables, checked, figures, timings, plant=plant, study=study, out=out
+    )
     page = rep.to_html()
     write_claims_csv(out / "claims.csv", tables["claims"])
     write_atomic(out / "report.html", lambda tmp: tmp.write_text(page, encoding="utf-8"))
     metrics = {
         "mode": "quick" if cfg.quick else "full",
         "imu": dict(plant),
-        "command": command_line(cfg),
+        "command": command_line(cfg, out, _study_units(study)),
         "config": {k: (list(v) if isinstance(v, tuple) else v) for k, v in vars(cfg).items()},
         "claims": checked,
         "verdicts": _records(tables["claims"]),

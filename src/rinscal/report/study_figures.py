@@ -8,6 +8,7 @@ it); :func:`rinscal.report.html.figure_to_png` renders it.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -18,7 +19,9 @@ from rinscal.experiments.paper.config import LABELS
 __all__ = [
     "CELL_COLORS",
     "COLORS",
+    "MAX_WIDTH_IN",
     "distribution_figure",
+    "interval_limits",
     "label_overlaps",
     "map_figure",
     "paired_figure",
@@ -92,15 +95,53 @@ def _pyplot() -> Any:
     return plt
 
 
+#: The widest a study figure is drawn [in]: at the PNG's 110 dpi it fits the report's
+#: column (about 1 070 px) unscaled, so an 8-10 pt text reads at 12-15 px, not 7.
+MAX_WIDTH_IN = 9.6
+
+
+def _panels(plt: Any, n: int, height_in: float) -> tuple[Any, list[Any]]:
+    """A figure of ``n`` panels, at most two a row, no wider than :data:`MAX_WIDTH_IN`;
+    the axes of the unused cell of an odd last row are removed."""
+    ncols = min(n, 2)
+    nrows = -(-n // ncols)
+    fig, axes = plt.subplots(nrows, ncols, figsize=(MAX_WIDTH_IN, height_in * nrows), squeeze=False)
+    flat = list(axes.ravel())
+    for ax in flat[n:]:
+        ax.remove()
+    return fig, flat[:n]
+
+
+def interval_limits(
+    lo: Sequence[float], hi: Sequence[float], d: Sequence[float]
+) -> tuple[float, float]:
+    """x limits [nmi] of the symlog axis (linear within ±0.1 nmi) that hold every interval
+    ``[lo, hi]`` and estimate ``d`` (non-finite ones left out) and zero: each side 1.6 times
+    the farthest value (a fifth of a decade), at least 0.1 nmi, so no marker or cap sits on
+    the frame."""
+    vals = np.asarray([*lo, *hi, *d, 0.0], dtype=float)
+    vals = vals[np.isfinite(vals)]
+    return (min(1.6 * float(vals.min()), -0.1), max(1.6 * float(vals.max()), 0.1))
+
+
+def _log_label(v: float, _pos: int) -> str:
+    """A log axis's tick as a plain number (0.3, 1, 2, not 3 × 10⁻¹), only at 1, 2, 3 and
+    5 times a power of ten so that the labels do not crowd."""
+    if not v > 0:
+        return ""
+    mantissa = v / 10.0 ** math.floor(math.log10(v) + 1e-9)
+    return f"{v:g}" if round(mantissa, 6) in (1.0, 2.0, 3.0, 5.0) else ""
+
+
 def distribution_figure(results: pd.DataFrame, plant: int) -> Any:
     """Maximum position error of every run per method and scenario (one plant)."""
     plt = _pyplot()
     df = results[results["plant"] == plant]
     scens = list(dict.fromkeys(df["scenario"]))
     variants = [v for v in COLORS if v in set(df["variant"])]
-    fig, axes = plt.subplots(1, len(scens), figsize=(4.2 * len(scens), 3.9), squeeze=False)
+    fig, axes = _panels(plt, len(scens), 3.9)
     rng = np.random.default_rng(0)
-    for ax, scen in zip(axes[0], scens, strict=True):
+    for ax, scen in zip(axes, scens, strict=True):
         g = df[df["scenario"] == scen]
         data = [g.loc[g["variant"] == v, "max_error_nmi"].to_numpy(float) for v in variants]
         ax.boxplot(data, showfliers=False, widths=0.6)
@@ -116,7 +157,9 @@ def distribution_figure(results: pd.DataFrame, plant: int) -> Any:
             fontsize=8,
         )
         ax.set_yscale("log")
-        ax.set_title(scen, fontsize=10)
+        ax.yaxis.set_major_formatter(plt.FuncFormatter(_log_label))
+        ax.yaxis.set_minor_formatter(plt.FuncFormatter(_log_label))
+        ax.set_title(scen, fontsize=11)
         ax.set_ylabel("max horizontal position error [nmi]")
         ax.grid(axis="y", alpha=0.3)
     fig.suptitle(
@@ -135,10 +178,9 @@ def paired_figure(comp: pd.DataFrame, plant: int) -> Any:
     c = comp[(comp["plant"] == plant) & comp["reference"].isin(["none", "poly-t"])]
     scens = list(dict.fromkeys(c["scenario"]))
     methods = [v for v in COLORS if v in set(c["method"]) and v not in ("none", "true")]
-    fig, axes = plt.subplots(
-        1, len(scens), figsize=(3.9 * len(scens), 0.9 + 0.42 * len(methods)), squeeze=False
-    )
-    for k, (ax, scen) in enumerate(zip(axes[0], scens, strict=True)):
+    fig, axes = _panels(plt, len(scens), 1.2 + 0.42 * len(methods))
+    xlim = interval_limits(c["delta ci low"], c["delta ci high"], c["delta"])
+    for k, (ax, scen) in enumerate(zip(axes, scens, strict=True)):
         g = c[c["scenario"] == scen]
         for i, m in enumerate(methods):
             for ref, dy, marker in (("none", -0.15, "o"), ("poly-t", 0.15, "s")):
@@ -163,18 +205,19 @@ def paired_figure(comp: pd.DataFrame, plant: int) -> Any:
         ax.axvline(0, color="k", lw=0.8)
         ax.set_xscale("symlog", linthresh=0.1)
         ax.set_yticks(range(len(methods)))
-        ax.set_yticklabels([short_label(m) for m in methods] if k == 0 else [], fontsize=8)
+        ax.set_yticklabels([short_label(m) for m in methods] if k % 2 == 0 else [], fontsize=9)
         ax.set_ylim(len(methods) - 0.5, -0.5)
-        ax.set_title(scen, fontsize=10)
-        ax.set_xlabel("method − reference [nmi] (symlog)", fontsize=8)
-        ax.tick_params(axis="x", labelsize=7)
+        ax.set_xlim(*xlim)  # one scale for every panel, every interval inside it
+        ax.set_title(scen, fontsize=11)
+        ax.set_xlabel("method − reference [nmi] (symlog)", fontsize=9)
+        ax.tick_params(axis="x", labelsize=8)
         ax.grid(axis="x", alpha=0.3)
     label = c["plant_label"].iloc[0] if not c.empty else ""
     fig.suptitle(
         f"{label}: paired difference of the max position error: ○ against no compensation, "
         "□ against the cubic in T; filled green/red where the 95 % interval excludes zero (method "
         "better/worse), open grey where it does not or there is none",
-        fontsize=8,
+        fontsize=9,
         wrap=True,
     )
     fig.tight_layout()

@@ -51,9 +51,9 @@ from rinscal.report.study_figures import (
     paired_figure,
 )
 from rinscal.report.study_words import (
-    CODES_LEGEND,
     ablation_lines,
     claims_view,
+    codes_legend,
     comparison_view,
     design_view,
     map_lines,
@@ -228,7 +228,7 @@ def build_report(spec: StudySpec, t: StudyTables, run: RunSummary | None) -> Rep
                 "Paired difference method − reference of the maximum position error [nmi]",
             )
         if t.sensitivity.empty:
-            c.text(CODES_LEGEND, "note")
+            c.text(codes_legend(_variants(t)), "note")
             c.table(
                 "against",
                 comparison_view(t.comparisons),
@@ -292,8 +292,13 @@ def build_report(spec: StudySpec, t: StudyTables, run: RunSummary | None) -> Rep
         "decrease from a to b [%], the paper's 'up to' figure: a maximum, not an estimate."
     )
     if t.sensitivity.empty:
-        pr.text(CODES_LEGEND, "note")
-        pr.table("pairs", pairs_view(t.pairs), "Paired differences of the maximum position error")
+        pr.text(codes_legend(_variants(t)), "note")
+        pr.table(
+            "pairs",
+            pairs_view(t.pairs),
+            "Paired differences of the maximum position error",
+            fold=True,
+        )
     else:
         pr.text(f"The {len(t.pairs)} pairs of this sweep are in tables/paired_differences.csv.")
     if not t.sensitivity.empty:
@@ -336,6 +341,11 @@ def _verdict_section(rep: Report, t: StudyTables) -> None:
         "reference [nmi])",
     )
     v.text(verdict_paragraph(t.claim_rows, "units"))
+
+
+def _variants(t: StudyTables) -> set[str]:
+    """The variants the study navigated (the legend explains only those)."""
+    return set(t.results["variant"]) if "variant" in t.results else set()
 
 
 def _shown(t: StudyTables) -> list[Any]:
@@ -420,7 +430,7 @@ def _ablation_section(rep: Report, t: StudyTables) -> None:
         "Method 2 against method 2 without ΔT (Δ = with − without)",
     )
     if not t.design.empty:
-        a.table("design", design_view(t.design), "Each unit's soak design")
+        a.table("design", design_view(t.design), "Each unit's soak design", fold=True)
 
 
 def _residual_section(rep: Report, t: StudyTables) -> None:
@@ -439,7 +449,7 @@ def _residual_section(rep: Report, t: StudyTables) -> None:
         ("accel_residual_ug", "Horizontal accelerometers: residual RMS"),
         ("gyro_residual_dph", "Gyros: residual RMS, worst axis"),
     ):
-        h.table(f"summary_{metric}", summary_view(t.summary, metric), caption)
+        h.table(f"summary_{metric}", summary_view(t.summary, metric), caption, fold=True)
 
 
 def _distributions_section(rep: Report, t: StudyTables) -> None:
@@ -462,6 +472,7 @@ def _distributions_section(rep: Report, t: StudyTables) -> None:
         "summary_max_error",
         summary_view(t.summary, "max_error_nmi"),
         "Maximum horizontal position error per run",
+        fold=True,
     )
     d.text(
         "The thermal part of a run is the largest distance between the variant's and the "
@@ -474,11 +485,13 @@ def _distributions_section(rep: Report, t: StudyTables) -> None:
         "summary_thermal_part",
         summary_view(t.summary, "thermal_part_nmi"),
         "Its thermal part: the variant's position error track minus the oracle's",
+        fold=True,
     )
     d.table(
         "summary_heading",
         summary_view(t.summary, "abs_heading_error_arcsec"),
         "|heading error| at the start of free navigation",
+        fold=True,
     )
 
 
@@ -504,8 +517,9 @@ def _map_section(rep: Report, t: StudyTables) -> None:
         "sensitivity_plants",
         sensitivities_view(t.sensitivities),
         "The plant variants: equivalent sensitivities",
+        fold=True,
     )
-    m.table("sensitivity", map_view(t.sensitivity), "The sensitivity map as a table")
+    m.table("sensitivity", map_view(t.sensitivity), "The sensitivity map as a table", fold=True)
 
 
 def write_study_report(

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import html
 import math
+from collections.abc import Iterable
 from typing import Any
 
 import pandas as pd
@@ -25,7 +26,7 @@ __all__ = [
     "ablation_lines",
     "claims_view",
     "code",
-    "comparison_lines",
+    "codes_legend",
     "comparison_view",
     "design_view",
     "map_lines",
@@ -55,47 +56,6 @@ def _delta_words(r: pd.Series, nd: int = 3) -> str:
     if ci:
         return f"{d} nmi {ci}"
     return f"{d} nmi (no interval: n = {int(r['n units'])}; needs {MIN_N})"
-
-
-def comparison_lines(comp: pd.DataFrame) -> list[str]:
-    """Per plant and scenario, which methods beat no compensation and the cubic in T with
-    a resolved interval, which lose, and which are not resolved, in words; one sentence
-    for the groups with too few units for an interval."""
-    out = []
-    few: list[str] = []
-    n_few = 0
-    for (label, scen), g in comp.groupby(["plant_label", "scenario"], sort=False):
-        n = int(g["n units"].max())
-        if n < MIN_N:
-            few.append(f"{label} · {scen}")
-            n_few = n
-            continue
-        parts = []
-        for ref in ("none", "poly-t"):
-            h = g[g["reference"] == ref]
-            if h.empty:
-                continue
-            name = "no compensation" if ref == "none" else "the cubic in T"
-            lo, hi = h["delta ci low"].to_numpy(float), h["delta ci high"].to_numpy(float)
-            names = [short_label(m) for m in h["method"]]
-            win = [x for x, b in zip(names, hi < 0, strict=True) if b]
-            lose = [x for x, b in zip(names, lo > 0, strict=True) if b]
-            und = [x for x, a, b in zip(names, lo, hi, strict=True) if a <= 0 <= b]
-            bits = []
-            if win:
-                bits.append(f"{', '.join(win)} beat{'s' if len(win) == 1 else ''} {name}")
-            if lose:
-                bits.append(f"{name} beats {', '.join(lose)}")
-            if und:
-                bits.append(f"no resolved difference from {name} for {', '.join(und)}")
-            parts.append("; ".join(bits))
-        out.append(f"{label}, {scen} ({n} units): " + "; ".join(p for p in parts if p))
-    if few:
-        out.append(
-            f"{'; '.join(few)}: {too_few(n_few, 'units')}. The differences in the table are point "
-            "estimates; no method is said to beat or lose to another."
-        )
-    return out
 
 
 def oracle_lines(oracle: pd.DataFrame) -> list[str]:
@@ -137,8 +97,10 @@ def ablation_lines(abl: pd.DataFrame, design: pd.DataFrame) -> list[str]:
         out.append(
             f"The soak design of the {len(design)} calibrated unit(s): Ṫ and ΔT correlate at "
             f"r = {_sg(c.median())} (median; {_sg(c.min())} to {_sg(c.max())}), and the "
-            f"standardised design [T, Ṫ, ΔT] has condition number {k.median():.1f} "
-            f"({k.min():.1f} to {k.max():.1f}; 1 for independent columns)"
+            f"design of the three inputs alone, [T, Ṫ, ΔT] each standardised, has condition "
+            f"number {k.median():.1f} ({k.min():.1f} to {k.max():.1f}; 1 for independent "
+            "columns; not the condition number of method 2's whole polynomial design, whose "
+            "powers of one input make it far larger)"
             + (
                 "; the units share one thermal network and soak protocol, so their designs "
                 "differ only by the thermometers' noise. "
@@ -186,13 +148,29 @@ CODES = {
     "neural": "m3",
     "true": "oracle",
 }
-#: What the short names mean.
-CODES_LEGEND = (
-    "none: no compensation; cubic: the cubic in T (baseline); m1, m2, m3: the paper's "
-    "methods 1 (sectional), 2 (regression), 3 (BP network); m2 w/o ΔT: method 2 without its "
-    "ΔT terms; m2+sf: method 2 behind the unit's scale-factor/axis calibration; oracle: the "
-    "true thermal bias."
-)
+#: What each short name means, in :data:`CODES`' order.
+_MEANINGS = {
+    "none": "no compensation",
+    "poly-t": "the cubic in T (baseline)",
+    "sectional": "the paper's method 1 (sectional)",
+    "regression": "the paper's method 2 (regression)",
+    "regression-no-dT": "method 2 without its ΔT terms",
+    "regression+sf": "method 2 behind the unit's scale-factor/axis calibration",
+    "neural": "the paper's method 3 (BP network)",
+    "true": "the true thermal bias",
+}
+
+
+def codes_legend(variants: Iterable[str] | None = None) -> str:
+    """What the short names of ``variants`` mean, in one sentence: only those the study ran
+    (every one without ``variants``)."""
+    ran = set(CODES) if variants is None else set(variants)
+    parts = [f"{CODES[v]}: {_MEANINGS[v]}" for v in CODES if v in ran]
+    return "; ".join(parts) + "." if parts else ""
+
+
+#: What every short name means (:func:`codes_legend` of every variant).
+CODES_LEGEND = codes_legend()
 
 
 def code(v: str) -> str:

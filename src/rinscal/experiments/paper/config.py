@@ -20,6 +20,7 @@ __all__ = [
     "PAPER_TABLES",
     "VARIANTS",
     "ReproConfig",
+    "group_label",
     "load_plant",
     "plant_info",
 ]
@@ -37,6 +38,14 @@ LABELS = {
     "regression+sf": "method 2 + scale factor/axes over T",
     "regression-no-dT": "method 2 without ΔT",
 }
+
+
+def group_label(experiment: str, scenario: str) -> str:
+    """A group of navigation runs in words: "ramp", "vehicle", "lab quasi-static" (an
+    experiment whose only scenario has its name is not named twice, "ramp ramp")."""
+    return scenario if scenario == experiment else f"{experiment} {scenario}"
+
+
 #: Navigation variants: uncompensated, each model, and the oracle (the best a model can do).
 VARIANTS = ("none", *METHODS, "true")
 

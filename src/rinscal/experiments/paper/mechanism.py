@@ -34,7 +34,7 @@ import numpy as np
 import pandas as pd
 
 from rinscal import earth, units
-from rinscal.experiments.paper.config import VARIANTS
+from rinscal.experiments.paper.config import VARIANTS, group_label
 from rinscal.nav.config import ScenarioConfig
 from rinscal.nav.metrics import (
     cep50,
@@ -47,6 +47,7 @@ from rinscal.nav.rotation import C_br
 from rinscal.nav.trajectory import C_nb_from_euler
 
 __all__ = [
+    "MIN_CEP_RUNS",
     "ORACLE_NO_OFFSETS",
     "ORACLE_NO_OFFSETS_LABEL",
     "PREDICTED_COLUMN",
@@ -66,6 +67,8 @@ __all__ = [
 ORACLE_NO_OFFSETS = "true-no-offsets"
 #: Its name in the report.
 ORACLE_NO_OFFSETS_LABEL = "oracle without turn-on offsets"
+#: The fewest runs a CEP is given for (the median of fewer is one run's error).
+MIN_CEP_RUNS = 2
 
 
 def _C_nr(config: ScenarioConfig, t: np.ndarray) -> np.ndarray:
@@ -287,8 +290,10 @@ def error_growth_table(
 
 def group_cep_table(growth: pd.DataFrame, results: Sequence[Any]) -> pd.DataFrame:
     """CEP per group of runs and variant: the median of the runs' final radial errors
-    [nmi], beside the median maximum and the median drift rate; ``n runs`` the group size."""
-    group = {_run_name(r): f"{r.job.experiment} {r.job.scenario}" for r in results}
+    [nmi], beside the median maximum and the median drift rate; ``n runs`` the group size.
+    A group of fewer than :data:`MIN_CEP_RUNS` runs has no CEP (NaN): one run's error is
+    not a circle holding half the runs."""
+    group = {_run_name(r): group_label(r.job.experiment, r.job.scenario) for r in results}
     g = growth.assign(group=growth["run"].map(group))
     rows = []
     for (grp, v), d in g.groupby(["group", "variant"], sort=False):
@@ -297,7 +302,9 @@ def group_cep_table(growth: pd.DataFrame, results: Sequence[Any]) -> pd.DataFram
                 "runs": grp,
                 "variant": v,
                 "n runs": len(d),
-                "CEP (median final) [nmi]": cep50(d["final [nmi]"]),
+                "CEP (median final) [nmi]": (
+                    cep50(d["final [nmi]"]) if len(d) >= MIN_CEP_RUNS else float("nan")
+                ),
                 "median max [nmi]": float(d["max [nmi]"].median()),
                 "median drift [nmi/h]": float(d["drift rate [nmi/h]"].median()),
             }

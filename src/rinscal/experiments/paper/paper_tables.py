@@ -35,6 +35,7 @@ import numpy as np
 import pandas as pd
 
 from rinscal import earth, units
+from rinscal.calibration.allan_units import datasheet_units
 from rinscal.calibration.compensate import model_features, predict_log
 from rinscal.calibration.inference import raw_polynomial
 from rinscal.calibration.modelfile import ThermalModelFile
@@ -151,19 +152,17 @@ def allan_by_sensor(allan: pd.DataFrame) -> dict[str, pd.DataFrame]:
         ``gyro`` and ``accel``: ``axis, output, N [...], B [...], τ(B) [s], K [...]``.
     """
     out = {}
-    for sensor, n_name, n_k, b_name, k_name, k_k in (
-        ("gyro", "N [°/√h]", 1.0 / 60.0, "B [°/h]", "K [°/h/√h]", 60.0),
-        ("accel", "N [µg/√Hz]", 1.0, "B [µg]", "K [µg/√s]", 1.0),
-    ):
+    for sensor, log_unit in (("gyro", "deg/h"), ("accel", "ug")):
+        u = datasheet_units(log_unit)
         t = allan[allan["channel"].str.startswith(sensor)]
         out[sensor] = pd.DataFrame(
             {
                 "axis": t["channel"].str.split("_").str[1].to_numpy(),
                 "output": t["output"].to_numpy(),
-                n_name: t["n"].to_numpy(dtype=float) * n_k,
-                b_name: t["b"].to_numpy(dtype=float),
+                f"N [{u.n_unit}]": t["n"].to_numpy(dtype=float) * u.n_factor,
+                f"B [{u.b_unit}]": t["b"].to_numpy(dtype=float),
                 "τ(B) [s]": t["b_tau_s"].to_numpy(dtype=float),
-                k_name: t["k"].to_numpy(dtype=float) * k_k,
+                f"K [{u.k_unit}]": t["k"].to_numpy(dtype=float) * u.k_factor,
             }
         )
     return out
