@@ -1,9 +1,35 @@
-"""Shared fixtures: small simulated and synthetic calibration logs (calibration, CLI tests)."""
+"""Shared fixtures: small simulated and synthetic calibration logs (calibration, CLI tests),
+and collection without the cyclic garbage collector.
+
+Nothing heavy is imported here at module top: every run loads this file, the layout test's
+included (which reads source only)."""
 
 from __future__ import annotations
 
-import pandas as pd
+import gc
+from typing import TYPE_CHECKING
+
 import pytest
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_collection(session: pytest.Session):
+    """Collect with the cyclic collector off, then collect once and turn it back on.
+
+    Collection imports the package and every test module and rewrites their asserts: millions
+    of short-lived objects, none of them in a cycle worth finding, while each full pass of the
+    collector walks every object already loaded (numpy, pandas, scipy...). Measured on the
+    suite: about 1.3 s of CPU of about 8 s. Tests run with the collector as usual.
+    """
+    gc.disable()
+    try:
+        return (yield)
+    finally:
+        gc.enable()
+        gc.collect()
 
 
 @pytest.fixture(scope="session")
