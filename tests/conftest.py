@@ -17,19 +17,23 @@ if TYPE_CHECKING:
 
 @pytest.hookimpl(wrapper=True)
 def pytest_collection(session: pytest.Session):
-    """Collect with the cyclic collector off, then collect once and turn it back on.
+    """Collect with the cyclic garbage collector off, then collect once and freeze.
 
     Collection imports the package and every test module and rewrites their asserts: millions
     of short-lived objects, none of them in a cycle worth finding, while each full pass of the
-    collector walks every object already loaded (numpy, pandas, scipy...). Measured on the
-    suite: about 1.3 s of CPU of about 8 s. Tests run with the collector as usual.
+    collector walks every object already loaded (numpy, pandas, scipy, ...). Freezing what is
+    alive after collection (modules, functions, test items: held to the end anyway) keeps later
+    passes to the objects the tests create, pytest's five at the session's end included.
+    Measured on the suite (``/usr/bin/time pytest --collect-only -q``): about 2 s of CPU of
+    8.4 s. Tests run with the collector on, as usual.
     """
     gc.disable()
     try:
         return (yield)
     finally:
-        gc.enable()
         gc.collect()
+        gc.freeze()
+        gc.enable()
 
 
 @pytest.fixture(scope="session")
