@@ -174,12 +174,15 @@ def _sources(root: Path) -> dict[str, tuple[Path, _Source]]:
     }
 
 
-def imports(root: Path = SRC) -> list[Import]:
-    """Every import of a ``rinscal`` module by a ``rinscal`` module under ``root``."""
+def imports(root: Path = SRC, importers: dict[str, Path] | None = None) -> list[Import]:
+    """Every import of a ``rinscal`` module by a ``rinscal`` module under ``root``, or by
+    ``importers`` (module name -> file, e.g. the tests) where given."""
     mods = _modules(root)
+    files = mods if importers is None else importers
     found: list[Import] = []
-    for mod, (path, src) in _sources(root).items():
-        where = str(path.relative_to(root))
+    for mod, path in files.items():
+        src = _source(path.read_text(), path.name == "__init__.py")
+        where = str(path.relative_to(root if path.is_relative_to(root) else root.parent))
         package = mod if path.name == "__init__.py" else mod.rpartition(".")[0]
         if mod == "rinscal":
             for name, target in src.api:
