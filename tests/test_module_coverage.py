@@ -4,9 +4,10 @@ statements (nothing is imported to find out), and every module imports.
 A module counts as imported by a test when a test file
 
 * imports it, or imports a name from it (``import m``, ``from m import x``, ``from p import m``);
-* imports a name from a package that takes that name from it (``from rinscal.io import
-  read_log`` reaches ``rinscal.io.tables``), the top package's lazy API table included, and
-  ``rinscal.<name>`` after ``import rinscal`` reaches the module the table names;
+* imports a name from a module or package that takes that name from it at import (``from
+  rinscal.io import read_log`` reaches ``rinscal.io.tables``), the top package's lazy API
+  table included, and ``rinscal.<name>`` after ``import rinscal`` reaches the module the
+  table names;
 * imports a module inside it (importing ``a.b.c`` runs ``a/__init__`` and ``a/b/__init__``).
 
 Modules still without a test are listed in :data:`NOT_YET` with the reason; the check fails
@@ -41,10 +42,11 @@ def tested_modules(root: Path = SRC, tests: dict[str, Path] | None = None) -> se
     """The modules under ``root`` that some file of ``tests`` imports (see the docstring)."""
     tests = _test_files() if tests is None else tests
     mods = _modules(root)
-    by_package: dict[str, dict[str, str]] = {}  # package -> name -> module it comes from
+    taken: dict[str, dict[str, str]] = {}  # module -> name -> the module it took it from
     for imp in imports(root):
-        if imp.name is not None and imp.source in mods and mods[imp.source].name == "__init__.py":
-            by_package.setdefault(imp.source, {})[imp.name] = imp.target
+        binds = not imp.deferred or imp.lazy or imp.source == "rinscal"  # at import or lazily
+        if imp.name is not None and binds:
+            taken.setdefault(imp.source, {})[imp.name] = imp.target
     reached: list[tuple[str, str | None]] = [(i.target, i.name) for i in imports(root, tests)]
     for path in tests.values():
         reached += [("rinscal", name) for name in _TOP_ATTRIBUTE.findall(path.read_text())]
@@ -57,8 +59,8 @@ def tested_modules(root: Path = SRC, tests: dict[str, Path] | None = None) -> se
         seen.add(item)
         target, name = item
         covered.add(target)
-        source = by_package.get(target, {}).get(name) if name is not None else None
-        if source is not None:  # the package took the name from ``source``: follow it
+        source = taken.get(target, {}).get(name) if name is not None else None
+        if source is not None:  # ``target`` took the name from ``source``: follow it
             reached.append((source, name))
     for mod in list(covered):  # importing a.b.c runs a/__init__ and a/b/__init__
         parts = mod.split(".")
@@ -82,25 +84,36 @@ def test_every_module_is_imported_by_some_test() -> None:
     assert not done, f"now imported by a test: remove from NOT_YET: {done}"
 
 
-def test_the_check_sees_a_name_through_a_package_and_misses_an_unused_module(
+def test_the_check_follows_names_to_their_modules_and_misses_an_unused_one(
     tmp_path: Path,
 ) -> None:
-    """Known answers on a made-up package: ``from pkg import f`` reaches ``pkg.a`` through
-    the package's re-export and runs ``pkg/__init__``; ``pkg.b`` is imported by nobody."""
+    """Known answers on a made-up package: ``from rinscal.sub import f`` reaches ``sub.a``
+    through the package's re-export and runs ``sub/__init__``; ``from rinscal.sub.d import
+    k`` reaches ``sub.e``, which ``d`` imports at its top, but not ``sub.b``, which ``d``
+    imports inside a function; ``rinscal.g`` reaches ``sub.c`` through the lazy API."""
     root = tmp_path / "src"
     pkg = root / "rinscal"
     (pkg / "sub").mkdir(parents=True)
     (pkg / "__init__.py").write_text('_API = {"g": "rinscal.sub.c:g"}\n')
-    (pkg / "sub" / "__init__.py").write_text("from rinscal.sub.a import f\n")
-    (pkg / "sub" / "a.py").write_text("def f(): ...\n")
-    (pkg / "sub" / "b.py").write_text("def h(): ...\n")
-    (pkg / "sub" / "c.py").write_text("def g(): ...\n")
+    files = {
+        "__init__": "from rinscal.sub.a import f\n",
+        "a": "def f(): ...\n",
+        "b": "def h(): ...\n",
+        "c": "def g(): ...\n",
+        "d": "from rinscal.sub.e import k\n\n\ndef later():\n    from rinscal.sub.b import h\n",
+        "e": "def k(): ...\n",
+    }
+    for name, text in files.items():
+        (pkg / "sub" / f"{name}.py").write_text(text)
     test = tmp_path / "tests" / "test_x.py"
     test.parent.mkdir()
-    test.write_text("from rinscal.sub import f\n")
-    assert untested_modules(root, {"tests.test_x": test}) == ["rinscal.sub.b", "rinscal.sub.c"]
-    test.write_text("import rinscal\nfrom rinscal.sub import f\n\nrinscal.g()\n")
-    assert untested_modules(root, {"tests.test_x": test}) == ["rinscal.sub.b"]
+    test.write_text("from rinscal.sub import f\nfrom rinscal.sub.d import k\n")
+    tests = {"tests.test_x": test}
+    assert untested_modules(root, tests) == ["rinscal.sub.b", "rinscal.sub.c"]
+    test.write_text(
+        "import rinscal\nfrom rinscal.sub import f\nfrom rinscal.sub.d import k\n\nrinscal.g()\n"
+    )
+    assert untested_modules(root, tests) == ["rinscal.sub.b"]
 
 
 def test_every_module_imports() -> None:
