@@ -34,7 +34,7 @@ def _test_files() -> dict[str, Path]:
 _TOP_ATTRIBUTE = re.compile(r"\brinscal\.([A-Za-z_]\w*)")
 
 
-def tested_modules(root: Path = SRC, tests: dict[str, Path] | None = None) -> set[str]:
+def covered_modules(root: Path = SRC, tests: dict[str, Path] | None = None) -> set[str]:
     """The modules under ``root`` that some file of ``tests`` imports (see the docstring)."""
     tests = _test_files() if tests is None else tests
     mods = _modules(root)
@@ -66,7 +66,7 @@ def tested_modules(root: Path = SRC, tests: dict[str, Path] | None = None) -> se
 
 def untested_modules(root: Path = SRC, tests: dict[str, Path] | None = None) -> list[str]:
     """Modules under ``root`` that no test imports."""
-    covered = tested_modules(root, tests)
+    covered = covered_modules(root, tests)
     return sorted(m for m in _modules(root) if m not in covered)
 
 
