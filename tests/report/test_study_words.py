@@ -1,53 +1,33 @@
-"""The study report's sentences (``rinscal.report.study_words``): a difference is called a
-win or a loss only where its 95 % interval excludes zero, and never with too few units."""
+"""The study report's words (``rinscal.report.study_words``): the sensitivity map read in
+cell counts, the tables' short names, and sentences escaped into HTML."""
 
 from __future__ import annotations
 
+import re
+
 import pandas as pd
 
-from rinscal.experiments.study.compare import MIN_SAMPLES
-from rinscal.report.study_words import code, comparison_lines, short_verdict
+from rinscal.report.study_words import CODES, code, map_lines, ul
 
 
-def _comp(n: int) -> pd.DataFrame:
-    rows = [  # method − reference [nmi]: interval below 0, above 0, across 0
-        ("regression", "none", -0.5, -0.1),
-        ("neural", "none", 0.1, 0.4),
-        ("sectional", "none", -0.2, 0.3),
-    ]
-    return pd.DataFrame(
-        [
-            {
-                "plant_label": "P",
-                "scenario": "qs",
-                "n units": n,
-                "method": m,
-                "reference": r,
-                "delta ci low": lo,
-                "delta ci high": hi,
-            }
-            for m, r, lo, hi in rows
-        ]
+def test_the_map_is_read_as_counts_of_its_cells() -> None:
+    kinds = ["better"] * 3 + ["worse", "unresolved", "not enough units"]
+    cells = pd.DataFrame(
+        {"method": "regression", "reference": "none", "cell": kinds, "plant": range(6)}
     )
+    cubic = cells.assign(method="neural", reference="poly-t", cell="worse")
+    lines = map_lines(pd.concat([cells, cubic], ignore_index=True))
+    assert len(lines) == 2
+    assert lines[0].startswith(
+        "sensitivity map, method 2 against no compensation: better in 3 of 6 cells, worse in 1, "
+        "not resolved in 1, no interval"
+    )
+    assert re.search(r"\(fewer than \d+ units\) in 1$", lines[0])
+    assert "method 3 against the cubic in T: better in 0 of 6 cells, worse in 6," in lines[1]
 
 
-def test_wins_losses_and_unresolved_follow_the_intervals() -> None:
-    (line,) = comparison_lines(_comp(8))
-    assert line.startswith("P, qs (8 units): ")
-    assert "method 2 beats no compensation" in line
-    assert "no compensation beats method 3" in line
-    assert "no resolved difference from no compensation for method 1" in line
-
-
-def test_too_few_units_claim_nothing() -> None:
-    (line,) = comparison_lines(_comp(MIN_SAMPLES - 1))
-    n = MIN_SAMPLES - 1
-    assert line.startswith(f"P · qs: not enough units for an interval (n = {n}; needs")
-    assert "point estimates; no method is said to beat or lose to another" in line
-
-
-def test_short_verdicts_use_the_tables_short_names() -> None:
-    assert code("regression") == "m2" and code("unknown") == "unknown"
-    assert short_verdict(8, -0.3, -0.1, "regression", "poly-t") == "m2 beats cubic (resolved)"
-    assert short_verdict(8, 0.1, 0.3, "regression", "none") == "none beats m2 (resolved)"
-    assert short_verdict(8, -0.1, 0.3, "neural", "none") == "no resolved difference"
+def test_short_names_and_html_lists() -> None:
+    assert code("regression") == "m2" and code("poly-t") == "cubic"
+    assert code("unknown") == "unknown"  # a variant without a short name keeps its own
+    assert len(set(CODES.values())) == len(CODES)  # no two variants share a short name
+    assert ul(["a < b", "x & y"]) == "<ul><li>a &lt; b</li><li>x &amp; y</li></ul>"
