@@ -1,9 +1,39 @@
-"""Shared fixtures: small simulated and synthetic calibration logs (calibration, CLI tests)."""
+"""Shared fixtures: small simulated and synthetic calibration logs (calibration, CLI tests),
+and collection without the cyclic garbage collector.
+
+Nothing heavy is imported here at module top: every run loads this file, the layout test's
+included (which reads source only)."""
 
 from __future__ import annotations
 
-import pandas as pd
+import gc
+from typing import TYPE_CHECKING
+
 import pytest
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_collection(session: pytest.Session):
+    """Collect with the cyclic garbage collector off, then collect once and freeze.
+
+    Collection imports the package and every test module and rewrites their asserts: millions
+    of short-lived objects, none of them in a cycle worth finding, while each full pass of the
+    collector walks every object already loaded (numpy, pandas, scipy, ...). Freezing what is
+    alive after collection (modules, functions, test items: held to the end anyway) keeps later
+    passes to the objects the tests create, pytest's five at the session's end included.
+    Measured on the suite (``/usr/bin/time pytest --collect-only -q``): about 2 s of CPU of
+    8.4 s. Tests run with the collector on, as usual.
+    """
+    gc.disable()
+    try:
+        return (yield)
+    finally:
+        gc.collect()
+        gc.freeze()
+        gc.enable()
 
 
 @pytest.fixture(scope="session")

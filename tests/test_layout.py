@@ -16,6 +16,7 @@ package with one bad import added, and check that it fails naming that import.
 from __future__ import annotations
 
 import ast
+import functools
 import shutil
 from collections import defaultdict
 from dataclasses import dataclass
@@ -66,9 +67,10 @@ class Import:
     deferred: bool  # inside a function or method
     text: str
     lazy: bool = False  # a package's PEP 562 ``__getattr__``: runs on attribute access only
+    path: str = ""  # the importing file, relative to the source root
 
     def where(self, root: Path) -> str:
-        return f"{_path(self.source, root)}:{self.line}: {self.text}"
+        return f"{self.path}:{self.line}: {self.text}"
 
 
 def _modules(root: Path) -> dict[str, Path]:
@@ -81,14 +83,68 @@ def _modules(root: Path) -> dict[str, Path]:
     return mods
 
 
-def _path(module: str, root: Path) -> str:
-    return str(_modules(root)[module].relative_to(root))
-
-
 def _resolve(name: str, mods: dict[str, Path]) -> str:
     while name and name not in mods:
         name = name.rpartition(".")[0]
     return name
+
+
+@dataclass(frozen=True)
+class _Statement:
+    """One ``import`` or ``from ... import`` statement as written, before resolution."""
+
+    node: ast.Import | ast.ImportFrom
+    function_line: int | None  # first line of the outermost function around it, if any
+    lazy: bool  # inside a package's module-level ``__getattr__``
+
+
+@dataclass(frozen=True)
+class _Source:
+    """What the rules read from one file: its lines, import statements, docstring, API."""
+
+    lines: tuple[str, ...]
+    statements: tuple[_Statement, ...]
+    docstring: str
+    api: tuple[tuple[str, str], ...]
+
+
+@functools.cache
+def _source(text: str, package_init: bool) -> _Source:
+    """One file's facts, parsed once per distinct text (the altered copies in the tests
+    below share every unchanged file's parse with the package itself)."""
+    tree = ast.parse(text)
+    found: list[_Statement] = []
+    _statements(tree.body, None, False, package_init, found)
+    return _Source(
+        tuple(text.splitlines()),
+        tuple(found),
+        ast.get_docstring(tree) or "",
+        tuple(_lazy_table(tree).items()),
+    )
+
+
+_BODIES = ("body", "orelse", "finalbody", "handlers", "cases")
+
+
+def _statements(
+    body: list, function_line: int | None, lazy: bool, top: bool, out: list[_Statement]
+) -> None:
+    """Import statements under ``body``, walking statements only (an import is a statement,
+    so expressions need no visit); ``top`` while at a package's module level."""
+    for node in body:
+        if isinstance(node, ast.Import | ast.ImportFrom):
+            out.append(_Statement(node, function_line, lazy))
+            continue
+        inner, inner_lazy = function_line, lazy
+        if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+            inner = node.lineno if function_line is None else function_line
+            inner_lazy = lazy or (
+                top and isinstance(node, ast.FunctionDef) and node.name == "__getattr__"
+            )
+        for field in _BODIES:
+            for child in getattr(node, field, None) or ():
+                stmts = [child] if isinstance(child, ast.stmt) else child.body
+                _statements(stmts, inner, inner_lazy, False, out)
 
 
 def _lazy_table(tree: ast.Module) -> dict[str, str]:
@@ -110,79 +166,62 @@ def _targets(node: ast.AnnAssign | ast.Assign) -> list[ast.expr]:
     return [node.target] if isinstance(node, ast.AnnAssign) else list(node.targets)
 
 
-def imports(root: Path = SRC) -> list[Import]:
-    """Every import of a ``rinscal`` module by a ``rinscal`` module under ``root``."""
+def _sources(root: Path) -> dict[str, tuple[Path, _Source]]:
+    """Every module under ``root`` with its parsed facts."""
+    return {
+        mod: (path, _source(path.read_text(), path.name == "__init__.py"))
+        for mod, path in _modules(root).items()
+    }
+
+
+def imports(root: Path = SRC, importers: dict[str, Path] | None = None) -> list[Import]:
+    """Every import of a ``rinscal`` module by a ``rinscal`` module under ``root``, or by
+    ``importers`` (module name -> file, e.g. the tests) where given."""
     mods = _modules(root)
+    files = mods if importers is None else importers
     found: list[Import] = []
-    for mod, path in mods.items():
-        text = path.read_text()
-        lines = text.splitlines()
-        tree = ast.parse(text)
+    for mod, path in files.items():
+        src = _source(path.read_text(), path.name == "__init__.py")
+        where = str(path.relative_to(root if path.is_relative_to(root) else root.parent))
         package = mod if path.name == "__init__.py" else mod.rpartition(".")[0]
         if mod == "rinscal":
-            for name, target in _lazy_table(tree).items():
+            for name, target in src.api:
                 module = target.partition(":")[0]
-                found.append(Import(mod, module, name, 0, True, f"_API[{name!r}]"))
-        nested = _nested_imports(tree)
-        lazy = _lazy_imports(tree) if path.name == "__init__.py" else set()
-        for node in ast.walk(tree):
+                found.append(Import(mod, module, name, 0, True, f"_API[{name!r}]", path=where))
+        for st in src.statements:
+            node = st.node
+            text = src.lines[node.lineno - 1].strip()
+            nested = st.function_line is not None
             if isinstance(node, ast.Import):
                 for alias in node.names:
                     if alias.name.split(".")[0] == "rinscal":
+                        target = _resolve(alias.name, mods)
                         found.append(
-                            Import(
-                                mod,
-                                _resolve(alias.name, mods),
-                                None,
-                                node.lineno,
-                                id(node) in nested,
-                                lines[node.lineno - 1].strip(),
-                                id(node) in lazy,
-                            )
+                            Import(mod, target, None, node.lineno, nested, text, st.lazy, where)
                         )
-            elif isinstance(node, ast.ImportFrom):
-                base = node.module or ""
-                if node.level:
-                    up = package.split(".")[: len(package.split(".")) - node.level + 1]
-                    base = ".".join(up + ([base] if base else []))
-                if base.split(".")[0] != "rinscal":
-                    continue
-                for alias in node.names:
-                    full = f"{base}.{alias.name}"
-                    sub = full in mods
-                    found.append(
-                        Import(
-                            mod,
-                            full if sub else _resolve(base, mods),
-                            None if sub else alias.name,
-                            node.lineno,
-                            id(node) in nested,
-                            lines[node.lineno - 1].strip(),
-                            id(node) in lazy,
-                        )
+                continue
+            base = node.module or ""
+            if node.level:
+                up = package.split(".")[: len(package.split(".")) - node.level + 1]
+                base = ".".join(up + ([base] if base else []))
+            if base.split(".")[0] != "rinscal":
+                continue
+            for alias in node.names:
+                full = f"{base}.{alias.name}"
+                sub = full in mods
+                found.append(
+                    Import(
+                        mod,
+                        full if sub else _resolve(base, mods),
+                        None if sub else alias.name,
+                        node.lineno,
+                        nested,
+                        text,
+                        st.lazy,
+                        where,
                     )
+                )
     return found
-
-
-def _nested_imports(tree: ast.Module) -> set[int]:
-    nested: set[int] = set()
-    for fn in ast.walk(tree):
-        if isinstance(fn, ast.FunctionDef | ast.AsyncFunctionDef):
-            for node in ast.walk(fn):
-                if isinstance(node, ast.Import | ast.ImportFrom):
-                    nested.add(id(node))
-    return nested
-
-
-def _lazy_imports(tree: ast.Module) -> set[int]:
-    """Imports inside a package's module-level ``__getattr__`` (PEP 562 lazy attributes)."""
-    return {
-        id(node)
-        for fn in tree.body
-        if isinstance(fn, ast.FunctionDef) and fn.name == "__getattr__"
-        for node in ast.walk(fn)
-        if isinstance(node, ast.Import | ast.ImportFrom)
-    }
 
 
 def _layer(module: str) -> int | None:
@@ -223,11 +262,13 @@ def import_cycles(root: Path = SRC) -> list[str]:
     for imp in imports(root):
         if imp.target != imp.source and not imp.lazy:
             graph[imp.source].setdefault(imp.target, imp)
-    for mod in _modules(root):  # importing a.b.c runs a/b/__init__ first (the top's API is lazy)
+    for mod, path in _modules(root).items():  # a.b.c runs a/b/__init__ (the top's API is lazy)
         parts = mod.split(".")
+        where = str(path.relative_to(root))
         for k in range(2, len(parts)):
             parent = ".".join(parts[:k])
-            graph[mod].setdefault(parent, Import(mod, parent, None, 0, False, f"(runs {parent})"))
+            runs = Import(mod, parent, None, 0, False, f"(runs {parent})", path=where)
+            graph[mod].setdefault(parent, runs)
     index: dict[str, int] = {}
     low: dict[str, int] = {}
     stack: list[str] = []
@@ -271,6 +312,7 @@ def import_cycles(root: Path = SRC) -> list[str]:
 def private_imports(root: Path = SRC) -> list[str]:
     """Private modules or names taken from outside the package that owns them."""
     bad = []
+    mods = _modules(root)
     for imp in imports(root):
         if imp.source == "rinscal":
             continue
@@ -281,7 +323,8 @@ def private_imports(root: Path = SRC) -> list[str]:
                 owner = ".".join(parts[:k])
                 break
         if owner is None and imp.name is not None and imp.name.startswith("_"):
-            owner = imp.target.rpartition(".")[0] if _is_module(imp.target, root) else imp.target
+            module = mods[imp.target].name != "__init__.py"  # a package owns its own names
+            owner = imp.target.rpartition(".")[0] if module else imp.target
         if owner is None:
             continue
         if not (imp.source == owner or imp.source.startswith(owner + ".")):
@@ -289,28 +332,20 @@ def private_imports(root: Path = SRC) -> list[str]:
     return bad
 
 
-def _is_module(name: str, root: Path) -> bool:
-    path = _modules(root)[name]
-    return path.name != "__init__.py"
-
-
 def module_sizes(root: Path = SRC) -> list[str]:
     """Modules over the limit, and long ones that do not say why they are one idea."""
     bad = []
-    for mod, path in _modules(root).items():
-        text = path.read_text()
-        n = len(text.splitlines())
+    for mod, (path, src) in _sources(root).items():
+        n = len(src.lines)
         if mod in EXEMPT_SIZE:
             continue
         if n > MAX_LINES:
             bad.append(f"{path.relative_to(root)}: {n} lines (at most {MAX_LINES})")
-        elif n > EXPLAIN_LINES:
-            doc = ast.get_docstring(ast.parse(text)) or ""
-            if "Why one module" not in doc:
-                bad.append(
-                    f"{path.relative_to(root)}: {n} lines and no 'Why one module' paragraph "
-                    "in its docstring"
-                )
+        elif n > EXPLAIN_LINES and "Why one module" not in src.docstring:
+            bad.append(
+                f"{path.relative_to(root)}: {n} lines and no 'Why one module' paragraph "
+                "in its docstring"
+            )
     return bad
 
 
@@ -318,26 +353,18 @@ def undeclared_deferred(root: Path = SRC) -> list[str]:
     """Imports inside a function with no comment saying why they are deferred.
 
     The comment (containing "deferred") may sit on the import's line or anywhere above it
-    in the same function: one comment serves a block of imports.
+    in the same (outermost) function: one comment serves a block of imports.
     """
     bad = []
-    for path in _modules(root).values():
-        text = path.read_text()
-        lines = text.splitlines()
-        tree = ast.parse(text)
-        seen: set[int] = set()
-        for fn in ast.walk(tree):
-            if not isinstance(fn, ast.FunctionDef | ast.AsyncFunctionDef):
+    for path, src in _sources(root).values():
+        for st in src.statements:
+            if st.function_line is None:
                 continue
-            for node in ast.walk(fn):
-                if not isinstance(node, ast.Import | ast.ImportFrom) or id(node) in seen:
-                    continue
-                seen.add(id(node))
-                above = lines[fn.lineno - 1 : node.end_lineno or node.lineno]
-                if not any("#" in ln and "deferred" in ln.split("#", 1)[1] for ln in above):
-                    bad.append(
-                        f"{path.relative_to(root)}:{node.lineno}: {lines[node.lineno - 1].strip()}"
-                    )
+            node = st.node
+            above = src.lines[st.function_line - 1 : node.end_lineno or node.lineno]
+            if not any("#" in ln and "deferred" in ln.split("#", 1)[1] for ln in above):
+                line = src.lines[node.lineno - 1].strip()
+                bad.append(f"{path.relative_to(root)}:{node.lineno}: {line}")
     return bad
 
 

@@ -10,6 +10,7 @@ import pytest
 from typer.testing import CliRunner
 
 from rinscal.cli import app
+from rinscal.cli.navigate import _OUTPUTS
 
 runner = CliRunner()
 
@@ -19,14 +20,10 @@ def test_navigate_quasi_static_writes_errors_summary_and_plots(tmp_path) -> None
     args = ["navigate", "--scenario", "quasi-static", "--hours", "0.3", "--rate", "10"]
     res = runner.invoke(app, [*args, "--seed", "4", "--out", str(out)])
     assert res.exit_code == 0, res.output
-    for name in (
-        "errors.csv",
-        "truth.csv",
-        "summary.json",
-        "position_error.png",
-        "trajectory.png",
-        "temperatures.png",
-    ):
+    # exactly the outputs the command guards against overwriting an input, none empty
+    assert sorted(p.name for p in out.iterdir()) == sorted(_OUTPUTS)
+    assert set(_OUTPUTS) >= {"errors.csv", "truth.csv", "summary.json", "position_error.png"}
+    for name in _OUTPUTS:
         assert (out / name).stat().st_size > 0, name
     err = pd.read_csv(out / "errors.csv")
     summary = json.loads((out / "summary.json").read_text())

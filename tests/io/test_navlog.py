@@ -13,6 +13,7 @@ import pytest
 
 from rinscal.errors import ConfigError, LogError
 from rinscal.io.metadata import write_meta
+from rinscal.io.navlog import Gap, NavLog
 from rinscal.io.navmapping import NavMapping, parse_weight, read_nav_mapping
 from rinscal.io.navopen import open_nav_log
 from rinscal.io.track import read_track
@@ -215,6 +216,8 @@ def test_gaps_reported_refused_and_allowed(tmp_path: Path) -> None:
     assert f"data row {row}" in msg and "--allow-gaps" in msg and "10 samples" in msg
     assert f"{m['t'][260]:.10g} s" in msg
     assert [(g.row, g.missing_samples) for g in log.gaps] == [(101, 3), (row, 10)]
+    assert isinstance(log, NavLog) and all(isinstance(g, Gap) for g in log.gaps)
+    assert log.gaps[0].time_s == pytest.approx(m["t"][103])  # the sample that ends the gap
     s = whole(log, allow_gaps=True)
     assert [g.missing_samples for g in log.gaps] == [3, 10]
     assert log.gaps[1].length_s == pytest.approx(11 / RATE)

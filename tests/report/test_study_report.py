@@ -65,10 +65,14 @@ def _results(n_units: int = 8) -> pd.DataFrame:
 @functools.lru_cache(maxsize=4)
 def _tables(n_units: int):  # type: ignore[no-untyped-def]
     res = _results(n_units)
-    return tables_from_results(res, plant_table(SPEC), sensitivities=_SENS)
+    return tables_from_results(res, plant_table(SPEC), sensitivities=_sensitivities())
 
 
-_SENS = plant_sensitivities(SPEC)
+@functools.cache
+def _sensitivities() -> pd.DataFrame:
+    """The spec's plant sensitivities, computed once when a test first needs them (about 1 s
+    of simulation: not at collection)."""
+    return plant_sensitivities(SPEC)
 
 
 def test_report_states_verdicts_map_oracle_and_ablation() -> None:
@@ -181,7 +185,8 @@ def test_map_is_coloured_only_where_resolved() -> None:
             for ref in ("none", "poly-t")
         ]
     )
-    cells = sensitivity_map(comp, _SENS[_SENS["plant"] < 4])
+    sens = _sensitivities()
+    cells = sensitivity_map(comp, sens[sens["plant"] < 4])
     got = cells.drop_duplicates("plant").set_index("plant")["cell"].to_dict()
     assert got == {0: "better", 1: "worse", 2: "unresolved", 3: "not enough units"}
     fig = map_figure(cells)
