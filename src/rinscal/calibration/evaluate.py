@@ -29,7 +29,7 @@ import pandas as pd
 
 from rinscal.calibration.allan import AllanCurve, allan_deviation, noise_parameters
 from rinscal.calibration.compensate import imu_calibrated_frame, model_features, predict_log
-from rinscal.calibration.modelfile import Policy, ThermalModelFile
+from rinscal.calibration.modelfile import FittedModel, Policy
 from rinscal.calibration.thermal.features import DerivativeConfig, Features, OutlierConfig
 from rinscal.errors import ConfigError
 
@@ -172,7 +172,7 @@ Prepared = tuple[Features, np.ndarray, np.ndarray]
 
 def prepare(
     log: pd.DataFrame,
-    model: ThermalModelFile,
+    model: FittedModel,
     policy: Policy = "clamp",
     derivative_kind: str | None = None,
     outliers: OutlierConfig | None = None,
@@ -184,7 +184,7 @@ def prepare(
     ----------
     log : DataFrame
         Validated calibration log.
-    model : ThermalModelFile
+    model : FittedModel
         The model.
     policy : {"clamp", "fallback", "extrapolate", "error"}
         Handling of samples outside the training data.
@@ -209,7 +209,7 @@ def prepare(
 
 def evaluate_runs(
     runs: Iterable[tuple[pd.DataFrame, int]],
-    model: ThermalModelFile,
+    model: FittedModel,
     policy: Policy = "clamp",
     derivative_kind: str | None = None,
     step: StepConfig | None = None,
@@ -265,7 +265,7 @@ def evaluate_runs(
 
 def evaluate(
     log: pd.DataFrame,
-    model: ThermalModelFile,
+    model: FittedModel,
     policy: Policy = "clamp",
     derivative_kind: str | None = None,
     step: StepConfig | None = None,
@@ -279,7 +279,7 @@ def evaluate(
     ----------
     log : DataFrame
         Validated calibration log.
-    model : ThermalModelFile
+    model : FittedModel
         The model.
     policy : {"clamp", "fallback", "extrapolate", "error"}
         Handling of samples outside the training data.
@@ -354,7 +354,7 @@ def evaluate(
 
 def allan_table(
     log: pd.DataFrame,
-    model: ThermalModelFile,
+    model: FittedModel,
     policy: Policy = "clamp",
     derivative_kind: str | None = None,
     outliers: OutlierConfig | None = None,
@@ -371,7 +371,7 @@ def allan_table(
     ----------
     log : DataFrame
         Validated calibration log.
-    model : ThermalModelFile
+    model : FittedModel
         The model.
     policy : {"clamp", "fallback", "extrapolate", "error"}
         Handling of samples outside the training data.

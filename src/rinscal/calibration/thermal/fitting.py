@@ -1,9 +1,9 @@
 """Fitting of the polynomial thermal models: numpy only.
 
-The numerics behind :mod:`rinscal.calibration.thermal.estimators` (whose scikit-learn classes call
-these functions) and what :class:`rinscal.calibration.thermal.model.ThermalModel` calls directly, so
-that fitting ``poly-t``, ``sectional``, ``regression``, ``px4`` or ``ardupilot`` never imports
-scikit-learn (about 1 s of a command's start-up); only ``neural`` does.
+The numerics behind :mod:`rinscal.calibration.thermal.estimators` (whose scikit-learn classes
+call these functions) and what :class:`rinscal.calibration.thermal.model.ThermalFitter` calls
+directly, so that fitting ``poly-t``, ``sectional``, ``regression``, ``px4`` or ``ardupilot``
+never imports scikit-learn (about 1 s of a command's start-up); only ``neural`` does.
 
 Polynomial inputs are mapped onto ``[−1, 1]`` (centre and half-range, as
 ``astropy.modeling`` does), and the least-squares problem is solved by a blocked QR
