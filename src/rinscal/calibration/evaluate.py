@@ -30,6 +30,7 @@ import pandas as pd
 from rinscal.calibration.allan import AllanCurve, allan_deviation, noise_parameters
 from rinscal.calibration.compensate import imu_calibrated_frame, model_features, predict_log
 from rinscal.calibration.modelfile import FittedModel, Policy
+from rinscal.calibration.regression import least_squares
 from rinscal.calibration.thermal.features import DerivativeConfig, Features, OutlierConfig
 from rinscal.errors import ConfigError
 
@@ -113,7 +114,7 @@ def edge_crossings(temp: np.ndarray, edge: float, hysteresis: float) -> np.ndarr
 def _line_at(t: np.ndarray, y: np.ndarray, t0: float) -> float:
     tt = t - t0
     a = np.column_stack([np.ones_like(tt), tt])
-    beta = np.linalg.lstsq(a, y, rcond=None)[0]
+    beta = least_squares(a, y)
     return float(beta[0])
 
 

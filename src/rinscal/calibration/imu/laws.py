@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from rinscal.calibration.regression import least_squares
 from rinscal.calibration.selection.rule import LAW_TOLERANCE, simplest_within
 
 __all__ = ["Law", "fit_law"]
@@ -77,8 +78,7 @@ def _design(x: NDArray[np.float64], r: NDArray[np.float64] | None, d: int) -> ND
 
 
 def _wls(a: NDArray[np.float64], v: NDArray[np.float64], sd: NDArray[np.float64]) -> NDArray:
-    coef, *_ = np.linalg.lstsq(a / sd[:, None], v / sd, rcond=None)
-    return coef
+    return least_squares(a, v, sd)
 
 
 def fit_law(
