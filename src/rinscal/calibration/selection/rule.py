@@ -16,11 +16,12 @@ Where it is used, with its default (:data:`DEFAULT_TOLERANCES`), and why the def
     widens that, so by default it adds nothing.
 ``select --method regression`` / ``neural`` (:data:`SETTINGS_TOLERANCE` = 0.02)
     Leave-one-run-out RMS per sample of one setting swept (orders ``p = q = s = k`` or hidden
-    neurons) with no test: 2 % is the paper's "no material gain" from a larger setting.
+    neurons) with no test: a larger setting must gain more than 2 % (this package's
+    convention, not a statistical test, and not the paper's).
 ``calibrate-imu`` laws (:data:`LAW_TOLERANCE` = 0.2)
     Leave-one-temperature-out RMS of a parameter's law, in units of the estimates' sd, over
-    five to nine temperatures: with so few points a higher degree often scores 10-20 %
-    better by chance alone (:mod:`rinscal.calibration.imu.laws`).
+    a handful of temperatures: with five, a higher degree often scores a little better by
+    chance alone (:mod:`rinscal.calibration.imu.laws`).
 
 Before this module, ``fit --tolerance`` was a relative excess of the held-out *mean square*
 error; a value ``m`` given then is the RMS tolerance ``√(1 + m) − 1`` now
