@@ -662,8 +662,8 @@ def _select_auto(
     console.print(
         "chosen: among the models a paired t-test (90 %, log ratios over the folds) cannot "
         "tell from the best held-out error"
-        f"{f' or within {tolerance:.1%} of it' if tolerance else ''}: none, then ArduPilot's "
-        "fit, then PX4's, then the fewest thermal parameters; "
+        f"{f' or within {tolerance:.1%} of its held-out RMS' if tolerance else ''}: none, then "
+        "ArduPilot's fit, then PX4's, then the fewest thermal parameters; "
         "fallback: the same among models of T alone, used outside the training domain "
         "(compensate --policy fallback)",
         highlight=False,
