@@ -190,7 +190,9 @@ class ChannelModel:
         clamped to its training range, outside the domain under policy ``fallback``.
     selection : dict or None
         How ``fit --method auto`` chose this channel's model: ``scheme`` and ``folds`` of
-        the held-out check, ``tolerance``, ``chosen`` and ``fallback`` (candidate names),
+        the held-out check, ``tolerance`` [dimensionless: relative excess of the held-out
+        RMS, :mod:`rinscal.calibration.selection.rule`; of the mean square error in files
+        written before it, 0 by default in both], ``chosen`` and ``fallback`` (candidate names),
         ``table`` (one row per candidate: ``name``, ``method``, ``n_params``,
         ``heldout_rms``, ``fold_rms``, ``train_rms``) and, from schema version 4, ``flight``
         (candidate name → parameters on all the data of every scored candidate PX4 and
