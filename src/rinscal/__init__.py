@@ -44,14 +44,17 @@ Data
     :func:`simulate_multiposition` (the IMU on a two-axis turntable in the chamber → log,
     truth parameter table, metadata), :func:`load_imu` (an IMU preset or TOML file).
 Calibration
-    :func:`fit` (→ :class:`FitResult`: the model and its report), :class:`ThermalModel`
-    (the estimator itself), :func:`calibrate_imu` (a multi-position turntable log → scale
-    factors, misalignments and biases over temperature, :class:`ImuCalibrationResult`;
-    its laws an :class:`ImuCalibration`, whose ``correct`` applies the inverse model),
-    :func:`load_model` (a JSON model file → :class:`ThermalModelFile`),
+    :func:`fit` (→ :class:`FitResult`: the model and its report), :class:`ThermalFitter`
+    (the fitter itself, scikit-learn style), :func:`calibrate_imu` (a multi-position
+    turntable log → scale factors, misalignments and biases over temperature,
+    :class:`ImuCalibrationResult`; its laws an :class:`ImuCalibration`, whose ``correct``
+    applies the inverse model),
+    :func:`load_model` (a JSON model file → :class:`FittedModel`, the fitted model),
     :func:`compensate` (in memory), :func:`compensate_file` (streamed, file to file),
-    :func:`evaluate` (RMS before/after, steps, Allan), :func:`select` (held-out RMS per
-    setting, Tables 5 and 7).
+    :func:`evaluate` (RMS before/after, steps, Allan), :func:`select` (held-out RMS of
+    every ``auto`` candidate, as ``rinscal select``, or per setting, Tables 5 and 7).
+    ``ThermalModel`` and ``ThermalModelFile``, the old names of :class:`ThermalFitter` and
+    :class:`FittedModel`, still work for one release.
 Navigation
     :func:`navigate` (a scenario or a recording, with and without models), :class:`Scenario`
     (a scenario built in code), :func:`scenario` (the paper's, by name).
@@ -92,9 +95,9 @@ _API: dict[str, str] = {
     "calibrate_imu": "rinscal.calibration.imu.workflow",
     "ImuCalibrationResult": "rinscal.calibration.imu.workflow",
     "FitResult": "rinscal.calibration.workflow",
-    "ThermalModel": "rinscal.calibration.thermal.model",
+    "ThermalFitter": "rinscal.calibration.thermal.model",
     "load_model": "rinscal.calibration.workflow",
-    "ThermalModelFile": "rinscal.calibration.modelfile",
+    "FittedModel": "rinscal.calibration.modelfile",
     "compensate": "rinscal.calibration.workflow",
     "compensate_file": "rinscal.calibration.workflow",
     "evaluate": "rinscal.calibration.workflow",
@@ -104,11 +107,18 @@ _API: dict[str, str] = {
     "scenario": "rinscal.nav.scenario:preset",
 }
 
+#: Old names, kept for one release: the same objects as the names they point to.
+_ALIASES: dict[str, str] = {"ThermalModel": "ThermalFitter", "ThermalModelFile": "FittedModel"}
+
 __all__ = ["__version__", *_API]
 
 
 def __getattr__(name: str) -> Any:
     """Load a public name on first use (PEP 562)."""
+    if name in _ALIASES:
+        value = __getattr__(_ALIASES[name])
+        globals()[name] = value
+        return value
     target = _API.get(name)
     if target is None:
         raise AttributeError(f"module 'rinscal' has no attribute {name!r}")

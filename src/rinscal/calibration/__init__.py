@@ -4,7 +4,7 @@ Sub-packages
 ------------
 :mod:`~rinscal.calibration.thermal`
     Thermal bias models and their fitting (features, estimators, the field's baselines,
-    ``ThermalModel``).
+    ``ThermalFitter``).
 :mod:`~rinscal.calibration.selection`
     Model selection on held-out data (``fit --method auto``, Tables 5 and 7, honestly).
 
@@ -13,7 +13,7 @@ Modules
 :mod:`~rinscal.calibration.inference`
     Numpy-only inference of every method from its stored parameters.
 :mod:`~rinscal.calibration.modelfile`
-    ``ThermalModelFile``: the validated JSON model file and numpy-only inference
+    ``FittedModel``: the validated JSON model file and numpy-only inference
     (``predict``, ``predict_bias_si``).
 :mod:`~rinscal.calibration.compensate`
     Batch and streaming compensation (Eq. 10).

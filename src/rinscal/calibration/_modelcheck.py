@@ -1,5 +1,5 @@
 """Validation of a thermal model file's channel entries (the bulk of
-:meth:`rinscal.calibration.modelfile.ThermalModelFile.load`'s checks), apart from the file's
+:meth:`rinscal.calibration.modelfile.FittedModel.load`'s checks), apart from the file's
 layout and evaluation so that :mod:`rinscal.calibration.modelfile` stays one readable idea.
 
 Every check raises :class:`ValueError` naming the key; the model file turns it into a

@@ -68,6 +68,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from rinscal.calibration.regression import least_squares
 from rinscal.errors import ConfigError
 
 __all__ = [
@@ -688,7 +689,7 @@ def _nnls(a: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]
     best_r = float(np.dot(y, y))
     for mask in range(1, 2**k):
         cols = [j for j in range(k) if mask >> j & 1]
-        sol, *_ = np.linalg.lstsq(b[:, cols], y, rcond=None)
+        sol = least_squares(b[:, cols], y)
         if np.any(sol <= 0):
             continue
         r = y - b[:, cols] @ sol

@@ -40,7 +40,7 @@ import pandas as pd
 
 from rinscal.calibration.imustage import PHYSICAL_TO_SI, PHYSICAL_UNITS, ImuStage
 from rinscal.calibration.inference import predict_params
-from rinscal.calibration.modelfile import Policy, ThermalModelFile, check_policy
+from rinscal.calibration.modelfile import FittedModel, Policy, check_policy
 from rinscal.calibration.thermal.features import (
     DerivativeConfig,
     Features,
@@ -79,7 +79,7 @@ def imu_calibrated_channels(
         Calibration log (several runs allowed) with the six sensor channels in the units the
         calibration's stage expects, and each channel's inner temperature.
     stage : ImuStage
-        The IMU calibration and the raw units (:attr:`ThermalModelFile.imu_stage`).
+        The IMU calibration and the raw units (:attr:`FittedModel.imu_stage`).
     derivative : DerivativeConfig, optional
         The temperature-rate estimator, used only by a calibration with laws in the rate
         (a ramp calibration); default 60 s centred.
@@ -148,7 +148,7 @@ def physical_meta(meta: Mapping[str, Any] | None) -> dict[str, Any]:
 
 def model_features(
     log: pd.DataFrame,
-    model: ThermalModelFile,
+    model: FittedModel,
     derivative_kind: str | None = None,
     outliers: OutlierConfig | None = None,
     channels: Sequence[str] | None = None,
@@ -159,7 +159,7 @@ def model_features(
     ----------
     log : DataFrame
         Validated calibration log.
-    model : ThermalModelFile
+    model : FittedModel
         The model.
     derivative_kind : {"centred", "causal"}, optional
         Override the model's derivative kind (e.g. ``"causal"`` for real-time behaviour).
@@ -186,7 +186,7 @@ def model_features(
 
 def predict_log(
     log: pd.DataFrame,
-    model: ThermalModelFile,
+    model: FittedModel,
     policy: Policy = "extrapolate",
     derivative_kind: str | None = None,
     features: Features | None = None,
@@ -198,7 +198,7 @@ def predict_log(
     ----------
     log : DataFrame
         Validated calibration log.
-    model : ThermalModelFile
+    model : FittedModel
         The model.
     policy : {"clamp", "fallback", "extrapolate", "error"}
         Handling of samples outside the training data.
@@ -212,7 +212,7 @@ def predict_log(
     Returns
     -------
     f : ndarray, shape (n, m) [log units]
-        Modelled output per channel (:attr:`ThermalModelFile.channels` order).
+        Modelled output per channel (:attr:`FittedModel.channels` order).
     out_of_range : ndarray of bool, shape (n, m)
     """
     n, m = len(log), len(model.channels)
@@ -225,7 +225,7 @@ def predict_log(
 
 def _predicted(
     log: pd.DataFrame,
-    model: ThermalModelFile,
+    model: FittedModel,
     policy: Policy,
     derivative_kind: str | None,
     features: Features | None,
@@ -253,7 +253,7 @@ def _predicted(
 
 def compensate(
     log: pd.DataFrame,
-    model: ThermalModelFile,
+    model: FittedModel,
     policy: Policy = "clamp",
     derivative_kind: str | None = None,
 ) -> pd.DataFrame:
@@ -263,7 +263,7 @@ def compensate(
     ----------
     log : DataFrame
         Validated calibration log (not modified).
-    model : ThermalModelFile
+    model : FittedModel
         The model.
     policy : {"clamp", "fallback", "extrapolate", "error"}
         Handling of samples outside the training data (see the module docstring).
@@ -292,7 +292,7 @@ def compensate(
 
 def compensated_channels(
     log: pd.DataFrame,
-    model: ThermalModelFile,
+    model: FittedModel,
     policy: Policy = "clamp",
     derivative_kind: str | None = None,
     first_row: int = 0,
@@ -346,7 +346,7 @@ class StreamingCompensator:
 
     Parameters
     ----------
-    model : ThermalModelFile
+    model : FittedModel
         The model.
     policy : {"clamp", "fallback", "extrapolate", "error"}
         Handling of samples outside the training data.
@@ -358,7 +358,7 @@ class StreamingCompensator:
     ...     corrected, flagged = comp.update(t, raw, temps, t_out)
     """
 
-    def __init__(self, model: ThermalModelFile, policy: Policy = "clamp") -> None:
+    def __init__(self, model: FittedModel, policy: Policy = "clamp") -> None:
         check_policy(policy)
         self.model = model
         self.policy = policy
@@ -442,7 +442,7 @@ class StreamingCompensator:
         ``(f(T, Ṫ, ΔT) − r) · unit_to_si`` per channel (the thermal step alone: behind an
         IMU calibration, subtract it from :meth:`ImuStage.correct_si
         <rinscal.calibration.imustage.ImuStage.correct_si>` of the raw output)
-        (:meth:`~rinscal.calibration.modelfile.ThermalModelFile.predict_bias_si`), ``Ṫ`` the
+        (:meth:`~rinscal.calibration.modelfile.FittedModel.predict_bias_si`), ``Ṫ`` the
         causal windowed slope of the record: what a navigation computer reading its
         thermometers at ``time_s`` subtracts from each channel.
 
@@ -483,14 +483,12 @@ class StreamingCompensator:
         return bias
 
 
-def check_units(
-    model: ThermalModelFile, meta: Mapping[str, Any] | None, source: str = "log"
-) -> None:
+def check_units(model: FittedModel, meta: Mapping[str, Any] | None, source: str = "log") -> None:
     """Refuse a log whose channel units differ from those the model was fitted in.
 
     Parameters
     ----------
-    model : ThermalModelFile
+    model : FittedModel
         The model (its channels' ``unit``; behind an IMU calibration, the calibration's
         input units).
     meta : mapping, optional
@@ -524,12 +522,12 @@ def check_units(
         )
 
 
-def describe_reference(model: ThermalModelFile) -> tuple[str, list[str]]:
+def describe_reference(model: FittedModel) -> tuple[str, list[str]]:
     """What compensation subtracts, in words: ``N − (f − r)`` and where ``r`` comes from.
 
     Parameters
     ----------
-    model : ThermalModelFile
+    model : FittedModel
         The model.
 
     Returns

@@ -29,7 +29,8 @@ import pandas as pd
 
 from rinscal.calibration.allan import AllanCurve, allan_deviation, noise_parameters
 from rinscal.calibration.compensate import imu_calibrated_frame, model_features, predict_log
-from rinscal.calibration.modelfile import Policy, ThermalModelFile
+from rinscal.calibration.modelfile import FittedModel, Policy
+from rinscal.calibration.regression import least_squares
 from rinscal.calibration.thermal.features import DerivativeConfig, Features, OutlierConfig
 from rinscal.errors import ConfigError
 
@@ -113,7 +114,7 @@ def edge_crossings(temp: np.ndarray, edge: float, hysteresis: float) -> np.ndarr
 def _line_at(t: np.ndarray, y: np.ndarray, t0: float) -> float:
     tt = t - t0
     a = np.column_stack([np.ones_like(tt), tt])
-    beta = np.linalg.lstsq(a, y, rcond=None)[0]
+    beta = least_squares(a, y)
     return float(beta[0])
 
 
@@ -172,7 +173,7 @@ Prepared = tuple[Features, np.ndarray, np.ndarray]
 
 def prepare(
     log: pd.DataFrame,
-    model: ThermalModelFile,
+    model: FittedModel,
     policy: Policy = "clamp",
     derivative_kind: str | None = None,
     outliers: OutlierConfig | None = None,
@@ -184,7 +185,7 @@ def prepare(
     ----------
     log : DataFrame
         Validated calibration log.
-    model : ThermalModelFile
+    model : FittedModel
         The model.
     policy : {"clamp", "fallback", "extrapolate", "error"}
         Handling of samples outside the training data.
@@ -209,7 +210,7 @@ def prepare(
 
 def evaluate_runs(
     runs: Iterable[tuple[pd.DataFrame, int]],
-    model: ThermalModelFile,
+    model: FittedModel,
     policy: Policy = "clamp",
     derivative_kind: str | None = None,
     step: StepConfig | None = None,
@@ -265,7 +266,7 @@ def evaluate_runs(
 
 def evaluate(
     log: pd.DataFrame,
-    model: ThermalModelFile,
+    model: FittedModel,
     policy: Policy = "clamp",
     derivative_kind: str | None = None,
     step: StepConfig | None = None,
@@ -279,7 +280,7 @@ def evaluate(
     ----------
     log : DataFrame
         Validated calibration log.
-    model : ThermalModelFile
+    model : FittedModel
         The model.
     policy : {"clamp", "fallback", "extrapolate", "error"}
         Handling of samples outside the training data.
@@ -354,7 +355,7 @@ def evaluate(
 
 def allan_table(
     log: pd.DataFrame,
-    model: ThermalModelFile,
+    model: FittedModel,
     policy: Policy = "clamp",
     derivative_kind: str | None = None,
     outliers: OutlierConfig | None = None,
@@ -371,7 +372,7 @@ def allan_table(
     ----------
     log : DataFrame
         Validated calibration log.
-    model : ThermalModelFile
+    model : FittedModel
         The model.
     policy : {"clamp", "fallback", "extrapolate", "error"}
         Handling of samples outside the training data.

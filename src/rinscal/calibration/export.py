@@ -89,7 +89,7 @@ import numpy as np
 from rinscal.calibration.flightmodel import FLIGHT_METHODS, FlightChoice, flight_model
 from rinscal.calibration.imustage import PHYSICAL_TO_SI, ImuStage
 from rinscal.calibration.inference import poly_shift, segment_params
-from rinscal.calibration.modelfile import INPUT_NAMES, ThermalModelFile
+from rinscal.calibration.modelfile import INPUT_NAMES, FittedModel
 from rinscal.errors import ConfigError
 from rinscal.firmware import ARDUPILOT_SCALE, ARDUPILOT_TREF_C, ardupilot_tcal_prefix
 from rinscal.sensormodel import PARAMETERS
@@ -163,7 +163,7 @@ class _Axis:
     t_max: float
 
 
-def _sensor_axes(model: ThermalModelFile, sensor: str) -> list[_Axis]:
+def _sensor_axes(model: FittedModel, sensor: str) -> list[_Axis]:
     """The three axes of a sensor (``gyro`` or ``accel``) as SI cubics with their clamp range."""
     out = []
     for a in _AXES:
@@ -215,9 +215,7 @@ def _inward_range(axes: list[_Axis], what: str) -> tuple[str, str]:
     return f"{a + 0:.{TEMP_DECIMALS}f}", f"{b + 0:.{TEMP_DECIMALS}f}"
 
 
-def _device_id(
-    value: int | None, model: ThermalModelFile, key: str, option: str, param: str
-) -> int:
+def _device_id(value: int | None, model: FittedModel, key: str, option: str, param: str) -> int:
     """The int32 ``TC_*0_ID`` of a sensor: the option, else ``source["device_ids"][key]``."""
     topic, cal = {
         "gyro": ("sensor_gyro", "CAL_GYRO0_ID"),
@@ -257,14 +255,14 @@ def _float_text(name: str, value: float) -> str:
     return f"{value:.9g}"
 
 
-def _instance(model: ThermalModelFile) -> int | None:
+def _instance(model: FittedModel) -> int | None:
     """The IMU instance the model was fitted on (``source["instance"]``, from a flight log)."""
     v = model.source.get("instance")
     return int(v) if isinstance(v, int) and not isinstance(v, bool) and v >= 0 else None
 
 
 def to_px4_params(
-    model: ThermalModelFile,
+    model: FittedModel,
     gyro_id: int | None = None,
     accel_id: int | None = None,
     instance: int | None = None,
@@ -273,7 +271,7 @@ def to_px4_params(
 
     Parameters
     ----------
-    model : ThermalModelFile
+    model : FittedModel
         Every gyro and accelerometer channel a ``poly-t`` (degree ≤ 3), ``px4`` or
         ``ardupilot`` model with known units, or an ``auto`` choice the file keeps such a
         candidate for (:func:`flight_model`: the best one by held-out RMS is written, and
@@ -349,7 +347,7 @@ def to_px4_params(
     return "\n".join(lines) + "\n"
 
 
-def _has_ref(model: ThermalModelFile) -> bool:
+def _has_ref(model: FittedModel) -> bool:
     return all(cm.static_reference is not None for cm in model.models.values())
 
 
@@ -391,12 +389,12 @@ def lost_share(coef: np.ndarray, k: int, t_min: float, t_max: float) -> float:
     return lost / span if span > 0 else float("inf")
 
 
-def to_ardupilot_parm(model: ThermalModelFile, instance: int | None = None) -> str:
+def to_ardupilot_parm(model: FittedModel, instance: int | None = None) -> str:
     """ArduPilot ``INS_TCALn_*`` parameters of a clamped-cubic model.
 
     Parameters
     ----------
-    model : ThermalModelFile
+    model : FittedModel
         Every gyro and accelerometer channel a ``poly-t`` (degree ≤ 3), ``px4`` or
         ``ardupilot`` model with known units, or an ``auto`` choice the file keeps such a
         candidate for (:func:`flight_model`, as for :func:`to_px4_params`).
@@ -529,12 +527,12 @@ def _regression_c(p: dict, out: str, indent: str) -> list[str]:
     return lines
 
 
-def to_c_header(model: ThermalModelFile, prefix: str = "rinscal") -> str:
+def to_c_header(model: FittedModel, prefix: str = "rinscal") -> str:
     """A self-contained C99 header evaluating the model of every channel.
 
     Parameters
     ----------
-    model : ThermalModelFile
+    model : FittedModel
         Any model.
     prefix : str
         Prefix of every C identifier (letters, digits, underscores).
@@ -639,7 +637,7 @@ def to_c_header(model: ThermalModelFile, prefix: str = "rinscal") -> str:
 _KIND_ARRAY = {"sf": "sf", "sf_asym": "asym", "sf_quad": "quad"}
 
 
-def _imu_c(model: ThermalModelFile, stage: ImuStage, prefix: str) -> list[str]:
+def _imu_c(model: FittedModel, stage: ImuStage, prefix: str) -> list[str]:
     """C of the IMU calibration's step and of the whole compensation (see the module
     docstring), evaluated as :meth:`ImuStage.physical` and
     :meth:`rinscal.sensormodel.ImuCalibration.value` (same Horner order)."""

@@ -13,7 +13,7 @@ import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-from rinscal.calibration.modelfile import ThermalModelFile
+from rinscal.calibration.modelfile import FittedModel
 from rinscal.errors import ConfigError
 
 __all__ = ["FLIGHT_METHODS", "FlightChoice", "flight_model"]
@@ -80,7 +80,7 @@ def _what(params: Mapping) -> str:
     return f"a {params.get('method')} model"
 
 
-def flight_model(model: ThermalModelFile) -> tuple[ThermalModelFile, tuple[FlightChoice, ...]]:
+def flight_model(model: FittedModel) -> tuple[FittedModel, tuple[FlightChoice, ...]]:
     """The model as PX4 and ArduPilot can hold it: a clamped cubic in T per sensor channel.
 
     A gyro or accelerometer channel whose model is not a ``poly-t`` (degree ≤ 3), ``px4`` or
@@ -91,12 +91,12 @@ def flight_model(model: ThermalModelFile) -> tuple[ThermalModelFile, tuple[Fligh
 
     Parameters
     ----------
-    model : ThermalModelFile
+    model : FittedModel
         The model file (unchanged).
 
     Returns
     -------
-    model : ThermalModelFile
+    model : FittedModel
         A copy with the replaced channels (to export only: ``compensate`` and ``navigate``
         apply the file's own choice).
     changed : tuple of FlightChoice

@@ -51,7 +51,7 @@ With an IMU calibration (``rinscal fit --imu-cal``) the file is applied in one o
 (:data:`rinscal.calibration.imustage.IMU_ORDER`): raw output × ``unit_to_si`` → SI; the
 inverse sensor model (scale factor, nonlinear terms, misalignment at each channel's inner
 temperature; biases left in) → deg/h and µg; then the thermal bias model, fitted on that
-output. :attr:`ThermalModelFile.imu_stage` holds it.
+output. :attr:`FittedModel.imu_stage` holds it.
 
 The checksum is the SHA-256 of ``json.dumps(payload, sort_keys=True, separators=(",", ":"),
 ensure_ascii=True, allow_nan=False)``; floats are written in Python's shortest round-trip
@@ -64,7 +64,7 @@ never imports scikit-learn.
 
 Using a model (navigation and reproduction)
 -------------------------------------------
->>> model = ThermalModelFile.load("model.json")                        # doctest: +SKIP
+>>> model = FittedModel.load("model.json")                        # doctest: +SKIP
 >>> bias = model.predict_bias_si(temp_c, rate_c_per_min, temp_out_c)   # doctest: +SKIP
 
 ``temp_c`` (n, 6) or (n,) inner temperatures [°C], ``rate_c_per_min`` their rates
@@ -125,6 +125,7 @@ __all__ = [
     "POLICIES",
     "SCHEMA_VERSION",
     "ChannelModel",
+    "FittedModel",
     "ImuStage",
     "ThermalModelFile",
     "check_policy",
@@ -189,7 +190,9 @@ class ChannelModel:
         clamped to its training range, outside the domain under policy ``fallback``.
     selection : dict or None
         How ``fit --method auto`` chose this channel's model: ``scheme`` and ``folds`` of
-        the held-out check, ``tolerance``, ``chosen`` and ``fallback`` (candidate names),
+        the held-out check, ``tolerance`` [dimensionless: relative excess of the held-out
+        RMS, :mod:`rinscal.calibration.selection.rule`; of the mean square error in files
+        written before it, 0 by default in both], ``chosen`` and ``fallback`` (candidate names),
         ``table`` (one row per candidate: ``name``, ``method``, ``n_params``,
         ``heldout_rms``, ``fold_rms``, ``train_rms``) and, from schema version 4, ``flight``
         (candidate name → parameters on all the data of every scored candidate PX4 and
@@ -236,7 +239,7 @@ class ChannelModel:
 
 
 @dataclass(frozen=True)
-class ThermalModelFile:
+class FittedModel:
     """A fitted thermal model of several channels, as read from or written to a model file.
 
     Attributes
@@ -297,7 +300,7 @@ class ThermalModelFile:
         """The IMU calibration applied before the thermal bias model, or None."""
         return None if self.imu_stage is None else self.imu_stage.calibration
 
-    def with_imu(self, stage: ImuStage | None) -> ThermalModelFile:
+    def with_imu(self, stage: ImuStage | None) -> FittedModel:
         """A copy with ``stage`` as its IMU calibration (None: the thermal model alone).
 
         Raises
@@ -380,7 +383,7 @@ class ThermalModelFile:
         return p
 
     @classmethod
-    def load(cls, path: str | os.PathLike[str]) -> ThermalModelFile:
+    def load(cls, path: str | os.PathLike[str]) -> FittedModel:
         """Read and validate a model file.
 
         Raises
@@ -401,7 +404,7 @@ class ThermalModelFile:
         return cls.loads(raw, source=str(p))
 
     @classmethod
-    def loads(cls, text: str | bytes, source: str = "<model>") -> ThermalModelFile:
+    def loads(cls, text: str | bytes, source: str = "<model>") -> FittedModel:
         """Parse and validate the text of a model file (see :meth:`load`)."""
         if isinstance(text, bytes):
             try:
@@ -426,7 +429,7 @@ class ThermalModelFile:
         return cls.from_dict(doc, source=source)
 
     @classmethod
-    def from_dict(cls, doc: Any, source: str = "<model>") -> ThermalModelFile:
+    def from_dict(cls, doc: Any, source: str = "<model>") -> FittedModel:
         """Validate a parsed model document and build the model (see :meth:`load`)."""
 
         def bad(msg: str) -> ModelFileError:
@@ -463,7 +466,7 @@ class ThermalModelFile:
             raise bad(f"invalid model: {exc}") from None
 
     @classmethod
-    def _from_payload(cls, p: dict[str, Any], version: int = SCHEMA_VERSION) -> ThermalModelFile:
+    def _from_payload(cls, p: dict[str, Any], version: int = SCHEMA_VERSION) -> FittedModel:
         def req(d: Mapping[str, Any], key: str, where: str) -> Any:
             if not isinstance(d, Mapping):
                 raise ValueError(f"{where} must be a JSON object")
@@ -776,7 +779,7 @@ class ThermalModelFile:
         k = np.array([self.models[c].unit_to_si for c in self.channels])
         return (f - ref) * k
 
-    def subset(self, channels: Sequence[str]) -> ThermalModelFile:
+    def subset(self, channels: Sequence[str]) -> FittedModel:
         """The same model restricted to some of its channels (e.g. one at a time)."""
         unknown = [c for c in channels if c not in self.models]
         if unknown:
@@ -787,14 +790,14 @@ class ThermalModelFile:
 
     def with_static_reference(
         self, reference: Mapping[str, float], unit_to_si: Mapping[str, float] | None = None
-    ) -> ThermalModelFile:
+    ) -> FittedModel:
         """A copy with the static reference (and units) of some channels set."""
         models = dict(self.models)
         for c, v in reference.items():
             cm = models[c]
             k = cm.unit_to_si if unit_to_si is None else float(unit_to_si[c])
             models[c] = dataclasses.replace(cm, unit_to_si=k, static_reference=float(v))
-        return ThermalModelFile(
+        return FittedModel(
             method=self.method,
             channels=self.channels,
             models=models,
@@ -805,3 +808,7 @@ class ThermalModelFile:
             created_by=self.created_by,
             imu_stage=self.imu_stage,
         )
+
+
+#: Old name of :class:`FittedModel` (the fitted model), kept for one release.
+ThermalModelFile = FittedModel

@@ -46,10 +46,11 @@ from rinscal.calibration.imulog import (
     imu_stage,
     imu_stage_notes,
 )
-from rinscal.calibration.modelfile import ThermalModelFile, check_policy
+from rinscal.calibration.modelfile import FittedModel, check_policy
+from rinscal.calibration.selection.rule import AUTO_TOLERANCE
 from rinscal.calibration.thermal.features import DerivativeConfig, MissingGradientWarning
 from rinscal.calibration.thermal.guards import TrainingDataWarning
-from rinscal.calibration.thermal.model import ThermalModel
+from rinscal.calibration.thermal.model import ThermalFitter
 from rinscal.errors import ConfigError
 from rinscal.io.foreign import foreign_meta
 from rinscal.io.mapping import ColumnMapping
@@ -73,7 +74,7 @@ __all__ = [
 ]
 
 LogLike = str | os.PathLike[str] | pd.DataFrame
-ModelLike = str | os.PathLike[str] | ThermalModelFile
+ModelLike = str | os.PathLike[str] | FittedModel
 ImuCalLike = str | os.PathLike[str] | ImuCalibration
 #: What the metadata of a log compensated behind an IMU calibration says of its units.
 OUTPUT_UNITS_IMU = (
@@ -88,7 +89,7 @@ class FitResult:
 
     Attributes
     ----------
-    model : ThermalModelFile
+    model : FittedModel
         The model, as it is saved (:meth:`save`) and loaded (:func:`load_model`).
     table : DataFrame
         One row per channel: ``channel``, ``unit`` (the log's), ``model`` (the fitted
@@ -106,7 +107,7 @@ class FitResult:
         How to read the table (the held-out scheme, what each RMS is).
     """
 
-    model: ThermalModelFile
+    model: FittedModel
     table: pd.DataFrame
     warnings: tuple[str, ...] = ()
     note: str = ""
@@ -116,7 +117,7 @@ class FitResult:
         return self.model.save(path)
 
 
-def load_model(path: str | os.PathLike[str]) -> ThermalModelFile:
+def load_model(path: str | os.PathLike[str]) -> FittedModel:
     """Load and validate a thermal model file (JSON; nothing is unpickled).
 
     Parameters
@@ -126,9 +127,9 @@ def load_model(path: str | os.PathLike[str]) -> ThermalModelFile:
 
     Returns
     -------
-    ThermalModelFile
+    FittedModel
         Predicts the thermal bias of each channel in the log's units
-        (:meth:`ThermalModelFile.predict`) or in SI (``predict_bias_si``).
+        (:meth:`FittedModel.predict`) or in SI (``predict_bias_si``).
 
     Examples
     --------
@@ -137,7 +138,7 @@ def load_model(path: str | os.PathLike[str]) -> ThermalModelFile:
     >>> model.channels  # doctest: +SKIP
     ('gyro_x', 'gyro_y', 'gyro_z', 'accel_x', 'accel_y', 'accel_z')
     """
-    return ThermalModelFile.load(_check.path_like("path", path))
+    return FittedModel.load(_check.path_like("path", path))
 
 
 #: What a ``model`` and an ``imu_calibration`` argument accept, in words.
@@ -145,13 +146,11 @@ MODEL_ACCEPTED = "a model file's path (str or os.PathLike) or a loaded model (ri
 IMUCAL_ACCEPTED = "an ImuCalibration or an IMU calibration file's path (str or os.PathLike)"
 
 
-def _model(model: ModelLike) -> ThermalModelFile:
+def _model(model: ModelLike) -> FittedModel:
     """A model argument: a loaded model as it is, a path loaded (a wrong type named)."""
-    if isinstance(model, ThermalModelFile):
+    if isinstance(model, FittedModel):
         return model
-    return ThermalModelFile.load(
-        _check.instance("model", model, (str, os.PathLike), MODEL_ACCEPTED)
-    )
+    return FittedModel.load(_check.instance("model", model, (str, os.PathLike), MODEL_ACCEPTED))
 
 
 def _frame_runs(log: pd.DataFrame) -> Iterator[tuple[pd.DataFrame, int]]:
@@ -173,7 +172,7 @@ def fit(
     causal: bool = False,
     gradient: bool | None = None,
     temp_range: tuple[float, float] = (-60.0, 150.0),
-    tolerance: float = 0.0,
+    tolerance: float = AUTO_TOLERANCE,
     candidates: Sequence[str] | None = None,
     seed: int = 0,
     max_samples: int | None = None,
@@ -211,9 +210,10 @@ def fit(
         Use the gradient ΔT (default: where the log has ``temp_out``).
     temp_range : (float, float)
         Plausible temperature readings [°C]; others are refused.
-    tolerance : float
-        ``auto``: also take a simpler model within this relative tolerance of the best
-        held-out mean square error.
+    tolerance : float [dimensionless]
+        ``auto``: also take a simpler model whose held-out RMS exceeds the best's by at most
+        this fraction, on top of the paired test (the rule shared by ``select`` and the IMU
+        laws: :mod:`rinscal.calibration.selection.rule`).
     candidates : sequence of str, optional
         ``auto``: the candidate families.
     seed : int
@@ -278,7 +278,7 @@ def fit(
         raise ConfigError("candidates apply to method 'auto' only")
     params = {"max_samples": max_samples} if max_samples is not None else None
     deriv = DerivativeConfig(window_s, "causal" if causal else "centred")
-    model = ThermalModel(
+    model = ThermalFitter(
         method,
         orders=None if orders is None else tuple(int(v) for v in orders),
         hidden=hidden,
@@ -374,7 +374,7 @@ def _counted(
         del item
 
 
-def fit_table(mf: ThermalModelFile) -> pd.DataFrame:
+def fit_table(mf: FittedModel) -> pd.DataFrame:
     """One row per channel of a fitted model: its family, data and residuals (see
     :class:`FitResult`)."""
     rows = []
@@ -415,7 +415,7 @@ def model_label(cm: Any) -> str:
     return str(p["method"])
 
 
-def fit_note(mf: ThermalModelFile, method: str) -> str:
+def fit_note(mf: FittedModel, method: str) -> str:
     """How to read :func:`fit_table`: masked samples, what each RMS is, the held-out scheme."""
     note = "masked: outlier samples left out of the fit."
     if method != "auto":
@@ -455,7 +455,7 @@ def compensate(
     ----------
     log : str, PathLike or DataFrame
         A calibration log (file, read whole, or a validated table).
-    model : str, PathLike or ThermalModelFile
+    model : str, PathLike or FittedModel
         The thermal model (a model file's path, or loaded).
     policy : str
         Outside the training data: ``clamp`` (hold the model at its domain's edge),
@@ -496,7 +496,7 @@ class CompensationSummary:
     ----------
     rows : int
         Rows written.
-    model : ThermalModelFile
+    model : FittedModel
         The model applied.
     policy : str
         What was done outside the training data.
@@ -515,7 +515,7 @@ class CompensationSummary:
     """
 
     rows: int
-    model: ThermalModelFile
+    model: FittedModel
     policy: str
     flagged: dict[str, tuple[int, int]]
     reference: str
@@ -553,7 +553,7 @@ def compensate_file(
     ----------
     log, out : str or PathLike
         Input and output files; ``out`` must not be ``log``.
-    model : str, PathLike or ThermalModelFile
+    model : str, PathLike or FittedModel
         The thermal model.
     policy, causal, mapping
         As :func:`compensate`.
@@ -600,7 +600,7 @@ def compensate_file(
         meta = physical_meta(meta)
     if meta:
         meta["compensated"] = {
-            "model": Path(model).name if not isinstance(model, ThermalModelFile) else None,
+            "model": Path(model).name if not isinstance(model, FittedModel) else None,
             "sha256": mf.to_dict()["sha256"],
             "method": mf.method,
             "policy": policy,
@@ -633,7 +633,7 @@ def _same_file(a: Path, b: Path) -> bool:
 
 
 def _stage_notes(
-    mf: ThermalModelFile, meta: Mapping[str, Any] | None, source: str, ignore_units: bool
+    mf: FittedModel, meta: Mapping[str, Any] | None, source: str, ignore_units: bool
 ) -> list[str]:
     """What applying a model's IMU calibration to a log cannot check (undeclared units, another
     unit); differing units were refused by :func:`check_units` already."""
@@ -647,7 +647,7 @@ def _stage_notes(
 
 def _write_runs(
     sources: Iterator[SourceLog],
-    mf: ThermalModelFile,
+    mf: FittedModel,
     policy: str,
     kind: str | None,
     out: Path,
@@ -701,7 +701,7 @@ class Evaluation:
         ``n`` (random walk at τ = 1 s), ``b`` (bias instability), ``b_tau_s``, ``k``.
     curves : dict
         Per run and channel, the Allan deviation curves (for a figure).
-    model : ThermalModelFile
+    model : FittedModel
         The model evaluated.
     warnings : tuple of str
         As :attr:`CompensationSummary.warnings`.
@@ -710,7 +710,7 @@ class Evaluation:
     table: pd.DataFrame
     allan: pd.DataFrame
     curves: dict[str, Any]
-    model: ThermalModelFile
+    model: FittedModel
     warnings: tuple[str, ...] = ()
 
 
@@ -731,7 +731,7 @@ def evaluate(
     ----------
     log : str, PathLike or DataFrame
         A calibration log (a file is read run by run) the model did or did not see.
-    model : str, PathLike or ThermalModelFile
+    model : str, PathLike or FittedModel
         The thermal model.
     policy, causal, mapping
         As :func:`compensate`.

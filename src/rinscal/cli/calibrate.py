@@ -47,6 +47,14 @@ IgnoreUnitsOpt = Annotated[
 ]
 
 
+#: The one meaning of ``--tolerance`` in ``fit`` and ``select``
+#: (:mod:`rinscal.calibration.selection.rule`).
+TOLERANCE_HELP = (
+    "Take the simplest model whose held-out RMS is at most this fraction above the best's "
+    "(0.05: 5 %; the same quantity in fit and select)"
+)
+
+
 def _read(
     log: Path,
     map_file: Path | None,
@@ -182,8 +190,7 @@ def fit(
             "--tolerance",
             min=0.0,
             max=0.99,
-            help="auto: also take a simpler model within this relative tolerance of the best "
-            "held-out mean square error (on top of the paired test, which always applies).",
+            help=f"auto: {TOLERANCE_HELP} (default 0: the paired test alone).",
         ),
     ] = 0.0,
     temp_range: Annotated[
@@ -399,9 +406,8 @@ def select(
             "--tolerance",
             min=0.0,
             max=0.99,
-            help="Recommend the smallest setting within this relative tolerance of the best "
-            "held-out RMS (regression/neural: default 0.02; auto: of the mean square error, "
-            "default 0, on top of the paired test).",
+            help=f"{TOLERANCE_HELP} (auto: default 0, on top of the paired test; "
+            "regression/neural: the smallest setting, default 0.02).",
         ),
     ] = None,
     candidates: Annotated[
@@ -451,7 +457,7 @@ def select(
     if method == "auto":
         _select_auto(
             log,
-            0.0 if tolerance is None else tolerance,
+            tolerance,
             candidates,
             window,
             seed,
@@ -459,10 +465,13 @@ def select(
             (map_file, col, time_col, time_unit, sep, temp_col, relative_time, instance),
         )
         return
-    tolerance = 0.02 if tolerance is None else tolerance
     # deferred: loaded when the command runs, so that `rinscal --help` starts fast
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
     from rich.table import Table
+
+    from rinscal.calibration.selection.rule import SETTINGS_TOLERANCE
+
+    tolerance = SETTINGS_TOLERANCE if tolerance is None else tolerance
 
     from rinscal.calibration.selection.heldout import (
         DEFAULT_SETTINGS,
@@ -569,20 +578,21 @@ def select(
 
 def _select_auto(
     log: Path,
-    tolerance: float,
+    tolerance: float | None,
     candidates: str | None,
     window: float,
     seed: int,
     as_json: bool,
     read_args: tuple[Any, ...],
 ) -> None:
-    """``select --method auto``: every candidate's held-out RMS, the choice and the fallback."""
+    """``select --method auto``: every candidate's held-out RMS, the choice and the fallback
+    (:func:`rinscal.calibration.selection.heldout.select_model`, printed)."""
 
     # deferred: loaded when the command runs, so that `rinscal --help` starts fast
     from rich.table import Table
 
+    from rinscal.calibration.selection.heldout import select_model
     from rinscal.calibration.thermal.features import DerivativeConfig
-    from rinscal.calibration.thermal.model import ThermalModel
     from rinscal.cli._app import console, err_console, fail, styled
     from rinscal.errors import RinscalError
 
@@ -592,36 +602,28 @@ def _select_auto(
             df, meta = _read(log, *read_args)
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
-                model = ThermalModel(
+                res = select_model(
+                    df,
                     "auto",
+                    tolerance=tolerance,
                     derivative=DerivativeConfig(window),
                     random_state=seed,
-                    tolerance=tolerance,
-                    **({"candidates": fams} if fams is not None else {}),
+                    meta=meta,
+                    candidates=fams,
+                    source=str(log),
                 )
-                mf = model.fit(df, meta, source=str(log)).to_file()
     except RinscalError as exc:
         raise fail(str(exc)) from None
     for w in caught:
         if issubclass(w.category, UserWarning):
             err_console.print(styled("warning:", "yellow", f" {w.message}"), highlight=False)
     if as_json:
-        doc = {
-            "log": log.name,
-            "rms": "heldout_rms, fold_rms and train_rms: RMS of 60 s means of the residual "
-            "about each scored part's mean, log units; held-out: the part's fold left out of "
-            "the fit; train: the fit on all the data, over the same rows; null: not fitted",
-            "channels": {
-                c: {"unit": mf.models[c].unit, **(mf.models[c].selection or {})}
-                for c in mf.channels
-            },
-        }
-        typer.echo(json.dumps(doc, indent=1))
+        typer.echo(json.dumps({"log": log.name, **res.to_dict()}, indent=1))
         return
-    for c in mf.channels:
-        sel = mf.models[c].selection or {}
+    tolerance = res.tolerance
+    for c, sel in res.channels.items():
         table = Table(
-            title=f"{c} ({mf.models[c].unit or '?'}): RMS of 60 s means of the residual about "
+            title=f"{c} ({sel['unit'] or '?'}): RMS of 60 s means of the residual about "
             f"each scored part's mean (held-out, per part and train alike), "
             f"{sel.get('scheme')}, {len(sel.get('folds', []))} scored parts "
             f"({', '.join(sel.get('folds', []))})"
@@ -660,8 +662,8 @@ def _select_auto(
     console.print(
         "chosen: among the models a paired t-test (90 %, log ratios over the folds) cannot "
         "tell from the best held-out error"
-        f"{f' or within {tolerance:.1%} of it' if tolerance else ''}: none, then ArduPilot's "
-        "fit, then PX4's, then the fewest thermal parameters; "
+        f"{f' or within {tolerance:.1%} of its held-out RMS' if tolerance else ''}: none, then "
+        "ArduPilot's fit, then PX4's, then the fewest thermal parameters; "
         "fallback: the same among models of T alone, used outside the training domain "
         "(compensate --policy fallback)",
         highlight=False,

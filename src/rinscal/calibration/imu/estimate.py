@@ -45,6 +45,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rinscal.calibration.imu.design import SegmentStats, regressors
+from rinscal.calibration.regression import least_squares
 from rinscal.errors import DesignError
 from rinscal.schema import CHANNELS
 from rinscal.sensormodel import AXES, parameter_spec
@@ -111,7 +112,7 @@ def _solve(
     """Weighted least squares: coefficients, covariance (unit weights), weighted residuals,
     leverages."""
     aw, yw = a / sd[:, None], y / sd
-    coef, *_ = np.linalg.lstsq(aw, yw, rcond=None)
+    coef = least_squares(aw, yw)
     cov = np.linalg.pinv(aw.T @ aw)
     resid = yw - aw @ coef
     lev = np.einsum("ij,jk,ik->i", aw, cov, aw)

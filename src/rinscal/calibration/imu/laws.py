@@ -16,7 +16,8 @@ through five noisy temperatures would then score best with no evidence for it. F
 temperatures a straight line is still allowed (its errors are one number too, but the
 alternative, a constant, is the only other choice). The candidate
 of least score wins, or the simplest candidate whose score is within ``tolerance`` (20 %)
-of it: with five temperatures a higher degree often scores a little better by chance alone.
+of it: with five temperatures a higher degree often scores a little better by chance alone
+(the rule and its defaults: :mod:`rinscal.calibration.selection.rule`).
 """
 
 from __future__ import annotations
@@ -25,6 +26,9 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
+
+from rinscal.calibration.regression import least_squares
+from rinscal.calibration.selection.rule import LAW_TOLERANCE, simplest_within
 
 __all__ = ["Law", "fit_law"]
 
@@ -74,8 +78,7 @@ def _design(x: NDArray[np.float64], r: NDArray[np.float64] | None, d: int) -> ND
 
 
 def _wls(a: NDArray[np.float64], v: NDArray[np.float64], sd: NDArray[np.float64]) -> NDArray:
-    coef, *_ = np.linalg.lstsq(a / sd[:, None], v / sd, rcond=None)
-    return coef
+    return least_squares(a, v, sd)
 
 
 def fit_law(
@@ -85,7 +88,7 @@ def fit_law(
     t0_c: float,
     max_degree: int = 3,
     tdot_c_per_min: NDArray[np.float64] | None = None,
-    tolerance: float = 0.2,
+    tolerance: float = LAW_TOLERANCE,
 ) -> Law:
     """Choose and fit the law of one parameter.
 
@@ -101,8 +104,9 @@ def fit_law(
         Highest degree tried (capped at ``n − 3``, at least 1 from three temperatures).
     tdot_c_per_min : ndarray, shape (n,), optional [°C/min]
         Temperature rate of each estimate (ramp); a rate term is tried where it varies.
-    tolerance : float
-        A simpler candidate whose score is within this relative tolerance of the least wins.
+    tolerance : float [dimensionless]
+        A simpler candidate whose score (a held-out RMS) is within this relative excess of
+        the least wins (:func:`rinscal.calibration.selection.rule.simplest_within`).
 
     Returns
     -------
@@ -136,10 +140,9 @@ def fit_law(
             cands.append((score, d, ri))
     if not cands:  # n == 2 with a rate term asked for: only the constant is possible
         return Law(0, 0, (float(np.average(v, weights=sd**-2)),), (), float("nan"), scores)
-    least = min(c[0] for c in cands)
     # the simplest candidate within the tolerance of the least score (candidates are in
     # order of complexity): five held-out points favour a wiggly law by chance alone
-    score, d, ri = next(c for c in cands if c[0] <= least * (1.0 + tolerance))
+    score, d, ri = cands[simplest_within([c[0] for c in cands], tolerance)]
     coef = _wls(_design(x, rates[ri], d), v, sd)
     t_coefs = tuple(float(c) for c in coef[: d + 1])
     rate_coefs = (float(coef[d + 1]),) if ri else ()

@@ -25,6 +25,7 @@ from rinscal.calibration.imu.design import SegmentStats, check_observable, segme
 from rinscal.calibration.imu.estimate import BlockEstimate, estimate_block
 from rinscal.calibration.imu.laws import Law, fit_law
 from rinscal.calibration.imu.segments import TABLE_COLUMNS, Segment, find_segments
+from rinscal.calibration.regression import polynomial_fit
 from rinscal.errors import ConfigError, DesignError, LogError
 from rinscal.io.imucal import IMU_CALIBRATION_FILE_SCHEMA, imu_calibration_file_doc, unit_identity
 from rinscal.schema import CHAMBER, CHANNELS, RUN, TIME, temperature_column, unit_factors
@@ -322,7 +323,7 @@ def _tdot(t: np.ndarray, temps: np.ndarray, seg_stats: list[SegmentStats]) -> np
     """Temperature rate of each channel over a repetition [°C/min]."""
     a, b = seg_stats[0].segment.start, seg_stats[-1].segment.stop
     tt = t[a:b] - t[a]
-    slope = np.polyfit(tt, temps[a:b], 1)[0]
+    slope = polynomial_fit(tt, temps[a:b], 1)[0]
     return np.asarray(slope, dtype=float) * units.MIN_TO_S
 
 

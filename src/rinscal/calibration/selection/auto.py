@@ -74,6 +74,7 @@ from rinscal.calibration.selection.candidates import (
     fit_candidate,
 )
 from rinscal.calibration.selection.folds import Folds, RunSpan, fold_plan, holdout_plan
+from rinscal.calibration.selection.rule import AUTO_TOLERANCE, within_tolerance
 from rinscal.calibration.thermal.baselines import (
     ardupilot_fit_smoothed,
     ardupilot_smoothed,
@@ -105,9 +106,10 @@ __all__ = [
     "select_thinned",
 ]
 
-#: Default relative tolerance of the choice on the mean square error, on top of the
-#: paired test (:func:`choose`).
-DEFAULT_TOLERANCE = 0.0
+#: Default tolerance of the choice [dimensionless]: relative excess of the held-out RMS over
+#: the best's, on top of the paired test (:func:`choose`;
+#: :mod:`rinscal.calibration.selection.rule`).
+DEFAULT_TOLERANCE = AUTO_TOLERANCE
 #: One-sided confidence of the paired test by which a candidate is worse than the best
 #: (:func:`choose`).
 CONFIDENCE = 0.9
@@ -331,8 +333,10 @@ class Selection:
         The T-only candidate used outside the joint domain (policy ``fallback``).
     folds : Folds
         The folds.
-    tolerance : float
-        Relative tolerance of the choice.
+    tolerance : float [dimensionless]
+        Tolerance of the choice: relative excess of the held-out RMS over the best's
+        (:mod:`rinscal.calibration.selection.rule`; files written before it hold a relative
+        excess of the mean square error, 0 by default in both).
     table : list of dict
         One row per candidate: ``name``, ``method``, ``n_params``, ``heldout_rms`` (None if
         the candidate could not be fitted on some fold), ``fold_rms`` (per scoring unit;
@@ -381,8 +385,10 @@ def choose(
     fold_mse : ndarray, shape (len(cands), units)
         Held-out mean square error of each scoring unit; NaN where a candidate could not be
         fitted (it is then never chosen).
-    tolerance : float
-        Relative tolerance on the best mean square error.
+    tolerance : float [dimensionless]
+        Relative excess of a candidate's held-out RMS (the root of its mean MSE over the
+        units) over the best's that still counts as near
+        (:func:`rinscal.calibration.selection.rule.within_tolerance`).
     confidence : float
         One-sided confidence of the paired test (see below).
 
@@ -395,10 +401,10 @@ def choose(
         above the Student t quantile of ``units − 1`` degrees of freedom (1.44 for 7 runs at
         90 %). Paired, because every candidate is scored on the same units, and a hot run's
         error is larger for all of them; on log ratios, because units' errors differ by orders
-        of magnitude and a model removes a share of each. Also within noise: a mean at most
-        ``tolerance`` times ``b``'s above it. Among those: no compensation, then ArduPilot's
-        fit, then PX4's (the field's cubic; ArduPilot's is the least-squares one, PX4's
-        weighs every temperature bin alike), then the fewest thermal parameters
+        of magnitude and a model removes a share of each. Also within noise: a root mean
+        square at most ``tolerance`` times ``b``'s above it. Among those: no compensation,
+        then ArduPilot's fit, then PX4's (the field's cubic; ArduPilot's is the least-squares
+        one, PX4's weighs every temperature bin alike), then the fewest thermal parameters
         (:func:`_rank`), then the lowest error.
     """
     mse = np.asarray(fold_mse, dtype=np.float64)
@@ -408,7 +414,7 @@ def choose(
     mean = np.where(ok, mse.mean(axis=1) if mse.size else np.inf, np.inf)
     b = int(np.argmin(mean))
     k = mse.shape[1]
-    near = mean <= mean[b] * (1.0 + tolerance)
+    near = within_tolerance(np.sqrt(mean), tolerance)
     if k > 1:
         # deferred: scipy.special loads in ~0.2 s and only several folds need the Student t
         # quantile (taken from scipy.special: scipy.stats imports more slowly still)
@@ -463,8 +469,8 @@ def select_channel(
         Time since each run's power-on.
     cands : sequence of Candidate
         From :func:`candidates`.
-    tolerance : float
-        Relative tolerance of :func:`choose`.
+    tolerance : float [dimensionless]
+        Of :func:`choose`: relative excess of the held-out RMS over the best's.
     random_state : int
         Seed of neural candidates.
 

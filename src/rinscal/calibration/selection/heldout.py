@@ -10,7 +10,8 @@ only fall as the model grows. Here, per channel and setting (orders ``p = q = s 
 
 Both are taken **about each run's mean residual** (a turn-on offset per power-on is not
 thermal and not predictable), over inlier samples. The recommended setting is the smallest
-whose held-out RMS is within ``tolerance`` (2 % by default) of the best held-out RMS.
+whose held-out RMS is within ``tolerance`` (2 % by default) of the best held-out RMS: the
+rule of :mod:`rinscal.calibration.selection.rule`, where the defaults are explained.
 """
 
 from __future__ import annotations
@@ -23,6 +24,12 @@ import numpy as np
 import pandas as pd
 
 from rinscal import _check
+from rinscal.calibration.modelfile import FittedModel
+from rinscal.calibration.selection.rule import (
+    DEFAULT_TOLERANCES,
+    SETTINGS_TOLERANCE,
+    simplest_within,
+)
 from rinscal.calibration.thermal.features import (
     DerivativeConfig,
     Features,
@@ -34,12 +41,18 @@ from rinscal.calibration.thermal.fitting import (
     fit_factors,
     rms_about_run_mean,
 )
-from rinscal.calibration.thermal.model import ThermalModel
+from rinscal.calibration.thermal.model import ThermalFitter
 from rinscal.calibration.thermal.runs import RunFits
 from rinscal.errors import ConfigError
 from rinscal.schema import CHANNELS
 
-__all__ = ["DEFAULT_SETTINGS", "SelectionResult", "select_model", "select_regression_runs"]
+__all__ = [
+    "DEFAULT_SETTINGS",
+    "AutoSelectionResult",
+    "SelectionResult",
+    "select_model",
+    "select_regression_runs",
+]
 
 #: Settings tried by default: orders 1-4 (regression), 1-8 neurons (neural).
 DEFAULT_SETTINGS: dict[str, tuple[int, ...]] = {
@@ -63,8 +76,9 @@ class SelectionResult:
         Smallest setting within the tolerance of the best held-out RMS, per channel.
     best : dict of str to int
         Setting with the lowest held-out RMS, per channel.
-    tolerance : float
-        Relative tolerance used.
+    tolerance : float [dimensionless]
+        Tolerance used: relative excess of the held-out RMS over the best's
+        (:mod:`rinscal.calibration.selection.rule`).
     runs : tuple of str
         Runs (each held out once).
     """
@@ -90,6 +104,75 @@ class SelectionResult:
             "best": self.best,
             "table": self.table.to_dict(orient="records"),
         }
+
+
+#: What the RMS figures of an ``auto`` selection are (the ``rms`` entry of its JSON form).
+AUTO_RMS_NOTE = (
+    "heldout_rms, fold_rms and train_rms: RMS of 60 s means of the residual "
+    "about each scored part's mean, log units; held-out: the part's fold left out of "
+    "the fit; train: the fit on all the data, over the same rows; null: not fitted"
+)
+
+
+@dataclass(frozen=True)
+class AutoSelectionResult:
+    """Outcome of ``select(log, "auto")``: every candidate's held-out RMS, per channel.
+
+    Attributes
+    ----------
+    model : FittedModel
+        Each channel's chosen model, fitted on all the data (what ``fit --method auto``
+        writes).
+    channels : dict of str to dict
+        Per channel: ``unit`` (the log's unit of the channel, or None) and the selection
+        entry of the model file (``scheme``, ``folds``, ``tolerance`` [dimensionless],
+        ``chosen``, ``fallback`` and ``table``: per candidate ``heldout_rms``, ``fold_rms``
+        and ``train_rms`` in the channel's unit, :data:`AUTO_RMS_NOTE`).
+    tolerance : float [dimensionless]
+        Relative excess of the held-out RMS over the best's within which a simpler model
+        is taken, on top of the paired test (:mod:`rinscal.calibration.selection.rule`).
+    """
+
+    model: FittedModel
+    channels: dict[str, dict[str, Any]]
+    tolerance: float
+
+    @property
+    def chosen(self) -> dict[str, str]:
+        """The chosen candidate's name, per channel."""
+        return {c: str(v["chosen"]) for c, v in self.channels.items()}
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-able form (``rinscal select --json`` prints it, after the log's name)."""
+        return {"rms": AUTO_RMS_NOTE, "channels": self.channels}
+
+
+def _select_auto(
+    log: pd.DataFrame,
+    meta: Mapping[str, Any] | None,
+    tolerance: float,
+    channels: Sequence[str],
+    derivative: DerivativeConfig,
+    outliers: OutlierConfig,
+    use_gradient: bool | None,
+    random_state: int,
+    candidates: Sequence[str] | None,
+    source: str | None,
+) -> AutoSelectionResult:
+    """Every candidate of ``fit --method auto`` scored on held-out folds, the choice made."""
+    fitter = ThermalFitter(
+        "auto",
+        channels=channels,
+        derivative=derivative,
+        outliers=outliers,
+        use_gradient=use_gradient,
+        random_state=random_state,
+        tolerance=tolerance,
+        **({"candidates": tuple(candidates)} if candidates is not None else {}),
+    )
+    mf = fitter.fit(log, meta, source=source).to_file()
+    table = {c: {"unit": mf.models[c].unit, **(mf.models[c].selection or {})} for c in mf.channels}
+    return AutoSelectionResult(mf, table, float(tolerance))
 
 
 def _fit_predict(
@@ -171,7 +254,7 @@ def _add_runs(fits: RunFits, feats: Features, j: int, code0: int) -> None:
 
 def _settings(method: str, settings: Sequence[int] | None, tolerance: float) -> tuple[int, ...]:
     if method not in DEFAULT_SETTINGS:
-        raise ConfigError(f"selection supports regression and neural, not {method!r}")
+        raise ConfigError(f"selection supports auto, regression and neural, not {method!r}")
     out = tuple(int(s) for s in (settings or DEFAULT_SETTINGS[method]))
     if not out or any(s < 1 for s in out):
         raise ConfigError(f"settings must be positive integers, got {out}")
@@ -200,10 +283,8 @@ def _result(
         for s, (rms_tr, rms_ho) in zip(settings, sc, strict=True):
             rows.append({"channel": c, "setting": s, "rms_train": rms_tr, "rms_heldout": rms_ho})
         h = np.asarray([ho for _, ho in sc])
-        b = int(np.argmin(h))
-        best[c] = settings[b]
-        within = [s for s, v in zip(settings, h, strict=True) if v <= h[b] * (1 + tolerance)]
-        recommended[c] = min(within)
+        best[c] = settings[int(np.argmin(h))]
+        recommended[c] = settings[simplest_within(h, tolerance, settings)]
     return SelectionResult(
         method=method,
         table=pd.DataFrame(rows, columns=["channel", "setting", "rms_train", "rms_heldout"]),
@@ -217,7 +298,7 @@ def _result(
 def select_regression_runs(
     runs: Iterable[pd.DataFrame],
     settings: Sequence[int] | None = None,
-    tolerance: float = 0.02,
+    tolerance: float = SETTINGS_TOLERANCE,
     channels: Sequence[str] = CHANNELS,
     derivative: DerivativeConfig | None = None,
     outliers: OutlierConfig | None = None,
@@ -274,7 +355,7 @@ def select_model(
     log: pd.DataFrame,
     method: str,
     settings: Sequence[int] | None = None,
-    tolerance: float = 0.02,
+    tolerance: float | None = None,
     channels: Sequence[str] = CHANNELS,
     derivative: DerivativeConfig | None = None,
     outliers: OutlierConfig | None = None,
@@ -283,44 +364,84 @@ def select_model(
     estimator_params: Mapping[str, Any] | None = None,
     features: Features | None = None,
     on_fit: Callable[[str, int], None] | None = None,
-) -> SelectionResult:
-    """Training and leave-one-run-out RMS per channel and setting; recommend one setting.
+    *,
+    meta: Mapping[str, Any] | None = None,
+    candidates: Sequence[str] | None = None,
+    source: str | None = None,
+) -> SelectionResult | AutoSelectionResult:
+    """Held-out RMS per channel: of every ``auto`` candidate, or per setting (Tables 5, 7).
+
+    ``auto`` is ``rinscal select --method auto`` (its default): every candidate of
+    ``fit --method auto`` scored on held-out folds and each channel's choice made, as the
+    command prints it. ``regression`` and ``neural``: training and leave-one-run-out RMS per
+    channel and setting, and the recommended setting.
 
     Parameters
     ----------
     log : DataFrame
-        Validated calibration log with at least two runs.
-    method : {"regression", "neural"}
-        Model family.
+        Validated calibration log (at least two runs for ``regression`` and ``neural``).
+    method : {"auto", "regression", "neural"}
+        What to select.
     settings : sequence of int, optional
-        Orders ``k`` (``p = q = s = k``) or neuron counts to try.
-    tolerance : float
-        Relative tolerance on the best held-out RMS.
+        ``regression``/``neural``: orders ``k`` (``p = q = s = k``) or neuron counts to try.
+    tolerance : float, optional [dimensionless]
+        Relative excess over the best held-out RMS within which the simpler model or the
+        smaller setting is taken (:mod:`rinscal.calibration.selection.rule`). Default by
+        method (:data:`~rinscal.calibration.selection.rule.DEFAULT_TOLERANCES`): 0 for
+        ``auto`` (on top of its paired test), 0.02 for ``regression`` and ``neural``.
     channels : sequence of str
         Channels.
     derivative, outliers, use_gradient, random_state, estimator_params
-        As for :class:`~rinscal.calibration.thermal.model.ThermalModel`.
+        As for :class:`~rinscal.calibration.thermal.model.ThermalFitter`
+        (``estimator_params``: not for ``auto``).
     features : Features, optional
-        Precomputed features of ``log``.
+        ``regression``/``neural``: precomputed features of ``log``.
     on_fit : callable, optional
-        Called ``on_fit(channel, setting)`` after each setting of each channel.
+        ``regression``/``neural``: called ``on_fit(channel, setting)`` after each setting of
+        each channel.
+    meta : mapping, optional
+        ``auto``: the log's metadata (units, static reference), as for :func:`rinscal.fit`.
+    candidates : sequence of str, optional
+        ``auto``: the candidate families (default all but ``neural``).
+    source : str, optional
+        ``auto``: the log's name, recorded in the fitted model.
 
     Returns
     -------
-    SelectionResult
+    SelectionResult or AutoSelectionResult
+        ``AutoSelectionResult`` for ``auto``.
     """
-    log = _check.log_table("log", log) if features is None else log
+    if features is None:
+        log = _check.log_table("log", log)
     _check.text("method", method)
     _check.numbers_of("settings", settings, optional=True, nonempty=False, integer=True)
-    _check.number("tolerance", tolerance, min=0.0)
+    _check.number("tolerance", tolerance, min=0.0, optional=True)
     _check.number("random_state", random_state, min=0, integer=True)
     _check.strings("channels", channels)
     _check.mapping("estimator_params", estimator_params, optional=True)
     _check.flag("use_gradient", use_gradient, optional=True)
     _check.callback("on_fit", on_fit)
-    settings = _settings(method, settings, tolerance)
+    _check.mapping("meta", meta, optional=True)
+    _check.strings("candidates", candidates, optional=True)
+    if tolerance is None:
+        tolerance = DEFAULT_TOLERANCES.get(method, SETTINGS_TOLERANCE)
     derivative = derivative or DerivativeConfig()
     outliers = outliers or OutlierConfig()
+    if method == "auto":
+        given = {"settings": settings, "estimator_params": estimator_params, "features": features}
+        extra = [k for k, v in given.items() if v is not None]
+        if extra:
+            raise ConfigError(
+                f"{', '.join(extra)} apply to method regression or neural; auto tries every "
+                "candidate family: choose them with candidates"
+            )
+        return _select_auto(
+            log, meta, tolerance, channels, derivative, outliers, use_gradient,
+            random_state, candidates, source,
+        )  # fmt: skip
+    if candidates is not None:
+        raise ConfigError("candidates apply to method auto only")
+    settings = _settings(method, settings, tolerance)
     feats = features or build_features(
         log, derivative, outliers, channels, use_gradient=use_gradient
     )
@@ -342,7 +463,7 @@ def select_model(
         codes = feats.run_codes
         scores[c] = []
         for s in settings:
-            tm = ThermalModel(
+            tm = ThermalFitter(
                 method,
                 orders=(s, s, s) if method == "regression" else None,
                 hidden=s if method == "neural" else None,

@@ -14,7 +14,7 @@ Modules
 :mod:`~rinscal.calibration.thermal.guards`
     Checks of the training data and of the design (warnings, singular designs).
 :mod:`~rinscal.calibration.thermal.model`
-    ``ThermalModel``: one estimator per channel, fitted on a calibration log.
+    ``ThermalFitter``: one estimator per channel, fitted on a calibration log.
 ``_fit``, ``_dispatch``, ``_runs``
     Numpy fitting of the polynomial models, the dispatch of every method, and the per-run
     factors a log read run by run leaves behind.

@@ -80,6 +80,7 @@ from typing import Any
 import numpy as np
 
 from rinscal.calibration.inference import ARDUPILOT_T_REF, predict_params
+from rinscal.calibration.regression import polynomial_fit
 
 __all__ = [
     "ARDUPILOT_WINDOW_S",
@@ -202,13 +203,14 @@ def _distinct_at_least(x: np.ndarray, m: int) -> bool:
 
 
 def _polyfit3(x: np.ndarray, y: np.ndarray, what: str) -> np.ndarray:
-    """``np.polyfit(x, y, 3)``, refusing fewer than 4 distinct abscissae."""
+    """``np.polyfit(x, y, 3)`` (:func:`rinscal.calibration.regression.polynomial_fit`, the
+    same numbers), refusing fewer than 4 distinct abscissae."""
     if not _distinct_at_least(x, _DEGREE + 1):
         k = np.unique(x).size
         raise ValueError(
             f"a cubic in temperature needs at least {_DEGREE + 1} distinct {what}, got {k}"
         )
-    return np.polyfit(x, y, _DEGREE)
+    return polynomial_fit(x, y, _DEGREE)
 
 
 # ----------------------------------------------------------------------------- PX4

@@ -1,4 +1,4 @@
-"""Fitting one channel with any method: the dispatch behind ``ThermalModel`` and ``auto``.
+"""Fitting one channel with any method: the dispatch behind ``ThermalFitter`` and ``auto``.
 
 :func:`fit_params` fits ``poly-t``, ``regression`` and ``sectional`` with the numpy code of
 :mod:`rinscal.calibration.thermal.fitting`, ``px4`` and ``ardupilot`` with the field's fits

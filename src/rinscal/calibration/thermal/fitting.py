@@ -1,9 +1,9 @@
 """Fitting of the polynomial thermal models: numpy only.
 
-The numerics behind :mod:`rinscal.calibration.thermal.estimators` (whose scikit-learn classes call
-these functions) and what :class:`rinscal.calibration.thermal.model.ThermalModel` calls directly, so
-that fitting ``poly-t``, ``sectional``, ``regression``, ``px4`` or ``ardupilot`` never imports
-scikit-learn (about 1 s of a command's start-up); only ``neural`` does.
+The numerics behind :mod:`rinscal.calibration.thermal.estimators` (whose scikit-learn classes
+call these functions) and what :class:`rinscal.calibration.thermal.model.ThermalFitter` calls
+directly, so that fitting ``poly-t``, ``sectional``, ``regression``, ``px4`` or ``ardupilot``
+never imports scikit-learn (about 1 s of a command's start-up); only ``neural`` does.
 
 Polynomial inputs are mapped onto ``[−1, 1]`` (centre and half-range, as
 ``astropy.modeling`` does), and the least-squares problem is solved by a blocked QR
@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from rinscal.calibration.regression import least_squares
 from rinscal.calibration.thermal.guards import COND_ERROR, check_design, design_condition
 
 __all__ = [
@@ -105,7 +106,7 @@ def solve_r(r: np.ndarray, n_terms: int) -> tuple[np.ndarray, float]:
     rk[:k] = r[:k, :n_terms]
     qty = np.zeros(n_terms)
     qty[:k] = r[:k, n_terms]
-    beta = np.linalg.lstsq(rk, qty, rcond=None)[0]
+    beta = least_squares(rk, qty)
     rss = float(r[n_terms, n_terms] ** 2) if r.shape[0] > n_terms else 0.0
     return beta, rss
 
@@ -120,7 +121,7 @@ def lstsq_qr(
     """Least squares ``min ‖A β − y‖`` by blocked QR of ``[A | y]`` (never normal equations).
 
     :func:`tsqr` then :func:`solve_r`; the small triangular system is solved by
-    ``numpy.linalg.lstsq`` (minimum-norm when rank deficient).
+    :func:`rinscal.calibration.regression.least_squares` (minimum-norm when rank deficient).
 
     Parameters
     ----------

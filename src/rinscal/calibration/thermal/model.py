@@ -1,6 +1,6 @@
 """Fit one thermal model per sensor channel on a calibration log.
 
-:class:`ThermalModel` holds one estimator (:mod:`rinscal.calibration.thermal.estimators`) per
+:class:`ThermalFitter` holds one estimator (:mod:`rinscal.calibration.thermal.estimators`) per
 channel, with the paper's defaults by sensor type:
 
 =============  ==============================  ==============================
@@ -13,11 +13,11 @@ method         gyroscopes                      accelerometers
 =============  ==============================  ==============================
 
 It builds the features run by run, masks outliers, fits each channel on its inlier samples,
-and produces a :class:`~rinscal.calibration.modelfile.ThermalModelFile` (units, static
-reference, training ranges and metrics included) with :meth:`ThermalModel.to_file`.
+and produces a :class:`~rinscal.calibration.modelfile.FittedModel` (units, static
+reference, training ranges and metrics included) with :meth:`ThermalFitter.to_file`.
 
 Why one module: about 800 lines, one idea: fitting a log into a model file.
-``ThermalModel`` (the settings and the public ``fit``/``fit_runs``) and ``_Fitting`` (what
+``ThermalFitter`` (the settings and the public ``fit``/``fit_runs``) and ``_Fitting`` (what
 each channel keeps of each run and the final fit of each channel) are two halves of one
 procedure that share their state; the unit and static-reference helpers at the top are the
 model file's side of that fit.
@@ -36,7 +36,7 @@ import pandas as pd
 from rinscal import _check
 from rinscal._version import __version__
 from rinscal.calibration.inference import METHODS, n_inputs, predict_params
-from rinscal.calibration.modelfile import AUTO, ChannelModel, ThermalModelFile
+from rinscal.calibration.modelfile import AUTO, ChannelModel, FittedModel
 from rinscal.calibration.selection import auto
 from rinscal.calibration.selection.auto import DEFAULT_TOLERANCE, Selection, select_thinned
 from rinscal.calibration.selection.candidates import (
@@ -80,9 +80,9 @@ from rinscal.schema import (
 )
 from rinscal.units import DEG_TO_RAD
 
-__all__ = ["DEFAULTS", "FIT_METHODS", "ThermalModel", "site_reference"]
+__all__ = ["DEFAULTS", "FIT_METHODS", "ThermalFitter", "ThermalModel", "site_reference"]
 
-#: Methods ``ThermalModel`` fits: the paper's and the baseline, the field's own fits, and
+#: Methods ``ThermalFitter`` fits: the paper's and the baseline, the field's own fits, and
 #: ``auto`` (each channel's model chosen by held-out error).
 FIT_METHODS: tuple[str, ...] = (AUTO, *METHODS)
 #: Methods whose model uses the temperature alone.
@@ -141,7 +141,7 @@ def _edges_from(points: np.ndarray | None) -> np.ndarray | None:
     return 0.5 * (points[1:] + points[:-1])
 
 
-class ThermalModel:
+class ThermalFitter:
     """One thermal estimator per channel, fitted on a calibration log.
 
     Parameters
@@ -172,8 +172,10 @@ class ThermalModel:
     candidates : sequence of str
         ``auto``: candidate families (see
         :data:`rinscal.calibration.selection.candidates.FAMILIES`).
-    tolerance : float
-        ``auto``: relative tolerance of the choice (simplest within it of the best).
+    tolerance : float [dimensionless]
+        ``auto``: relative excess of the held-out RMS over the best's within which the
+        simpler model is taken, on top of the paired test
+        (:mod:`rinscal.calibration.selection.rule`).
     temp_range : (float, float) [°C]
         Plausible temperature readings; a training log outside it is refused.
 
@@ -354,7 +356,7 @@ class ThermalModel:
         features: Features | None = None,
         on_channel: Callable[[str], None] | None = None,
         source: str | None = None,
-    ) -> ThermalModel:
+    ) -> ThermalFitter:
         """Fit every channel.
 
         The log is taken run by run, as :meth:`fit_runs` takes a log read in pieces: the
@@ -376,7 +378,7 @@ class ThermalModel:
 
         Returns
         -------
-        ThermalModel
+        ThermalFitter
 
         Raises
         ------
@@ -422,7 +424,7 @@ class ThermalModel:
         *,
         on_channel: Callable[[str], None] | None = None,
         source: str | None = None,
-    ) -> ThermalModel:
+    ) -> ThermalFitter:
         """Fit every channel on a log given a run at a time, never holding it whole.
 
         Parameters
@@ -436,7 +438,7 @@ class ThermalModel:
 
         Returns
         -------
-        ThermalModel
+        ThermalFitter
             The model :meth:`fit` gives for the whole log.
         """
         where = f"{source}: " if source else ""
@@ -497,7 +499,7 @@ class ThermalModel:
                 raise ConfigError(f"{where}{exc}") from None
         return out
 
-    def to_file(self, source: Mapping[str, Any] | None = None) -> ThermalModelFile:
+    def to_file(self, source: Mapping[str, Any] | None = None) -> FittedModel:
         """The fitted model as a model file object (save it with ``.save(path)``).
 
         Parameters
@@ -549,7 +551,7 @@ class ThermalModel:
             if key in self.meta_:
                 src[key] = self.meta_[key]
         src.update(source or {})
-        return ThermalModelFile(
+        return FittedModel(
             method=self.method,
             channels=self.channels,
             models=models,
@@ -590,13 +592,13 @@ def _run_features(feats: Features, k: int, idx: np.ndarray) -> Features:
 
 
 class _Fitting:
-    """A :class:`ThermalModel`'s fit in progress: what it keeps of each run, then the models.
+    """A :class:`ThermalFitter`'s fit in progress: what it keeps of each run, then the models.
 
-    Both :meth:`ThermalModel.fit` (a whole log) and :meth:`ThermalModel.fit_runs` (a log
+    Both :meth:`ThermalFitter.fit` (a whole log) and :meth:`ThermalFitter.fit_runs` (a log
     read a run at a time) hand it the same runs' features, so both give the same model.
     """
 
-    def __init__(self, model: ThermalModel, has_gradient: bool, where: str) -> None:
+    def __init__(self, model: ThermalFitter, has_gradient: bool, where: str) -> None:
         self.model = model
         self.has_gradient = has_gradient
         self.where = where
@@ -656,7 +658,7 @@ class _Fitting:
 
     def finish(
         self, meta: Mapping[str, Any] | None, on_channel: Callable[[str], None] | None
-    ) -> ThermalModel:
+    ) -> ThermalFitter:
         """Fit every channel from what the runs left; the fitted model."""
         m = self.model
         warn_resolution(self.resolution)
@@ -808,3 +810,8 @@ def _cubic_fallback(fits: RunFits) -> dict[str, Any] | None:
             return fits.poly_t(FALLBACK_DEGREE)
     except (DesignError, ValueError):
         return None
+
+
+#: Old name of :class:`ThermalFitter` (the fitter, not the fitted model: that is
+#: :class:`~rinscal.calibration.modelfile.FittedModel`), kept for one release.
+ThermalModel = ThermalFitter
