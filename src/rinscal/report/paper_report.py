@@ -566,12 +566,12 @@ def _nav_labels() -> dict[str, str]:
 
 
 def _mechanism_summary(tables: Mapping[str, pd.DataFrame]) -> dict[str, Any] | None:
-    """:func:`mechanism_summary` of the report's tables (None without them)."""
+    """:func:`mechanism_summary` of the report's tables (None without them; NaN, e.g. no
+    run with a prediction, written as null)."""
     if not all(t in tables for t in MECHANISM_TABLES):
         return None
-    return mechanism_summary(
-        tables["mechanism"], tables["oracle_decomposition"], tables["modulation"]
-    )
+    m = mechanism_summary(tables["mechanism"], tables["oracle_decomposition"], tables["modulation"])
+    return {k: None if isinstance(v, float) and not np.isfinite(v) else v for k, v in m.items()}
 
 
 def command_line(cfg: ReproConfig, out: Path | None = None, units: int = 0) -> str:
@@ -870,7 +870,7 @@ def write_reproduction(
             "saving_nmi": _records(tables.get("imu_saving", pd.DataFrame())),
             "warnings": list(cal.imu_cal.result.warnings),
         }
-    text = json.dumps(metrics, indent=2, default=_json_default) + "\n"
+    text = json.dumps(metrics, indent=2, default=_json_default, allow_nan=False) + "\n"
     write_atomic(out / "metrics.json", lambda tmp: tmp.write_text(text))
     return Written(out, maxerr, tables)
 
