@@ -325,7 +325,7 @@ def export_cmd(
         to_c_header,
         to_px4_params,
     )
-    from rinscal.calibration.modelfile import ThermalModelFile
+    from rinscal.calibration.modelfile import FittedModel
     from rinscal.cli._app import console, err_console, fail, styled
     from rinscal.errors import RinscalError
     from rinscal.io.atomic import write_atomic
@@ -340,7 +340,7 @@ def export_cmd(
     refuse_inputs(out, [model])
     changed: tuple[Any, ...] = ()
     try:
-        mf = ThermalModelFile.load(model)
+        mf = FittedModel.load(model)
         if fmt in ("px4", "ardupilot"):  # a cubic in T per channel: the best one auto kept
             changed = flight_model(mf)[1]  # the exporters make the same change
         with warnings.catch_warnings(record=True) as caught:

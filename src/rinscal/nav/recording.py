@@ -23,7 +23,7 @@ import pandas as pd
 
 from rinscal import _check
 from rinscal.calibration.imulog import check_recording_for_imu
-from rinscal.calibration.modelfile import POLICIES, ThermalModelFile
+from rinscal.calibration.modelfile import POLICIES, FittedModel
 from rinscal.errors import ConfigError, LogError
 from rinscal.io.navmapping import NavMapping
 from rinscal.io.navopen import nav_log_header, open_nav_log
@@ -225,7 +225,7 @@ def navigate_log(
     # everything that can be refused without reading the data, before reading it
     loaded = []
     for m in models:
-        model = ThermalModelFile.load(m)
+        model = FittedModel.load(m)
         loaded.append((m, model))
         if not log.has_temps:
             raise ConfigError(

@@ -349,7 +349,7 @@ class ModelCompensator:
 
     Parameters
     ----------
-    model : ThermalModelFile or StreamingCompensator
+    model : FittedModel or StreamingCompensator
         A loaded model file with units and static references (or its compensator, whose
         policy then applies).
     plant : ThermalPlant

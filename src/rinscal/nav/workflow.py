@@ -22,7 +22,7 @@ import numpy as np
 import pandas as pd
 
 from rinscal import _check
-from rinscal.calibration.modelfile import ThermalModelFile, check_policy
+from rinscal.calibration.modelfile import FittedModel, check_policy
 from rinscal.errors import ConfigError
 from rinscal.nav.config import ScenarioConfig
 from rinscal.nav.disturbance import DisturbedStart
@@ -40,7 +40,7 @@ from rinscal.thermal.presets import DEFAULT_PRESET
 
 __all__ = ["Navigation", "check_models", "model_compensator", "navigate", "navigate_scenario"]
 
-ModelLike = str | os.PathLike[str] | ThermalModelFile
+ModelLike = str | os.PathLike[str] | FittedModel
 #: The lowest IMU rate a disturbed start is simulated at [Hz]: its 1-3 Hz sway must be
 #: resolved by each sample's 4-point quadrature.
 MIN_DISTURBED_RATE_HZ = 50.0
@@ -81,14 +81,14 @@ def model_compensator(model: ModelLike, plant: ThermalPlant, policy: str = "clam
 
     Parameters
     ----------
-    model : str, PathLike or ThermalModelFile
+    model : str, PathLike or FittedModel
         The thermal model.
     plant : ThermalPlant
         The plant whose thermometers feed the model.
     policy : {"clamp", "fallback", "extrapolate", "error"}
         Out-of-range handling of the model inputs.
     """
-    mf = model if isinstance(model, ThermalModelFile) else ThermalModelFile.load(model)
+    mf = model if isinstance(model, FittedModel) else FittedModel.load(model)
     return ModelCompensator(mf, plant, policy=policy)
 
 
@@ -96,13 +96,13 @@ def check_models(models: Any) -> None:
     """Refuse ``models`` that are neither a mapping nor a sequence of models (a single
     path would be read as its characters), naming the argument and the bad entry."""
     accepted = "a list of model files (or loaded models) or a dict of name to model"
-    if isinstance(models, str | os.PathLike | ThermalModelFile):
+    if isinstance(models, str | os.PathLike | FittedModel):
         raise _check.wrong_type("models", models, accepted + f", e.g. [{models!r}]")
     _check.instance("models", models, (Mapping, Sequence), accepted)
     items = models.items() if isinstance(models, Mapping) else enumerate(models)
     for key, m in items:
         model_accepted = "a model file's path (str or os.PathLike) or a loaded model"
-        _check.instance(f"models[{key!r}]", m, (str, os.PathLike, ThermalModelFile), model_accepted)
+        _check.instance(f"models[{key!r}]", m, (str, os.PathLike, FittedModel), model_accepted)
 
 
 def _named_models(models: Mapping[str, ModelLike] | Sequence[ModelLike]) -> dict[str, ModelLike]:
@@ -111,7 +111,7 @@ def _named_models(models: Mapping[str, ModelLike] | Sequence[ModelLike]) -> dict
         return dict(models)
     named: dict[str, ModelLike] = {}
     for k, m in enumerate(models):
-        name = f"model{k + 1}" if isinstance(m, ThermalModelFile) else Path(m).stem
+        name = f"model{k + 1}" if isinstance(m, FittedModel) else Path(m).stem
         while name in named or name in ("none", "true"):
             name += "_"
         named[name] = m
@@ -250,8 +250,7 @@ def navigate_scenario(
     if isinstance(cfg.trajectory, DisturbedStart):
         summary["disturbance"] = cfg.trajectory.summary()
     summary["models"] = {
-        k: (m.source.get("log") if isinstance(m, ThermalModelFile) else str(m))
-        for k, m in named.items()
+        k: (m.source.get("log") if isinstance(m, FittedModel) else str(m)) for k, m in named.items()
     }
     summary["chamber"] = {
         "times_s": list(cfg.chamber.times_s),

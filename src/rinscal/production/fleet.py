@@ -187,7 +187,7 @@ def fit_unit(
     # deferred: the fitting stack (numba, the log readers) loads on the worker that fits
     from rinscal.calibration.export import to_ardupilot_parm, to_c_header, to_px4_params
     from rinscal.calibration.inference import physical_coefficients, predict_params
-    from rinscal.calibration.thermal.model import ThermalModel
+    from rinscal.calibration.thermal.model import ThermalFitter
     from rinscal.io.flightinfo import FlightLogOptions
     from rinscal.io.flightlog import scan_flight_log
     from rinscal.io.metadata import read_meta
@@ -200,7 +200,7 @@ def fit_unit(
         meta = scan_flight_log(log_path).meta(FlightLogOptions()) | meta
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        model = ThermalModel(method=method).fit(log, meta, source=Path(log_path).name)
+        model = ThermalFitter(method=method).fit(log, meta, source=Path(log_path).name)
         source = {"log": Path(log_path).name} | ({"unit": unit} if unit else {})
         mf = model.to_file(source)
     feats = model.features_

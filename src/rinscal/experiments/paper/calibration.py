@@ -31,10 +31,10 @@ import pandas as pd
 from rinscal.calibration.compensate import model_features, predict_log
 from rinscal.calibration.evaluate import StepConfig, allan_table, edge_steps, evaluate
 from rinscal.calibration.inference import raw_polynomial
-from rinscal.calibration.modelfile import ThermalModelFile
+from rinscal.calibration.modelfile import FittedModel
 from rinscal.calibration.selection.heldout import SelectionResult, select_model
 from rinscal.calibration.thermal.features import MissingGradientWarning
-from rinscal.calibration.thermal.model import ThermalModel
+from rinscal.calibration.thermal.model import ThermalFitter
 from rinscal.experiments.paper.config import METHODS, ReproConfig, load_plant
 from rinscal.experiments.paper.imucal import IMU_VARIANT, imu_calibration_stage, imu_thermal_model
 from rinscal.experiments.paper.paper_tables import (
@@ -79,7 +79,7 @@ def fit_all(
     methods: Sequence[str] = METHODS,
     estimator_params: Mapping[str, Mapping[str, Any]] | None = None,
     edges: Sequence[float] | None = None,
-) -> dict[str, ThermalModelFile]:
+) -> dict[str, FittedModel]:
     """Fit every method on a training log with the paper's defaults.
 
     Parameters
@@ -97,12 +97,12 @@ def fit_all(
 
     Returns
     -------
-    dict of str to ThermalModelFile
+    dict of str to FittedModel
     """
     extra = estimator_params or {}
     out = {}
     for m in methods:
-        model = ThermalModel(
+        model = ThermalFitter(
             m, estimator_params=extra.get(m), edges=edges if m == "sectional" else None
         )
         out[m] = model.fit(train_log, meta).to_file()
@@ -119,7 +119,7 @@ def heldout_table(
     truth: pd.DataFrame | Sequence[pd.DataFrame],
     meta: Mapping[str, Any] | None = None,
     *,
-    models: Mapping[str, ThermalModelFile] | None = None,
+    models: Mapping[str, FittedModel] | None = None,
     methods: Sequence[str] = METHODS,
     policy: str = "clamp",
     estimator_params: Mapping[str, Mapping[str, Any]] | None = None,
@@ -138,7 +138,7 @@ def heldout_table(
         units (turn-on offset and static output excluded), as written by the simulator.
     meta : mapping
         Metadata of the training log (units, latitude, heading: the static reference).
-    models : mapping of str to ThermalModelFile, optional
+    models : mapping of str to FittedModel, optional
         Already fitted models (otherwise fitted here with :func:`fit_all`).
     methods : sequence of str
         Methods to compare.
@@ -269,7 +269,7 @@ def real_log_table(
     methods: Sequence[str] = METHODS,
     n_edges: int = 6,
     estimator_params: Mapping[str, Mapping[str, Any]] | None = None,
-) -> tuple[pd.DataFrame, dict[str, ThermalModelFile]]:
+) -> tuple[pd.DataFrame, dict[str, FittedModel]]:
     """Fit on some legs of the real thermal cycle, evaluate every method on another.
 
     Parameters
@@ -294,7 +294,7 @@ def real_log_table(
         :func:`rinscal.calibration.evaluate.evaluate` rows of the test legs with a
         ``method`` column, RMS about each leg's mean in the log's units; steps are measured
         at the sectional model's edges for every method.
-    models : dict of str to ThermalModelFile
+    models : dict of str to FittedModel
     """
     log = real_log_legs(read_log(path, mapping or tofupilot_mapping()))
     meta = {"units": {"gyro": "rad/s", "accel": "m/s^2"}}
@@ -331,7 +331,7 @@ class CalibrationResult:
         True thermal bias of every sample of each log (``bias_<channel>``, log units).
     metas : dict of str to dict
         Sidecar metadata of each log.
-    models : dict of str to ThermalModelFile
+    models : dict of str to FittedModel
         Fitted model per method (trained on the soak log only).
     selection : dict of str to SelectionResult
         Order table (``regression``) and neuron table (``neural``).
@@ -347,7 +347,7 @@ class CalibrationResult:
     imu_cal : ImuCalStage or None
         The multi-position calibration of scale factors and misalignments over temperature
         (:mod:`rinscal.experiments.paper.imucal`).
-    extra_models : dict of str to ThermalModelFile
+    extra_models : dict of str to FittedModel
         Models navigated beside :data:`METHODS` (``regression+sf``: method 2 behind the IMU
         calibration's thermal part).
     """
@@ -355,14 +355,14 @@ class CalibrationResult:
     logs: dict[str, pd.DataFrame]
     truths: dict[str, pd.DataFrame]
     metas: dict[str, dict[str, Any]]
-    models: dict[str, ThermalModelFile]
+    models: dict[str, FittedModel]
     selection: dict[str, SelectionResult]
     tables: dict[str, pd.DataFrame] = field(default_factory=dict)
     repeat_curves: pd.DataFrame | None = None
     imu: ImuConfig | None = None
     allan_curves: dict[str, Any] | None = None
     imu_cal: Any = None
-    extra_models: dict[str, ThermalModelFile] = field(default_factory=dict)
+    extra_models: dict[str, FittedModel] = field(default_factory=dict)
 
 
 def _fit(
@@ -371,17 +371,17 @@ def _fit(
     meta: Mapping[str, Any],
     cfg: ReproConfig,
     hidden: Mapping[str, int] | None = None,
-) -> ThermalModelFile:
+) -> FittedModel:
     params: dict[str, Any] = {}
     if method == "neural":
         params["max_samples"] = cfg.neural_max_samples
-    model = ThermalModel(method, random_state=cfg.seed, estimator_params=params)
+    model = ThermalFitter(method, random_state=cfg.seed, estimator_params=params)
     source = {"log": f"simulated soak, IMU {cfg.imu}, seed {cfg.seed}"}
     return model.fit(log, meta).to_file(source=source)
 
 
 def heldout_tables(
-    models: Mapping[str, ThermalModelFile],
+    models: Mapping[str, FittedModel],
     logs: Mapping[str, pd.DataFrame],
     truths: Mapping[str, pd.DataFrame],
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
@@ -442,7 +442,7 @@ def _flat_raw(raw: Mapping[str, Any]) -> tuple[list[str], list[float]]:
     return names, values
 
 
-def coefficient_tables(models: Mapping[str, ThermalModelFile]) -> dict[str, pd.DataFrame]:
+def coefficient_tables(models: Mapping[str, FittedModel]) -> dict[str, pd.DataFrame]:
     """Tables 4, 6 and 8 of our fits (x axis for 4 and 8, every channel for 6).
 
     Polynomial coefficients are in the raw form of the paper (powers of T [°C], Ṫ [°C/min]
@@ -624,7 +624,7 @@ def calibration_stage(
 
 
 def repeat_curves(
-    models: Mapping[str, ThermalModelFile],
+    models: Mapping[str, FittedModel],
     log: pd.DataFrame,
     bin_s: float = 60.0,
     truth: pd.DataFrame | None = None,

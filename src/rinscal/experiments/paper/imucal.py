@@ -23,7 +23,7 @@ import numpy as np
 import pandas as pd
 
 from rinscal.calibration.imu.workflow import ImuCalibrationResult, calibrate_imu
-from rinscal.calibration.modelfile import ThermalModelFile
+from rinscal.calibration.modelfile import FittedModel
 from rinscal.calibration.workflow import fit
 from rinscal.experiments.paper.config import ReproConfig
 from rinscal.experiments.verdict import HOLDS, REVERSED, UNRESOLVED, interval_text, paired
@@ -130,7 +130,7 @@ def _calibrate(imu: ImuConfig, seed: int, quick: bool) -> ImuCalStage:
 
 def imu_variant_model(
     imu: ImuConfig, soak: pd.DataFrame, meta: Mapping[str, Any], seed: int, quick: bool = False
-) -> ThermalModelFile:
+) -> FittedModel:
     """The ``regression+sf`` model of one unit (a study's task): its own multi-position
     calibration (seeded by ``seed``), then method 2 on its soak log behind the calibration's
     thermal part."""
@@ -140,7 +140,7 @@ def imu_variant_model(
 
 def imu_thermal_model(
     soak: pd.DataFrame, meta: Mapping[str, Any], stage: ImuCalStage, cfg: ReproConfig
-) -> ThermalModelFile:
+) -> FittedModel:
     """Method 2 fitted on soak output with the IMU calibration's thermal part removed first;
     the model file holds both (``rinscal fit --imu-cal``)."""
     return fit(

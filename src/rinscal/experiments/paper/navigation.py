@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 
 from rinscal import earth, units
-from rinscal.calibration.modelfile import ThermalModelFile
+from rinscal.calibration.modelfile import FittedModel
 from rinscal.cluster import dask_client
 from rinscal.experiments.paper.config import METHODS, VARIANTS, ReproConfig, load_plant
 from rinscal.experiments.paper.mechanism import ORACLE_NO_OFFSETS, alignment_mechanism
@@ -142,7 +142,7 @@ def run_navigation_job(
     plant = ThermalPlant.for_scenario(imu, cfg, seed=job.seed)
     comps: dict[str, Any] = {"none": None}
     for m, text in model_texts.items():
-        comps[m] = ModelCompensator(ThermalModelFile.loads(text, m), plant)
+        comps[m] = ModelCompensator(FittedModel.loads(text, m), plant)
     comps["true"] = oracle_compensator(plant)
     if counterfactual:
         comps[ORACLE_NO_OFFSETS] = _without_offsets(plant)
@@ -253,10 +253,10 @@ def thermal_residual(estimate: np.ndarray, truth: np.ndarray) -> dict[str, float
 
 def navigation_stage(
     cfg: ReproConfig,
-    models: Mapping[str, ThermalModelFile],
+    models: Mapping[str, FittedModel],
     done: Callable[[NavRunResult], None] | None = None,
     imu: ImuConfig | None = None,
-    extra: Mapping[str, ThermalModelFile] | None = None,
+    extra: Mapping[str, FittedModel] | None = None,
 ) -> list[NavRunResult]:
     """Run every navigation job; with ``cfg.jobs > 1`` on a Dask ``LocalCluster`` of that many
     worker processes (:func:`rinscal.cluster.dask_client`), in job order.

@@ -38,7 +38,7 @@ from rinscal import earth, units
 from rinscal.calibration.allan_units import datasheet_units
 from rinscal.calibration.compensate import model_features, predict_log
 from rinscal.calibration.inference import raw_polynomial
-from rinscal.calibration.modelfile import ThermalModelFile
+from rinscal.calibration.modelfile import FittedModel
 from rinscal.calibration.selection.heldout import SelectionResult
 from rinscal.calibration.thermal.features import OutlierConfig
 from rinscal.experiments.paper.config import PAPER_TABLES
@@ -206,7 +206,7 @@ def _flat(raw: Mapping[str, Any]) -> dict[str, float]:
 
 
 # --------------------------------------------------------------------------- Table 4
-def table4_vs_paper(models: Mapping[str, ThermalModelFile]) -> dict[str, pd.DataFrame]:
+def table4_vs_paper(models: Mapping[str, FittedModel]) -> dict[str, pd.DataFrame]:
     """Table 4 as the paper's grid: per x channel, one row per coefficient and source
     (paper, ours), one column per temperature segment (S1..S7), physical units.
 
@@ -303,7 +303,7 @@ def selection_vs_paper(
 
 
 # --------------------------------------------------------------------------- Table 6
-def table6_vs_paper(models: Mapping[str, ThermalModelFile], imu: ImuConfig | None) -> pd.DataFrame:
+def table6_vs_paper(models: Mapping[str, FittedModel], imu: ImuConfig | None) -> pd.DataFrame:
     """Table 6 as a grid per sensor: one row per coefficient and source (paper, true
     plant, ours), one column per axis (x, y, z), physical units.
 
@@ -353,7 +353,7 @@ def table6_vs_paper(models: Mapping[str, ThermalModelFile], imu: ImuConfig | Non
 
 
 # --------------------------------------------------------------------------- Table 8
-def table8_vs_paper(models: Mapping[str, ThermalModelFile]) -> dict[str, pd.DataFrame]:
+def table8_vs_paper(models: Mapping[str, FittedModel]) -> dict[str, pd.DataFrame]:
     """Table 8: the paper's x-axis network weights beside ours, per hidden neuron.
 
     Weights of two trainings are not comparable one to one (hidden neurons can be
@@ -460,7 +460,7 @@ def _raw_map(params: Mapping[str, Any]) -> np.ndarray:
 def regression_recovery(
     log: pd.DataFrame,
     truth: pd.DataFrame,
-    model: ThermalModelFile,
+    model: FittedModel,
     imu: ImuConfig | None,
     n_boot: int = 400,
     seed: int = 0,
@@ -483,7 +483,7 @@ def regression_recovery(
     log, truth : DataFrame
         The soak log the model was fitted on, and its true thermal bias
         (``bias_<channel>``, log units), row for row.
-    model : ThermalModelFile
+    model : FittedModel
         The fitted ``regression`` model.
     imu : ImuConfig or None
         The plant (None or mechanistic: no true coefficients).
@@ -571,7 +571,7 @@ def regression_recovery(
 
 
 def ramp_outside_training(
-    train_log: pd.DataFrame, ramp_log: pd.DataFrame, model: ThermalModelFile
+    train_log: pd.DataFrame, ramp_log: pd.DataFrame, model: FittedModel
 ) -> dict[str, float]:
     """Fraction of the ramp's samples whose inputs leave the training data.
 

@@ -24,7 +24,7 @@ import pandas as pd
 
 from rinscal import units
 from rinscal.calibration.thermal.features import build_features
-from rinscal.calibration.thermal.model import ThermalModel
+from rinscal.calibration.thermal.model import ThermalFitter
 from rinscal.experiments.paper.config import load_plant
 from rinscal.experiments.paper.imucal import IMU_VARIANT, imu_variant_model
 from rinscal.experiments.paper.navigation import (
@@ -219,7 +219,7 @@ def calibrate_unit(spec: StudySpec, plant: ImuConfig, task: CalTask) -> dict[str
             else:
                 # the ablation: method 2 fitted without its ΔT terms (T and Ṫ only)
                 no_dt = m == NO_DT_VARIANT
-                fitted = ThermalModel(
+                fitted = ThermalFitter(
                     "regression" if no_dt else m,
                     random_state=seed,
                     estimator_params=params,

@@ -40,7 +40,7 @@ class CausalModelCompensator:
     the bias ``(f(T, Ṫ, ΔT) − r)`` in SI is held until the next reading. A reading with a
     NaN temperature keeps the last one. Channels the model lacks are not compensated.
 
-    A model file that holds an IMU calibration (:attr:`ThermalModelFile.imu_stage`) is
+    A model file that holds an IMU calibration (:attr:`FittedModel.imu_stage`) is
     applied in its one order: each sample's rates (increments over their interval) go
     through the inverse sensor model at the last thermometer reading
     (:meth:`~rinscal.calibration.imustage.ImuStage.inverse_si`, the step every compensator
@@ -49,7 +49,7 @@ class CausalModelCompensator:
 
     Parameters
     ----------
-    model : ThermalModelFile
+    model : FittedModel
     policy : {"clamp", "fallback", "extrapolate", "error"}
     update_s : float [s]
         Thermometer reading interval (the simulator's is 1 s).
