@@ -212,7 +212,7 @@ def test_gaps_reported_refused_and_allowed(tmp_path: Path) -> None:
         whole(log)
     msg = str(err.value)
     row = 1 + int(np.flatnonzero(df["time_s"].to_numpy() > m["t"][259])[0])
-    assert f"data row {row}" in msg and "--allow-gaps" in msg and "10 samples" in msg
+    assert f"data row {row}" in msg and "allow_gaps=" in msg and "10 samples" in msg
     assert f"{m['t'][260]:.10g} s" in msg
     assert [(g.row, g.missing_samples) for g in log.gaps] == [(101, 3), (row, 10)]
     s = whole(log, allow_gaps=True)
@@ -274,14 +274,14 @@ def test_runs_refused_listed_chosen_and_contiguous(tmp_path: Path) -> None:
     for suffix in ("csv", "parquet"):
         path = tmp_path / f"runs.{suffix}"
         df.to_csv(path, index=False) if suffix == "csv" else df.to_parquet(path, index=False)
-        with pytest.raises(LogError, match=r"3 run\(s\): 'a', 'b', 'c'; choose one with --run"):
+        with pytest.raises(LogError, match=r"3 run\(s\): 'a', 'b', 'c'; choose one with run="):
             whole(open_nav_log(path), piece_rows=8)
         s = whole(open_nav_log(path, run="b"), piece_rows=8)
         assert s.first_row == 21 and s.n == 25
         np.testing.assert_allclose(s.dtheta, m["dtheta"][20:45], rtol=1e-12)
         assert s.dt[0] == pytest.approx(1 / RATE)  # the run's first sample: nominal interval
         with pytest.raises(LogError, match="no run 'z'"):
-            whole(open_nav_log(path, NavMapping(run="z")))
+            whole(open_nav_log(path, NavMapping(select_run="z")))
     # 'a' resumes after 'b': refused at the row where it resumes
     bad = runs_frame(m, ["a"] * 20 + ["b"] * 25 + ["a"] * 15)
     bad.to_csv(tmp_path / "split.csv", index=False)
@@ -400,7 +400,7 @@ def test_nmea_gga_track_checksums_fix_and_midnight(tmp_path: Path) -> None:
     ]
     path = tmp_path / "gnss.nmea"
     path.write_text("\n".join(lines) + "\n")
-    with pytest.raises(LogError, match="--track-utc-start"):
+    with pytest.raises(LogError, match="track_utc_start="):
         read_track(path)
     tr = read_track(path, utc_start="2024-03-09T23:59:58Z")
     np.testing.assert_allclose(tr.t, [0.5, 2.5, 3.5])  # across midnight

@@ -154,7 +154,10 @@ def navigate(
     ] = None,
     mapping: Annotated[
         Path | None,
-        typer.Option("--mapping", help="--log: TOML mapping of a foreign recording."),
+        typer.Option(
+            "--map",
+            help="--log: column mapping (TOML) of a foreign recording (--mapping: old name).",
+        ),
     ] = None,
     run: Annotated[
         str | None, typer.Option("--run", help="--log: the run to navigate in a log with several.")
@@ -438,10 +441,10 @@ def _navigate_log(log: Path, out: Path, models: list[Path], policy: str, **kw: o
         raise fail(f"{log}: a flight log; navigate --log reads CSV, TSV or Parquet recordings")
     prepare_outputs(folders=[("--out", out)])
     try:
-        from rinscal.io.navmapping import read_nav_mapping
+        from rinscal.io.mapping import read_mapping
         from rinscal.nav.recording import heading_text, navigate_log, parse_site
 
-        mapping = read_nav_mapping(kw["mapping"]) if kw["mapping"] else None
+        mapping = read_mapping(kw["mapping"], "navigation") if kw["mapping"] else None
         site = parse_site(kw["site"]) if kw["site"] is not None else None  # type: ignore[arg-type]
         with _progress() as progress:  # type: ignore[attr-defined]
             task = progress.add_task("reading", total=1.0)
