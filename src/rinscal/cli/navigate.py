@@ -423,7 +423,7 @@ def _progress() -> object:
 def _navigate_log(log: Path, out: Path, models: list[Path], policy: str, **kw: object) -> None:
     """``navigate --log``: read, align, navigate, write the same outputs as a scenario."""
     # deferred: loaded when the command runs, so that `rinscal --help` starts fast
-    from rinscal.cli._app import console, fail
+    from rinscal.cli._app import console, fail, flag_text
     from rinscal.errors import RinscalError
     from rinscal.io.tables import is_flight_log
 
@@ -482,8 +482,8 @@ def _navigate_log(log: Path, out: Path, models: list[Path], policy: str, **kw: o
     if gaps["count"]:
         console.print(f"{gaps['count']} gap(s) in time, the longest {gaps['longest_s']:.3f} s",
                       highlight=False, soft_wrap=True)  # fmt: skip
-    for w in nav.warnings:
-        console.print(f"warning: {w}", highlight=False, soft_wrap=True)
+    for w in nav.warnings:  # a library's words: its arguments said as flags
+        console.print(f"warning: {flag_text(w)}", highlight=False, soft_wrap=True)
     c = nav.result.config
     console.print(
         f"navigation from {c.nav_start_s:.1f} s to {c.time_origin_s + c.duration_s:.1f} s of "

@@ -254,8 +254,8 @@ def navigate_log(
         site = (float(tr.lat[0]), float(tr.lon[0]), float(tr.h[0]))
     if site is None:
         raise ConfigError(
-            f"{path}: where was it recorded? Give its site (site=; the log's metadata has "
-            "no site, and there is no reference track)"
+            f"{path}: where was it recorded? Give its site (site=: latitude, "
+            "longitude, height; the log's metadata has no site, and there is no reference track)"
         )
     # the body's true heading: --heading, else the log's ref_heading_deg column, else metadata
     if heading_deg is not None:

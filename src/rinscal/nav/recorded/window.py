@@ -581,8 +581,8 @@ def check_turning_without_encoder(
         "stood still: the IMU is on a turntable, and the log has no encoder angle "
         "(table_deg). The heading error compares the IMU's heading with the body's and is "
         "meaningless (the position error, computed in the IMU frame, is not touched): map the "
-        'encoder column, e.g. [columns] ENCODER = "table_deg" in the mapping (--mapping '
-        "FILE.toml; table_unit, table_sign, table_zero_deg if it needs them)"
+        'encoder column, e.g. [columns] ENCODER = "table_deg" in the mapping (mapping=; '
+        "table_unit, table_sign, table_zero_deg if it needs them)"
     ]
 
 
