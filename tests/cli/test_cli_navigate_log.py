@@ -128,7 +128,7 @@ def test_pulse_counts_in_front_right_down_through_a_mapping(recorded, tmp_path) 
             "navigate",
             "--log",
             str(path),
-            "--mapping",
+            "--map",
             str(mapping),
             "--site",
             "32.06,118.78,10",

@@ -113,16 +113,23 @@ ARG_FLAGS: dict[str, str] = {
     "align_s": "--align-s",
     "align_start_s": "--align-start-s",
     "mapping": "--map",
+    "settle_s": "--settle",
+    "max_degree": "--max-degree",
+    "temp_range": "--temp-range",
+    "ignore_units": "--ignore-units",
 }
-_ARG_RE = re.compile(r"(?<![\w.\-])(" + "|".join(ARG_FLAGS) + r")=(\S?)")
+_ARG_RE = re.compile(r"(?<![\w.\-])(" + "|".join(ARG_FLAGS) + r")=(True\b)?(\S?)")
 
 
 def flag_text(message: str) -> str:
     """A library message as the command line says it: each ``name=`` of :data:`ARG_FLAGS`
-    becomes its flag (``site='x'`` -> ``--site 'x'``, ``instance=,`` -> ``--instance,``)."""
+    becomes its flag (``site='x'`` -> ``--site 'x'``, ``instance=,`` -> ``--instance,``,
+    ``allow_gaps=True`` -> ``--allow-gaps``)."""
 
     def flag(m: re.Match[str]) -> str:
-        nxt = m.group(2)
+        if m.group(2):  # a switch turned on
+            return ARG_FLAGS[m.group(1)] + m.group(3)
+        nxt = m.group(3)
         gap = " " if nxt and nxt not in ",;:)" else ""
         return ARG_FLAGS[m.group(1)] + gap + nxt
 

@@ -521,7 +521,7 @@ class NavLog:
                             f"{self.path}: {col_label(TIME, self.names)}, data row {gap.row}: a "
                             f"gap of {gap.length_s:.6g} s before {gap.time_s:.10g} s (about "
                             f"{gap.missing_samples} samples missing at the nominal interval "
-                            f"{nominal:.6g} s, more than {max_gap_samples}); pass allow_gaps= "
+                            f"{nominal:.6g} s, more than {max_gap_samples}); pass allow_gaps=True "
                             "to integrate across it (rates are held over the gap, increments "
                             f"taken as the device reports them) ({_ROWS})"
                         )

@@ -320,7 +320,7 @@ def check_temperatures(
             raise ValueError(
                 f"column {name!r}: {bad.size} reading(s) outside the plausible range "
                 f"{lo:g} … {hi:g} °C, first at data row {row} ({v[i]:.6g} °C); fix or drop "
-                "those rows, or widen the range with --temp-range LO,HI"
+                "those rows, or widen the range (temp_range=)"
             )
         out[name] = temperature_resolution(v)
     if warn:

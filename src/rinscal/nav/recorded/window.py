@@ -196,7 +196,7 @@ def find_window(
     moved = "; ".join(d.text() for d in mot.disturbed[:3])
     raise LogError(
         f"no static window of at least {min_s:g} s to align on: {what} (quiet: {mot.judged})"
-        f"{'; ' + moved if moved else ''}; set one by hand with --align-start-s and --align-s"
+        f"{'; ' + moved if moved else ''}; set one by hand with align_start_s= and align_s="
     )
 
 
