@@ -236,7 +236,7 @@ def navigate(
         )  # fmt: skip
         return
     assert scenario is not None
-    given = [k for k, v in {"--mapping": mapping, "--run": run, "--site": site,
+    given = [k for k, v in {"--map": mapping, "--run": run, "--site": site,
              "--heading": heading, "--track": track, "--track-utc-start": track_utc_start}.items()
              if v is not None] + (["--allow-gaps"] * allow_gaps)  # fmt: skip
     if given:

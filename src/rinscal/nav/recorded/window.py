@@ -637,7 +637,7 @@ def _factor_hint(
             what = f"the columns hold {si / units.SENSOR_UNITS[declared]:.4g}: {what}"
         return (
             f' ({what}?: declare the unit, e.g. {sensor} = "{a}" under [units] in the '
-            f'mapping (--mapping FILE.toml), or "units": {{"{sensor}": "{a}"}} in the '
+            f'mapping (mapping=), or "units": {{"{sensor}": "{a}"}} in the '
             "log's .meta.json)"
         )
     for k, what in (
