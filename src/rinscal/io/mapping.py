@@ -150,8 +150,16 @@ IDENTITY_AXES: tuple[tuple[int, float], ...] = ((0, 1.0), (1, 1.0), (2, 1.0))
 _NUMBER = r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?"
 _WEIGHT_RE = re.compile(rf"^\s*({_NUMBER})?\s*\*?\s*([^\s\d].*?)\s*$")
 _TABLES = ("columns", "scale", "units", "weights")
-_STRINGS = ("time", "time_unit", "separator", "temperature", "table_unit", "run_name")
-_STRINGS += ("select_run",)
+#: Keys whose value is a string.
+_STRINGS = (
+    "time",
+    "time_unit",
+    "separator",
+    "temperature",
+    "table_unit",
+    "run_name",
+    "select_run",
+)
 
 
 def parse_weight(text: str, sensor: str, key: str = "weights") -> float:
