@@ -117,6 +117,11 @@ ARG_FLAGS: dict[str, str] = {
     "max_degree": "--max-degree",
     "temp_range": "--temp-range",
     "ignore_units": "--ignore-units",
+    "scheduler": "--scheduler",
+    "rates_dps": "--rates",
+    "orders": "--orders",
+    "method": "--method",
+    "tls": "--tls-ca-file, --tls-cert and --tls-key",
 }
 _ARG_RE = re.compile(r"(?<![\w.\-])(" + "|".join(ARG_FLAGS) + r")=(True\b)?(\S?)")
 
