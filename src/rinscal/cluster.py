@@ -18,9 +18,9 @@ from typing import Any
 
 from rinscal.errors import ConfigError
 
-#: The command-line options of the certificate files, and the Dask configuration keys that
-#: stand in for any not given (for messages).
-TLS_OPTIONS = "--tls-ca-file, --tls-cert and --tls-key"
+#: The argument of the certificate files (the command line says its --tls-* options), and the
+#: Dask configuration keys that stand in for any not given (for messages).
+TLS_OPTIONS = "tls="
 TLS_CONFIG = (
     "distributed.comm.tls.ca-file, distributed.comm.tls.client.cert and "
     "distributed.comm.tls.client.key"
@@ -72,10 +72,10 @@ def cluster_security(scheduler: str | None, tls: TLSFiles | None = None) -> Any:
     given = tls.given() if tls is not None else {}
     if not (scheduler or "").startswith("tls://"):
         if given:
-            where = f"--scheduler {scheduler}" if scheduler else "a local cluster"
+            where = f"scheduler={scheduler}" if scheduler else "a local cluster"
             raise ConfigError(
-                f"{TLS_OPTIONS} secure a tls:// scheduler, not {where}: give the secured "
-                "scheduler's address, tls://host:port"
+                f"the certificate files ({TLS_OPTIONS}) secure a tls:// scheduler, not "
+                f"{where}: give the secured scheduler's address, tls://host:port"
             )
         return None
     from distributed import Security  # deferred: Dask is heavy
@@ -83,7 +83,7 @@ def cluster_security(scheduler: str | None, tls: TLSFiles | None = None) -> Any:
     security = Security(require_encryption=True, **given)
     if not (security.tls_ca_file and security.tls_client_cert):
         raise ConfigError(
-            f"--scheduler {scheduler}: a tls:// scheduler needs the cluster's CA certificate and "
+            f"scheduler={scheduler}: a tls:// scheduler needs the cluster's CA certificate and "
             f"this client's certificate and key: give {TLS_OPTIONS}, or set {TLS_CONFIG} in "
             "Dask's configuration"
         )
@@ -114,7 +114,7 @@ def dask_client(
             hint = ""
             if security is not None:
                 hint = f"; check {TLS_OPTIONS} (or {TLS_CONFIG} in Dask's configuration)"
-            raise ConfigError(f"--scheduler {scheduler}: cannot connect ({e}){hint}") from None
+            raise ConfigError(f"scheduler={scheduler}: cannot connect ({e}){hint}") from None
         try:
             yield client
         finally:

@@ -293,7 +293,7 @@ def validate_log(
         padded = [c for c in cols if c != c.strip() and c.strip() in CANONICAL]
         hint = (
             f"; column name(s) {', '.join(map(repr, padded))} have spaces around them: "
-            "remove the spaces in the header, or map them with --col"
+            "remove the spaces in the header, or map them (the mapping's columns, col=)"
             if padded
             else "; a foreign log needs a column mapping"
         )

@@ -95,7 +95,7 @@ def test_implausible_temperature_names_column_and_row() -> None:
         ThermalModel("poly-t").fit(log, META, source="bad.csv")
     msg = str(exc.value)
     assert msg.startswith("bad.csv: column 'temp_out': 1 reading(s) outside the plausible range")
-    assert "first at data row 1235 (1e+300 °C)" in msg and "--temp-range" in msg
+    assert "first at data row 1235 (1e+300 °C)" in msg and "temp_range=" in msg
     # the range is configurable: a −80 °C reading is implausible only by default
     log = _log()
     log.loc[10, "temp_in"] = -80.0

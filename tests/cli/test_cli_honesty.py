@@ -45,14 +45,14 @@ def _invoke(args: list) -> tuple[int, str]:
 
 
 def test_mapping_options_leave_time_as_given_unless_asked(tmp_path, model_file) -> None:
-    from rinscal.io.foreign import read_foreign_source
+    from rinscal.io.foreign import ReadOptions, read_foreign_source
 
     src = tmp_path / "in.csv"
     linear_log().to_csv(src, sep=";", index=False)
     # a mapping option (the separator) no longer shifts time: it was 0.0 here before
-    df = read_foreign_source(src, sep="semicolon")[0].log
+    df = read_foreign_source(src, ReadOptions(sep="semicolon"))[0].log
     assert df.groupby("run")["time_s"].first().tolist() == [1.0, 1.0]
-    df = read_foreign_source(src, sep="semicolon", relative_time=True)[0].log
+    df = read_foreign_source(src, ReadOptions(sep="semicolon", relative_time=True))[0].log
     assert df.groupby("run")["time_s"].first().tolist() == [0.0, 0.0]
     # compensate writes the file's own time column back, and its separator
     for extra in ([], ["--relative-time"]):

@@ -128,7 +128,7 @@ def test_pulse_counts_in_front_right_down_through_a_mapping(recorded, tmp_path) 
             "navigate",
             "--log",
             str(path),
-            "--mapping",
+            "--map",
             str(mapping),
             "--site",
             "32.06,118.78,10",
@@ -291,7 +291,7 @@ def test_wrong_units_gaps_and_no_site_are_refused_with_what_was_measured(
     nosite = {k: v for k, v in meta.items() if k != "site"}
     ns = write(rec, "nosite.parquet", nosite)
     res = runner.invoke(app, ["navigate", "--log", ns, "--out", str(tmp_path / "o4")])
-    assert res.exit_code != 0 and "--site LAT,LON,HEIGHT" in res.output
+    assert res.exit_code != 0 and "--site: latitude, longitude, height" in res.output
     res = runner.invoke(
         app, ["navigate", "--log", ns, "--site", "95,0,0", "--out", str(tmp_path / "o5")]
     )

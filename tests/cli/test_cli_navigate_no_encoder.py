@@ -47,7 +47,7 @@ def test_a_turntable_without_its_encoder_is_named(table, tmp_path) -> None:
     assert "warning: the z gyro (Earth rate removed) turns the IMU" in text
     assert "at a median 10.0 °/s" in text  # the table's rate, as the scenario turns it
     assert "no encoder angle (table_deg)" in text and "heading error" in text
-    assert '[columns] ENCODER = "table_deg"' in text and "--mapping" in text
+    assert '[columns] ENCODER = "table_deg"' in text and "(--map; table_unit" in text
     rot = json.loads((tmp_path / "n" / "summary.json").read_text())["recording"]["rotation"]
     assert rot["turning_without_encoder"]["turned_deg"] > 135
     # with the encoder, as recorded: no such warning, the table is known

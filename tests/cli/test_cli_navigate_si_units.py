@@ -60,7 +60,7 @@ def test_an_si_log_read_in_the_default_units_names_the_mixup(recording, tmp_path
     # declared as the message says: it navigates
     mapping = tmp_path / "si.toml"
     mapping.write_text('[units]\ngyro = "rad/s"\naccel = "m/s^2"\n')
-    code, text = _invoke(["navigate", "--log", log, "--mapping", mapping, "--out", tmp_path / "n"])
+    code, text = _invoke(["navigate", "--log", log, "--map", mapping, "--out", tmp_path / "n"])
     assert code == 0, text
 
 

@@ -12,9 +12,9 @@ import pandas as pd
 import pytest
 
 from rinscal.errors import ConfigError, LogError
+from rinscal.io.mapping import ColumnMapping, parse_weight, read_mapping
 from rinscal.io.metadata import write_meta
 from rinscal.io.navlog import Gap, NavLog
-from rinscal.io.navmapping import NavMapping, parse_weight, read_nav_mapping
 from rinscal.io.navopen import open_nav_log
 from rinscal.io.track import read_track
 from rinscal.schema import NAV_RATES, NavSamples
@@ -98,7 +98,7 @@ def test_same_motion_as_rates_increments_and_counts(tmp_path: Path) -> None:
         raw[f"g{ax}"] = m["cg"][:, j]
         raw[f"a{ax}"] = m["ca"][:, j]
     raw.to_csv(d, index=False)
-    counts_map = NavMapping(
+    counts_map = ColumnMapping(
         columns={
             **{f"g{ax}": f"gyro_{ax}" for ax in "xyz"},
             **{f"a{ax}": f"accel_{ax}" for ax in "xyz"},
@@ -129,7 +129,7 @@ def test_same_motion_as_rates_increments_and_counts(tmp_path: Path) -> None:
         np.testing.assert_allclose(s.dt, 1 / RATE, rtol=1e-9)  # first one: the nominal
         assert s.first_row == 1
     # the wrong unit gives a different answer: the units are really used
-    wrong = open_nav_log(b, NavMapping(units={"gyro": "deg/s"}))
+    wrong = open_nav_log(b, ColumnMapping(units={"gyro": "deg/s"}))
     assert not np.allclose(whole(wrong).dtheta, m["dtheta"])
 
 
@@ -157,21 +157,23 @@ def test_front_right_down_file_equals_right_forward_up(tmp_path: Path) -> None:
         cols |= {f"dth_{ax}": f"dtheta_{ax}", f"dv_{ax}": f"dvel_{ax}"}
         cols |= {f"tg_{ax}": f"temp_gyro_{ax}", f"ta_{ax}": f"temp_accel_{ax}"}
     want = whole(open_nav_log(tmp_path / "rfu.csv"))
-    got = whole(open_nav_log(tmp_path / "frd.csv", NavMapping(columns=cols, axes=("y", "x", "-z"))))
+    got = whole(
+        open_nav_log(tmp_path / "frd.csv", ColumnMapping(columns=cols, axes=("y", "x", "-z")))
+    )
     np.testing.assert_array_equal(got.dtheta, want.dtheta)
     np.testing.assert_array_equal(got.dv, want.dv)
     np.testing.assert_array_equal(got.temps, want.temps)  # temperatures follow their sensor
     np.testing.assert_array_equal(want.temps[0], temps)
-    plain = whole(open_nav_log(tmp_path / "frd.csv", NavMapping(columns=cols)))
+    plain = whole(open_nav_log(tmp_path / "frd.csv", ColumnMapping(columns=cols)))
     assert not np.array_equal(plain.dtheta, want.dtheta)
     with pytest.raises(ConfigError, match="axes"):
-        NavMapping(axes=("y", "y", "-z"))
+        ColumnMapping(axes=("y", "y", "-z"))
     with pytest.raises(ConfigError, match="axes"):
-        NavMapping(axes=("y", "x", "w"))
+        ColumnMapping(axes=("y", "x", "w"))
     # one flip too few: a mirror, which no mounting of a real IMU gives
     with pytest.raises(ConfigError, match="left-handed one"):
-        NavMapping(axes=("y", "x", "z"))
-    NavMapping(axes=("-x", "-y", "z"))  # a half turn about z is a rotation: fine
+        ColumnMapping(axes=("y", "x", "z"))
+    ColumnMapping(axes=("-x", "-y", "z"))  # a half turn about z is a rotation: fine
 
 
 def test_table_sign_zero_and_unit(tmp_path: Path) -> None:
@@ -181,18 +183,18 @@ def test_table_sign_zero_and_unit(tmp_path: Path) -> None:
     for j in range(3):
         df[DTHETA[j]], df[DVEL[j]] = m["dtheta"][:, j], m["dv"][:, j]
     df.to_csv(tmp_path / "t.csv", index=False)
-    mp = NavMapping(columns={"enc": "table_deg"}, table_sign=-1, table_zero_deg=12.5)
+    mp = ColumnMapping(columns={"enc": "table_deg"}, table_sign=-1, table_zero_deg=12.5)
     got = whole(open_nav_log(tmp_path / "t.csv", mp)).table
     np.testing.assert_allclose(got, (-raw - 12.5) * DEG_TO_RAD, rtol=1e-15)
     df["enc"] = raw * DEG_TO_RAD
     df.to_csv(tmp_path / "r.csv", index=False)
-    mp_rad = NavMapping(columns={"enc": "table_deg"}, table_unit="rad", table_zero_deg=12.5)
+    mp_rad = ColumnMapping(columns={"enc": "table_deg"}, table_unit="rad", table_zero_deg=12.5)
     got = whole(open_nav_log(tmp_path / "r.csv", mp_rad)).table
     np.testing.assert_allclose(got, (raw - 12.5) * DEG_TO_RAD, rtol=1e-14, atol=1e-15)
-    canon = whole(open_nav_log(tmp_path / "t.csv", NavMapping(columns={"enc": "table_deg"})))
+    canon = whole(open_nav_log(tmp_path / "t.csv", ColumnMapping(columns={"enc": "table_deg"})))
     np.testing.assert_allclose(canon.table, raw * DEG_TO_RAD)
     with pytest.raises(ConfigError, match="table_sign"):
-        NavMapping(table_sign=2)
+        ColumnMapping(table_sign=2)
     df.loc[4, "enc"] = np.nan
     df.to_csv(tmp_path / "nan.csv", index=False)
     with pytest.raises(LogError, match=r"'table_deg' \(from 'enc'\), data row 5"):
@@ -213,7 +215,7 @@ def test_gaps_reported_refused_and_allowed(tmp_path: Path) -> None:
         whole(log)
     msg = str(err.value)
     row = 1 + int(np.flatnonzero(df["time_s"].to_numpy() > m["t"][259])[0])
-    assert f"data row {row}" in msg and "--allow-gaps" in msg and "10 samples" in msg
+    assert f"data row {row}" in msg and "allow_gaps=True" in msg and "10 samples" in msg
     assert f"{m['t'][260]:.10g} s" in msg
     assert [(g.row, g.missing_samples) for g in log.gaps] == [(101, 3), (row, 10)]
     assert isinstance(log, NavLog) and all(isinstance(g, Gap) for g in log.gaps)
@@ -247,19 +249,19 @@ def test_nan_in_gyro_names_file_column_and_row(tmp_path: Path) -> None:
     path = tmp_path / "nan.csv"
     df.to_csv(path, index=False)
     with pytest.raises(LogError) as err:
-        whole(open_nav_log(path, NavMapping(columns={"Gy": "gyro_y"})), piece_rows=8)
+        whole(open_nav_log(path, ColumnMapping(columns={"Gy": "gyro_y"})), piece_rows=8)
     assert str(path) in str(err.value)
     assert "'gyro_y' (from 'Gy'), data row 17: missing value" in str(err.value)
     df.loc[16, "Gy"] = 1.0
     df.loc[9, "time_s"] = np.inf
     df.to_csv(path, index=False)
     with pytest.raises(LogError, match=r"'time_s', data row 10: value inf; time must be finite"):
-        whole(open_nav_log(path, NavMapping(columns={"Gy": "gyro_y"})))
+        whole(open_nav_log(path, ColumnMapping(columns={"Gy": "gyro_y"})))
     df.loc[9, "time_s"] = m["t"][9]
     df["temp_in"] = 20.0
     df.loc[3, "temp_in"] = np.nan  # a missing temperature passes (held by the navigator)
     df.to_csv(path, index=False)
-    s = whole(open_nav_log(path, NavMapping(columns={"Gy": "gyro_y"})))
+    s = whole(open_nav_log(path, ColumnMapping(columns={"Gy": "gyro_y"})))
     assert np.isnan(s.temps[3]).all() and (s.temps[4] == 20.0).all()
 
 
@@ -277,14 +279,14 @@ def test_runs_refused_listed_chosen_and_contiguous(tmp_path: Path) -> None:
     for suffix in ("csv", "parquet"):
         path = tmp_path / f"runs.{suffix}"
         df.to_csv(path, index=False) if suffix == "csv" else df.to_parquet(path, index=False)
-        with pytest.raises(LogError, match=r"3 run\(s\): 'a', 'b', 'c'; choose one with --run"):
+        with pytest.raises(LogError, match=r"3 run\(s\): 'a', 'b', 'c'; choose one with run="):
             whole(open_nav_log(path), piece_rows=8)
         s = whole(open_nav_log(path, run="b"), piece_rows=8)
         assert s.first_row == 21 and s.n == 25
         np.testing.assert_allclose(s.dtheta, m["dtheta"][20:45], rtol=1e-12)
         assert s.dt[0] == pytest.approx(1 / RATE)  # the run's first sample: nominal interval
         with pytest.raises(LogError, match="no run 'z'"):
-            whole(open_nav_log(path, NavMapping(run="z")))
+            whole(open_nav_log(path, ColumnMapping(select_run="z")))
     # 'a' resumes after 'b': refused at the row where it resumes
     bad = runs_frame(m, ["a"] * 20 + ["b"] * 25 + ["a"] * 15)
     bad.to_csv(tmp_path / "split.csv", index=False)
@@ -320,17 +322,17 @@ def test_mixed_partial_and_fractional_counts_refused(tmp_path: Path) -> None:
         counts[f"accel_{ax}"] = m["ca"][:, j].astype(float)
     counts.loc[12, "accel_y"] += 0.25
     counts.to_csv(tmp_path / "frac.csv", index=False)
-    mp = NavMapping(weights={"gyro": "0.1 arcsec", "accel": "125 ug*s"})
+    mp = ColumnMapping(weights={"gyro": "0.1 arcsec", "accel": "125 ug*s"})
     with pytest.raises(
         LogError, match=r"'accel_y', data row 13: value -?\d+\.(25|75) is not a whole"
     ):
         whole(open_nav_log(tmp_path / "frac.csv", mp))
     with pytest.raises(ConfigError, match=r"weights\.gyro"):
-        NavMapping(weights={"gyro": "0.1 furlong", "accel": "125 ug*s"})
+        ColumnMapping(weights={"gyro": "0.1 furlong", "accel": "125 ug*s"})
     with pytest.raises(ConfigError, match="no weight for accel_x"):
-        NavMapping(weights={"gyro": "0.1 arcsec"})
+        ColumnMapping(weights={"gyro": "0.1 arcsec"})
     with pytest.raises(ConfigError, match="units"):
-        open_nav_log(_incr(tmp_path, m), NavMapping(units={"gyro": "rad/s"}))
+        open_nav_log(_incr(tmp_path, m), ColumnMapping(units={"gyro": "rad/s"}))
 
 
 def _incr(tmp_path: Path, m) -> Path:
@@ -403,7 +405,7 @@ def test_nmea_gga_track_checksums_fix_and_midnight(tmp_path: Path) -> None:
     ]
     path = tmp_path / "gnss.nmea"
     path.write_text("\n".join(lines) + "\n")
-    with pytest.raises(LogError, match="--track-utc-start"):
+    with pytest.raises(LogError, match="track_utc_start="):
         read_track(path)
     tr = read_track(path, utc_start="2024-03-09T23:59:58Z")
     np.testing.assert_allclose(tr.t, [0.5, 2.5, 3.5])  # across midnight
@@ -498,7 +500,7 @@ accel = "125 ug*s"
 
 def test_toml_mapping_of_the_docs_reads_an_frd_counts_log(tmp_path: Path) -> None:
     (tmp_path / "map.toml").write_text(DOC_MAPPING)
-    mp = read_nav_mapping(tmp_path / "map.toml")
+    mp = read_mapping(tmp_path / "map.toml", "navigation")
     m = motion(100)
     raw = pd.DataFrame({"t_us": m["ticks"], "imu_temp": 31.5, "encoder": 12.5})
     frd = {"x": (1, 1), "y": (0, 1), "z": (2, -1)}  # file axis -> (our axis, sign)
@@ -515,9 +517,9 @@ def test_toml_mapping_of_the_docs_reads_an_frd_counts_log(tmp_path: Path) -> Non
     assert parse_weight("125 ug*s", "accel") == pytest.approx(W_ACCEL, rel=1e-15)
     (tmp_path / "bad.toml").write_text(DOC_MAPPING.replace("table_sign", "table_sgn"))
     with pytest.raises(ConfigError, match=r"bad\.toml: unknown key\(s\) table_sgn"):
-        read_nav_mapping(tmp_path / "bad.toml")
+        read_mapping(tmp_path / "bad.toml", "navigation")
     (tmp_path / "w.toml").write_text(DOC_MAPPING.replace('"125 ug*s"', '"125 deg"'))
     with pytest.raises(ConfigError, match=r"w\.toml: weights\.accel"):
-        read_nav_mapping(tmp_path / "w.toml")
+        read_mapping(tmp_path / "w.toml", "navigation")
     with pytest.raises(LogError, match=r"'cnt_gx'.* named in the mapping are not in the file"):
         open_nav_log(_incr(tmp_path, m), mp)

@@ -385,9 +385,9 @@ def test_mapping_from_cli_options_overrides_a_file(tmp_path):
     assert m.time_unit == "ms" and m.columns["wx"] == "gyro_x" and m.scale == {"gyro_x": 2.0}
     assert m.columns["imu.acc.z"] == "accel_z" and m.temperature == "imu.temperature"
     assert "imu.gyro.x" not in m.columns  # --col wx=gyro_x replaced the file's gyro_x entry
-    with pytest.raises(ConfigError, match="--col: 'wx' is not of the form"):
+    with pytest.raises(ConfigError, match="columns='wx' is not of the form"):
         mapping_from_options(columns=["wx"])
-    with pytest.raises(ConfigError, match="--scale: gyro_x='two'"):
+    with pytest.raises(ConfigError, match="scale='gyro_x=two': 'two' is not a number"):
         mapping_from_options(scale=["gyro_x=two"])
 
 

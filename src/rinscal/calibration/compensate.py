@@ -518,7 +518,7 @@ def check_units(model: FittedModel, meta: Mapping[str, Any] | None, source: str 
     if bad:
         raise ConfigError(
             f"{source}: units differ from the model's ({'; '.join(bad)}); convert the log, "
-            "or pass --ignore-units if the numbers are in fact comparable"
+            "or pass ignore_units=True if the numbers are in fact comparable"
         )
 
 

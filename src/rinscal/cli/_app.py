@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+import re
 import warnings
 from collections.abc import Callable
 from typing import Any
@@ -14,8 +15,41 @@ from rich.text import Text
 
 from rinscal.errors import LogNoteWarning
 
+#: Old option names still accepted, with a one-line deprecation note: old -> new.
+OLD_OPTIONS: dict[str, str] = {"--mapping": "--map"}
+
+
+def renamed_options(args: list[str]) -> list[str]:
+    """``args`` with each old option name (:data:`OLD_OPTIONS`) replaced by its new one, and a
+    ``note:`` line on stderr for each old name used (arguments after ``--`` are left)."""
+    out: list[str] = []
+    for k, arg in enumerate(args):
+        if arg == "--":
+            return out + args[k:]
+        name, eq, value = arg.partition("=")
+        if name in OLD_OPTIONS:
+            new = OLD_OPTIONS[name]
+            err_console.print(
+                styled("note:", "cyan", f" {name} is deprecated: use {new} (the same file)"),
+                highlight=False,
+                soft_wrap=True,
+            )
+            arg = new + eq + value
+        out.append(arg)
+    return out
+
+
+class RenamingGroup(typer.core.TyperGroup):
+    """The root command group: old option names (:data:`OLD_OPTIONS`) read as the new."""
+
+    def parse_args(self, ctx: Any, args: list[str]) -> list[str]:
+        """Click's parsing of ``args`` after :func:`renamed_options`."""
+        return super().parse_args(ctx, renamed_options(args))
+
+
 app = typer.Typer(
     name="rinscal",
+    cls=RenamingGroup,
     help="Thermal calibration of IMUs and its proof in a single-axis rotational INS.",
     no_args_is_help=True,
     add_completion=False,
@@ -55,8 +89,63 @@ def styled(label: str, style: str, rest: str = "") -> Text:
     return Text.assemble((label, style), rest)
 
 
+#: A library argument -> the flag that gives it: library errors name the argument
+#: (``site='x': ...``), the command line its flag (``--site 'x': ...``), see :func:`flag_text`.
+ARG_FLAGS: dict[str, str] = {
+    "map_file": "--map",
+    "col": "--col",
+    "columns": "--col",
+    "time_col": "--time-col",
+    "time_unit": "--time-unit",
+    "sep": "--sep",
+    "temp_col": "--temp-col",
+    "drop": "--drop",
+    "run_name": "--run-name",
+    "relative_time": "--relative-time",
+    "instance": "--instance",
+    "site": "--site",
+    "policy": "--policy",
+    "heading_deg": "--heading",
+    "track": "--track",
+    "track_utc_start": "--track-utc-start",
+    "run": "--run",
+    "allow_gaps": "--allow-gaps",
+    "align_s": "--align-s",
+    "align_start_s": "--align-start-s",
+    "mapping": "--map",
+    "settle_s": "--settle",
+    "max_degree": "--max-degree",
+    "temp_range": "--temp-range",
+    "ignore_units": "--ignore-units",
+    "scheduler": "--scheduler",
+    "rates_dps": "--rates",
+    "orders": "--orders",
+    "method": "--method",
+    "tls": "--tls-ca-file, --tls-cert and --tls-key",
+}
+_ARG_RE = re.compile(r"(?<![\w.\-])(" + "|".join(ARG_FLAGS) + r")=(True\b)?(\S?)")
+
+
+def flag_text(message: str) -> str:
+    """A library message as the command line says it: each ``name=`` of :data:`ARG_FLAGS`
+    becomes its flag (``site='x'`` -> ``--site 'x'``, ``instance=,`` -> ``--instance,``,
+    ``allow_gaps=True`` -> ``--allow-gaps``)."""
+
+    def flag(m: re.Match[str]) -> str:
+        if m.group(2):  # a switch turned on
+            return ARG_FLAGS[m.group(1)] + m.group(3)
+        nxt = m.group(3)
+        gap = " " if nxt and nxt not in ",;:)" else ""
+        return ARG_FLAGS[m.group(1)] + gap + nxt
+
+    return _ARG_RE.sub(flag, message)
+
+
 def fail(message: str, code: int = 2) -> typer.Exit:
     """Print ``message`` as an error and return the exit to raise.
+
+    Library messages name arguments (``site=``); they are printed with the flags instead
+    (:func:`flag_text`), so every command's errors pass through here.
 
     Parameters
     ----------
@@ -65,7 +154,8 @@ def fail(message: str, code: int = 2) -> typer.Exit:
     code : int
         Process exit code.
     """
-    err_console.print(styled("error:", "bold red", f" {message}"), highlight=False, soft_wrap=True)
+    text = flag_text(message)
+    err_console.print(styled("error:", "bold red", f" {text}"), highlight=False, soft_wrap=True)
     return typer.Exit(code)
 
 

@@ -17,6 +17,7 @@ from rinscal.thermal.presets import PRESETS
 
 if TYPE_CHECKING:
     from rinscal.cluster import TLSFiles
+    from rinscal.io.foreign import ReadOptions
 
 LogArg = Annotated[
     Path,
@@ -34,7 +35,8 @@ InstanceOpt = Annotated[
     ),
 ]
 MapOpt = Annotated[
-    Path | None, typer.Option("--map", help="Column mapping (TOML) for a foreign log.")
+    Path | None,
+    typer.Option("--map", help="Column mapping (TOML) for a foreign log (--mapping: old name)."),
 ]
 ColOpt = Annotated[
     list[str] | None,
@@ -135,6 +137,42 @@ AlignStartOpt = Annotated[
         "it; navigation starts at align-start-s + align-s).",
     ),
 ]
+
+
+def read_options(
+    *,
+    map_file: Path | None = None,
+    col: list[str] | None = None,
+    time_col: str | None = None,
+    time_unit: str | None = None,
+    sep: str | None = None,
+    temp_col: str | None = None,
+    drop: list[str] | None = None,
+    run_name: str | None = None,
+    relative_time: bool = False,
+    instance: str | None = None,
+) -> ReadOptions:
+    """The reading options of a command's log (``--map``, ``--col`` ...) as one object.
+
+    Built once, where the command receives its options; :mod:`rinscal.io.foreign` reads the
+    log through it. Its errors name the arguments (``col=``), which
+    :func:`rinscal.cli._app.fail` prints as the flags.
+    """
+    # deferred: the io layer loads pandas; `rinscal --help` must not
+    from rinscal.io.foreign import ReadOptions
+
+    return ReadOptions(
+        map_file=map_file,
+        col=tuple(col or ()),
+        time_col=time_col,
+        time_unit=time_unit,
+        sep=sep,
+        temp_col=temp_col,
+        drop=tuple(drop or ()),
+        run_name=run_name,
+        relative_time=relative_time,
+        instance=instance,
+    )
 
 
 def cluster_options(

@@ -27,11 +27,14 @@ from rinscal.cli._options import (
     TempColOpt,
     TimeColOpt,
     TimeUnitOpt,
+    read_options,
     refuse_inputs,
 )
 
 if TYPE_CHECKING:
     import pandas as pd
+
+    from rinscal.io.foreign import ReadOptions
 
 
 _METHODS = ("auto", "poly-t", "sectional", "regression", "neural", "px4", "ardupilot")
@@ -55,32 +58,12 @@ TOLERANCE_HELP = (
 )
 
 
-def _read(
-    log: Path,
-    map_file: Path | None,
-    col: list[str] | None,
-    time_col: str | None,
-    time_unit: str | None,
-    sep: str | None,
-    temp_col: str | None,
-    relative_time: bool = False,
-    instance: str | None = None,
-) -> tuple[pd.DataFrame, dict[str, Any]]:
+def _read(log: Path, options: ReadOptions) -> tuple[pd.DataFrame, dict[str, Any]]:
     """Read a log and its metadata (units from the mapping when there is no sidecar)."""
     # deferred: loaded when the command runs, so that `rinscal --help` starts fast
     from rinscal.io.foreign import read_foreign_source
 
-    src, meta = read_foreign_source(
-        log,
-        map_file,
-        col,
-        time_col,
-        time_unit,
-        sep,
-        temp_col,
-        relative_time=relative_time,
-        instance=instance,
-    )
+    src, meta = read_foreign_source(log, options)
     return src.log, meta
 
 
@@ -301,6 +284,10 @@ def fit(
     fams = None if candidates is None else tuple(v.strip() for v in candidates.split(","))
     if fams is not None and method != "auto":
         raise fail("--candidates applies to --method auto only")
+    options = read_options(
+        map_file=map_file, col=col, time_col=time_col, time_unit=time_unit, sep=sep,
+        temp_col=temp_col, relative_time=relative_time, instance=instance,
+    )  # fmt: skip
     inputs = [log] + ([map_file] if map_file is not None else [])
     inputs += [imu_cal] if imu_cal is not None else []
     refuse_inputs(out, inputs)
@@ -316,9 +303,7 @@ def fit(
             transient=True,
         ) as progress:
             task = progress.add_task("reading log", total=None)
-            mapping, meta = _mapping_meta(
-                log, (map_file, col, time_col, time_unit, sep, temp_col), relative_time, instance
-            )
+            mapping, meta = _mapping_meta(log, options)
             meta.update(_static_options(latitude, heading, static_ref))
 
             def step(channel: str, n: int) -> None:
@@ -454,6 +439,10 @@ def select(
             "--settings applies to --method regression or neural (orders or neuron counts); "
             "auto tries every candidate family: choose them with --candidates"
         )
+    options = read_options(
+        map_file=map_file, col=col, time_col=time_col, time_unit=time_unit, sep=sep,
+        temp_col=temp_col, relative_time=relative_time, instance=instance,
+    )  # fmt: skip
     if method == "auto":
         _select_auto(
             log,
@@ -462,7 +451,7 @@ def select(
             window,
             seed,
             as_json,
-            (map_file, col, time_col, time_unit, sep, temp_col, relative_time, instance),
+            options,
         )
         return
     # deferred: loaded when the command runs, so that `rinscal --help` starts fast
@@ -499,9 +488,7 @@ def select(
             transient=True,
         ) as progress:
             task = progress.add_task("reading log", total=None)
-            mapping, meta = _mapping_meta(
-                log, (map_file, col, time_col, time_unit, sep, temp_col), relative_time, instance
-            )
+            mapping, meta = _mapping_meta(log, options)
 
             def step(channel: str, setting: int) -> None:
                 progress.update(task, advance=1, description=f"{channel}: {setting}")
@@ -583,7 +570,7 @@ def _select_auto(
     window: float,
     seed: int,
     as_json: bool,
-    read_args: tuple[Any, ...],
+    options: ReadOptions,
 ) -> None:
     """``select --method auto``: every candidate's held-out RMS, the choice and the fallback
     (:func:`rinscal.calibration.selection.heldout.select_model`, printed)."""
@@ -599,7 +586,7 @@ def _select_auto(
     fams = None if candidates is None else tuple(v.strip() for v in candidates.split(","))
     try:
         with err_console.status("selecting (held-out fits of every candidate)"):
-            df, meta = _read(log, *read_args)
+            df, meta = _read(log, options)
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
                 res = select_model(
@@ -671,12 +658,10 @@ def _select_auto(
     )
 
 
-def _mapping_meta(
-    log: Path, read_args: tuple[Any, ...], relative_time: bool, instance: str | None
-) -> tuple[Any, dict[str, Any]]:
+def _mapping_meta(log: Path, options: ReadOptions) -> tuple[Any, dict[str, Any]]:
     """How to read ``log`` (a column mapping, flight-log options or None) and its metadata."""
     # deferred: the io layer loads pandas; `rinscal --help` must not
     from rinscal.io.foreign import foreign_mapping, foreign_meta
 
-    mapping = foreign_mapping(*read_args, relative_time=relative_time, instance=instance, log=log)
+    mapping = foreign_mapping(log, options)
     return mapping, foreign_meta(log, mapping)

@@ -26,6 +26,7 @@ from rinscal.cli._options import (
     TempColOpt,
     TimeColOpt,
     TimeUnitOpt,
+    read_options,
     refuse_inputs,
 )
 from rinscal.cli.calibrate import IgnoreUnitsOpt, JsonOpt, ModelOpt, _fmt, _mapping_meta
@@ -67,9 +68,11 @@ def compensate_cmd(
     refuse_inputs(out, inputs, also=[meta_path(out)])
     try:
         mf = load_model(model)
-        mapping, meta = _mapping_meta(
-            log, (map_file, col, time_col, time_unit, sep, temp_col), relative_time, instance
-        )
+        options = read_options(
+            map_file=map_file, col=col, time_col=time_col, time_unit=time_unit, sep=sep,
+            temp_col=temp_col, relative_time=relative_time, instance=instance,
+        )  # fmt: skip
+        mapping, meta = _mapping_meta(log, options)
         done = compensate_file(
             log, mf, out, policy=policy, causal=causal, mapping=mapping, meta=meta,
             ignore_units=ignore_units,
@@ -175,9 +178,11 @@ def evaluate_cmd(
         refuse_inputs(allan_plot, inputs, what="--allan-plot")
     try:
         mf = load_model(model)
-        mapping, meta = _mapping_meta(
-            log, (map_file, col, time_col, time_unit, sep, temp_col), relative_time, instance
-        )
+        options = read_options(
+            map_file=map_file, col=col, time_col=time_col, time_unit=time_unit, sep=sep,
+            temp_col=temp_col, relative_time=relative_time, instance=instance,
+        )  # fmt: skip
+        mapping, meta = _mapping_meta(log, options)
         ev = evaluate(
             log, mf, policy=policy, causal=causal, step_window_s=step_window, mapping=mapping,
             meta=meta, ignore_units=ignore_units,

@@ -22,6 +22,7 @@ from rinscal.cli._options import (
     TempColOpt,
     TimeColOpt,
     TimeUnitOpt,
+    read_options,
     refuse_inputs,
 )
 
@@ -95,7 +96,11 @@ def calibrate_imu_cmd(
     if out.suffix.lower() != ".json":  # imu.json, read back by fit --imu-cal
         raise fail(f"{out}: an IMU calibration is JSON; give --out a name ending in .json")
     try:
-        src, meta = read_foreign_source(log, map_file, col, time_col, time_unit, sep, temp_col)
+        options = read_options(
+            map_file=map_file, col=col, time_col=time_col, time_unit=time_unit, sep=sep,
+            temp_col=temp_col,
+        )  # fmt: skip
+        src, meta = read_foreign_source(log, options)
         result = calibrate_imu(
             src.log,
             meta,

@@ -154,7 +154,10 @@ def navigate(
     ] = None,
     mapping: Annotated[
         Path | None,
-        typer.Option("--mapping", help="--log: TOML mapping of a foreign recording."),
+        typer.Option(
+            "--map",
+            help="--log: column mapping (TOML) of a foreign recording (--mapping: old name).",
+        ),
     ] = None,
     run: Annotated[
         str | None, typer.Option("--run", help="--log: the run to navigate in a log with several.")
@@ -233,7 +236,7 @@ def navigate(
         )  # fmt: skip
         return
     assert scenario is not None
-    given = [k for k, v in {"--mapping": mapping, "--run": run, "--site": site,
+    given = [k for k, v in {"--map": mapping, "--run": run, "--site": site,
              "--heading": heading, "--track": track, "--track-utc-start": track_utc_start}.items()
              if v is not None] + (["--allow-gaps"] * allow_gaps)  # fmt: skip
     if given:
@@ -420,7 +423,7 @@ def _progress() -> object:
 def _navigate_log(log: Path, out: Path, models: list[Path], policy: str, **kw: object) -> None:
     """``navigate --log``: read, align, navigate, write the same outputs as a scenario."""
     # deferred: loaded when the command runs, so that `rinscal --help` starts fast
-    from rinscal.cli._app import console, fail
+    from rinscal.cli._app import console, fail, flag_text
     from rinscal.errors import RinscalError
     from rinscal.io.tables import is_flight_log
 
@@ -438,10 +441,10 @@ def _navigate_log(log: Path, out: Path, models: list[Path], policy: str, **kw: o
         raise fail(f"{log}: a flight log; navigate --log reads CSV, TSV or Parquet recordings")
     prepare_outputs(folders=[("--out", out)])
     try:
-        from rinscal.io.navmapping import read_nav_mapping
+        from rinscal.io.mapping import read_mapping
         from rinscal.nav.recording import heading_text, navigate_log, parse_site
 
-        mapping = read_nav_mapping(kw["mapping"]) if kw["mapping"] else None
+        mapping = read_mapping(kw["mapping"], "navigation") if kw["mapping"] else None
         site = parse_site(kw["site"]) if kw["site"] is not None else None  # type: ignore[arg-type]
         with _progress() as progress:  # type: ignore[attr-defined]
             task = progress.add_task("reading", total=1.0)
@@ -479,8 +482,8 @@ def _navigate_log(log: Path, out: Path, models: list[Path], policy: str, **kw: o
     if gaps["count"]:
         console.print(f"{gaps['count']} gap(s) in time, the longest {gaps['longest_s']:.3f} s",
                       highlight=False, soft_wrap=True)  # fmt: skip
-    for w in nav.warnings:
-        console.print(f"warning: {w}", highlight=False, soft_wrap=True)
+    for w in nav.warnings:  # a library's words: its arguments said as flags
+        console.print(f"warning: {flag_text(w)}", highlight=False, soft_wrap=True)
     c = nav.result.config
     console.print(
         f"navigation from {c.nav_start_s:.1f} s to {c.time_origin_s + c.duration_s:.1f} s of "

@@ -20,6 +20,7 @@ from rinscal.cli._options import (
     TempColOpt,
     TimeColOpt,
     TimeUnitOpt,
+    read_options,
     refuse_inputs,
 )
 from rinscal.thermal.presets import DEFAULT_PRESET
@@ -84,19 +85,12 @@ def plot(
     try:
         with Progress(console=console, transient=True) as progress:
             task = progress.add_task("reading log", total=3)
-            src, meta = read_foreign_source(
-                log,
-                map_file,
-                col,
-                time_col,
-                time_unit,
-                sep,
-                temp_col,
-                drop,
-                run_name,
-                relative_time,
+            options = read_options(
+                map_file=map_file, col=col, time_col=time_col, time_unit=time_unit, sep=sep,
+                temp_col=temp_col, drop=drop, run_name=run_name, relative_time=relative_time,
                 instance=_every_instance(log, instance),
-            )
+            )  # fmt: skip
+            src, meta = read_foreign_source(log, options)
             df = src.log
             progress.update(task, advance=1, description="drawing")
 

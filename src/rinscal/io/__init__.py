@@ -5,7 +5,8 @@ Modules
 :mod:`~rinscal.io.atomic`
     Atomic writing: a temporary file beside the destination, then :func:`os.replace`.
 :mod:`~rinscal.io.mapping`
-    ``ColumnMapping``: how a foreign table (other names, units, separator) is read.
+    ``ColumnMapping``: how a foreign log, calibration log or navigation recording, is read
+    (other names, units, separator, counts, axes); one file format, one meaning per key.
 :mod:`~rinscal.io.tables`
     Read and write whole calibration logs (CSV, TSV, Parquet); ``SourceLog``.
 :mod:`~rinscal.io.streaming`
@@ -19,7 +20,8 @@ Modules
     ``read_imu_calibration``: an IMU calibration from a calibrate-imu file, a bare one, or
     a thermal model file that holds one.
 :mod:`~rinscal.io.foreign`
-    Open a log as the command line names it: mapping or flight-log options, and metadata.
+    Open a log through one ``ReadOptions`` (a mapping file and options over it): mapping or
+    flight-log options, and metadata.
 :mod:`~rinscal.io.flightinfo`
     Flight-log options, IMU instances and info; helpers shared by the two readers.
 :mod:`~rinscal.io.ulog`
@@ -29,11 +31,12 @@ Modules
 :mod:`~rinscal.io.flightlog`
     Scan or read a flight log (either kind) as a calibration log.
 :mod:`~rinscal.io.navmapping`
-    The recorded-navigation log's format and its ``NavMapping``.
+    Old names (``NavMapping``, ``read_nav_mapping``) of the one mapping, for one release.
 :mod:`~rinscal.io.track`
     A reference track: a table or NMEA GGA sentences.
 :mod:`~rinscal.io.navlog`
     ``NavLog``: a recorded-navigation log read in pieces of SI increments.
 :mod:`~rinscal.io.navopen`
-    ``open_nav_log``: a recorded-navigation log's header, mapping, metadata and units.
+    ``open_nav_log``: a recorded-navigation log's format; its header, mapping, metadata and
+    units.
 """

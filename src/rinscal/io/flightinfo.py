@@ -120,7 +120,7 @@ class FlightLogInfo:
             raise LogError(
                 f"{self.path}: {len(self.instances)} IMU instances: "
                 + "; ".join(i.label() for i in self.instances)
-                + "; choose one with --instance N (or --instance all: one run per instance)"
+                + "; choose one with instance=N (or instance=all: one run per instance)"
             )
         return (self.instance(int(options.instance)),)
 

@@ -5,7 +5,7 @@ columns piece by piece (:data:`rinscal.io.streaming.PIECE_ROWS` rows) and turns 
 into a :class:`rinscal.schema.NavSamples` of angle and velocity increments [rad, m/s] in the
 IMU frame r, time in seconds; an interval longer than the nominal one by
 :data:`rinscal.schema.GAP_FACTOR` is a :class:`Gap`. The file format and its mapping are in
-:mod:`rinscal.io.navmapping`.
+:mod:`rinscal.io.navopen`.
 
 Row numbers in messages are data rows of the file: 1-based, the header not counted.
 """
@@ -16,18 +16,18 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import pandas as pd
 
 from rinscal.errors import LogError
-from rinscal.io.mapping import TIME_UNITS
-from rinscal.io.navmapping import _IDENTITY, _ROWS, Kind, NavMapping, _parse_axes
+from rinscal.io.mapping import IDENTITY_AXES, TIME_UNITS, ColumnMapping, parse_axes
 from rinscal.io.streaming import PIECE_ROWS
 from rinscal.io.tables import _CSV_READ_KW, _NA_STRINGS, _text_frames
 from rinscal.io.track import _check_latitude
 from rinscal.schema import (
+    _ROWS,
     CHANNELS,
     GAP_FACTOR,
     REF_HEADING,
@@ -51,6 +51,9 @@ __all__ = [
 
 #: Samples whose median interval is the nominal one when the metadata has no ``rate_hz``.
 NOMINAL_SAMPLES = 1001
+
+#: What a recording's six sensor columns hold.
+Kind = Literal["rates", "increments", "counts"]
 
 
 @dataclass(frozen=True)
@@ -84,7 +87,7 @@ class NavLog:
     ----------
     path : Path
         The log file.
-    mapping : NavMapping or None
+    mapping : ColumnMapping or None
         How it is read (None: canonical column names).
     meta : dict or None
         Its sidecar metadata ``<log>.meta.json``.
@@ -122,7 +125,7 @@ class NavLog:
     """
 
     path: Path
-    mapping: NavMapping | None
+    mapping: ColumnMapping | None
     meta: dict[str, Any] | None
     kind: Kind
     units: dict[str, str]
@@ -268,7 +271,7 @@ class NavLog:
         if target is not None and not has_run:
             raise LogError(
                 f"{self.path}: run {target!r} chosen, but the file has no {RUN!r} column "
-                "(it is one recording: leave --run out)"
+                "(it is one recording: leave run= and the mapping's select_run out)"
             )
         seen = ended = False
         current: object = None
@@ -380,7 +383,7 @@ class NavLog:
         runs, count = self._scan_runs()
         return LogError(
             f"{self.path}: column {self._foreign(RUN)!r} holds {self._runs_text(runs, count)}; "
-            'choose one with --run (or run = "..." in the mapping)'
+            'choose one with run= (or select_run = "..." in the mapping)'
         )
 
     # ------------------------------------------------------------------ converting
@@ -420,7 +423,7 @@ class NavLog:
         """Increments [rad], [m/s], each (n, 3), C order, in r (``axes`` applied)."""
         n = dt.shape[0]
         out = (np.empty((n, 3), dtype=np.float64), np.empty((n, 3), dtype=np.float64))
-        axes = _parse_axes(self.mapping.axes) if self.mapping is not None else _IDENTITY
+        axes = parse_axes(self.mapping.axes) if self.mapping is not None else IDENTITY_AXES
         dest = {fa: (i, sign) for i, (fa, sign) in enumerate(axes)}  # file axis -> ours
         for j, canon in enumerate(self._sensors):
             x = self._float(piece[canon], canon, row)
@@ -518,7 +521,7 @@ class NavLog:
                             f"{self.path}: {col_label(TIME, self.names)}, data row {gap.row}: a "
                             f"gap of {gap.length_s:.6g} s before {gap.time_s:.10g} s (about "
                             f"{gap.missing_samples} samples missing at the nominal interval "
-                            f"{nominal:.6g} s, more than {max_gap_samples}); pass --allow-gaps "
+                            f"{nominal:.6g} s, more than {max_gap_samples}); pass allow_gaps=True "
                             "to integrate across it (rates are held over the gap, increments "
                             f"taken as the device reports them) ({_ROWS})"
                         )
@@ -538,7 +541,7 @@ class NavLog:
         self, piece: dict[str, Any], row: int, t: np.ndarray, dt: np.ndarray
     ) -> NavSamples:
         dtheta, dv = self._sensor_block(piece, row, dt)
-        axes = _parse_axes(self.mapping.axes) if self.mapping is not None else _IDENTITY
+        axes = parse_axes(self.mapping.axes) if self.mapping is not None else IDENTITY_AXES
         perm = [fa for fa, _ in axes]
         table = None
         if self.has_table:

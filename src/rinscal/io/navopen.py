@@ -1,9 +1,47 @@
-"""Open a recorded-navigation log: its header, mapping, metadata and units resolved.
+"""Open a recorded-navigation log (``rinscal navigate --log``): its header, mapping, metadata
+and units resolved.
 
 :func:`open_nav_log` reads the header (and the sidecar metadata, :mod:`rinscal.io.metadata`),
-finds which columns hold what (rates, increments or counts, see
-:mod:`rinscal.io.navmapping`) and returns a :class:`rinscal.io.navlog.NavLog` that reads the
+finds which columns hold what and returns a :class:`rinscal.io.navlog.NavLog` that reads the
 samples piece by piece.
+
+A recording (CSV, TSV or Parquet, one row per IMU sample, see the "navigation log" section
+of :mod:`rinscal.schema`) is read in pieces of about
+:data:`rinscal.io.streaming.PIECE_ROWS` rows, never whole: only the columns it needs (Parquet
+record batches, CSV/TSV chunks), each piece turned into a :class:`rinscal.schema.NavSamples`
+of angle and velocity increments [rad, m/s] in the IMU frame r (right-forward-up), time in
+seconds.
+
+The IMU's output may be written as
+
+* **rates** ``gyro_*``, ``accel_*``: the mean rate over the interval ending at ``time_s``
+  in the declared units (deg/h and µg by default; rad/s, deg/s, m/s², mg, g allowed);
+  ``dtheta = rate · dt``, ``dt[k] = t[k] − t[k−1]``, the first sample's ``dt`` the nominal
+  interval (``rate_hz`` of the metadata, else the median interval of the first 1001
+  samples);
+* **increments** ``dtheta_*`` [rad], ``dvel_*`` [m/s] over the interval ending at ``time_s``,
+  taken as they are;
+* **integer counts** per interval (in columns mapped onto either naming) times a pulse
+  weight given in the mapping's ``[weights]``.
+
+A foreign file is read through the one mapping of every foreign log,
+:class:`rinscal.io.mapping.ColumnMapping` (its TOML format, ``weights``, ``axes``, the
+encoder's ``table_*`` keys and ``select_run`` are described there), read with
+``read_mapping(path, log_kind="navigation")``, never by editing the file. A file whose columns
+already have the canonical names needs no mapping; columns that are neither canonical nor
+mapped are never read.
+
+Sidecar metadata ``<log>.meta.json`` (:func:`rinscal.io.metadata.read_meta`) may give ``rate_hz``,
+``units`` (of rate columns), ``site`` = ``{"lat_deg", "lon_deg", "h_m"}``, ``heading_deg``,
+``noise`` = ``{"gyro_noise_density" [rad/√s], "accel_noise_density" [m/s²/√Hz]}`` (and
+optionally ``"gyro_bias_rw"`` [rad/s/√s], ``"accel_bias_rw"`` [m/s²/√s]) and
+``utc_start`` (ISO 8601, the UTC of ``time_s`` = 0, for NMEA reference tracks).
+
+A reference track may also be a separate file, read by
+:func:`rinscal.io.track.read_track`: a table with ``time_s, ref_lat_deg, ref_lon_deg,
+ref_h_m`` or NMEA GGA sentences.
+
+Row numbers in messages are data rows of the file: 1-based, the header not counted.
 """
 
 from __future__ import annotations
@@ -19,10 +57,9 @@ from typing import Any
 import pandas as pd
 
 from rinscal.errors import ConfigError, LogError
-from rinscal.io.mapping import SEPARATORS, channel_unit
+from rinscal.io.mapping import SEPARATORS, ColumnMapping, channel_unit, check_applies, parse_weight
 from rinscal.io.metadata import read_meta
-from rinscal.io.navlog import NavLog
-from rinscal.io.navmapping import Kind, NavMapping, parse_weight
+from rinscal.io.navlog import Kind, NavLog
 from rinscal.io.tables import Format, _check_parquet, _sniff_text, format_of
 from rinscal.io.track import parse_utc
 from rinscal.schema import (
@@ -56,9 +93,12 @@ DEFAULT_RATE_UNITS: dict[str, str] = {"gyro": "deg/h", "accel": "ug"}
 
 
 def _header(
-    p: Path, fmt: str, mapping: NavMapping | None
+    p: Path, fmt: str, mapping: ColumnMapping | None
 ) -> tuple[list[str], str | None, int | None]:
-    """The file's column names, its separator (text) and its row count (Parquet)."""
+    """The file's column names, its separator (text) and its row count (Parquet); a mapping
+    with keys of a calibration log refused (ConfigError)."""
+    if mapping is not None:
+        check_applies(mapping, "navigation")
     if fmt == "parquet":
         # deferred on purpose: pyarrow is heavy and only Parquet needs it
         import pyarrow.parquet as pq
@@ -98,7 +138,7 @@ def _header(
     return cols, sep, None
 
 
-def _resolve(p: Path, cols: list[str], mapping: NavMapping | None) -> dict[str, str]:
+def _resolve(p: Path, cols: list[str], mapping: ColumnMapping | None) -> dict[str, str]:
     """Canonical name -> the file's column, for every canonical column the file has."""
     names = {c: c for c in cols if c in NAV_CANONICAL}
     if mapping is None:
@@ -125,7 +165,7 @@ def _resolve(p: Path, cols: list[str], mapping: NavMapping | None) -> dict[str, 
 def _kind(
     p: Path,
     names: dict[str, str],
-    mapping: NavMapping | None,
+    mapping: ColumnMapping | None,
     cols: list[str],
     meta_weights: bool = False,
 ) -> tuple[Kind, tuple[str, ...]]:
@@ -227,7 +267,7 @@ def _read_meta_fields(meta: dict[str, Any] | None, mp: str) -> dict[str, Any]:
 
 
 def _units(
-    kind: Kind, mapping: NavMapping | None, meta: dict[str, Any] | None, mp: str
+    kind: Kind, mapping: ColumnMapping | None, meta: dict[str, Any] | None, mp: str
 ) -> tuple[dict[str, str], dict[str, float]]:
     units: dict[str, str] = {}
     to_si: dict[str, float] = {}
@@ -312,7 +352,7 @@ def _existing_log(path: str | os.PathLike[str], fmt: str | None) -> tuple[Path, 
 
 
 def nav_log_header(
-    path: str | os.PathLike[str], mapping: NavMapping | None = None, *, fmt: str | None = None
+    path: str | os.PathLike[str], mapping: ColumnMapping | None = None, *, fmt: str | None = None
 ) -> NavHeader:
     """Read a log's header and metadata (and its runs, if it looks like a calibration log).
 
@@ -350,7 +390,7 @@ def nav_log_header(
 
 def open_nav_log(
     path: str | os.PathLike[str],
-    mapping: NavMapping | None = None,
+    mapping: ColumnMapping | None = None,
     run: str | None = None,
     *,
     fmt: str | None = None,
@@ -361,10 +401,10 @@ def open_nav_log(
     ----------
     path : path-like
         ``.csv``, ``.tsv`` or ``.parquet``.
-    mapping : NavMapping, optional
+    mapping : ColumnMapping, optional
         How to read a foreign log; None for canonical column names.
     run : str, optional
-        Which run to read (overrides ``mapping.run``); needed when the file's ``run``
+        Which run to read (overrides ``mapping.select_run``); needed when the file's ``run``
         column holds several.
     fmt : {"csv", "tsv", "parquet"}, optional
         Format, overriding the suffix.
@@ -418,7 +458,7 @@ def open_nav_log(
             f"{p}: reference column(s) {', '.join(map(repr, ref))} without "
             f"{', '.join(map(repr, lacking))}: a reference track needs all three"
         )
-    chosen = run if run is not None else (mapping.run if mapping is not None else None)
+    chosen = run if run is not None else (mapping.select_run if mapping is not None else None)
     log = NavLog(
         path=p,
         mapping=mapping,

@@ -25,11 +25,10 @@ import pandas as pd
 from rinscal import _check
 from rinscal.errors import LogError, LogNoteWarning
 from rinscal.io.atomic import write_atomic
-from rinscal.io.mapping import SEPARATORS, TIME_UNITS, ColumnMapping
+from rinscal.io.mapping import SEPARATORS, TIME_UNITS, ColumnMapping, check_applies
 from rinscal.schema import (
     CANONICAL,
     RUN,
-    TEMP_IN,
     TIME,
     as_float,
     quoted_columns,
@@ -264,11 +263,7 @@ def _apply_mapping(
             f"{p}: column(s) {', '.join(map(repr, missing))} named in the mapping are not in "
             f"the file (columns found: {quoted_columns(cols)})"
         )
-    rename = dict(mapping.columns)
-    if mapping.time is not None:
-        rename[mapping.time] = TIME
-    if mapping.temperature is not None:
-        rename[mapping.temperature] = TEMP_IN
+    rename = mapping.rename()
     df = df.drop(columns=list(mapping.drop))
     clash = [c for c in df.columns if c in rename.values() and c not in rename]
     if clash:
@@ -279,7 +274,7 @@ def _apply_mapping(
     df = df.rename(columns=rename)
     names = {canon: foreign for foreign, canon in rename.items()}
     if RUN not in df.columns:
-        df[RUN] = mapping.run or p.stem
+        df[RUN] = mapping.run_name or p.stem
     if TIME in df.columns:
         t = df[TIME]
         per_second = TIME_UNITS[mapping.time_unit]
@@ -423,7 +418,9 @@ def _log_path(
     f = format_of(p, fmt)
     check_mapping(mapping)
     if mapping is not None and not isinstance(mapping, ColumnMapping):
-        raise LogError(f"{p}: --instance applies to PX4 .ulg and ArduPilot .bin logs only")
+        raise LogError(f"{p}: instance= applies to PX4 .ulg and ArduPilot .bin logs only")
+    if mapping is not None:
+        check_applies(mapping, "calibration")
     if not p.exists():
         raise LogError(f"{p}: no such file")
     if p.is_dir():
@@ -487,7 +484,7 @@ def _flight_sources(path: str | os.PathLike[str], options: Any) -> Iterator[Sour
     if isinstance(options, ColumnMapping):
         raise LogError(
             f"{path}: a ULog or DataFlash log is read without a column mapping "
-            "(--map, --col, --time-col, --sep, --temp-col ...); choose the IMU with --instance"
+            "(map_file=, col=, time_col=, sep=, temp_col= ...); choose the IMU with instance="
         )
     p = Path(path)
     _, runs, notes = iter_flight_runs(p, options or FlightLogOptions())

@@ -17,9 +17,9 @@ from typing import Any
 import numpy as np
 
 from rinscal.errors import LogError
-from rinscal.io.navmapping import _ROWS
 from rinscal.io.tables import _CSV_READ_KW, _check_parquet, _sniff_text, _text_frames, format_of
 from rinscal.schema import (
+    _ROWS,
     REF_TRACK,
     TIME,
     as_float,
@@ -204,7 +204,7 @@ def _read_nmea(p: Path, utc_start: str | datetime | None) -> Track:
 
     if utc_start is None:
         raise LogError(
-            f"{p}: NMEA GGA sentences carry the UTC time of day only: pass --track-utc-start "
+            f"{p}: NMEA GGA sentences carry the UTC time of day only: pass track_utc_start= "
             "(ISO 8601 UTC of the log's time_s = 0) or put utc_start in the log's metadata"
         )
     start = parse_utc(utc_start, f"{p}: utc_start")

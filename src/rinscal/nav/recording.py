@@ -25,7 +25,7 @@ from rinscal import _check
 from rinscal.calibration.imulog import check_recording_for_imu
 from rinscal.calibration.modelfile import POLICIES, FittedModel
 from rinscal.errors import ConfigError, LogError
-from rinscal.io.navmapping import NavMapping
+from rinscal.io.mapping import ColumnMapping
 from rinscal.io.navopen import nav_log_header, open_nav_log
 from rinscal.io.track import parse_utc, read_track
 from rinscal.nav.recorded.blocks import BlockStats
@@ -96,17 +96,17 @@ def parse_site(text: str) -> tuple[float, float, float]:
     Raises
     ------
     ConfigError
-        Naming the option for a malformed value or a latitude outside ±90°.
+        Naming the argument (``site=``) for a malformed value or a latitude outside ±90°.
     """
     parts = [p.strip() for p in str(text).split(",")]
     try:
         lat, lon, h = (float(p) for p in parts)
     except ValueError:
-        raise ConfigError(f"--site: {text!r} is not LAT,LON,HEIGHT (deg, deg, m)") from None
+        raise ConfigError(f"site={text!r} is not LAT,LON,HEIGHT (deg, deg, m)") from None
     if not all(math.isfinite(x) for x in (lat, lon, h)):
-        raise ConfigError(f"--site: {text!r} holds a non-finite number")
+        raise ConfigError(f"site={text!r} holds a non-finite number")
     if abs(lat) > 90:
-        raise ConfigError(f"--site: latitude {lat:g}° lies outside ±90°")
+        raise ConfigError(f"site={text!r}: latitude {lat:g}° lies outside ±90°")
     return math.radians(lat), math.radians(lon), h
 
 
@@ -137,8 +137,9 @@ def navigate_log(
     ----------
     path : path-like
         The recorded-navigation log (see :mod:`rinscal.io.navopen`).
-    mapping : NavMapping, optional
-        How to read a foreign file.
+    mapping : ColumnMapping, optional
+        How to read a foreign file (``rinscal.io.mapping.read_mapping(path, "navigation")``
+        reads a TOML file).
     run : str, optional
         Which run of a log with several.
     models : sequence of path-like
@@ -184,8 +185,8 @@ def navigate_log(
     _check.instance(
         "mapping",
         mapping,
-        NavMapping,
-        "a NavMapping (rinscal.io.navmapping.read_nav_mapping reads a TOML file)",
+        ColumnMapping,
+        'a ColumnMapping (rinscal.io.mapping.read_mapping(path, "navigation") reads a TOML file)',
         optional=True,
     )
     _check.instance("models", models, (list, tuple), "a list of model files' paths")
@@ -207,14 +208,14 @@ def navigate_log(
         "imu", imu, (str, os.PathLike), "an IMU preset name or TOML file", optional=True
     )
     if policy not in POLICIES:
-        raise ConfigError(f"--policy must be one of {', '.join(POLICIES)}, got {policy!r}")
+        raise ConfigError(f"policy={policy!r} is not one of {', '.join(POLICIES)}")
     if track_utc_start is not None:  # checked before the log is read, not only with a track
         if track is None:
             raise ConfigError(
-                "track_utc_start (--track-utc-start) sets the clock of a reference track: "
-                "give the track (--track) or drop it"
+                "track_utc_start= sets the clock of a reference track: give the track "
+                "(track=) or drop it"
             )
-        parse_utc(track_utc_start, "track_utc_start (--track-utc-start)")
+        parse_utc(track_utc_start, "track_utc_start=")
     # what the recording is, first: a calibration log is named before its units are read
     head = nav_log_header(path, mapping)
     cal_kind, refuse = calibration_log(path, head.columns, head.meta, head.runs, run)
@@ -253,8 +254,8 @@ def navigate_log(
         site = (float(tr.lat[0]), float(tr.lon[0]), float(tr.h[0]))
     if site is None:
         raise ConfigError(
-            f"{path}: where was it recorded? Give --site LAT,LON,HEIGHT (the log's metadata has "
-            "no site, and there is no reference track)"
+            f"{path}: where was it recorded? Give its site (site=: latitude, "
+            "longitude, height; the log's metadata has no site, and there is no reference track)"
         )
     # the body's true heading: --heading, else the log's ref_heading_deg column, else metadata
     if heading_deg is not None:

@@ -704,7 +704,7 @@ def _check_args(
     if len({run_name("cal", c) for c in set_points_c}) != len(set_points_c):
         raise ConfigError(f"set_points_c {list(set_points_c)}: two round to the same °C")
     for w in rates_dps:
-        finite("rates_dps (--rates): a rate test's rate [deg/s]", float(w), 0.0)
+        finite("rates_dps=: a rate test's rate [deg/s]", float(w), 0.0)
     finite("dwell_s", dwell_s, 0.0)
     finite("warmup_s", warmup_s, 0.0, strict=False)
     finite("rate_hz", rate_hz, 0.0)

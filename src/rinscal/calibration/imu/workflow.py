@@ -242,13 +242,13 @@ def _run_stats(
     if split.short and not any(s.kind == "static" for s in split.segments):
         dt = float(np.median(np.diff(t))) if t.size > 1 else 0.0
         fix = (
-            f"use a settle time of at most {split.short_settle_max_s:.3g} s (--settle), or "
+            f"use a settle time of at most {split.short_settle_max_s:.3g} s (settle_s=), or "
             if split.short_settle_max_s is not None
             else ""
         )
         raise DesignError(
             f"run {run}: no static position is left: each of its {split.short} stops is "
-            f"shorter than the settle time cut from its start ({settle_s:g} s, --settle) plus "
+            f"shorter than the settle time cut from its start ({settle_s:g} s, settle_s=) plus "
             f"{min_samples} samples (the longest stop lasts {split.short_longest_s:.3g} s); "
             f"{fix}dwell at least {settle_s + min_samples * dt:.3g} s at each position "
             "(rinscal simulate multiposition --dwell)"
@@ -491,7 +491,7 @@ def calibrate_imu(
         raise DesignError(
             f"a temperature law needs at least two set points; the log has one {what} "
             f"({blocks[0].name if blocks else 'none'}); for a calibration at one temperature "
-            "ask for max_degree=0 (--max-degree 0)"
+            "ask for max_degree=0"
         )
     estimates: list[BlockEstimate] = []
     for b in blocks:

@@ -139,7 +139,7 @@ def collinear_inputs(
                     f"{INPUT_LABELS[a]} and {INPUT_LABELS[b]} are collinear (r = {r:.6f}), as "
                     "on a single exponential warm-up, so their terms cannot be told apart: "
                     "record runs at other chamber temperatures or a ramp, or leave the "
-                    "rate term out (--orders p,0,s or --method poly-t)"
+                    "rate term out (orders= with 0 for it, or method='poly-t')"
                 )
     return found
 
@@ -320,7 +320,7 @@ def check_temperatures(
             raise ValueError(
                 f"column {name!r}: {bad.size} reading(s) outside the plausible range "
                 f"{lo:g} … {hi:g} °C, first at data row {row} ({v[i]:.6g} °C); fix or drop "
-                "those rows, or widen the range with --temp-range LO,HI"
+                "those rows, or widen the range (temp_range=)"
             )
         out[name] = temperature_resolution(v)
     if warn:

@@ -225,7 +225,7 @@ def tofupilot_mapping() -> Any:
         separator="tab",
         temperature="imu.temperature",
         drop=("imu.status",),
-        run="thermal_cycle",
+        run_name="thermal_cycle",
         units={"gyro": "rad/s", "accel": "m/s^2"},
     )
 

@@ -201,7 +201,7 @@ def calibration_log(
         refuse = (
             f"{said}: fit a thermal model on it with `rinscal fit {path} --out M.json`, then "
             "navigate a recording with --model M.json. To navigate one of its runs as a static "
-            "recording anyway, choose it with --run (the alignment needs at least 5 min at "
+            "recording anyway, choose it with run= (the alignment needs at least 5 min at "
             "rest, sampled at 10 Hz or more)"
         )
         return RecordingKind("calibration log", evidence, said), refuse

@@ -299,7 +299,7 @@ def navigate_recording(
         raise LogError(
             f"the recording ends at {t_last:.1f} s, when the alignment "
             f"({window.start_s:g} s + {window.length_s:g} s) does: nothing is left to "
-            "navigate (a shorter --align-s, or a longer recording)"
+            "navigate (a shorter align_s=, or a longer recording)"
         )
     reference.overlap(float(truth[0, 0]), float(truth[-1, 0]))
     keep = truth[:, 11] > 0

@@ -196,7 +196,7 @@ def find_window(
     moved = "; ".join(d.text() for d in mot.disturbed[:3])
     raise LogError(
         f"no static window of at least {min_s:g} s to align on: {what} (quiet: {mot.judged})"
-        f"{'; ' + moved if moved else ''}; set one by hand with --align-start-s and --align-s"
+        f"{'; ' + moved if moved else ''}; set one by hand with align_start_s= and align_s="
     )
 
 
@@ -581,8 +581,8 @@ def check_turning_without_encoder(
         "stood still: the IMU is on a turntable, and the log has no encoder angle "
         "(table_deg). The heading error compares the IMU's heading with the body's and is "
         "meaningless (the position error, computed in the IMU frame, is not touched): map the "
-        'encoder column, e.g. [columns] ENCODER = "table_deg" in the mapping (--mapping '
-        "FILE.toml; table_unit, table_sign, table_zero_deg if it needs them)"
+        'encoder column, e.g. [columns] ENCODER = "table_deg" in the mapping (mapping=; '
+        "table_unit, table_sign, table_zero_deg if it needs them)"
     ]
 
 
@@ -637,7 +637,7 @@ def _factor_hint(
             what = f"the columns hold {si / units.SENSOR_UNITS[declared]:.4g}: {what}"
         return (
             f' ({what}?: declare the unit, e.g. {sensor} = "{a}" under [units] in the '
-            f'mapping (--mapping FILE.toml), or "units": {{"{sensor}": "{a}"}} in the '
+            f'mapping (mapping=), or "units": {{"{sensor}": "{a}"}} in the '
             "log's .meta.json)"
         )
     for k, what in (
