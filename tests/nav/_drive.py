@@ -76,6 +76,7 @@ class Drive:
     lat: np.ndarray  # (m,) true [rad]
     lon: np.ndarray
     alt: np.ndarray  # (m,) [m]
+    v_n: np.ndarray  # (m, 3) true ENU velocity [m/s]
     C_nr: np.ndarray  # (m, 3, 3) true attitude
     track: GnssTrack  # noisy positions, σ = GNSS_SD_M
     noisy: np.ndarray  # (m, 3) the track's lat, lon, alt [rad, rad, m]
@@ -129,7 +130,7 @@ def simulate_drive(
     syn = ImuSynthesizer(route, RotationSchedule.none(), rate_hz)
     dt = 1.0 / rate_hz
     per_s = round(rate_hz)
-    dth, dvs, t, lat, lon, alt, eul = [], [], [], [], [], [], []
+    dth, dvs, t, lat, lon, alt, vel, eul = [], [], [], [], [], [], [], []
     for ch in syn.chunks(duration_s, 300.0):
         e = plant(powered_s + ch.t - 0.5 * dt, ch.dtheta / dt, ch.dv / dt)
         dth.append(ch.dtheta + e[:, :3] * dt)
@@ -139,6 +140,7 @@ def simulate_drive(
         lat.append(ch.lat[sel])
         lon.append(ch.lon[sel])
         alt.append(ch.alt[sel])
+        vel.append(ch.v_n[sel])
         eul.append(ch.euler[sel])
     tt = np.round(np.concatenate(t), 9)
     la, lo, al = np.concatenate(lat), np.concatenate(lon), np.concatenate(alt)
@@ -161,6 +163,7 @@ def simulate_drive(
         la,
         lo,
         al,
+        np.concatenate(vel),
         C_nb_from_euler(np.concatenate(eul)),
         track,
         noisy,

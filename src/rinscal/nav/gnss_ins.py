@@ -276,12 +276,20 @@ class AidedInertial:
         self.accel_bias = np.array(accel_bias, dtype=float).reshape(3)
         self.omega_r = np.zeros(3)
 
-    def propagate(self, dtheta: NDArray[np.float64], dv: NDArray[np.float64]) -> None:
+    def propagate(
+        self, dtheta: NDArray[np.float64], dv: NDArray[np.float64]
+    ) -> NDArray[np.float64]:
         """Integrate raw increments [rad], [m/s] (n, 3) and propagate the covariance over
-        them as one step (keep steps short: a second or less)."""
+        them as one step (keep steps short: a second or less).
+
+        Returns
+        -------
+        ndarray, shape (15, 15)
+            The step's transition matrix Φ of the error state.
+        """
         n = dtheta.shape[0]
         if n == 0:
-            return
+            return np.eye(N_STATES)
         dt = self.nav.dt
         T = n * dt
         d_th = dtheta - self.gyro_bias * dt
@@ -295,6 +303,7 @@ class AidedInertial:
         Phi = transition(F, T)
         Q = process_noise(C, self.noise)
         self.P = Phi @ self.P @ Phi.T + 0.5 * (Phi @ Q @ Phi.T + Q) * T
+        return Phi
 
     def state(self, t: float, tau: float = 0.0) -> NavState:
         """The INS solution at time ``t`` [s], its position carried ``tau`` [s] ahead by
