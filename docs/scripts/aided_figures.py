@@ -32,7 +32,7 @@ from tests.nav.test_gnss_ins import (
     _pyins_aided,
 )
 
-from rinscal.nav.gnss_ins import navigate_aided
+from rinscal.nav.inmotion import navigate_aided
 from rinscal.nav.trajectory import euler_from_C_nb
 from rinscal.thermal.config import load_imu
 

@@ -30,12 +30,11 @@ from rinscal.nav.gnss_ins import (
     AidedInertial,
     ImuNoise,
     InitialSd,
-    coarse_in_motion,
     initial_covariance,
-    navigate_aided,
     run_aided,
 )
 from rinscal.nav.imu import static_increments
+from rinscal.nav.inmotion import coarse_in_motion, navigate_aided
 from rinscal.nav.strapdown import Strapdown, rotvec_to_dcm
 from rinscal.nav.trajectory import euler_from_C_nb
 from rinscal.thermal.config import load_imu
