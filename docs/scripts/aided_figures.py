@@ -3,6 +3,8 @@ GNSS-aided navigation on the tests' drive (``tests/nav/_drive.py``), ours and py
 
     PYTHONPATH=src python docs/scripts/aided_figures.py --seeds 1-12
     PYTHONPATH=src python docs/scripts/aided_figures.py --seeds 1-12 --cold
+    PYTHONPATH=src python docs/scripts/aided_figures.py --seeds 1-12 --cold \
+        --accel-walk 600 --gyro-walk 0.02
     PYTHONPATH=src python docs/scripts/aided_figures.py --seeds 11 --hours 1 --pyins
 
 Prints, per seed, the heading error at 5 min and the filter's σ, the 3-D position error RMS
@@ -18,6 +20,7 @@ import math
 import sys
 import time
 import warnings
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -48,9 +51,15 @@ def main() -> None:
     p.add_argument("--hours", type=float, default=300.0 / 3600.0, help="drive length [h]")
     p.add_argument("--cold", action="store_true", help="cold start (powered_s = 0)")
     p.add_argument("--pyins", action="store_true", help="also run pyins' filter")
+    p.add_argument("--accel-walk", type=float, help="accelerometer bias random walk [µg/√h]")
+    p.add_argument("--gyro-walk", type=float, help="gyro bias random walk [°/h/√h]")
     args = p.parse_args()
     warnings.filterwarnings("ignore")
     noise = paper_noise(load_imu("paper"))
+    if args.accel_walk is not None:  # µg/√h → m/s²/√s
+        noise = replace(noise, accel_bias_rw=args.accel_walk * 9.80665e-6 / 60.0)
+    if args.gyro_walk is not None:  # °/h/√h → rad/s/√s
+        noise = replace(noise, gyro_bias_rw=math.radians(args.gyro_walk) / 3600.0 / 60.0)
     heads = []
     print("seed  heading@5min[deg]  sigma[deg]  rms[m]  max[m]  coarse[deg]  (pyins ...)")
     for seed in _seeds(args.seeds):
