@@ -5,6 +5,7 @@ GNSS-aided navigation on the tests' drive (``tests/nav/_drive.py``), ours and py
     PYTHONPATH=src python docs/scripts/aided_figures.py --seeds 1-12 --cold
     PYTHONPATH=src python docs/scripts/aided_figures.py --seeds 1-12 --cold \
         --accel-walk 600 --gyro-walk 0.02
+    PYTHONPATH=src python docs/scripts/aided_figures.py --seeds 1-12 --rotate
     PYTHONPATH=src python docs/scripts/aided_figures.py --seeds 11 --hours 1 --pyins
 
 Prints, per seed, the heading error at 5 min and the filter's σ, the 3-D position error RMS
@@ -28,7 +29,7 @@ from scipy import stats
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
-from tests.nav._drive import paper_noise, simulate_drive
+from tests.nav._drive import WARM_S, paper_noise, simulate_drive
 from tests.nav.test_gnss_ins import (
     _heading_error_deg,
     _position_error_m,
@@ -36,6 +37,7 @@ from tests.nav.test_gnss_ins import (
 )
 
 from rinscal.nav.inmotion import navigate_aided
+from rinscal.nav.rotation import RotationSchedule
 from rinscal.nav.trajectory import euler_from_C_nb
 from rinscal.thermal.config import load_imu
 
@@ -51,6 +53,7 @@ def main() -> None:
     p.add_argument("--hours", type=float, default=300.0 / 3600.0, help="drive length [h]")
     p.add_argument("--cold", action="store_true", help="cold start (powered_s = 0)")
     p.add_argument("--pyins", action="store_true", help="also run pyins' filter")
+    p.add_argument("--rotate", action="store_true", help="four-position table under the IMU")
     p.add_argument("--accel-walk", type=float, help="accelerometer bias random walk [µg/√h]")
     p.add_argument("--gyro-walk", type=float, help="gyro bias random walk [°/h/√h]")
     args = p.parse_args()
@@ -63,8 +66,12 @@ def main() -> None:
     heads = []
     print("seed  heading@5min[deg]  sigma[deg]  rms[m]  max[m]  coarse[deg]  (pyins ...)")
     for seed in _seeds(args.seeds):
-        kw = {"powered_s": 0.0} if args.cold else {}
-        d = simulate_drive(args.hours * 3600.0, seed=seed, **kw)
+        d = simulate_drive(
+            args.hours * 3600.0,
+            seed=seed,
+            powered_s=0.0 if args.cold else WARM_S,
+            schedule=RotationSchedule.four_position() if args.rotate else None,
+        )
         t0 = time.perf_counter()
         res = navigate_aided(d.dtheta, d.dv, d.dt, d.track, noise)
         t_ours = time.perf_counter() - t0

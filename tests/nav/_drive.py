@@ -20,7 +20,7 @@ from rinscal import earth
 from rinscal.nav.aiding import GnssTrack
 from rinscal.nav.gnss_ins import ImuNoise
 from rinscal.nav.imu import ImuSynthesizer
-from rinscal.nav.rotation import RotationSchedule
+from rinscal.nav.rotation import C_br, RotationSchedule
 from rinscal.nav.sensors import ThermalPlant
 from rinscal.nav.trajectory import C_nb_from_euler, StepChannel, VehicleMotion
 from rinscal.thermal.config import ImuConfig, load_imu
@@ -77,7 +77,7 @@ class Drive:
     lon: np.ndarray
     alt: np.ndarray  # (m,) [m]
     v_n: np.ndarray  # (m, 3) true ENU velocity [m/s]
-    C_nr: np.ndarray  # (m, 3, 3) true attitude
+    C_nr: np.ndarray  # (m, 3, 3) true attitude of the IMU frame r
     track: GnssTrack  # noisy positions, σ = GNSS_SD_M
     noisy: np.ndarray  # (m, 3) the track's lat, lon, alt [rad, rad, m]
 
@@ -109,11 +109,13 @@ def simulate_drive(
     noise: bool = True,
     turn_on: bool = True,
     powered_s: float = WARM_S,
+    schedule: RotationSchedule | None = None,
 ) -> Drive:
     """The ``paper`` IMU on :func:`car_motion` for ``duration_s``, and its GNSS track
     (``thermal``, ``noise``, ``turn_on``: which of the plant's errors to include; the
     track is noisy whatever they are). The unit was switched on ``powered_s`` before the
-    record starts (0: a cold start as the drive begins)."""
+    record starts (0: a cold start as the drive begins). ``schedule``: the turntable turning
+    the IMU about the body's z axis (default none: strapped down)."""
     imu = load_imu("paper")
     route = car_motion(duration_s, heading_deg)
     plant = ThermalPlant(
@@ -125,9 +127,9 @@ def simulate_drive(
         thermal=thermal,
         noise=noise,
         turn_on=turn_on,
-        schedule=None,
+        schedule=schedule,
     )
-    syn = ImuSynthesizer(route, RotationSchedule.none(), rate_hz)
+    syn = ImuSynthesizer(route, schedule or RotationSchedule.none(), rate_hz)
     dt = 1.0 / rate_hz
     per_s = round(rate_hz)
     dth, dvs, t, lat, lon, alt, vel, eul = [], [], [], [], [], [], [], []
@@ -141,7 +143,7 @@ def simulate_drive(
         lon.append(ch.lon[sel])
         alt.append(ch.alt[sel])
         vel.append(ch.v_n[sel])
-        eul.append(ch.euler[sel])
+        eul.append(C_nb_from_euler(ch.euler[sel]) @ C_br(ch.encoder[sel]))
     tt = np.round(np.concatenate(t), 9)
     la, lo, al = np.concatenate(lat), np.concatenate(lon), np.concatenate(alt)
     rng = np.random.default_rng(seed + 1000)
@@ -164,7 +166,7 @@ def simulate_drive(
         lo,
         al,
         np.concatenate(vel),
-        C_nb_from_euler(np.concatenate(eul)),
+        np.concatenate(eul),
         track,
         noisy,
     )
