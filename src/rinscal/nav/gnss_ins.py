@@ -337,6 +337,10 @@ class AidedResult:
         Bias estimates.
     updated : ndarray of bool, shape (m,)
         Whether a measurement was used at that step's end.
+    residuals : dict of str to ndarray
+        Per measurement class, its normalised residuals in time order, one row per use:
+        each component over its predicted standard deviation (−); a consistent filter
+        gives zero mean and unit variance.
     """
 
     t: NDArray[np.float64]
@@ -349,6 +353,7 @@ class AidedResult:
     gyro_bias: NDArray[np.float64]
     accel_bias: NDArray[np.float64]
     updated: NDArray[np.bool_]
+    residuals: dict[str, NDArray[np.float64]]
 
 
 def run_aided(
@@ -403,17 +408,20 @@ def run_aided(
     gb = np.empty((m_out, 3))
     ab = np.empty((m_out, 3))
     updated = np.zeros(m_out, dtype=bool)
+    residuals: dict[str, list[NDArray[np.float64]]] = {}
     i = 0
     for j, e in enumerate(ends):
         filt.propagate(dtheta[i:e], dv[i:e])
         i = int(e)
-        lins = []
+        lins, names = [], []
         for meas, k, tk in due.get(i, ()):
             lin = meas.linearise(k, filt.state(tk, tk - t[j]))
             if lin is not None:
                 lins.append(lin)
+                names.append(type(meas).__name__)
         if lins:
-            filt.update(lins)
+            for name, nu in zip(names, filt.update(lins), strict=True):
+                residuals.setdefault(name, []).append(nu)
             updated[j] = True
         nav = filt.nav
         rows[j, :3] = (nav.lat, nav.lon, nav.alt)
@@ -423,7 +431,17 @@ def run_aided(
         gb[j] = filt.gyro_bias
         ab[j] = filt.accel_bias
     return AidedResult(
-        t, rows[:, 0], rows[:, 1], rows[:, 2], rows[:, 3:], C_all, sd, gb, ab, updated
+        t,
+        rows[:, 0],
+        rows[:, 1],
+        rows[:, 2],
+        rows[:, 3:],
+        C_all,
+        sd,
+        gb,
+        ab,
+        updated,
+        {name: np.vstack(v) for name, v in residuals.items()},
     )
 
 
