@@ -63,7 +63,7 @@ class CoarseResult:
     t : float [s]
         Time of the solution (a track fix).
     index : int
-        Samples consumed up to ``t`` (sample ``index − 1`` ends at ``t``).
+        Samples consumed up to ``t`` (sample ``index − 1`` ends nearest to ``t``).
     lat, lon : float [rad]
         Track position at ``t``.
     alt : float [m]
@@ -116,7 +116,8 @@ def coarse_in_motion(
     t0 : float [s]
         Start of the first sample.
     track : GnssTrack
-        Positions at (nearly) equally spaced times; its lever arm is taken as zero here.
+        Positions at (nearly) equally spaced times; its velocities, if it has them, are
+        used instead of the positions' derivative; its lever arm is taken as zero here.
     coarse_s : float [s]
         Length of the window used.
     """
@@ -127,8 +128,10 @@ def coarse_in_motion(
         raise ConfigError("in-motion alignment: needs at least 8 track fixes in the window")
     tk = tt[sel]
     lat, lon, alt = track.lat[sel], track.lon[sel], track.alt[sel]
-    enu = enu_difference(lat, lon, alt, lat[0], lon[0], alt[0])
-    v = track_velocity(tk, enu)
+    if track.v_n is None:
+        v = track_velocity(tk, enu_difference(lat, lon, alt, lat[0], lon[0], alt[0]))
+    else:  # the track's own velocities, on the same fixes as the derivative's
+        v = track.v_n[sel][2:-2]
     t_w = tk[2:-2]  # the fixes with a velocity
     lat_w, alt_w = lat[2:-2], alt[2:-2]
     idx = np.rint((t_w - t0) / dt).astype(np.int64)
