@@ -3,10 +3,10 @@ GNSS track (1 Hz, white noise drawn here), simulated once per call.
 
 The car starts at 10 m/s (no stop anywhere), then every two minutes speeds up, turns
 right, slows, turns left, climbs, turns right and descends; its initial heading is the
-caller's and is never given to the navigation. The IMU is strapped down (no turntable),
-its errors those of the ``paper`` preset's plant (thermal bias of a unit in a cabin at 20 °C, scale
-factor, misalignment, turn-on offsets, noise), switched on :data:`WARM_S` before the
-record starts unless told otherwise.
+caller's and is never given to the navigation. The IMU is strapped down (or on a
+turntable when a schedule is given), its errors those of the ``paper`` preset's plant
+(thermal bias of a unit in a cabin at 20 °C, scale factor, misalignment, turn-on offsets,
+noise), switched on :data:`WARM_S` before the record starts unless told otherwise.
 """
 
 from __future__ import annotations
@@ -35,7 +35,7 @@ WARM_S = 1200.0
 
 
 def car_motion(duration_s: float, heading_deg: float) -> VehicleMotion:
-    """A car at 10-20 m/s that turns three times and changes speed twice every two minutes,
+    """A car at 10-18 m/s that turns three times and changes speed twice every two minutes,
     never stopping."""
     speed: list[tuple[float, float, float]] = []
     heading: list[tuple[float, float, float]] = []
