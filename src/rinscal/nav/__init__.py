@@ -13,6 +13,12 @@ Modules
     The strapdown integrator (numba kernel in :mod:`~rinscal.nav._kernels`).
 :mod:`~rinscal.nav.align`
     Inertial-frame coarse alignment and zero-velocity Kalman fine alignment.
+:mod:`~rinscal.nav.aiding`
+    Aiding as measurements: zero velocity, a known site, a GNSS track.
+:mod:`~rinscal.nav.gnss_ins`
+    The 15-state error-state Kalman filter over the strapdown, updated by measurements.
+:mod:`~rinscal.nav.inmotion`
+    In-motion alignment on a track (no heading given), then aided navigation.
 :mod:`~rinscal.nav.scenario`
     Scenarios with the thermal plant alongside, compensation variants, position errors.
 :mod:`~rinscal.nav.recorded`
