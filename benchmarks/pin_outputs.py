@@ -58,6 +58,7 @@ VOLATILE = {
     "cwd",
     "peak_mib",
     "duration_s_wall",
+    "timings_s",
 }
 
 
@@ -160,7 +161,7 @@ def compare_table(a: pd.DataFrame, b: pd.DataFrame, where: str, rtol: float, out
                 i = int(np.flatnonzero(bad)[0])
                 n = int(bad.sum())
                 out.append(f"{where}[{c}]: {n} rows differ, first row {i}: {x[i]!r} vs {y[i]!r}")
-        elif not (pd.Series(x).astype(str).to_numpy() == pd.Series(y).astype(str).to_numpy()).all():
+        elif not a[c].reset_index(drop=True).equals(b[c].reset_index(drop=True)):
             out.append(f"{where}[{c}]: text differs")
 
 
