@@ -27,7 +27,7 @@ def test_only_the_files_given_are_passed_to_dask() -> None:
 def test_a_plain_scheduler_needs_no_security_and_refuses_certificates() -> None:
     assert cluster_security(None) is None
     assert cluster_security("tcp://host:8786") is None
-    with pytest.raises(ConfigError, match="not --scheduler tcp://host:8786"):
+    with pytest.raises(ConfigError, match="not scheduler=tcp://host:8786"):
         cluster_security("tcp://host:8786", TLSFiles(ca_file="ca.pem"))
     with pytest.raises(ConfigError, match="not a local cluster"):
         cluster_security(None, TLSFiles(cert="c.pem"))

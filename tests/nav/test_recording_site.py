@@ -1,5 +1,6 @@
-"""A recording's site option (``rinscal.nav.recording.parse_site``): degrees and metres in,
-radians and metres out, each bad value refused naming the option."""
+"""A recording's site argument (``rinscal.nav.recording.parse_site``): degrees and metres in,
+radians and metres out, each bad value refused naming the argument (the CLI translates it
+to --site)."""
 
 from __future__ import annotations
 
@@ -26,7 +27,7 @@ def test_a_site_is_read_in_degrees_and_metres() -> None:
         ("90.5,0,0", "latitude 90.5° lies outside ±90°"),
     ],
 )
-def test_a_bad_site_is_refused_naming_the_option(text: str, words: str) -> None:
-    with pytest.raises(ConfigError, match="--site") as err:
+def test_a_bad_site_is_refused_naming_the_argument(text: str, words: str) -> None:
+    with pytest.raises(ConfigError, match="site=") as err:  # the CLI says --site
         parse_site(text)
     assert words in str(err.value)
