@@ -137,7 +137,7 @@ def bench_pipeline() -> None:
     """Whole ``compensate`` on a log: features (centred rate), model, output frame."""
     from rinscal.calibration.compensate import compensate
     from rinscal.calibration.thermal.model import ThermalModel
-    from rinscal.thermal.protocols import simulate_protocol
+    from rinscal.sim.protocols import simulate_protocol
 
     log, _, meta = simulate_protocol("repeat", rate_hz=RATE_HZ, seed=5)
     n = len(log)

@@ -46,10 +46,10 @@ def _ok(good: bool) -> str:
 
 
 def part_integrator() -> None:
-    from rinscal.nav.imu import ImuSynthesizer
     from rinscal.nav.rotation import C_br, RotationSchedule
     from rinscal.nav.strapdown import Strapdown
-    from rinscal.nav.trajectory import C_nb_from_euler, StaticMotion, vehicle_route
+    from rinscal.sim.ideal_imu import ImuSynthesizer
+    from rinscal.sim.trajectory import C_nb_from_euler, StaticMotion, vehicle_route
 
     for label, traj, seconds in (
         ("vehicle (moving)", vehicle_route(duration_s=3000.0, stationary_s=60.0), 3000.0),
@@ -79,8 +79,8 @@ def part_integrator() -> None:
 
 
 def part_scenario() -> None:
-    from rinscal.nav.scenario import ThermalPlant, preset, run_scenario
-    from rinscal.thermal.config import ImuConfig
+    from rinscal.sim.config import ImuConfig
+    from rinscal.sim.scenario import ThermalPlant, preset, run_scenario
 
     imu = ImuConfig.paper()  # every effect on: Shupe, hysteresis, scale factor,
     assert all(vars(imu.effects).values())  # misalignment, lever arm, hot side by angle
@@ -107,10 +107,10 @@ def part_pyins() -> None:
     import dataclasses
 
     from rinscal import earth
-    from rinscal.nav.imu import ImuSynthesizer
     from rinscal.nav.rotation import RotationSchedule
     from rinscal.nav.strapdown import Strapdown
-    from rinscal.nav.trajectory import C_nb_from_euler, StepChannel, vehicle_route
+    from rinscal.sim.ideal_imu import ImuSynthesizer
+    from rinscal.sim.trajectory import C_nb_from_euler, StepChannel, vehicle_route
 
     try:
         import pyins.sim

@@ -39,7 +39,7 @@ def pytest_collection(session: pytest.Session):
 @pytest.fixture(scope="session")
 def soak_small() -> tuple[pd.DataFrame, pd.DataFrame, dict]:
     """Seven soak cold starts (Table 3), 1 h each at 0.5 Hz, on the navigation-grade plant."""
-    from rinscal.thermal.protocols import simulate_protocol
+    from rinscal.sim.protocols import simulate_protocol
 
     return simulate_protocol("soak", hours=1.0, rate_hz=0.5, seed=11, imu="navigation_grade")
 
@@ -47,7 +47,7 @@ def soak_small() -> tuple[pd.DataFrame, pd.DataFrame, dict]:
 @pytest.fixture(scope="session")
 def repeat_small() -> tuple[pd.DataFrame, pd.DataFrame, dict]:
     """The repetition-priming cold start at 25 °C, 2 h at 0.5 Hz."""
-    from rinscal.thermal.protocols import simulate_protocol
+    from rinscal.sim.protocols import simulate_protocol
 
     return simulate_protocol("repeat", hours=2.0, rate_hz=0.5, seed=12, imu="navigation_grade")
 
@@ -57,8 +57,8 @@ def quiet_config():
     """The navigation-grade plant without noise, outliers, offsets or thermometer error."""
     from dataclasses import fields, replace
 
-    from rinscal.thermal.config import ImuConfig, NoiseConfig
-    from rinscal.thermal.field import ThermometerConfig
+    from rinscal.sim.config import ImuConfig, NoiseConfig
+    from rinscal.sim.field import ThermometerConfig
 
     cfg = ImuConfig.navigation_grade()
     zero = NoiseConfig(**{f.name: 0.0 for f in fields(NoiseConfig)})
@@ -68,7 +68,7 @@ def quiet_config():
 @pytest.fixture(scope="session")
 def soak_quiet(quiet_config):
     """Noise-free soak protocol, 1.5 h per run at 0.5 Hz."""
-    from rinscal.thermal.protocols import simulate_protocol
+    from rinscal.sim.protocols import simulate_protocol
 
     return simulate_protocol("soak", hours=1.5, rate_hz=0.5, seed=21, config=quiet_config)
 
@@ -76,7 +76,7 @@ def soak_quiet(quiet_config):
 @pytest.fixture(scope="session")
 def repeat_quiet(quiet_config):
     """Noise-free repetition-priming cold start at 25 °C, 2 h at 0.5 Hz."""
-    from rinscal.thermal.protocols import simulate_protocol
+    from rinscal.sim.protocols import simulate_protocol
 
     return simulate_protocol("repeat", hours=2.0, rate_hz=0.5, seed=22, config=quiet_config)
 

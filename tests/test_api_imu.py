@@ -16,9 +16,9 @@ import pytest
 
 import rinscal
 from rinscal.errors import ArgumentTypeError, ConfigError
-from rinscal.nav.workflow import navigate_scenario
-from rinscal.thermal.config import ImuConfig, load_imu
-from rinscal.thermal.presets import DEFAULT_PRESET
+from rinscal.presets import DEFAULT_PRESET
+from rinscal.sim.config import ImuConfig, load_imu
+from rinscal.sim.workflow import navigate_scenario
 
 PAPER = load_imu("paper").name
 TINY = {"hours": 0.01, "rate_hz": 1.0, "seed": 3}

@@ -1,5 +1,5 @@
 """The argument checks every public function shares (``rinscal._check``), the thermal
-configuration's two number checks (``rinscal.thermal._checks``) and the version string."""
+configuration's two number checks (``rinscal.sim._checks``) and the version string."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import rinscal
 from rinscal import _check
 from rinscal._version import __version__
 from rinscal.errors import ConfigError
-from rinscal.thermal._checks import _finite, _nonneg
+from rinscal.sim._checks import _finite, _nonneg
 
 
 def test_number_accepts_reals_and_names_what_it_refuses() -> None:

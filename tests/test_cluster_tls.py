@@ -20,7 +20,7 @@ from typer.testing import CliRunner, Result
 from rinscal.cli import app
 from rinscal.io.metadata import write_meta
 from rinscal.io.tables import write_log
-from rinscal.thermal.protocols import simulate_protocol
+from rinscal.sim.protocols import simulate_protocol
 
 pytest.importorskip(
     "cryptography", reason="certificates are made with cryptography (pip install '.[test]')"

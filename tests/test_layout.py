@@ -4,6 +4,8 @@
 * No import cycle between files, including cycles through a package ``__init__`` (the top
   package's lazy API table counts as imports of the modules it names).
 * No private name (a ``_module`` or a ``_name``) imported from another package.
+* The simulator (:mod:`rinscal.sim`) imported only by itself, the experiments, the reports,
+  the command line and the top-level API (and the deprecated ``rinscal.thermal`` shim).
 * No module over 900 lines (the numba kernels excepted); one over 700 says in its docstring
   why it is one idea ("Why one module").
 * Imports sit at module top; one inside a function says why on its line or the line above
@@ -17,7 +19,10 @@ from __future__ import annotations
 
 import ast
 import functools
+import os
 import shutil
+import subprocess
+import sys
 from collections import defaultdict
 from dataclasses import dataclass
 from pathlib import Path
@@ -41,19 +46,31 @@ LAYERS: tuple[tuple[str, ...], ...] = (
         "rinscal.cluster",
         "rinscal.sensormodel",
         "rinscal.turntable",
+        "rinscal.presets",
+        "rinscal.imunoise",
+        "rinscal._kernels",
     ),
     ("rinscal.io",),
-    ("rinscal.thermal",),
     ("rinscal.calibration",),
     ("rinscal.nav",),
+    ("rinscal.sim", "rinscal.thermal"),
     ("rinscal.experiments", "rinscal.production"),
     ("rinscal.report",),
     ("rinscal.cli",),
 )
 APART = (("rinscal.experiments", "rinscal.production"),)
+#: The simulator, and the packages that may import it (the top-level API, ``rinscal``, too).
+SIM = "rinscal.sim"
+SIM_IMPORTERS = (
+    SIM,
+    "rinscal.thermal",
+    "rinscal.experiments",
+    "rinscal.report",
+    "rinscal.cli",
+)
 MAX_LINES = 900
 EXPLAIN_LINES = 700
-EXEMPT_SIZE = {"rinscal.nav._kernels"}
+EXEMPT_SIZE = {"rinscal._kernels"}
 
 
 @dataclass(frozen=True)
@@ -256,6 +273,21 @@ def upward_imports(root: Path = SRC) -> list[str]:
     return bad
 
 
+def _within(module: str, tops: tuple[str, ...]) -> bool:
+    return any(module == t or module.startswith(t + ".") for t in tops)
+
+
+def sim_imports(root: Path = SRC) -> list[str]:
+    """Imports of the simulator from a module that may not import it."""
+    return [
+        f"{imp.where(root)}  (only {', '.join(SIM_IMPORTERS[2:])} and the API import {SIM})"
+        for imp in imports(root)
+        if _within(imp.target, (SIM,))
+        and imp.source != "rinscal"
+        and not _within(imp.source, SIM_IMPORTERS)
+    ]
+
+
 def import_cycles(root: Path = SRC) -> list[str]:
     """Each cycle between files, as its chain of imports (Tarjan's strongly connected parts)."""
     graph: dict[str, dict[str, Import]] = defaultdict(dict)
@@ -371,6 +403,7 @@ def undeclared_deferred(root: Path = SRC) -> list[str]:
 RULES = {
     "upward imports": upward_imports,
     "import cycles": import_cycles,
+    "simulator imported outside its layers": sim_imports,
     "private names across packages": private_imports,
     "module sizes": module_sizes,
     "undeclared deferred imports": undeclared_deferred,
@@ -407,11 +440,9 @@ def _append(root: Path, rel: str, text: str) -> None:
 
 def test_an_upward_import_is_named(tmp_path: Path) -> None:
     root = _copy(tmp_path)
-    _append(
-        root, "thermal/field.py", "\n\ndef _f():\n    import rinscal.nav.strapdown  # deferred\n"
-    )
+    _append(root, "nav/metrics.py", "\n\ndef _f():\n    import rinscal.sim.field  # deferred\n")
     bad = _new(upward_imports, root)
-    assert len(bad) == 1 and "thermal/field.py" in bad[0] and "rinscal.nav.strapdown" in bad[0]
+    assert len(bad) == 1 and "nav/metrics.py" in bad[0] and "rinscal.sim.field" in bad[0]
 
 
 def test_a_cycle_is_named(tmp_path: Path) -> None:
@@ -440,9 +471,10 @@ def test_importing_the_lazy_api_from_inside_is_named(tmp_path: Path) -> None:
 
 def test_a_private_name_across_packages_is_named(tmp_path: Path) -> None:
     root = _copy(tmp_path)
-    _append(root, "report/html.py", "\nfrom rinscal.nav import _kernels  # noqa\n")
+    _append(root, "report/html.py", "\nfrom rinscal.calibration import _domain  # noqa\n")
     bad = _new(private_imports, root)
-    assert len(bad) == 1 and "report/html.py" in bad[0] and "private to rinscal.nav" in bad[0]
+    assert len(bad) == 1 and "report/html.py" in bad[0]
+    assert "private to rinscal.calibration" in bad[0]
 
 
 def test_a_long_module_is_named(tmp_path: Path) -> None:
@@ -450,3 +482,47 @@ def test_a_long_module_is_named(tmp_path: Path) -> None:
     _append(root, "units.py", "\n" + "\n".join(f"X{k} = {k}" for k in range(950)) + "\n")
     bad = _new(module_sizes, root)
     assert len(bad) == 1 and "units.py" in bad[0]
+
+
+def test_the_simulator_imported_from_below_is_named(tmp_path: Path) -> None:
+    root = _copy(tmp_path)
+    # production sits in the experiments' layer, above the simulator, and still may not
+    _append(root, "production/fleet.py", "\nfrom rinscal.sim.config import load_imu  # noqa\n")
+    bad = _new(sim_imports, root)
+    assert len(bad) == 1 and "production/fleet.py" in bad[0] and "rinscal.sim.config" in bad[0]
+    assert not _new(upward_imports, root)  # the layers alone let it through
+
+
+_LOADED = """
+import sys
+from rinscal.calibration.workflow import compensate_file
+from rinscal.nav.recording import navigate_log
+compensate_file(sys.argv[1], sys.argv[2], sys.argv[3])
+navigate_log(sys.argv[4], align_s=120.0, imu="paper")
+print(" ".join(sorted(m for m in sys.modules if m.startswith("rinscal"))))
+"""
+
+
+def test_navigating_or_compensating_a_recording_loads_no_simulator(tmp_path: Path) -> None:
+    """A fresh interpreter compensates a log and navigates a recording (told the ``paper``
+    IMU's noise by name), then lists what it loaded: navigation, no simulator module."""
+    from rinscal.sim.workflow import navigate_scenario  # deferred: the recording is simulated
+
+    rec = tmp_path / "run.parquet"
+    navigate_scenario(
+        "quasi-static", hours=0.05, rate_hz=10.0, align_s=120.0, oracle=False, record=rec
+    )
+    cal = Path(__file__).parent / "data" / "modelfile_v2"
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join([str(SRC), os.environ.get("PYTHONPATH", "")]),
+    }
+    args = [str(cal / "log.csv"), str(cal / "model_v2.json"), str(tmp_path / "c.csv"), str(rec)]
+    done = subprocess.run(
+        [sys.executable, "-c", _LOADED, *args], capture_output=True, text=True, env=env
+    )
+    assert done.returncode == 0, done.stderr
+    loaded = done.stdout.split()
+    assert "rinscal.nav.recorded.navigate" in loaded and "rinscal.calibration.compensate" in loaded
+    assert "rinscal.imunoise" in loaded  # the preset's noise, read below the simulator
+    assert not [m for m in loaded if _within(m, (SIM, "rinscal.thermal"))], loaded

@@ -38,8 +38,8 @@ from tests.nav.test_gnss_ins import (
 
 from rinscal.nav.inmotion import navigate_aided
 from rinscal.nav.rotation import RotationSchedule
-from rinscal.nav.trajectory import euler_from_C_nb
-from rinscal.thermal.config import load_imu
+from rinscal.sim.config import load_imu
+from rinscal.sim.trajectory import euler_from_C_nb
 
 
 def _seeds(text: str) -> list[int]:

@@ -24,8 +24,8 @@ import numpy as np
 import pandas as pd
 
 from rinscal.experiments.paper.calibration import heldout_table, real_log_table
-from rinscal.thermal.config import load_imu
-from rinscal.thermal.protocols import simulate_protocol
+from rinscal.sim.config import load_imu
+from rinscal.sim.protocols import simulate_protocol
 
 METHODS = ("px4", "ardupilot", "poly-t", "auto")
 
@@ -100,7 +100,7 @@ def noise_only(seeds: tuple[int, ...] = (11, 12, 13)) -> str:
     import dataclasses
 
     from rinscal.calibration.thermal.model import ThermalModel
-    from rinscal.thermal.polynomial import ChannelThermal
+    from rinscal.sim.polynomial import ChannelThermal
 
     lines = [
         "| preset | channels | with a model | largest added error, gyro / accel |",

@@ -57,8 +57,8 @@ from numpy.typing import NDArray
 
 from rinscal import units
 from rinscal.schema import CHANNELS
-from rinscal.thermal.config import ImuConfig, load_imu
-from rinscal.thermal.field import (
+from rinscal.sim.config import ImuConfig, load_imu
+from rinscal.sim.field import (
     BLOCK,
     COIL0,
     ELECTRONICS,
@@ -68,8 +68,8 @@ from rinscal.thermal.field import (
     ThermalField,
     simulate_field,
 )
-from rinscal.thermal.mechanistic import MechanisticThermal, first_order_lag
-from rinscal.thermal.protocols import THERMAL_DT_S, protocol_runs
+from rinscal.sim.mechanistic import MechanisticThermal, first_order_lag
+from rinscal.sim.protocols import THERMAL_DT_S, protocol_runs
 
 #: Base presets and the mechanistic presets fitted to them.
 BASES = {"paper": "paper_mechanistic", "navigation_grade": "navigation_grade_mechanistic"}

@@ -20,8 +20,8 @@ from pathlib import Path
 import pandas as pd
 
 from rinscal.calibration.imu.workflow import calibrate_imu
-from rinscal.thermal.config import ImuConfig
-from rinscal.thermal.multiposition import simulate_multiposition
+from rinscal.sim.config import ImuConfig
+from rinscal.sim.multiposition import simulate_multiposition
 
 OUT = Path(__file__).resolve().parents[1] / "results" / "imu-turntable-mc"
 

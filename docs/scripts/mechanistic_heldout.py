@@ -21,8 +21,8 @@ import sys
 import pandas as pd
 
 from rinscal.experiments.paper.calibration import fit_all, heldout_table
-from rinscal.thermal.config import load_imu
-from rinscal.thermal.protocols import simulate_protocol
+from rinscal.sim.config import load_imu
+from rinscal.sim.protocols import simulate_protocol
 
 PRESETS = ("paper", "paper_mechanistic", "navigation_grade", "navigation_grade_mechanistic")
 METHODS = ("poly-t", "sectional", "regression")

@@ -33,9 +33,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import fit_mechanistic as fm
 
 from rinscal.schema import CHANNELS
-from rinscal.thermal.config import load_imu
-from rinscal.thermal.field import AIR, BLOCK, HOUSING, SENSOR0, ThermalField
-from rinscal.thermal.mechanistic import first_order_lag
+from rinscal.sim.config import load_imu
+from rinscal.sim.field import AIR, BLOCK, HOUSING, SENSOR0, ThermalField
+from rinscal.sim.mechanistic import first_order_lag
 
 CANDIDATES = ("bond", "own-air", "case", "air")
 LAGS_S = (0.0, 120.0, 600.0)

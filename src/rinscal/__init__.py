@@ -86,11 +86,11 @@ _API: dict[str, str] = {
     "read_log": "rinscal.io.tables",
     "write_log": "rinscal.io.tables",
     "write_meta": "rinscal.io.metadata",
-    "simulate": "rinscal.thermal.protocols:simulate_protocol",
-    "simulate_multiposition": "rinscal.thermal.multiposition",
+    "simulate": "rinscal.sim.protocols:simulate_protocol",
+    "simulate_multiposition": "rinscal.sim.multiposition",
     "ImuCalibration": "rinscal.sensormodel",
-    "load_imu": "rinscal.thermal.config",
-    "ImuConfig": "rinscal.thermal.config",
+    "load_imu": "rinscal.sim.config",
+    "ImuConfig": "rinscal.sim.config",
     "fit": "rinscal.calibration.workflow",
     "calibrate_imu": "rinscal.calibration.imu.workflow",
     "ImuCalibrationResult": "rinscal.calibration.imu.workflow",
@@ -102,9 +102,9 @@ _API: dict[str, str] = {
     "compensate_file": "rinscal.calibration.workflow",
     "evaluate": "rinscal.calibration.workflow",
     "select": "rinscal.calibration.selection.heldout:select_model",
-    "navigate": "rinscal.nav.workflow",
-    "Scenario": "rinscal.nav.config:ScenarioConfig",
-    "scenario": "rinscal.nav.scenario:preset",
+    "navigate": "rinscal.sim.workflow",
+    "Scenario": "rinscal.sim.scenario_config:ScenarioConfig",
+    "scenario": "rinscal.sim.scenario:preset",
 }
 
 #: Old names, kept for one release: the same objects as the names they point to.

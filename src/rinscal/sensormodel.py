@@ -1,7 +1,7 @@
 """The IMU's sensor-error model: what turns a true rate and specific force into the output of
 each channel, and back; its parameters, their names and units, and their laws in temperature.
 
-Both the simulator (:mod:`rinscal.thermal`, the truth) and the calibration
+Both the simulator (:mod:`rinscal.sim`, the truth) and the calibration
 (:mod:`rinscal.calibration.imu`, the estimate, and every compensator) use it, so it lives on
 the ground floor.
 

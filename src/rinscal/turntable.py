@@ -1,7 +1,7 @@
 """Geometry of the two-axis turntable in the thermal chamber: the IMU's attitude from the
 axis angles, and the reference rate and specific force it feels.
 
-Both the simulator (:mod:`rinscal.thermal`) and the IMU calibration
+Both the simulator (:mod:`rinscal.sim`) and the IMU calibration
 (:mod:`rinscal.calibration.imu`) use it, so it lives on the ground floor.
 
 The table (a U-O type): the **outer** axis is horizontal and points at the azimuth

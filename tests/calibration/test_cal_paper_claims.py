@@ -14,8 +14,8 @@ from rinscal.experiments.paper.calibration import heldout_table, wide
 
 @pytest.mark.slow
 def test_methods_2_and_3_beat_the_baseline_and_the_sectional_method_held_out() -> None:
-    from rinscal.thermal.config import ImuConfig
-    from rinscal.thermal.protocols import simulate_protocol
+    from rinscal.sim.config import ImuConfig
+    from rinscal.sim.protocols import simulate_protocol
 
     paper = ImuConfig.paper()
     soak, _, meta = simulate_protocol("soak", rate_hz=2.0, seed=1, config=paper)

@@ -14,8 +14,8 @@ import pandas as pd
 import pytest
 
 from rinscal.calibration.imu.workflow import calibrate_imu
-from rinscal.thermal.config import ImuConfig
-from rinscal.thermal.multiposition import simulate_multiposition
+from rinscal.sim.config import ImuConfig
+from rinscal.sim.multiposition import simulate_multiposition
 
 #: The issue's limits at every set point, per kind of parameter (table units).
 LIMITS = {

@@ -12,7 +12,7 @@ from rinscal.cli import app
 from rinscal.io.params import read_params
 from rinscal.io.tables import read_log
 from rinscal.schema import CHANNELS
-from rinscal.thermal.config import ImuConfig
+from rinscal.sim.config import ImuConfig
 
 runner = CliRunner()
 

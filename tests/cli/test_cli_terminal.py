@@ -153,7 +153,7 @@ def test_one_name_per_idea_across_commands() -> None:
 
 
 def test_navigate_hours_help_names_each_scenario_default() -> None:
-    from rinscal.nav.scenario import DEFAULT_HOURS
+    from rinscal.sim.scenario import DEFAULT_HOURS
 
     res = runner.invoke(app, ["navigate", "--help"], env=ENV)
     flat = _squash(res.output)

@@ -24,12 +24,12 @@ from rinscal.experiments.paper.claims import (
     uncompensated_wins_nav,
 )
 from rinscal.experiments.paper.config import PAPER, VARIANTS, ReproConfig, load_plant, plant_info
+from rinscal.presets import PRESETS
 from rinscal.report.paper_report import (
     command_line,
     words_uncompensated_heldout,
     words_uncompensated_nav,
 )
-from rinscal.thermal.presets import PRESETS
 
 CHANNELS = ["gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z"]
 

@@ -2,7 +2,7 @@
 
 A quasi-static run (heading 45°, 10 Hz) whose only sensor errors are a constant horizontal
 gyro bias and a linear accelerometer bias ramp, navigated as the reproduction navigates
-(:func:`rinscal.nav.scenario.run_scenario` with an uncompensated variant and an oracle that
+(:func:`rinscal.sim.scenario.run_scenario` with an uncompensated variant and an oracle that
 subtracts the errors exactly) and fed to
 :func:`rinscal.experiments.paper.mechanism.alignment_mechanism` as
 :func:`rinscal.experiments.paper.navigation.run_navigation_job` feeds it.
@@ -41,8 +41,8 @@ from rinscal.experiments.paper.mechanism import (
 )
 from rinscal.nav.align import AlignConfig
 from rinscal.nav.rotation import RotationSchedule
-from rinscal.nav.scenario import preset, run_scenario
 from rinscal.report.paper_nav_sections import mechanism_words
+from rinscal.sim.scenario import preset, run_scenario
 
 EPS = 0.01 * units.DPH_TO_RPS  # constant gyro bias [rad/s]
 RAMP = 10.0 * units.UG_TO_MPS2 / 60.0  # accelerometer bias rate [m/s³]

@@ -23,8 +23,8 @@ from rinscal.experiments.paper.paper_tables import (
     step_noise_sd,
     table9_vs_paper,
 )
-from rinscal.thermal.config import EffectsConfig
-from rinscal.thermal.protocols import simulate_protocol
+from rinscal.sim.config import EffectsConfig
+from rinscal.sim.protocols import simulate_protocol
 
 PAPER_NAME = "wang-cheng-du-2020-thermal-calibration-single-axis-rins.md"
 

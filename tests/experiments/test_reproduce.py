@@ -33,8 +33,8 @@ from typer.testing import CliRunner
 
 from rinscal.cli import app
 from rinscal.experiments.paper.config import LABELS, METHODS, VARIANTS
-from rinscal.thermal.config import load_imu
-from rinscal.thermal.presets import DEFAULT_PRESET, PRESETS
+from rinscal.presets import DEFAULT_PRESET, PRESETS
+from rinscal.sim.config import load_imu
 from tests.report._browser import chromium, first_table, rendered_inventory, screenshot
 
 ACCELS = ["accel_x", "accel_y", "accel_z"]

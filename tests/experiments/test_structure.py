@@ -27,7 +27,7 @@ from rinscal.experiments.study.stats import (
     structure_pairs,
 )
 from rinscal.experiments.study.tasks import plant_config, unit_config
-from rinscal.thermal.config import load_imu
+from rinscal.sim.config import load_imu
 
 from .test_study_spec import BASE
 

@@ -13,7 +13,7 @@ from scipy import stats
 
 from rinscal.experiments.study.compare import fmt_interval, median_ratio, paired_against
 from rinscal.experiments.study.tasks import soak_design
-from rinscal.thermal.protocols import simulate_protocol
+from rinscal.sim.protocols import simulate_protocol
 
 
 def test_fmt_interval() -> None:

@@ -12,7 +12,7 @@ from rinscal.calibration.modelfile import ThermalModelFile
 from rinscal.experiments.paper.imucal import IMU_VARIANT
 from rinscal.experiments.study.spec import spec_from_dict
 from rinscal.experiments.study.tasks import calibrate_unit, plant_config, study_tasks
-from rinscal.thermal.sensor import sensor_law
+from rinscal.sim.sensor import sensor_law
 
 from .test_study_spec import BASE
 

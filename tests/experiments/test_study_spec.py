@@ -15,7 +15,7 @@ from rinscal.experiments.study.spec import (
     spec_from_dict,
 )
 from rinscal.experiments.study.tasks import plant_config, study_tasks, task_seed, unit_config
-from rinscal.thermal.config import ImuConfig
+from rinscal.sim.config import ImuConfig
 
 BASE = {
     "study": {"name": "t", "seed": 3, "units": 4, "methods": ["none", "poly-t", "true"]},

@@ -19,12 +19,12 @@ import numpy as np
 from rinscal import earth
 from rinscal.nav.aiding import GnssTrack
 from rinscal.nav.gnss_ins import ImuNoise
-from rinscal.nav.imu import ImuSynthesizer
 from rinscal.nav.rotation import C_br, RotationSchedule
-from rinscal.nav.sensors import ThermalPlant
-from rinscal.nav.trajectory import C_nb_from_euler, StepChannel, VehicleMotion
-from rinscal.thermal.config import ImuConfig, load_imu
-from rinscal.thermal.field import ChamberProfile
+from rinscal.sim.config import ImuConfig, load_imu
+from rinscal.sim.field import ChamberProfile
+from rinscal.sim.ideal_imu import ImuSynthesizer
+from rinscal.sim.sensors import ThermalPlant
+from rinscal.sim.trajectory import C_nb_from_euler, StepChannel, VehicleMotion
 
 #: GNSS position noise of the tests [m] (the issue: 1-2 m white).
 GNSS_SD_M = 1.5

@@ -35,8 +35,8 @@ import numpy as np
 import pandas as pd
 
 from rinscal import units
-from rinscal.nav.workflow import navigate_scenario
-from rinscal.thermal.config import load_imu
+from rinscal.sim.config import load_imu
+from rinscal.sim.workflow import navigate_scenario
 
 #: The variants :func:`write_realistic` writes: (IMU preset, rate [Hz], changes to the
 #: preset's ``[noise]``). Each is simulated at 100 Hz (the sway must be resolved); a lower

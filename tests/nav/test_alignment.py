@@ -9,11 +9,11 @@ import pytest
 
 from rinscal import earth, units
 from rinscal.nav.align import AlignConfig, InertialCoarseAlign, wahba
-from rinscal.nav.imu import ImuSynthesizer
 from rinscal.nav.rotation import C_br, RotationSchedule
-from rinscal.nav.scenario import ScenarioConfig, constant_errors, run_scenario
 from rinscal.nav.strapdown import rotvec_to_dcm
-from rinscal.nav.trajectory import C_nb_from_euler, StaticMotion, SwingMotion
+from rinscal.sim.ideal_imu import ImuSynthesizer
+from rinscal.sim.scenario import ScenarioConfig, constant_errors, run_scenario
+from rinscal.sim.trajectory import C_nb_from_euler, StaticMotion, SwingMotion
 
 DPH = units.DPH_TO_RPS
 UG = units.UG_TO_MPS2

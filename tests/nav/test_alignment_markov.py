@@ -18,9 +18,9 @@ from rinscal import units
 from rinscal.errors import ConfigError
 from rinscal.nav.align import AlignConfig
 from rinscal.nav.rotation import C_br, RotationSchedule
-from rinscal.nav.scenario import ScenarioConfig, align_for, preset, run_scenario
-from rinscal.nav.trajectory import StaticMotion, vehicle_route
-from rinscal.thermal.config import ImuConfig
+from rinscal.sim.config import ImuConfig
+from rinscal.sim.scenario import ScenarioConfig, align_for, preset, run_scenario
+from rinscal.sim.trajectory import StaticMotion, vehicle_route
 from tests.nav._modulation import cycle_mean
 
 DPH = units.DPH_TO_RPS

@@ -22,8 +22,8 @@ from scipy.integrate import solve_ivp
 
 from rinscal import earth, units
 from rinscal.nav.rotation import RotationSchedule
-from rinscal.nav.scenario import ScenarioConfig, constant_errors, run_scenario
-from rinscal.nav.trajectory import StaticMotion
+from rinscal.sim.scenario import ScenarioConfig, constant_errors, run_scenario
+from rinscal.sim.trajectory import StaticMotion
 
 DPH = units.DPH_TO_RPS
 UG = units.UG_TO_MPS2

@@ -33,12 +33,12 @@ from rinscal.nav.gnss_ins import (
     initial_covariance,
     run_aided,
 )
-from rinscal.nav.imu import static_increments
 from rinscal.nav.inmotion import coarse_in_motion, navigate_aided
 from rinscal.nav.rotation import RotationSchedule
 from rinscal.nav.strapdown import Strapdown, rotvec_to_dcm
-from rinscal.nav.trajectory import euler_from_C_nb
-from rinscal.thermal.config import load_imu
+from rinscal.sim.config import load_imu
+from rinscal.sim.ideal_imu import static_increments
+from rinscal.sim.trajectory import euler_from_C_nb
 from tests.nav._drive import GNSS_SD_M, Drive, paper_noise, simulate_drive
 
 HEADING_BOUND_DEG = 0.1  # the bound after 5 min

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from rinscal import earth
-from rinscal.nav.imu import ImuSynthesizer, body_signals
 from rinscal.nav.rotation import C_br, RotationSchedule
-from rinscal.nav.scenario import ScenarioConfig, run_scenario
-from rinscal.nav.trajectory import (
+from rinscal.sim.ideal_imu import ImuSynthesizer, body_signals
+from rinscal.sim.scenario import ScenarioConfig, run_scenario
+from rinscal.sim.trajectory import (
     C_nb_from_euler,
     StaticMotion,
     SwingMotion,

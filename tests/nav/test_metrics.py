@@ -26,7 +26,7 @@ from rinscal.nav.metrics import (
     slope,
 )
 from rinscal.nav.rotation import RotationSchedule
-from rinscal.nav.scenario import preset, run_scenario
+from rinscal.sim.scenario import preset, run_scenario
 
 RAMP_UG_MIN = 10.0
 

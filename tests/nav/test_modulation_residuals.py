@@ -29,8 +29,8 @@ import numpy as np
 
 from rinscal import units
 from rinscal.nav.rotation import RotationSchedule
-from rinscal.nav.scenario import ScenarioConfig, constant_errors, run_scenario
-from rinscal.nav.trajectory import StaticMotion
+from rinscal.sim.scenario import ScenarioConfig, constant_errors, run_scenario
+from rinscal.sim.trajectory import StaticMotion
 from tests.nav._modulation import ACCEL_DPS2, DWELL_S, POSITIONS_DEG, RATE_DPS, cycle_mean
 
 DPH = units.DPH_TO_RPS

@@ -6,15 +6,15 @@ import numpy as np
 import pytest
 
 from rinscal.errors import ModelFileError
-from rinscal.nav.scenario import (
+from rinscal.sim.config import ImuConfig
+from rinscal.sim.scenario import (
     ModelCompensator,
     ThermalPlant,
     oracle_compensator,
     preset,
     run_scenario,
 )
-from rinscal.nav.workflow import model_compensator
-from rinscal.thermal.config import ImuConfig
+from rinscal.sim.workflow import model_compensator
 
 IMU = ImuConfig.navigation_grade()
 
@@ -52,7 +52,7 @@ def test_true_bias_compensation_equals_an_imu_without_thermal_errors(cold_start)
 @pytest.fixture(scope="module")
 def regression_model(tmp_path_factory):  # type: ignore[no-untyped-def]
     from rinscal.calibration.thermal.model import ThermalModel
-    from rinscal.thermal.protocols import simulate_protocol
+    from rinscal.sim.protocols import simulate_protocol
 
     log, _, meta = simulate_protocol("soak", hours=3.0, rate_hz=1.0, seed=5, config=IMU)
     path = tmp_path_factory.mktemp("model") / "regression.json"

@@ -31,7 +31,9 @@ import pytest
 from scipy import stats
 
 from rinscal import units
-from rinscal.nav.scenario import (
+from rinscal.sim.config import load_imu
+from rinscal.sim.field import ChamberProfile
+from rinscal.sim.scenario import (
     ThermalPlant,
     align_for,
     constant_errors,
@@ -39,8 +41,6 @@ from rinscal.nav.scenario import (
     preset,
     run_scenario,
 )
-from rinscal.thermal.config import load_imu
-from rinscal.thermal.field import ChamberProfile
 
 
 def _setup(hours: float = 1.0, lab_c: float = 20.0):

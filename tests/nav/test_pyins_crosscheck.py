@@ -17,10 +17,10 @@ import pandas as pd
 import pytest
 
 from rinscal import earth
-from rinscal.nav.imu import ImuSynthesizer
 from rinscal.nav.rotation import C_br, RotationSchedule
 from rinscal.nav.strapdown import Strapdown
-from rinscal.nav.trajectory import C_nb_from_euler, StepChannel, vehicle_route
+from rinscal.sim.ideal_imu import ImuSynthesizer
+from rinscal.sim.trajectory import C_nb_from_euler, StepChannel, vehicle_route
 
 pyins = pytest.importorskip("pyins")
 from pyins import strapdown as pstrap  # noqa: E402

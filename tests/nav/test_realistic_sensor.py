@@ -16,17 +16,17 @@ from typer.testing import CliRunner
 from rinscal import units
 from rinscal.calibration.allan import allan_deviation
 from rinscal.cli import app
-from rinscal.nav.config import ScenarioConfig
-from rinscal.nav.disturbance import DisturbedStart
-from rinscal.nav.imu import ImuSynthesizer
 from rinscal.nav.rotation import RotationSchedule
-from rinscal.nav.scenario import run_scenario
-from rinscal.nav.sensors import ThermalPlant
-from rinscal.nav.trajectory import StaticMotion
-from rinscal.nav.workflow import navigate_scenario
-from rinscal.thermal.config import EffectsConfig, load_imu
-from rinscal.thermal.field import ChamberProfile
-from rinscal.thermal.plant import SensorNoise
+from rinscal.sim.config import EffectsConfig, load_imu
+from rinscal.sim.disturbance import DisturbedStart
+from rinscal.sim.field import ChamberProfile
+from rinscal.sim.ideal_imu import ImuSynthesizer
+from rinscal.sim.plant import SensorNoise
+from rinscal.sim.scenario import run_scenario
+from rinscal.sim.scenario_config import ScenarioConfig
+from rinscal.sim.sensors import ThermalPlant
+from rinscal.sim.trajectory import StaticMotion
+from rinscal.sim.workflow import navigate_scenario
 from tests.nav._realistic import Realistic
 
 runner = CliRunner()

@@ -26,9 +26,9 @@ from rinscal.nav.recorded.window import (
     find_window,
     seen_schedule,
 )
-from rinscal.nav.scenario import ThermalPlant, align_for, preset, run_scenario
 from rinscal.schema import CHANNELS, DTHETA, DVEL, NavSamples
-from rinscal.thermal.config import load_imu
+from rinscal.sim.config import load_imu
+from rinscal.sim.scenario import ThermalPlant, align_for, preset, run_scenario
 
 
 def _record(scenario: str, hours: float, rate: float, increments: bool, seed: int = 2):
@@ -128,7 +128,7 @@ def test_the_piece_wise_model_compensator_is_the_scenario_s(tmp_path) -> None:  
 
     from rinscal.calibration.modelfile import ThermalModelFile
     from rinscal.cli import app
-    from rinscal.nav.sensors import ModelCompensator
+    from rinscal.sim.sensors import ModelCompensator
 
     runner = CliRunner()
     soak = tmp_path / "soak.parquet"

@@ -45,10 +45,10 @@ from rinscal.nav.recorded.frame import recording_frame
 from rinscal.nav.recorded.navigate import Reference, navigate_recording
 from rinscal.nav.recorded.window import Noise, align_config, find_window
 from rinscal.nav.rotation import RotationSchedule
-from rinscal.nav.scenario import ThermalPlant, align_for, preset, run_scenario
-from rinscal.nav.trajectory import StepChannel
 from rinscal.schema import DTHETA, DVEL, NavSamples
-from rinscal.thermal.config import load_imu
+from rinscal.sim.config import load_imu
+from rinscal.sim.scenario import ThermalPlant, align_for, preset, run_scenario
+from rinscal.sim.trajectory import StepChannel
 
 pyins = pytest.importorskip("pyins")
 from pyins import strapdown as pstrap  # noqa: E402

@@ -3,7 +3,7 @@
 The reference below is the previous implementation, kept only here: the smooth-step
 channels and the vehicle kinematics in numpy, the position by chunk-wise quadrature with a
 two-pass fixed point on the meridian radius, the body signals by
-:func:`rinscal.nav.imu.body_signals` (numpy), and the turntable by an explicit rotation.
+:func:`rinscal.sim.ideal_imu.body_signals` (numpy), and the turntable by an explicit rotation.
 """
 
 from __future__ import annotations
@@ -14,11 +14,10 @@ import numpy as np
 import pytest
 from numpy.typing import NDArray
 
-from rinscal import earth
-from rinscal.nav import _kernels
-from rinscal.nav.imu import ImuSynthesizer, body_signals
+from rinscal import _kernels, earth
 from rinscal.nav.rotation import C_br, RotationSchedule
-from rinscal.nav.trajectory import Kinematics, StepChannel, VehicleMotion, vehicle_route
+from rinscal.sim.ideal_imu import ImuSynthesizer, body_signals
+from rinscal.sim.trajectory import Kinematics, StepChannel, VehicleMotion, vehicle_route
 
 RTOL = 1e-12  # of each channel's largest magnitude in a chunk (we get < 1e-14)
 

@@ -30,7 +30,7 @@ from rinscal.production.fleet import (
     run_fleet,
     unit_names,
 )
-from rinscal.thermal.protocols import simulate_protocol
+from rinscal.sim.protocols import simulate_protocol
 
 LIMITS = "[limits.gyro]\nmax_noise_density = {gyro}\n"
 
@@ -96,7 +96,7 @@ def test_fleet_fits_flags_and_reports(units, client, tmp_path) -> None:
         for u, s in store.summaries().items()
     }
     # physics: the simulated white noise recovered (ARW [deg/√h] · 60 = [deg/h·√s]; VRW)
-    from rinscal.thermal.config import load_imu
+    from rinscal.sim.config import load_imu
 
     noise = load_imu("navigation_grade").noise  # the plant the logs were simulated on
     for u, summ in store.summaries().items():

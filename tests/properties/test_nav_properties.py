@@ -8,10 +8,10 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from rinscal.nav.imu import ImuSynthesizer
 from rinscal.nav.rotation import C_br, RotationSchedule
 from rinscal.nav.strapdown import Strapdown, dcm_to_quat, quat_to_dcm, rotvec_to_dcm
-from rinscal.nav.trajectory import (
+from rinscal.sim.ideal_imu import ImuSynthesizer
+from rinscal.sim.trajectory import (
     C_nb_from_euler,
     StaticMotion,
     euler_from_C_nb,

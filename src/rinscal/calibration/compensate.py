@@ -27,7 +27,7 @@ its whole triad (the misalignment couples the axes).
 :class:`StreamingCompensator` does the same one sample at a time with the causal rate; it
 equals :func:`compensate` with ``derivative_kind="causal"`` (same compiled rate kernel). Its
 :meth:`StreamingCompensator.bias_si` gives the modelled bias of a whole thermometer record in
-SI units, causal too: what a navigation computer subtracts (:mod:`rinscal.nav.sensors`).
+SI units, causal too: what a navigation computer subtracts (:mod:`rinscal.sim.sensors`).
 """
 
 from __future__ import annotations

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from rinscal.thermal.presets import PRESETS
+from rinscal.presets import PRESETS
 
 if TYPE_CHECKING:
     from rinscal.cluster import TLSFiles

@@ -12,7 +12,7 @@ import typer
 
 from rinscal.cli._app import app, fail
 from rinscal.cli._options import PolicyOpt, is_same_file, prepare_outputs
-from rinscal.thermal.presets import DEFAULT_PRESET, PRESETS
+from rinscal.presets import DEFAULT_PRESET, PRESETS
 
 #: The plant ``rinscal navigate`` runs unless ``--imu`` names another (as simulate and
 #: reproduce: the paper's own IMU).
@@ -65,7 +65,7 @@ def navigate(
         typer.Option(
             min=0.01,
             max=72.0,
-            # rinscal.nav.scenario.DEFAULT_HOURS (a test holds them equal; importing it here
+            # rinscal.sim.scenario.DEFAULT_HOURS (a test holds them equal; importing it here
             # would cost every command 3 s of start-up)
             help="Run length [h], 0.01-72 (vehicle: driving time). Default per scenario: "
             "quasi-static 4 h, swing 2 h, vehicle 1.9 h, ramp 4.5 h.",
@@ -287,7 +287,7 @@ def navigate(
 
     try:
         # deferred: navigation loads numba kernels; `rinscal --help` must not
-        from rinscal.nav.workflow import navigate_scenario
+        from rinscal.sim.workflow import navigate_scenario
 
         with _progress() as progress:  # type: ignore[attr-defined]
             tasks: list[Any] = []  # the bar starts with the first tick, which knows the total

@@ -14,7 +14,7 @@ from rich.text import Text
 from rinscal.cli._app import app, print_table
 from rinscal.cli._options import AlignLengthOpt, AlignStartOpt, ImuOpt, WorkersOpt
 from rinscal.cli._timings import format_duration, timing, timing_phrase
-from rinscal.thermal.presets import DEFAULT_PRESET
+from rinscal.presets import DEFAULT_PRESET
 
 
 def expected_time(quick: bool) -> str:

@@ -23,7 +23,7 @@ from rinscal.cli._options import (
     read_options,
     refuse_inputs,
 )
-from rinscal.thermal.presets import DEFAULT_PRESET
+from rinscal.presets import DEFAULT_PRESET
 
 # ============================================================================ plot
 # `rinscal plot LOG --out FIG.png`: the paper's Figure 3 for any calibration log.
@@ -235,9 +235,9 @@ def simulate(
     from rinscal.io.metadata import meta_path, truth_path, write_meta
     from rinscal.io.streaming import LogStreamWriter
     from rinscal.io.tables import format_of
-    from rinscal.thermal.config import OutputConfig, load_imu
-    from rinscal.thermal.presets import PRESETS
-    from rinscal.thermal.protocols import PROTOCOLS, iter_protocol, log_meta, protocol_runs
+    from rinscal.presets import PRESETS
+    from rinscal.sim.config import OutputConfig, load_imu
+    from rinscal.sim.protocols import PROTOCOLS, iter_protocol, log_meta, protocol_runs
 
     if protocol not in PROTOCOLS:
         raise fail(
@@ -342,8 +342,9 @@ def _simulate_multiposition(
     from rinscal.io.params import TRUTH_SUFFIX, params_path, write_params
     from rinscal.io.streaming import LogStreamWriter
     from rinscal.io.tables import format_of
-    from rinscal.thermal.config import OutputConfig, load_imu
-    from rinscal.thermal.multiposition import (
+    from rinscal.presets import PRESETS
+    from rinscal.sim.config import OutputConfig, load_imu
+    from rinscal.sim.multiposition import (
         DEFAULT_RATES_DPS,
         DEFAULT_SET_POINTS_C,
         DEFAULT_WARMUP_S,
@@ -352,7 +353,6 @@ def _simulate_multiposition(
         load_sequence,
         multiposition_meta,
     )
-    from rinscal.thermal.presets import PRESETS
 
     points = _floats(set_points, "--set-points") or DEFAULT_SET_POINTS_C
     rate_list = _floats(rates, "--rates") or DEFAULT_RATES_DPS

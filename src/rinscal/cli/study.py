@@ -18,7 +18,7 @@ from rinscal.cli._options import (
     prepare_outputs,
 )
 from rinscal.cli._timings import timing_phrase
-from rinscal.thermal.presets import PRESETS
+from rinscal.presets import PRESETS
 
 
 @app.command("study")

@@ -34,9 +34,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from rinscal import earth, units
+from rinscal import _kernels, earth, units
 from rinscal.errors import ConfigError
-from rinscal.nav import _kernels
 from rinscal.nav.strapdown import Strapdown, VerticalMode, quat_to_dcm, rotvec_to_dcm
 
 
@@ -530,11 +529,75 @@ def feed_and_hand_over(variant: Any, dtheta: NDArray[np.float64], dv: NDArray[np
     return int(used)
 
 
+def align_from_noise(
+    gyro_density: float,
+    accel_density: float,
+    gyro_bias_rw: float,
+    accel_bias_rw: float,
+    total_s: float = 600.0,
+    coarse_s: float = 60.0,
+    start_s: float = 0.0,
+    *,
+    gyro_bias_tau_s: float | None = None,
+    gyro_bias_markov_sd: float | None = None,
+    accel_bias_tau_s: float | None = None,
+    accel_bias_markov_sd: float | None = None,
+) -> AlignConfig:
+    """Alignment settings from the sensor noise itself (what
+    :func:`rinscal.sim.scenario.align_for` derives from a plant's).
+
+    Parameters
+    ----------
+    gyro_density : float [rad/√s]
+        Gyro angle random walk (white-noise density).
+    accel_density : float [m/s²/√Hz]
+        Accelerometer velocity random walk.
+    gyro_bias_rw : float [rad/s/√s]
+        Gyro bias random walk (0: none known); floors the bias states' process noise.
+    accel_bias_rw : float [m/s²/√s]
+        Accelerometer bias random walk (0: none known).
+    total_s, coarse_s, start_s, gyro_bias_tau_s, ... :
+        As for :func:`rinscal.sim.scenario.align_for`.
+    """
+    if not (math.isfinite(total_s) and total_s > 0):
+        raise ConfigError(f"alignment time must be > 0 s, got {total_s}")
+    coarse = min(coarse_s, total_s / 3)
+    d = AlignConfig()
+    tau_g = d.gyro_bias_tau_s if gyro_bias_tau_s is None else gyro_bias_tau_s
+    tau_a = d.accel_bias_tau_s if accel_bias_tau_s is None else accel_bias_tau_s
+
+    def floor(sd: float, q: float, tau: float) -> float:
+        return sd if not (math.isfinite(tau) and tau > 0) else max(sd, q * math.sqrt(tau / 2))
+
+    sd_g = (
+        floor(d.gyro_bias_markov_sd, gyro_bias_rw, tau_g)
+        if gyro_bias_markov_sd is None
+        else gyro_bias_markov_sd
+    )
+    sd_a = (
+        floor(d.accel_bias_markov_sd, accel_bias_rw, tau_a)
+        if accel_bias_markov_sd is None
+        else accel_bias_markov_sd
+    )
+    return AlignConfig(
+        coarse_s=coarse,
+        fine_s=total_s - coarse,
+        gyro_noise_density=gyro_density,
+        accel_noise_density=accel_density,
+        start_s=start_s,
+        gyro_bias_tau_s=tau_g,
+        gyro_bias_markov_sd=sd_g,
+        accel_bias_tau_s=tau_a,
+        accel_bias_markov_sd=sd_a,
+    )
+
+
 __all__ = [
     "AlignConfig",
     "AlignResult",
     "Aligner",
     "InertialCoarseAlign",
+    "align_from_noise",
     "feed_and_hand_over",
     "wahba",
 ]

@@ -38,9 +38,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from rinscal import earth
+from rinscal import _kernels, earth
 from rinscal.errors import ConfigError
-from rinscal.nav import _kernels
 from rinscal.nav.aiding import GnssTrack, Measurement, enu_difference
 from rinscal.nav.align import wahba
 from rinscal.nav.gnss_ins import (

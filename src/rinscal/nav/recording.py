@@ -25,6 +25,7 @@ from rinscal import _check
 from rinscal.calibration.imulog import check_recording_for_imu
 from rinscal.calibration.modelfile import POLICIES, FittedModel
 from rinscal.errors import ConfigError, LogError
+from rinscal.imunoise import load_noise
 from rinscal.io.mapping import ColumnMapping
 from rinscal.io.navopen import nav_log_header, open_nav_log
 from rinscal.io.track import parse_utc, read_track
@@ -57,7 +58,6 @@ from rinscal.nav.recorded.window import (
     seen_schedule,
 )
 from rinscal.schema import CHANNELS
-from rinscal.thermal.config import load_imu
 
 #: Seconds between the temperature samples kept for the figure.
 TEMPERATURE_STEP_S = 10.0
@@ -473,9 +473,9 @@ def _every(t: np.ndarray, step: float, next_t: float) -> np.ndarray:
 
 def _imu_noise(imu: str) -> Noise:
     """The noise of a plant (preset or TOML file) the filter is told to assume."""
-    cfg = load_imu(imu)
-    wd = cfg.noise.white_density_si()
-    rw = cfg.noise.bias_rw_si()
+    noise = load_noise(imu)
+    wd = noise.white_density_si()
+    rw = noise.bias_rw_si()
     return Noise(float(wd[0]), float(wd[3]), float(rw[0]), float(rw[3]), f"--imu {imu}")
 
 

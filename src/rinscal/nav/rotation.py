@@ -23,9 +23,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from rinscal import units
+from rinscal import _kernels, units
 from rinscal.errors import ConfigError
-from rinscal.nav import _kernels
 
 #: The classical four-position sequence of the paper (Section 2.1) [deg].
 FOUR_POSITIONS_DEG = (-135.0, 45.0, 135.0, -45.0)

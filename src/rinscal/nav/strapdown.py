@@ -20,8 +20,8 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from rinscal import _kernels
 from rinscal.errors import ConfigError
-from rinscal.nav import _kernels
 
 VerticalMode = Literal["hold", "damped", "free"]
 _VMODES = {

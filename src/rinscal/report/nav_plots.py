@@ -17,7 +17,7 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from rinscal import earth, units
-from rinscal.nav.scenario import NavResult
+from rinscal.sim.scenario import NavResult
 
 _STYLES = {"none": ("0.35", "--"), "true": ("black", ":")}
 _LABELS = {"none": "uncompensated", "true": "true thermal bias (oracle)"}

@@ -1,19 +1,45 @@
-"""Thermal chamber and IMU simulator: chamber profiles, thermal network, IMU plant, protocols.
-
-Modules
--------
-:mod:`~rinscal.thermal.presets`
-    Names of the built-in IMU presets.
-:mod:`~rinscal.thermal.field`
-    Chamber profiles and the lumped thermal network of the RINS.
-:mod:`~rinscal.thermal.polynomial`
-    The polynomial thermal law of a channel.
-:mod:`~rinscal.thermal.mechanistic`
-    The mechanistic thermal law of a channel.
-:mod:`~rinscal.thermal.config`
-    The IMU's configuration, from a preset or a TOML file.
-:mod:`~rinscal.thermal.plant`
-    The plant: the true thermal bias, signal errors, offsets and noise on a thermal field.
-:mod:`~rinscal.thermal.protocols`
-    The paper's thermal-chamber protocols, simulated into calibration logs.
+"""Deprecated: the simulator moved to :mod:`rinscal.sim` (IMU preset names to
+:mod:`rinscal.presets`). Kept for one release so that ``import rinscal.thermal.config`` and
+the like still work; importing it warns (:class:`DeprecationWarning`) and loads every module
+of the old package from its new home. Nothing in rinscal imports it.
 """
+
+from __future__ import annotations
+
+import sys
+import warnings
+
+from rinscal import presets
+from rinscal.sim import (
+    config,
+    field,
+    mechanistic,
+    multiposition,
+    plant,
+    polynomial,
+    protocols,
+    sensor,
+)
+
+warnings.warn(
+    "rinscal.thermal is deprecated: import rinscal.sim (the IMU preset names: rinscal.presets)",
+    DeprecationWarning,
+    stacklevel=2,
+)
+
+#: Old module name -> the module that now holds it.
+MOVED = {
+    "presets": presets,
+    "config": config,
+    "field": field,
+    "mechanistic": mechanistic,
+    "multiposition": multiposition,
+    "plant": plant,
+    "polynomial": polynomial,
+    "protocols": protocols,
+    "sensor": sensor,
+}
+for _name, _module in MOVED.items():
+    sys.modules[f"{__name__}.{_name}"] = _module
+
+__all__ = list(MOVED)

@@ -17,8 +17,8 @@ progress bars and the report):
 
 Everything is simulation on one plant, chosen by
 :attr:`~rinscal.experiments.paper.config.ReproConfig.imu` (a preset of
-:data:`rinscal.thermal.presets.PRESETS`, by default
-:data:`~rinscal.thermal.presets.DEFAULT_PRESET`, or a TOML file) and loaded once by
+:data:`rinscal.presets.PRESETS`, by default
+:data:`~rinscal.presets.DEFAULT_PRESET`, or a TOML file) and loaded once by
 :func:`~rinscal.experiments.paper.config.load_plant`: the calibration protocols and every
 navigation run simulate that same IMU. No plant is tuned to agree with the paper.
 

@@ -52,8 +52,8 @@ from rinscal.experiments.paper.paper_tables import (
 from rinscal.io.mapping import ColumnMapping
 from rinscal.io.tables import read_log
 from rinscal.schema import CHANNELS, RUN
-from rinscal.thermal.config import ImuConfig
-from rinscal.thermal.protocols import simulate_protocol
+from rinscal.sim.config import ImuConfig
+from rinscal.sim.protocols import simulate_protocol
 
 __all__ = [
     "METHODS",

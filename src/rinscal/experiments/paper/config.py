@@ -10,8 +10,8 @@ from typing import Any
 
 from rinscal import units
 from rinscal.errors import ConfigError
-from rinscal.thermal.config import ImuConfig, load_imu
-from rinscal.thermal.presets import DEFAULT_PRESET, PRESETS
+from rinscal.presets import DEFAULT_PRESET, PRESETS
+from rinscal.sim.config import ImuConfig, load_imu
 
 __all__ = [
     "LABELS",
@@ -159,7 +159,7 @@ PAPER_TABLES: dict[str, Any] = {
         },
     },
     # Table 9 as printed (garbled in our copy: three numbers per axis under four headings);
-    # our reading is in rinscal.nav.trajectory (held heading 45°; swing amplitudes 2/2/8°,
+    # our reading is in rinscal.sim.trajectory (held heading 45°; swing amplitudes 2/2/8°,
     # periods 3/3/5 s).
     "table9": {
         "heading": (45.0, 2.0, 3.0),
@@ -210,7 +210,7 @@ class ReproConfig:
     align_start_s : float [s]
         Time after power-on at which the alignment starts (0: at power-on).
     imu : str
-        The plant: a preset name (:data:`rinscal.thermal.presets.PRESETS`) or the path of an
+        The plant: a preset name (:data:`rinscal.presets.PRESETS`) or the path of an
         IMU TOML file; see :func:`load_plant`.
     jobs : int
         Worker processes (a Dask ``LocalCluster``) for the navigation runs.

@@ -5,7 +5,7 @@ finds over temperature, how well they match the plant's truth, and the thermal m
 method 2 fitted behind it.
 
 In the navigation runs the navigation computer holds the unit's calibration at ``t_cal``
-(the plant's physical output, :mod:`rinscal.thermal.protocols`), so what the IMU
+(the plant's physical output, :mod:`rinscal.sim.protocols`), so what the IMU
 calibration adds is its *thermal part*: each law minus its value at ``t_cal``
 (:meth:`rinscal.sensormodel.ImuCalibration.relative_to`). The variant ``regression+sf``
 navigates with that thermal part applied to the raw signal first and a method-2 model fitted
@@ -27,10 +27,10 @@ from rinscal.calibration.modelfile import FittedModel
 from rinscal.calibration.workflow import fit
 from rinscal.experiments.paper.config import ReproConfig
 from rinscal.experiments.verdict import HOLDS, REVERSED, UNRESOLVED, interval_text, paired
-from rinscal.nav.sensors import SIGNAL_KINDS
 from rinscal.sensormodel import ImuCalibration
-from rinscal.thermal.config import ImuConfig
-from rinscal.thermal.multiposition import simulate_multiposition
+from rinscal.sim.config import ImuConfig
+from rinscal.sim.multiposition import simulate_multiposition
+from rinscal.sim.sensors import SIGNAL_KINDS
 
 __all__ = [
     "IMU_VARIANT",

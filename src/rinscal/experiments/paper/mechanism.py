@@ -35,7 +35,6 @@ import pandas as pd
 
 from rinscal import earth, units
 from rinscal.experiments.paper.config import VARIANTS, group_label
-from rinscal.nav.config import ScenarioConfig
 from rinscal.nav.metrics import (
     cep50,
     drift_rate,
@@ -44,7 +43,8 @@ from rinscal.nav.metrics import (
     slope,
 )
 from rinscal.nav.rotation import C_br
-from rinscal.nav.trajectory import C_nb_from_euler
+from rinscal.sim.scenario_config import ScenarioConfig
+from rinscal.sim.trajectory import C_nb_from_euler
 
 __all__ = [
     "MIN_CEP_RUNS",

@@ -19,7 +19,9 @@ from rinscal.calibration.modelfile import FittedModel
 from rinscal.cluster import dask_client
 from rinscal.experiments.paper.config import METHODS, VARIANTS, ReproConfig, load_plant
 from rinscal.experiments.paper.mechanism import ORACLE_NO_OFFSETS, alignment_mechanism
-from rinscal.nav.scenario import (
+from rinscal.sim.config import ImuConfig
+from rinscal.sim.field import ChamberProfile
+from rinscal.sim.scenario import (
     LAB_C,
     VEHICLE_CABIN_C,
     VEHICLE_WARMUP_S,
@@ -31,8 +33,6 @@ from rinscal.nav.scenario import (
     run_scenario,
     temperature_frame,
 )
-from rinscal.thermal.config import ImuConfig
-from rinscal.thermal.field import ChamberProfile
 
 __all__ = [
     "RESIDUAL_COLUMNS",
@@ -101,7 +101,7 @@ class NavRunResult:
 
 
 def alignment_config(imu: ImuConfig, total_s: float, start_s: float = 0.0) -> Any:
-    """Alignment settings of the cold starts: :func:`rinscal.nav.scenario.align_for` with the
+    """Alignment settings of the cold starts: :func:`rinscal.sim.scenario.align_for` with the
     plant's noise, ``total_s`` [s] of coarse plus fine alignment starting ``start_s`` [s]
     after power-on (free navigation starts at ``start_s + total_s``)."""
     return align_for(imu, total_s=total_s, start_s=start_s)

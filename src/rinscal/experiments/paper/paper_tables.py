@@ -42,13 +42,13 @@ from rinscal.calibration.modelfile import FittedModel
 from rinscal.calibration.selection.heldout import SelectionResult
 from rinscal.calibration.thermal.features import OutlierConfig
 from rinscal.experiments.paper.config import PAPER_TABLES
-from rinscal.nav.trajectory import (
+from rinscal.schema import CHANNELS
+from rinscal.sim.config import ImuConfig
+from rinscal.sim.trajectory import (
     QUASI_STATIC_HEADING_DEG,
     SWING_AMPLITUDES_DEG,
     SWING_PERIODS_S,
 )
-from rinscal.schema import CHANNELS
-from rinscal.thermal.config import ImuConfig
 
 __all__ = [
     "INPUTS",
@@ -399,7 +399,7 @@ def table8_vs_paper(models: Mapping[str, FittedModel]) -> dict[str, pd.DataFrame
 # --------------------------------------------------------------------------- Table 9
 def table9_vs_paper() -> pd.DataFrame:
     """Table 9: the turntable's quasi-static and swing conditions, the paper's numbers as
-    printed beside the ones our scenarios use (:mod:`rinscal.nav.trajectory`).
+    printed beside the ones our scenarios use (:mod:`rinscal.sim.trajectory`).
 
     Returns
     -------

@@ -35,9 +35,9 @@ from rinscal import units
 from rinscal.experiments.study.spec import StudySpec
 from rinscal.experiments.study.tasks import plant_config
 from rinscal.experiments.verdict import HOLDS, REVERSED, TOO_FEW, UNRESOLVED, verdict
-from rinscal.thermal.config import ImuConfig
-from rinscal.thermal.field import ThermalField, simulate_field
-from rinscal.thermal.protocols import THERMAL_DT_S, protocol_runs
+from rinscal.sim.config import ImuConfig
+from rinscal.sim.field import ThermalField, simulate_field
+from rinscal.sim.protocols import THERMAL_DT_S, protocol_runs
 
 __all__ = [
     "MAP_METHODS",

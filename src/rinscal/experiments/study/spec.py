@@ -43,7 +43,7 @@ from rinscal.errors import ConfigError
 from rinscal.experiments.paper.config import METHODS, ReproConfig, load_plant
 from rinscal.experiments.paper.imucal import IMU_VARIANT
 from rinscal.experiments.study.compare import NO_DT_VARIANT
-from rinscal.thermal.presets import PRESETS
+from rinscal.presets import PRESETS
 
 __all__ = [
     "BUILTIN_STUDIES",
@@ -72,7 +72,7 @@ BUILTIN_STUDIES = ("paper", "sensitivity")
 #: ``true`` are navigated in every task whether listed or not (the thermal part needs the
 #: oracle); the list decides which models are fitted.
 STUDY_VARIANTS = ("none", *METHODS, NO_DT_VARIANT, IMU_VARIANT, "true")
-#: Scenario kinds (:data:`rinscal.nav.scenario.SCENARIOS`).
+#: Scenario kinds (:data:`rinscal.sim.scenario.SCENARIOS`).
 SCENARIO_KINDS = ("quasi-static", "swing", "vehicle", "ramp")
 
 #: Sweepable plant parameters: each multiplies a group of thermal-bias coefficients of the

@@ -42,8 +42,8 @@ from rinscal.experiments.study.spec import (
     ScenarioSpec,
     StudySpec,
 )
-from rinscal.thermal.config import ImuConfig
-from rinscal.thermal.protocols import simulate_protocol
+from rinscal.sim.config import ImuConfig
+from rinscal.sim.protocols import simulate_protocol
 
 __all__ = [
     "RESULT_COLUMNS",

@@ -45,7 +45,7 @@ def recording_frame(
 
     Parameters
     ----------
-    chunk : rinscal.nav.imu.ImuChunk
+    chunk : rinscal.sim.ideal_imu.ImuChunk
         Truth of the chunk (times, encoder, position, attitude).
     dtheta, dv : ndarray, shape (n, 3) [rad, m/s]
         The IMU's raw increments (errors included).

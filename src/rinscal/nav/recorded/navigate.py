@@ -23,7 +23,7 @@ from rinscal.nav.align import AlignConfig, Aligner, AlignResult, feed_and_hand_o
 from rinscal.nav.recorded.blocks import TableUnwrap
 from rinscal.nav.recorded.compensation import PieceCompensator, _ffill
 from rinscal.nav.recorded.window import Window
-from rinscal.nav.scenario import NavResult, _error_frame
+from rinscal.nav.result import NavResult, error_frame
 from rinscal.nav.strapdown import Strapdown, VerticalMode
 from rinscal.schema import GAP_FACTOR, NavSamples
 
@@ -330,7 +330,7 @@ def navigate_recording(
     errors = {}
     for vname, v in variants.items():
         rows = np.concatenate(v.rows) if v.rows else np.empty((0, 10))
-        errors[vname] = _error_frame(truth[keep, :11], rows[keep]).reset_index(drop=True)
+        errors[vname] = error_frame(truth[keep, :11], rows[keep]).reset_index(drop=True)
     truth_df = truth_df[keep].reset_index(drop=True)
     alignment: dict[str, AlignResult | None] = {k: v.aligner.result() for k, v in variants.items()}
     run = RecordedRun(

@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 
 from rinscal import earth, units
 from rinscal.errors import ConfigError, LogError
-from rinscal.nav.align import AlignConfig
+from rinscal.nav.align import AlignConfig, align_from_noise
 from rinscal.nav.recorded.blocks import BLOCK_S, Blocks
 from rinscal.nav.recorded.motion import (
     FLOOR_PERCENTILE,
@@ -33,7 +33,6 @@ from rinscal.nav.recorded.motion import (
     robust_limit,
     table_frame,
 )
-from rinscal.nav.scenario import align_from_noise
 
 __all__ = [
     "FLOOR_PERCENTILE",

@@ -12,8 +12,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rinscal.errors import ConfigError
-from rinscal.thermal._checks import _finite
-from rinscal.thermal.field import (
+from rinscal.sim._checks import _finite
+from rinscal.sim.field import (
     BLOCK,
     COIL0,
     ELECTRONICS,
@@ -34,7 +34,7 @@ class MechanisticThermal:
     """Thermal bias of one channel driven by the network's own states (engineering units).
 
     The bias is a sum of physically shaped terms, each driven by a node of the thermal
-    network (:data:`rinscal.thermal.field.NODE_NAMES`), several of them nodes that no
+    network (:data:`rinscal.sim.field.NODE_NAMES`), several of them nodes that no
     thermometer sees::
 
         b = b0

@@ -30,13 +30,12 @@ from numpy.typing import NDArray
 
 from rinscal.calibration.compensate import StreamingCompensator
 from rinscal.errors import ConfigError
-from rinscal.nav.config import ScenarioConfig
 from rinscal.nav.rotation import RotationSchedule
 from rinscal.schema import CHANNELS
 from rinscal.sensormodel import ImuCalibration, TriadErrors, triad_inverse
-from rinscal.thermal.config import ImuConfig
-from rinscal.thermal.field import ChamberProfile, ThermalField, measure, simulate_field
-from rinscal.thermal.plant import (
+from rinscal.sim.config import ImuConfig
+from rinscal.sim.field import ChamberProfile, ThermalField, measure, simulate_field
+from rinscal.sim.plant import (
     SensorNoise,
     hysteresis_play,
     signal_error_coefs,
@@ -44,7 +43,8 @@ from rinscal.thermal.plant import (
     thermal_bias_r,
     turn_on_offsets,
 )
-from rinscal.thermal.sensor import nonlinear_drift_coefs, nonlinear_drift_r
+from rinscal.sim.scenario_config import ScenarioConfig
+from rinscal.sim.sensor import nonlinear_drift_coefs, nonlinear_drift_r
 
 #: ``errors(t, omega_r, f_r) -> (n, 6)`` SI in ``r`` (see the module docstring).
 ErrorSource = Callable[
@@ -69,7 +69,7 @@ def constant_errors(bias_r: NDArray[np.float64]) -> ErrorSource:
 
 
 class ThermalPlant:
-    """The IMU plant of :mod:`rinscal.thermal` run alongside a navigation scenario.
+    """The IMU plant of :mod:`rinscal.sim` run alongside a navigation scenario.
 
     The thermal field is simulated once on a 1 s grid over the whole run (cheap), with the
     turntable's encoder angle driving the body-fixed hot side and the torque motor, and
@@ -78,7 +78,7 @@ class ThermalPlant:
     Errors of a sample, resolved in ``r``: thermal bias (polynomial, Shupe, hysteresis with
     the memory of a unit coming from the lab), scale factor and non-orthogonality against
     temperature times the true signal (and the drift of the scale factor's asymmetry and
-    quadratic term, :func:`rinscal.thermal.sensor.nonlinear_drift_r`: the computer holds the
+    quadratic term, :func:`rinscal.sim.sensor.nonlinear_drift_r`: the computer holds the
     calibration made at ``t_cal``), the accelerometers' size effect
     ``e_j · (ω×(ω×ρ_j) + ω̇×ρ_j)`` from their lever arms ``ρ_j``, the turn-on offsets and the
     noise. Every effect follows the switches of ``config.effects``.

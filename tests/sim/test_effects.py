@@ -15,11 +15,11 @@ import pytest
 from rinscal import earth, units
 from rinscal.nav.rotation import RotationSchedule
 from rinscal.schema import CHANNELS
-from rinscal.thermal.config import EffectsConfig, ImuConfig, NoiseConfig
-from rinscal.thermal.field import ChamberProfile, ThermalField, simulate_field
-from rinscal.thermal.plant import hysteresis_play, play_operator, thermal_bias_eng
-from rinscal.thermal.polynomial import ChannelThermal
-from rinscal.thermal.protocols import protocol_runs, simulate_run
+from rinscal.sim.config import EffectsConfig, ImuConfig, NoiseConfig
+from rinscal.sim.field import ChamberProfile, ThermalField, simulate_field
+from rinscal.sim.plant import hysteresis_play, play_operator, thermal_bias_eng
+from rinscal.sim.polynomial import ChannelThermal
+from rinscal.sim.protocols import protocol_runs, simulate_run
 
 PAPER = ImuConfig.paper()
 NAV = ImuConfig.navigation_grade()
@@ -173,7 +173,7 @@ def test_hysteresis_loop_width_and_memory() -> None:
 
 def test_scale_factor_and_misalignment_in_the_static_log_are_k_times_dT_times_g() -> None:
     """A level unit: accel_z reads k_sf·(T − t_ref)·g more, accel_x m_xz·(T − t_ref)·g."""
-    from rinscal.thermal.plant import signal_error_coefs, signal_errors_r
+    from rinscal.sim.plant import signal_error_coefs, signal_errors_r
 
     cfg = replace(NAV, effects=replace(OFF, scale_factor=True, misalignment=True))
     _, f = earth.static_outputs_r(cfg.latitude, cfg.heading, cfg.altitude_m)
@@ -188,7 +188,7 @@ def test_scale_factor_and_misalignment_in_the_static_log_are_k_times_dT_times_g(
 def test_lever_arm_senses_the_centripetal_and_tangential_acceleration() -> None:
     """Accelerometer j at ρ_j on a table turning at ω about z senses −ω²ρ_j,x/y; while
     the table accelerates at ω̇ it senses ω̇ × ρ too."""
-    from rinscal.nav.sensors import ThermalPlant
+    from rinscal.sim.sensors import ThermalPlant
 
     cfg = replace(NAV, effects=replace(OFF, lever_arm=True))
     plant = ThermalPlant(cfg, ChamberProfile.constant(20.0), 10.0, 100.0, noise=False,

@@ -17,7 +17,7 @@ output ``b(x) + s`` (thermal bias plus the static reference ``s`` of the calibra
 orientation). Navigation must subtract only the bias: the compensator subtracts
 ``model(x) − s``, where ``s`` is recorded in the model file (Earth rate and gravity at the
 calibration latitude and heading, in log units) — see
-:class:`rinscal.nav.sensors.ModelCompensator`.
+:class:`rinscal.sim.sensors.ModelCompensator`.
 """
 
 from __future__ import annotations
@@ -25,19 +25,28 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
-from typing import Any
 
 import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from rinscal import _check, earth, units
+from rinscal import _check, units
 from rinscal.errors import ConfigError
-from rinscal.nav.align import AlignConfig, Aligner, AlignResult, feed_and_hand_over
-from rinscal.nav.config import ScenarioConfig
-from rinscal.nav.imu import ImuChunk, ImuSynthesizer
+from rinscal.nav.align import (
+    AlignConfig,
+    Aligner,
+    align_from_noise,
+    feed_and_hand_over,
+)
+from rinscal.nav.attitude import C_nb_from_euler
+from rinscal.nav.result import NavResult, error_frame
 from rinscal.nav.rotation import C_br, RotationSchedule
-from rinscal.nav.sensors import (
+from rinscal.nav.strapdown import Strapdown
+from rinscal.sim.config import ImuConfig
+from rinscal.sim.field import ChamberProfile
+from rinscal.sim.ideal_imu import ImuChunk, ImuSynthesizer
+from rinscal.sim.scenario_config import ScenarioConfig
+from rinscal.sim.sensors import (
     Compensator,
     ErrorSource,
     ModelCompensator,
@@ -46,17 +55,12 @@ from rinscal.nav.sensors import (
     oracle_compensator,
     temperature_frame,
 )
-from rinscal.nav.strapdown import Strapdown, quat_to_dcm
-from rinscal.nav.trajectory import (
-    C_nb_from_euler,
+from rinscal.sim.trajectory import (
     StaticMotion,
     SwingMotion,
     Trajectory,
-    euler_from_C_nb,
     vehicle_route,
 )
-from rinscal.thermal.config import ImuConfig
-from rinscal.thermal.field import ChamberProfile
 
 #: Scenario names understood by :func:`preset`.
 SCENARIOS = ("quasi-static", "swing", "vehicle", "ramp")
@@ -93,7 +97,7 @@ def preset(
     ``vehicle``
         Land vehicle (Section 5.2.2): stands still until the alignment ends
         (``align.start_s + align.total_s``), then drives the route of
-        :func:`rinscal.nav.trajectory.vehicle_route` for ``hours`` (default 1.9 h); cold
+        :func:`rinscal.sim.trajectory.vehicle_route` for ``hours`` (default 1.9 h); cold
         start in a cabin warming from 5 °C to 20 °C within the first hour.
     ``ramp``
         Quasi-static in the chamber ramping −2 → 50 °C at 0.2 °C/min (Figure 9); the unit
@@ -204,160 +208,6 @@ def align_for(
     )
 
 
-def align_from_noise(
-    gyro_density: float,
-    accel_density: float,
-    gyro_bias_rw: float,
-    accel_bias_rw: float,
-    total_s: float = 600.0,
-    coarse_s: float = 60.0,
-    start_s: float = 0.0,
-    *,
-    gyro_bias_tau_s: float | None = None,
-    gyro_bias_markov_sd: float | None = None,
-    accel_bias_tau_s: float | None = None,
-    accel_bias_markov_sd: float | None = None,
-) -> AlignConfig:
-    """Alignment settings from the sensor noise itself (:func:`align_for` of a plant's).
-
-    Parameters
-    ----------
-    gyro_density : float [rad/√s]
-        Gyro angle random walk (white-noise density).
-    accel_density : float [m/s²/√Hz]
-        Accelerometer velocity random walk.
-    gyro_bias_rw : float [rad/s/√s]
-        Gyro bias random walk (0: none known); floors the bias states' process noise.
-    accel_bias_rw : float [m/s²/√s]
-        Accelerometer bias random walk (0: none known).
-    total_s, coarse_s, start_s, gyro_bias_tau_s, ... :
-        As for :func:`align_for`.
-    """
-    if not (math.isfinite(total_s) and total_s > 0):
-        raise ConfigError(f"alignment time must be > 0 s, got {total_s}")
-    coarse = min(coarse_s, total_s / 3)
-    d = AlignConfig()
-    tau_g = d.gyro_bias_tau_s if gyro_bias_tau_s is None else gyro_bias_tau_s
-    tau_a = d.accel_bias_tau_s if accel_bias_tau_s is None else accel_bias_tau_s
-
-    def floor(sd: float, q: float, tau: float) -> float:
-        return sd if not (math.isfinite(tau) and tau > 0) else max(sd, q * math.sqrt(tau / 2))
-
-    sd_g = (
-        floor(d.gyro_bias_markov_sd, gyro_bias_rw, tau_g)
-        if gyro_bias_markov_sd is None
-        else gyro_bias_markov_sd
-    )
-    sd_a = (
-        floor(d.accel_bias_markov_sd, accel_bias_rw, tau_a)
-        if accel_bias_markov_sd is None
-        else accel_bias_markov_sd
-    )
-    return AlignConfig(
-        coarse_s=coarse,
-        fine_s=total_s - coarse,
-        gyro_noise_density=gyro_density,
-        accel_noise_density=accel_density,
-        start_s=start_s,
-        gyro_bias_tau_s=tau_g,
-        gyro_bias_markov_sd=sd_g,
-        accel_bias_tau_s=tau_a,
-        accel_bias_markov_sd=sd_a,
-    )
-
-
-# --------------------------------------------------------------------------- results
-@dataclass
-class NavResult:
-    """Outcome of a navigation scenario.
-
-    Attributes
-    ----------
-    config : ScenarioConfig
-        What was run.
-    truth : pandas.DataFrame
-        True state at the reported times: ``time_s, lat_deg, lon_deg, alt_m, v_e, v_n,
-        v_u`` [s, deg, deg, m, m/s ×3], ``heading_deg, pitch_deg, roll_deg, encoder_deg``.
-    errors : dict of str to pandas.DataFrame
-        Per variant, from the start of free navigation on: ``time_s``, position error
-        ``east_m, north_m, horizontal_m, horizontal_nmi, up_m``, INS position ``lat_deg,
-        lon_deg``, velocity error ``v_e_err, v_n_err`` [m/s], attitude error of the body
-        frame ``att_e, att_n, att_u`` [rad] (small angles, ENU) and the same as Euler-angle
-        errors, INS minus truth, ``heading_err, pitch_err, roll_err`` [rad] (heading
-        clockwise from north, wrapped to ±π).
-    alignment : dict of str to AlignResult or None
-        Per variant.
-    """
-
-    config: ScenarioConfig
-    truth: pd.DataFrame
-    errors: dict[str, pd.DataFrame]
-    alignment: dict[str, AlignResult | None]
-
-    def max_error_m(self, variant: str) -> float:
-        """Maximum horizontal position error of a variant [m]."""
-        return float(self.errors[variant]["horizontal_m"].max())
-
-    def summary(self) -> dict[str, Any]:
-        """JSON-able summary: per variant max/final/RMS error [m, nmi] and alignment.
-
-        Per variant: ``max_error_m``, ``max_error_nmi``, ``time_of_max_s``,
-        ``final_error_m``, ``rms_error_m``, ``attitude_error_at_nav_start`` (``{"heading_arcsec",
-        "pitch_arcsec", "roll_arcsec"}``: INS body heading, pitch and roll minus the truth at
-        the first navigation output, heading clockwise from north, wrapped to ±180°), with an
-        alignment also ``alignment`` (bias estimates, filter attitude sd and the small-angle
-        ``attitude_error_arcsec``), and ``improvement_vs_none_pct`` beside a ``none`` variant.
-        """
-        c = self.config
-        out: dict[str, Any] = {
-            "scenario": c.name,
-            "duration_s": c.duration_s,
-            "rate_hz": c.rate_hz,
-            "rotation": c.schedule.name,
-            "alignment_s": None if c.align is None else c.align.total_s,
-            "alignment_start_s": c.align_start_s,
-            "navigation_start_s": c.nav_start_s,
-            "variants": {},
-        }
-        for name, df in self.errors.items():
-            h = df["horizontal_m"].to_numpy()
-            i = int(np.argmax(h)) if h.size else 0
-            v: dict[str, Any] = {
-                "max_error_m": float(h.max()) if h.size else float("nan"),
-                "max_error_nmi": float(h.max() / units.NMI_TO_M) if h.size else float("nan"),
-                "time_of_max_s": float(df["time_s"].iloc[i]) if h.size else float("nan"),
-                "final_error_m": float(h[-1]) if h.size else float("nan"),
-                "rms_error_m": float(np.sqrt(np.mean(h**2))) if h.size else float("nan"),
-            }
-            eul = df[["heading_err", "pitch_err", "roll_err"]].to_numpy()
-            e0 = eul[0] / units.ARCSEC_TO_RAD if h.size else np.full(3, np.nan)
-            # a recording knows at most its heading: an unknown truth is left out, not NaN
-            v["attitude_error_at_nav_start"] = {
-                f"{k}_arcsec": float(x)
-                for k, x in zip(("heading", "pitch", "roll"), e0, strict=True)
-                if math.isfinite(x)
-            }
-            a = self.alignment.get(name)
-            if a is not None:
-                v["alignment"] = {
-                    "gyro_bias_dph": (a.gyro_bias / units.DPH_TO_RPS).tolist(),
-                    "accel_bias_ug": (a.accel_bias / units.UG_TO_MPS2).tolist(),
-                    "attitude_sd_arcsec": (a.attitude_sd / units.ARCSEC_TO_RAD).tolist(),
-                }
-                att = df[["att_e", "att_n", "att_u"]].to_numpy()
-                if att.shape[0] and np.isfinite(att[0]).all():
-                    v["alignment"]["attitude_error_arcsec"] = (
-                        att[0] / units.ARCSEC_TO_RAD
-                    ).tolist()
-            out["variants"][name] = v
-        if "none" in out["variants"]:
-            base = out["variants"]["none"]["max_error_m"]
-            for name, v in out["variants"].items():
-                if name != "none" and base > 0:
-                    v["improvement_vs_none_pct"] = 100.0 * (1.0 - v["max_error_m"] / base)
-        return out
-
-
 @dataclass
 class _Variant:
     compensator: Compensator | None
@@ -373,14 +223,6 @@ def _true_initial_nav(config: ScenarioConfig) -> Strapdown:
     kin = tr.kinematics(np.zeros(1))
     C_nr = C_nb_from_euler(kin.euler[0]) @ C_br(config.schedule.angle(0.0)[0])
     return Strapdown(tr.lat0, tr.lon0, tr.alt0, kin.v_n[0], C_nr, config.dt, config.vertical)
-
-
-def _attitude_error(C_true: NDArray, C_est: NDArray) -> NDArray[np.float64]:
-    """Small-angle φ with C_est = (I − [φ×]) C_true, shape (m, 3) [rad]."""
-    M = np.einsum("mij,mkj->mik", C_true, C_est)
-    return 0.5 * np.stack(
-        [M[:, 2, 1] - M[:, 1, 2], M[:, 0, 2] - M[:, 2, 0], M[:, 1, 0] - M[:, 0, 1]], axis=1
-    )
 
 
 def run_scenario(
@@ -399,7 +241,7 @@ def run_scenario(
     errors : callable, optional
         Sensor errors in ``r``, ``errors(t, omega_r, f_r) -> (n, 6)`` SI at the sample
         mid-times from the true mean rate and specific force of each sample (see
-        :mod:`rinscal.nav.sensors`; e.g. a :class:`ThermalPlant` or
+        :mod:`rinscal.sim.sensors`; e.g. a :class:`ThermalPlant` or
         :func:`constant_errors`); None for an ideal IMU. Called once per chunk, in time
         order.
     compensators : mapping of str to callable or None, optional
@@ -507,7 +349,7 @@ def run_scenario(
     err: dict[str, pd.DataFrame] = {}
     for name, v in variants.items():
         rows = np.concatenate(v.rows) if v.rows else np.empty((0, 10))
-        err[name] = _error_frame(truth, rows)
+        err[name] = error_frame(truth, rows)
     alignment = {
         name: (v.aligner.result() if v.aligner is not None and v.aligner.done else None)
         for name, v in variants.items()
@@ -526,41 +368,6 @@ def _truth_rows(ch: ImuChunk, sel: NDArray[np.bool_]) -> NDArray[np.float64]:
             ch.euler[sel],
             ch.encoder[sel],
         ]
-    )
-
-
-def _error_frame(truth: NDArray[np.float64], ins: NDArray[np.float64]) -> pd.DataFrame:
-    if ins.shape[0] != truth.shape[0]:
-        raise AssertionError("internal: INS and truth rows differ")  # pragma: no cover
-    lat_t, lon_t, alt_t = truth[:, 1], truth[:, 2], truth[:, 3]
-    rn, re = earth.principal_radii(lat_t)
-    north = (ins[:, 0] - lat_t) * (rn + alt_t)
-    east = (ins[:, 1] - lon_t) * (re + alt_t) * np.cos(lat_t)
-    horiz = np.hypot(east, north)
-    C_true = C_nb_from_euler(truth[:, 7:10])
-    C_est = quat_to_dcm(ins[:, 6:10]) @ np.swapaxes(C_br(truth[:, 10]), -1, -2)  # C_nr C_rb
-    att = _attitude_error(C_true, C_est) if truth.shape[0] else np.empty((0, 3))
-    eul = euler_from_C_nb(C_est) - truth[:, 7:10] if truth.shape[0] else np.empty((0, 3))
-    eul = (eul + np.pi) % (2 * np.pi) - np.pi  # heading (and roll) wrap to ±π
-    return pd.DataFrame(
-        {
-            "time_s": truth[:, 0],
-            "east_m": east,
-            "north_m": north,
-            "horizontal_m": horiz,
-            "horizontal_nmi": horiz / units.NMI_TO_M,
-            "up_m": ins[:, 2] - alt_t,
-            "lat_deg": ins[:, 0] / units.DEG_TO_RAD,
-            "lon_deg": ins[:, 1] / units.DEG_TO_RAD,
-            "v_e_err": ins[:, 3] - truth[:, 4],
-            "v_n_err": ins[:, 4] - truth[:, 5],
-            "att_e": att[:, 0],
-            "att_n": att[:, 1],
-            "att_u": att[:, 2],
-            "heading_err": eul[:, 0],
-            "pitch_err": eul[:, 1],
-            "roll_err": eul[:, 2],
-        }
     )
 
 

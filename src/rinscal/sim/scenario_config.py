@@ -1,7 +1,7 @@
 """The configuration of a navigation scenario: everything but the sensor errors.
 
-:class:`ScenarioConfig` is shared by :mod:`rinscal.nav.scenario` (which runs it) and
-:mod:`rinscal.nav.sensors` (whose plant follows its chamber, duration, rate and turntable).
+:class:`ScenarioConfig` is shared by :mod:`rinscal.sim.scenario` (which runs it) and
+:mod:`rinscal.sim.sensors` (whose plant follows its chamber, duration, rate and turntable).
 """
 
 from __future__ import annotations
@@ -14,8 +14,8 @@ from rinscal.errors import ConfigError
 from rinscal.nav.align import AlignConfig
 from rinscal.nav.rotation import RotationSchedule
 from rinscal.nav.strapdown import VerticalMode
-from rinscal.nav.trajectory import Trajectory
-from rinscal.thermal.field import ChamberProfile
+from rinscal.sim.field import ChamberProfile
+from rinscal.sim.trajectory import Trajectory
 
 __all__ = ["ScenarioConfig"]
 

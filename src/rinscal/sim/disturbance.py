@@ -7,9 +7,9 @@ somebody shifts their weight the vehicle settles at a slightly different tilt (s
 of arc-seconds to a few arc-minutes, its heading by a few arc-seconds). Then the people are
 gone and the carrier stands still at its last tilt.
 
-:class:`DisturbedStart` is that motion as a :class:`rinscal.nav.trajectory.Trajectory`:
+:class:`DisturbedStart` is that motion as a :class:`rinscal.sim.trajectory.Trajectory`:
 analytic (sinusoids under ``sin⁴`` envelopes whose first two derivatives vanish at both ends
-of a burst, and the smooth steps of :class:`rinscal.nav.trajectory.StepChannel`), so the
+of a burst, and the smooth steps of :class:`rinscal.sim.trajectory.StepChannel`), so the
 ideal IMU built from it, the truth and the navigation errors stay exact. The gyros see it
 plainly (per-second mean rates of a few hundred °/h during a burst against the Earth rate's
 15 °/h); the accelerometers see the tilt steps (1′ of tilt is 290 µg) and the sway's
@@ -31,7 +31,7 @@ from numpy.typing import NDArray
 
 from rinscal import units
 from rinscal.errors import ConfigError
-from rinscal.nav.trajectory import Kinematics, StaticMotion, StepChannel
+from rinscal.sim.trajectory import Kinematics, StaticMotion, StepChannel
 
 __all__ = ["DisturbedStart"]
 

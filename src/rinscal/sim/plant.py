@@ -4,11 +4,11 @@ This module is the truth that calibration models are judged against. It is writt
 physics of the sensors, not shaped after any calibration model: each channel's thermal bias
 depends on its own inner temperature ``T``, the rate ``dT/dt``, the inside/outside gradient
 ``ΔT``, their couplings, and a hidden slow package-stress state (see
-:mod:`rinscal.thermal.field`) that no thermometer sees. On top come a turn-on-to-turn-on
+:mod:`rinscal.sim.field`) that no thermometer sees. On top come a turn-on-to-turn-on
 offset, white noise, a bias random walk, and rare vibration outliers.
 
-The configuration is :mod:`rinscal.thermal.config`, the two thermal laws
-:mod:`rinscal.thermal.polynomial` and :mod:`rinscal.thermal.mechanistic`; this module
+The configuration is :mod:`rinscal.sim.config`, the two thermal laws
+:mod:`rinscal.sim.polynomial` and :mod:`rinscal.sim.mechanistic`; this module
 evaluates them on a thermal field (:func:`thermal_bias_r`), with hysteresis, signal errors,
 turn-on offsets and the sensor noise. Everything here is in SI (rad/s for gyros, m/s² for
 accelerometers) and resolved in the rotating IMU frame ``r``; the configuration file uses
@@ -25,8 +25,8 @@ from numpy.typing import NDArray
 
 from rinscal import units
 from rinscal.errors import ConfigError
-from rinscal.thermal.config import ENG_TO_SI, ImuConfig
-from rinscal.thermal.field import (
+from rinscal.sim.config import ENG_TO_SI, ImuConfig
+from rinscal.sim.field import (
     ThermalField,
 )
 

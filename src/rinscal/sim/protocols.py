@@ -9,10 +9,10 @@
 
 The IMU sits level on the turntable at encoder zero, so its static output is Earth rate and
 gravity for the configured latitude and heading, plus the sensor errors: in pulses (the raw
-output) through the whole forward model of :mod:`rinscal.thermal.sensor`, in physical units
+output) through the whole forward model of :mod:`rinscal.sim.sensor`, in physical units
 (after the factory calibration at ``t_cal_c``) with each term's change since ``t_cal_c``.
 The multi-position and rate-table protocol on a two-axis turntable is
-:mod:`rinscal.thermal.multiposition`.
+:mod:`rinscal.sim.multiposition`.
 """
 
 from __future__ import annotations
@@ -29,9 +29,9 @@ from rinscal import _check, units
 from rinscal.earth import static_outputs_r
 from rinscal.errors import ConfigError
 from rinscal.schema import CHANNELS
-from rinscal.thermal.config import ImuConfig, resolve_imu
-from rinscal.thermal.field import ChamberProfile, measure, simulate_field
-from rinscal.thermal.plant import (
+from rinscal.sim.config import ImuConfig, resolve_imu
+from rinscal.sim.field import ChamberProfile, measure, simulate_field
+from rinscal.sim.plant import (
     SensorNoise,
     hysteresis_play,
     log_units_to_si,
@@ -41,7 +41,7 @@ from rinscal.thermal.plant import (
     to_log_units,
     turn_on_offsets,
 )
-from rinscal.thermal.sensor import (
+from rinscal.sim.sensor import (
     nonlinear_drift_coefs,
     nonlinear_drift_r,
     raw_output_r,
@@ -139,7 +139,7 @@ class SimulatedRun:
     static : ndarray, shape (6,)
         Static output in the log's unit. Physical units: Earth rate and gravity. Pulses (the
         raw output): Earth rate and gravity through the unit's forward model at ``t_cal``
-        (scale factor, nonlinear terms and misalignment of :func:`~rinscal.thermal.sensor.
+        (scale factor, nonlinear terms and misalignment of :func:`~rinscal.sim.sensor.
         sensor_law` at ``t_cal_c``), so that ``static + offset + truth`` is the noiseless
         output in both units.
     memory : ndarray, shape (6,) [°C]
@@ -277,7 +277,7 @@ def iter_protocol(
     hysteresis memory is carried from one run to the next, in order: the order of the soak
     runs matters, as on a real unit, and a run depends on the runs before it in its
     protocol. Each protocol starts from a unit that comes from the lab
-    (:data:`rinscal.thermal.plant.STORAGE_C`).
+    (:data:`rinscal.sim.plant.STORAGE_C`).
     """
     memory = None
     for i, spec in enumerate(protocol_runs(protocol, hours)):
@@ -343,7 +343,7 @@ def simulate_protocol(
     seed : int
         Seed of every random number.
     imu : str, PathLike or ImuConfig, optional
-        The plant: a preset name (:data:`~rinscal.thermal.presets.PRESETS`), an IMU TOML
+        The plant: a preset name (:data:`~rinscal.presets.PRESETS`), an IMU TOML
         file or a configuration; default the paper's own (``paper``, Tables 1-2), the
         default of :func:`rinscal.navigate` and of the command line too.
     config : str, PathLike or ImuConfig, optional

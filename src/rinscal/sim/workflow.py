@@ -24,19 +24,19 @@ import pandas as pd
 from rinscal import _check
 from rinscal.calibration.modelfile import FittedModel, check_policy
 from rinscal.errors import ConfigError
-from rinscal.nav.config import ScenarioConfig
-from rinscal.nav.disturbance import DisturbedStart
 from rinscal.nav.rotation import schedule_from_name
-from rinscal.nav.scenario import NavResult, align_for, preset, run_scenario
-from rinscal.nav.sensors import (
+from rinscal.presets import DEFAULT_PRESET
+from rinscal.sim.config import ImuConfig, resolve_imu
+from rinscal.sim.disturbance import DisturbedStart
+from rinscal.sim.scenario import NavResult, align_for, preset, run_scenario
+from rinscal.sim.scenario_config import ScenarioConfig
+from rinscal.sim.sensors import (
     ModelCompensator,
     ThermalPlant,
     oracle_compensator,
     temperature_frame,
 )
-from rinscal.nav.trajectory import StaticMotion
-from rinscal.thermal.config import ImuConfig, resolve_imu
-from rinscal.thermal.presets import DEFAULT_PRESET
+from rinscal.sim.trajectory import StaticMotion
 
 __all__ = ["Navigation", "check_models", "model_compensator", "navigate", "navigate_scenario"]
 
@@ -77,7 +77,7 @@ class Navigation:
 
 
 def model_compensator(model: ModelLike, plant: ThermalPlant, policy: str = "clamp") -> Any:
-    """A :class:`rinscal.nav.sensors.ModelCompensator` of a model (a file's path or loaded).
+    """A :class:`rinscal.sim.sensors.ModelCompensator` of a model (a file's path or loaded).
 
     Parameters
     ----------
@@ -175,13 +175,13 @@ def navigate_scenario(
         counts).
     quantise : bool, optional
         The IMU puts out whole pulses of its ``[output]`` weights, the remainder carried
-        (:class:`rinscal.nav.sensors.ThermalPlant`); ``record`` then writes integer counts
+        (:class:`rinscal.sim.sensors.ThermalPlant`); ``record`` then writes integer counts
         (``dtheta_*``, ``dvel_*``) with the weights in its metadata, which ``log=`` reads
         as they are. None (default): as the IMU's configuration says (``ring_laser``:
         counts of 0.1″ and 125 µg·s; the other presets: rates).
     disturbed_start_min : float, optional [min]
         People about the parked carrier for the first minutes: sway and small tilt steps
-        (:class:`rinscal.nav.disturbance.DisturbedStart`, drawn from ``seed``), carried by
+        (:class:`rinscal.sim.disturbance.DisturbedStart`, drawn from ``seed``), carried by
         the truth. Static scenarios only (``quasi-static``, ``ramp``), at
         :data:`MIN_DISTURBED_RATE_HZ` or more.
     progress : callable, optional
@@ -319,7 +319,7 @@ def _record(
 
 def disturbed(cfg: ScenarioConfig, duration_s: float, seed: int = 0) -> ScenarioConfig:
     """The scenario with people about its parked carrier for the first ``duration_s`` [s]
-    (:class:`rinscal.nav.disturbance.DisturbedStart` about its static attitude)."""
+    (:class:`rinscal.sim.disturbance.DisturbedStart` about its static attitude)."""
     if not isinstance(cfg.trajectory, StaticMotion):
         raise ConfigError(
             f"disturbed start: scenario {cfg.name!r} does not stand still (give a static "

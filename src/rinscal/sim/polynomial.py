@@ -12,7 +12,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rinscal.errors import ConfigError
-from rinscal.thermal._checks import _finite
+from rinscal.sim._checks import _finite
 
 __all__ = [
     "POLYNOMIAL_KEYS",
@@ -69,7 +69,7 @@ class ChannelThermal:
     factor ``scale_factor_ppm + scale_factor_ppm_per_c·(T − t_cal)``, asymmetry
     ``sf_asym_ppm + sf_asym_ppm_per_c·(T − t_cal)`` (gyros), quadratic term ``sf_quad +
     sf_quad_per_c·(T − t_cal)`` and the tilt towards each ``r`` axis ``misalignment_arcsec +
-    misalignment_arcsec_per_c·(T − t_cal)``; :func:`rinscal.thermal.sensor.sensor_law`
+    misalignment_arcsec_per_c·(T − t_cal)``; :func:`rinscal.sim.sensor.sensor_law`
     collects them into an :class:`rinscal.sensormodel.ImuCalibration`. A raw (pulse) output
     carries them whole; a physical output, after the factory calibration at ``t_cal``, only
     their change since ``t_cal`` (to first order: ``(T − t_cal)·(scale_factor_ppm_per_c·1e-6

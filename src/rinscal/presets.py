@@ -1,6 +1,6 @@
 """Names of the built-in IMU presets (a light module: the CLI reads it at start-up).
 
-The presets themselves are TOML files in ``rinscal/data``; :func:`rinscal.thermal.config.load_imu`
+The presets themselves are TOML files in ``rinscal/data``; :func:`rinscal.sim.config.load_imu`
 reads them.
 """
 

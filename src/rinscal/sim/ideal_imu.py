@@ -17,8 +17,8 @@ Position is integrated from the velocity in the same quadrature (latitude by a t
 fixed point on the meridian radius), chunk by chunk, so memory stays bounded.
 
 A moving carrier's position, body signals and turntable rotation are computed by the numba
-kernels :func:`rinscal.nav._kernels.moving_body_signals` and
-:func:`rinscal.nav._kernels.rotate_increments`; :func:`body_signals` is the same inverse
+kernels :func:`rinscal._kernels.moving_body_signals` and
+:func:`rinscal._kernels.rotate_increments`; :func:`body_signals` is the same inverse
 mechanisation in numpy (vectorised, for checks and small inputs). The two agree to rounding
 (``tests/nav/test_synthesis_reference.py``).
 """
@@ -32,11 +32,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from rinscal import earth
+from rinscal import _kernels, earth
 from rinscal.errors import ConfigError
-from rinscal.nav import _kernels
 from rinscal.nav.rotation import RotationSchedule
-from rinscal.nav.trajectory import (
+from rinscal.sim.trajectory import (
     C_nb_from_euler,
     Kinematics,
     Trajectory,

@@ -16,14 +16,14 @@ from rinscal.errors import ConfigError
 from rinscal.io.params import PARAMS_COLUMNS, check_params_table
 from rinscal.schema import CHANNELS
 from rinscal.sensormodel import PARAMETERS
-from rinscal.thermal.config import ImuConfig, NoiseConfig, OutputConfig
-from rinscal.thermal.multiposition import (
+from rinscal.sim.config import ImuConfig, NoiseConfig, OutputConfig
+from rinscal.sim.multiposition import (
     SEQUENCES,
     iter_multiposition,
     load_sequence,
     simulate_multiposition,
 )
-from rinscal.thermal.polynomial import ChannelThermal
+from rinscal.sim.polynomial import ChannelThermal
 
 OMEGA_E = 7.292115e-5  # rad/s
 ARCSEC = math.pi / 648000.0

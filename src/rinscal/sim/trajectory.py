@@ -2,7 +2,7 @@
 
 A trajectory gives, at any times, the body's ENU velocity and its time derivative and the
 body attitude (heading, pitch, roll, see :func:`rinscal.earth.C_nb_from_euler`) with
-its rates. Position is not part of it: :mod:`rinscal.nav.imu` integrates the velocity
+its rates. Position is not part of it: :mod:`rinscal.sim.ideal_imu` integrates the velocity
 exactly, chunk by chunk, from the trajectory's origin.
 
 All motions are analytic (sinusoids, and smooth steps ``Δ·(u − sin 2πu / 2π)`` whose first
@@ -25,9 +25,9 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from rinscal import units
+from rinscal import _kernels, units
 from rinscal.errors import ConfigError
-from rinscal.nav import _kernels
+from rinscal.nav.attitude import C_nb_from_euler, euler_from_C_nb
 
 #: Default site: Nanjing (the paper's lab), as in the navigation-grade IMU preset.
 DEFAULT_LAT_DEG = 32.06
@@ -65,7 +65,7 @@ class Kinematics:
 
 
 class Trajectory(Protocol):
-    """What :mod:`rinscal.nav.imu` needs from a carrier motion."""
+    """What :mod:`rinscal.sim.ideal_imu` needs from a carrier motion."""
 
     #: Start position: latitude [rad], longitude [rad], altitude [m].
     lat0: float
@@ -82,45 +82,7 @@ class Trajectory(Protocol):
 
 
 # --------------------------------------------------------------------------- attitude helpers
-def C_nb_from_euler(euler: ArrayLike) -> NDArray[np.float64]:
-    """Vectorised :func:`rinscal.earth.C_nb_from_euler`.
-
-    Parameters
-    ----------
-    euler : array_like, shape (..., 3) [rad]
-        Heading, pitch, roll.
-
-    Returns
-    -------
-    ndarray, shape (..., 3, 3)
-    """
-    e = np.asarray(euler, dtype=float)
-    ch, sh = np.cos(e[..., 0]), np.sin(e[..., 0])
-    cp, sp = np.cos(e[..., 1]), np.sin(e[..., 1])
-    cr, sr = np.cos(e[..., 2]), np.sin(e[..., 2])
-    out = np.empty((*e.shape[:-1], 3, 3))
-    # Rz(-heading) @ Rx(pitch) @ Ry(roll), multiplied out
-    out[..., 0, 0] = ch * cr + sh * sp * sr
-    out[..., 0, 1] = sh * cp
-    out[..., 0, 2] = ch * sr - sh * sp * cr
-    out[..., 1, 0] = -sh * cr + ch * sp * sr
-    out[..., 1, 1] = ch * cp
-    out[..., 1, 2] = -sh * sr - ch * sp * cr
-    out[..., 2, 0] = -cp * sr
-    out[..., 2, 1] = sp
-    out[..., 2, 2] = cp * cr
-    return out
-
-
-def euler_from_C_nb(C: ArrayLike) -> NDArray[np.float64]:
-    """Heading, pitch, roll [rad] of ``C_nb`` (inverse of :func:`C_nb_from_euler`)."""
-    C = np.asarray(C, dtype=float)
-    heading = np.arctan2(C[..., 0, 1], C[..., 1, 1])
-    pitch = np.arcsin(np.clip(C[..., 2, 1], -1.0, 1.0))
-    roll = np.arctan2(-C[..., 2, 0], C[..., 2, 2])
-    return np.stack([heading, pitch, roll], axis=-1)
-
-
+# C_nb_from_euler and euler_from_C_nb live in rinscal.nav.attitude (navigation uses them too)
 def body_rate_from_euler(euler: ArrayLike, euler_rate: ArrayLike) -> NDArray[np.float64]:
     """Angular rate of ``b`` relative to ``n`` resolved in ``b``, ω_nb^b [rad/s].
 

@@ -11,11 +11,11 @@ import pytest
 from rinscal import earth, units
 from rinscal.errors import ConfigError
 from rinscal.schema import CHANNELS
-from rinscal.thermal.config import ImuConfig, NoiseConfig, OutputConfig
-from rinscal.thermal.field import ThermometerConfig
-from rinscal.thermal.plant import SensorNoise, thermal_bias_eng
-from rinscal.thermal.polynomial import ChannelThermal
-from rinscal.thermal.protocols import protocol_runs, simulate_protocol, simulate_run
+from rinscal.sim.config import ImuConfig, NoiseConfig, OutputConfig
+from rinscal.sim.field import ThermometerConfig
+from rinscal.sim.plant import SensorNoise, thermal_bias_eng
+from rinscal.sim.polynomial import ChannelThermal
+from rinscal.sim.protocols import protocol_runs, simulate_protocol, simulate_run
 
 PRESET = ImuConfig.navigation_grade()
 QUIET = replace(
@@ -190,8 +190,8 @@ def test_a_missing_section_is_an_error_naming_it(tmp_path, section: str) -> None
 
 
 def test_presets_by_name_and_unknown_names() -> None:
-    from rinscal.thermal.config import load_imu
-    from rinscal.thermal.presets import PRESETS
+    from rinscal.presets import PRESETS
+    from rinscal.sim.config import load_imu
 
     assert set(PRESETS) == {
         "paper",
@@ -208,7 +208,7 @@ def test_presets_by_name_and_unknown_names() -> None:
 
 def test_thermal_bias_uses_each_input() -> None:
     """The plant is not a function of T alone: rate, gradient and hidden stress all matter."""
-    from rinscal.thermal.field import ThermalField
+    from rinscal.sim.field import ThermalField
 
     n = 4
     base = dict(t=np.arange(n, dtype=float), sensor=np.full((n, 6), 30.0),

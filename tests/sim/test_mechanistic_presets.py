@@ -16,11 +16,11 @@ import numpy as np
 import pytest
 from tests._shared import docs_script
 
+from rinscal.presets import PRESETS
 from rinscal.schema import CHANNELS
-from rinscal.thermal.config import ImuConfig, load_imu
-from rinscal.thermal.field import N_GYROS
-from rinscal.thermal.presets import PRESETS
-from rinscal.thermal.protocols import simulate_protocol
+from rinscal.sim.config import ImuConfig, load_imu
+from rinscal.sim.field import N_GYROS
+from rinscal.sim.protocols import simulate_protocol
 
 fm = docs_script("fit_mechanistic")
 mh = docs_script("mechanistic_heldout")

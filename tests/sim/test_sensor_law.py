@@ -1,5 +1,5 @@
 """The plant's scale factor, asymmetry, quadratic term and misalignment: the law in
-temperature (:func:`rinscal.thermal.sensor.sensor_law`), and the physical soak output
+temperature (:func:`rinscal.sim.sensor.sensor_law`), and the physical soak output
 pinned to what it was before those terms existed."""
 
 from __future__ import annotations
@@ -12,9 +12,9 @@ import pytest
 from rinscal import earth, units
 from rinscal.errors import ConfigError
 from rinscal.schema import CHANNELS
-from rinscal.thermal.config import ImuConfig
-from rinscal.thermal.protocols import protocol_runs, simulate_run
-from rinscal.thermal.sensor import raw_output_r, sensor_law
+from rinscal.sim.config import ImuConfig
+from rinscal.sim.protocols import protocol_runs, simulate_run
+from rinscal.sim.sensor import raw_output_r, sensor_law
 
 # Recorded from main's code before the nonlinear terms were added (commit a422584):
 # `simulate_run` of soak_+14C, 0.05 h at 1 Hz, rng seed 11, physical units.

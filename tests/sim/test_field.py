@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from rinscal.errors import ConfigError
-from rinscal.thermal.field import (
+from rinscal.sim.field import (
     AIR,
     BLOCK,
     COIL0,

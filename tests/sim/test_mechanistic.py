@@ -16,8 +16,8 @@ from typer.testing import CliRunner
 
 from rinscal.errors import ConfigError
 from rinscal.schema import CHANNELS
-from rinscal.thermal.config import ImuConfig
-from rinscal.thermal.field import (
+from rinscal.sim.config import ImuConfig
+from rinscal.sim.field import (
     HOUSING,
     N_NODES,
     NODE_NAMES,
@@ -25,9 +25,9 @@ from rinscal.thermal.field import (
     ThermalNetworkConfig,
     simulate_field,
 )
-from rinscal.thermal.mechanistic import first_order_lag
-from rinscal.thermal.plant import thermal_bias_eng
-from rinscal.thermal.polynomial import POLYNOMIAL_KEYS
+from rinscal.sim.mechanistic import first_order_lag
+from rinscal.sim.plant import thermal_bias_eng
+from rinscal.sim.polynomial import POLYNOMIAL_KEYS
 
 DOCS = Path(__file__).resolve().parents[2] / "docs" / "plant.md"
 NET = ThermalNetworkConfig()
@@ -238,7 +238,7 @@ def _alone(key: str, value: float) -> ImuConfig:
 def _effects_off(cfg: ImuConfig) -> ImuConfig:
     from dataclasses import replace
 
-    from rinscal.thermal.config import EffectsConfig
+    from rinscal.sim.config import EffectsConfig
 
     return replace(cfg, effects=EffectsConfig(shupe=False, hysteresis=False))
 
@@ -246,7 +246,7 @@ def _effects_off(cfg: ImuConfig) -> ImuConfig:
 def test_every_coefficient_zero_gives_a_bias_free_plant(cold_start) -> None:  # type: ignore[no-untyped-def]
     """All mechanistic coefficients zero and Shupe/hysteresis off: no thermal bias at all,
     in the field's bias and in a simulated run's truth file."""
-    from rinscal.thermal.protocols import protocol_runs, simulate_run
+    from rinscal.sim.protocols import protocol_runs, simulate_run
 
     cfg = _effects_off(_alone("b0", 0.0))
     assert not np.any(thermal_bias_eng(cold_start, cfg))
@@ -345,7 +345,7 @@ def test_mechanistic_config_round_trips_and_needs_its_nodes(cold_start) -> None:
 
 
 def test_mechanistic_toml_file_loads(tmp_path) -> None:  # type: ignore[no-untyped-def]
-    from rinscal.thermal.config import load_imu
+    from rinscal.sim.config import load_imu
 
     path = tmp_path / "mech.toml"
     path.write_text(toml_text(mech_dict()))
@@ -408,7 +408,7 @@ def test_cli_simulate_and_navigate_with_a_mechanistic_toml(tmp_path) -> None:  #
 def test_true_compensation_of_a_mechanistic_plant_equals_an_imu_without_thermal_errors() -> None:
     """The oracle subtracts exactly the mechanistic plant's thermal errors (same tolerance as
     the polynomial test in tests/nav/test_nav_thermal.py)."""
-    from rinscal.nav.scenario import ThermalPlant, oracle_compensator, preset, run_scenario
+    from rinscal.sim.scenario import ThermalPlant, oracle_compensator, preset, run_scenario
 
     cfg = preset("quasi-static", hours=1.0, rate_hz=5.0)
     assert cfg.chamber is not None

@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from rinscal.schema import CHANNELS, validate_log
-from rinscal.thermal.protocols import SOAK_SET_POINTS_C, protocol_runs, simulate_protocol
+from rinscal.sim.protocols import SOAK_SET_POINTS_C, protocol_runs, simulate_protocol
 
 
 def test_soak_runs_are_table_3() -> None:
@@ -69,7 +69,7 @@ def test_a_simulated_log_has_the_same_bits_whatever_the_thread_count() -> None:
     count, and the BP network turned that into another reproduction on another machine."""
     from threadpoolctl import threadpool_limits
 
-    from rinscal.thermal.protocols import simulate_protocol
+    from rinscal.sim.protocols import simulate_protocol
 
     runs = []
     for threads in (1, 2):

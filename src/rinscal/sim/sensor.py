@@ -1,14 +1,14 @@
 """The plant's scale factor, its nonlinear terms and misalignment as laws in temperature:
 the true sensor-error model of the simulated unit.
 
-Each channel of :class:`~rinscal.thermal.config.ImuConfig` holds, beside its thermal bias,
+Each channel of :class:`~rinscal.sim.config.ImuConfig` holds, beside its thermal bias,
 the terms of the forward model of :mod:`rinscal.sensormodel` at the temperature of the
 unit's factory calibration ``t_cal_c`` and their slopes in temperature
-(:class:`~rinscal.thermal.polynomial.ChannelThermal`): scale factor [ppm], asymmetry [ppm]
+(:class:`~rinscal.sim.polynomial.ChannelThermal`): scale factor [ppm], asymmetry [ppm]
 (gyros), quadratic term [ppm/(deg/s) or µg/g²] and the tilt of the sensing axis towards the
 other two [arcsec]. :func:`sensor_law` collects them into one
 :class:`~rinscal.sensormodel.ImuCalibration` (straight lines about ``t_cal_c``; no biases:
-the bias of the plant is its thermal law, :func:`rinscal.thermal.plant.thermal_bias_r`).
+the bias of the plant is its thermal law, :func:`rinscal.sim.plant.thermal_bias_r`).
 
 What the log holds depends on its unit (``[output] mode``):
 
@@ -19,7 +19,7 @@ What the log holds depends on its unit (``[output] mode``):
   ``t_cal_c``: the values at ``t_cal_c`` are removed, and the signal error is each term's
   change since then, ``p(T) − p(t_cal)``, applied to first order (products of two
   parameters, below 1e-8 of the signal, neglected): the linear scale-factor and
-  misalignment drift of :func:`rinscal.thermal.plant.signal_errors_r` plus the drift of the
+  misalignment drift of :func:`rinscal.sim.plant.signal_errors_r` plus the drift of the
   nonlinear terms (:func:`nonlinear_drift_r`). With zero slopes of the nonlinear terms the
   physical output is bit for bit what it was before those terms existed.
 """
@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from rinscal.sensormodel import AXES, ImuCalibration, parameter_spec, triad_forward
-from rinscal.thermal.config import ImuConfig
+from rinscal.sim.config import ImuConfig
 
 __all__ = [
     "SENSOR_LAW_RANGE_C",

@@ -65,8 +65,8 @@ The log holds the COMMANDED angles and rates; the plant feels the actual ones.
 
 The plant: the true rate and specific force (:func:`rinscal.turntable.reference_r` at the
 actual angles and rates) through :func:`rinscal.sensormodel.triad_forward` with every
-parameter at the sample's channel temperature (:func:`rinscal.thermal.sensor.sensor_law`),
-the thermal bias of :func:`rinscal.thermal.plant.thermal_bias_r` plus the turn-on offset as
+parameter at the sample's channel temperature (:func:`rinscal.sim.sensor.sensor_law`),
+the thermal bias of :func:`rinscal.sim.plant.thermal_bias_r` plus the turn-on offset as
 its bias, white noise, bias random walk and outliers (:class:`SensorNoise`). A sample is its
 interval's mean (sub-steps of at most 0.25° of table motion); pulses integrate it. In
 physical units the output is after the factory calibration at ``t_cal_c``: the same model
@@ -100,17 +100,17 @@ from rinscal.errors import ConfigError
 from rinscal.io.params import PARAMS_COLUMNS, check_params_table
 from rinscal.schema import CHANNELS
 from rinscal.sensormodel import PARAMETERS, ImuCalibration, triad_forward
-from rinscal.thermal.config import ImuConfig, resolve_imu
-from rinscal.thermal.field import ChamberProfile, measure, simulate_field
-from rinscal.thermal.plant import (
+from rinscal.sim.config import ImuConfig, resolve_imu
+from rinscal.sim.field import ChamberProfile, measure, simulate_field
+from rinscal.sim.plant import (
     SensorNoise,
     hysteresis_play,
     thermal_bias_r,
     to_log_units,
     turn_on_offsets,
 )
-from rinscal.thermal.protocols import THERMAL_DT_S, base_meta, run_name
-from rinscal.thermal.sensor import drift_law, sensor_law
+from rinscal.sim.protocols import THERMAL_DT_S, base_meta, run_name
+from rinscal.sim.sensor import drift_law, sensor_law
 
 __all__ = [
     "DEFAULT_DWELL_S",
@@ -847,7 +847,7 @@ def multiposition_meta(
     runs: Sequence[MultipositionRun],
 ) -> dict[str, object]:
     """The sidecar metadata of a multi-position log (see the log contract in the module
-    docstring of :mod:`rinscal.thermal.multiposition`)."""
+    docstring of :mod:`rinscal.sim.multiposition`)."""
     meta: dict[str, object] = {
         **base_meta("multiposition", config, rate_hz, seed),
         "set_points_c": {run_name("cal", c): float(c) for c in set_points_c},

@@ -20,7 +20,7 @@ Each node obeys ``C_k dT_k/dt = Σ_m G_km (T_m − T_k) + P_k``. The inner therm
 gyro sits on its hub (light source, electronics); the outer layers of its fibre coil face
 the inner air. Heat from outside therefore crosses the coil inwards and self-heating
 outwards, and the FOG's Shupe bias follows the time derivative of that radial coil gradient
-``T_coil − T_hub`` (see :mod:`rinscal.thermal.plant`).
+``T_coil − T_hub`` (see :mod:`rinscal.sim.plant`).
 
 Heat fixed in the body while the IMU turns: the electronics and the motor sit on one side
 of the housing, so the inner air a sensor faces is warmer on that side. Sensor ``j`` sits at

@@ -1,9 +1,9 @@
-"""Numba kernels of the navigation package (private; compiled once and cached on disk).
+"""Numba kernels of navigation and the simulator (private; compiled once and cached on disk).
 
 Everything here works on plain float64 arrays and scalars in SI units, ENU navigation
 frame, r (rotating IMU) frame increments. The public wrappers live in
-:mod:`rinscal.nav.strapdown`, :mod:`rinscal.nav.imu`, :mod:`rinscal.nav.rotation`,
-:mod:`rinscal.nav.trajectory` and :mod:`rinscal.nav.align`.
+:mod:`rinscal.nav.strapdown`, :mod:`rinscal.sim.ideal_imu`, :mod:`rinscal.nav.rotation`,
+:mod:`rinscal.sim.trajectory` and :mod:`rinscal.nav.align`.
 
 State vector of the strapdown integrator (``STATE_SIZE`` float64)::
 
@@ -722,7 +722,7 @@ def _step_value(t: float, x0: float, table: np.ndarray, k: int) -> tuple[float, 
     """Value, first and second derivative of a smooth-step channel at ``t`` [s].
 
     ``table`` (m, 4) holds per step its start [s], duration [s], change Δ and the sum of the
-    changes before it (see :class:`rinscal.nav.trajectory.StepChannel`); ``x0`` is the value
+    changes before it (see :class:`rinscal.sim.trajectory.StepChannel`); ``x0`` is the value
     before the first step. ``k`` is a guess of the step index (the last step starting at or
     before ``t``, −1 if none), returned updated: sorted times cost no search.
     """
@@ -779,7 +779,7 @@ def vehicle_kinematics(
     euler: np.ndarray,
     euler_rate: np.ndarray,
 ) -> None:
-    """Kinematics of :class:`rinscal.nav.trajectory.VehicleMotion` at the 1-D times ``t`` [s].
+    """Kinematics of :class:`rinscal.sim.trajectory.VehicleMotion` at the 1-D times ``t`` [s].
 
     Speed [m/s], heading [rad] and grade [rad] are smooth-step channels (value before the
     first step and table, see :func:`_step_value`); the body y axis points along the
