@@ -5,12 +5,17 @@ from __future__ import annotations
 
 import importlib
 import sys
+import warnings
 
 import pytest
 
 import rinscal.presets
 import rinscal.sim.config
 import rinscal.sim.protocols
+
+with warnings.catch_warnings():  # the old name, imported as a user's old notebook would
+    warnings.simplefilter("ignore", DeprecationWarning)
+    import rinscal.thermal
 
 
 def test_the_old_names_warn_and_are_the_new_modules() -> None:
@@ -24,3 +29,8 @@ def test_the_old_names_warn_and_are_the_new_modules() -> None:
     assert old.load_imu("paper") == rinscal.sim.config.load_imu("paper")
     assert importlib.import_module("rinscal.thermal.protocols") is rinscal.sim.protocols
     assert importlib.import_module("rinscal.thermal.presets") is rinscal.presets
+
+
+def test_the_old_package_maps_onto_the_new_one() -> None:
+    assert rinscal.thermal.field is importlib.import_module("rinscal.sim.field")
+    assert sys.modules["rinscal.thermal.plant"] is importlib.import_module("rinscal.sim.plant")
