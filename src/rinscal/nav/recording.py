@@ -129,7 +129,7 @@ def navigate_log(
     max_gap_samples: int = 5,
     model_update_s: float = 1.0,
     out_dt_s: float = 1.0,
-    progress: Callable[[str, float, float], None] | None = None,
+    progress: Callable[[float, float], None] | None = None,
 ) -> RecordedNavigation:
     """Navigate a recording with and without each thermal model.
 
@@ -171,7 +171,9 @@ def navigate_log(
     out_dt_s : float [s]
         Interval of the reported errors.
     progress : callable, optional
-        ``progress(stage, done_s, total_s)``: stage ``"reading"`` or ``"navigating"``.
+        ``progress(done_s, total_s)`` [s of the recording]: ``total_s`` is NaN while the
+        first pass reads the log (its length not known yet), then the log's length while it
+        is navigated.
 
     Raises
     ------
@@ -296,7 +298,7 @@ def navigate_log(
                 temps.append(np.column_stack([s.t[keep], out, s.temps[keep]]))
                 next_t = float(s.t[keep[-1]]) + TEMPERATURE_STEP_S
         if progress is not None:
-            progress("reading", float(s.t[-1]) if s.n else 0.0, math.nan)
+            progress(float(s.t[-1]) if s.n else 0.0, math.nan)
     blocks = stats.finish()
     dt = blocks.dt
     rate_meta = (log.meta or {}).get("rate_hz")
@@ -377,7 +379,7 @@ def navigate_log(
 
     def tick(done: float) -> None:
         if progress is not None:
-            progress("navigating", done, total)
+            progress(done, total)
 
     sched = seen_schedule(blocks)
     unseen, warn = check_turning_without_encoder(blocks, reference.lat, reference.h)

@@ -572,12 +572,12 @@ def calibration_stage(
             note(f"fitting {m}")
             models[m] = _fit(m, logs["soak"], metas["soak"], cfg)
         note("order table (regression, leave-one-run-out)")
-        sel_reg = select_model(logs["soak"], "regression", random_state=cfg.seed)
+        sel_reg = select_model(logs["soak"], "regression", seed=cfg.seed)
         note("neuron table (neural, leave-one-run-out)")
         sel_nn = select_model(
             logs["soak"],
             "neural",
-            random_state=cfg.seed,
+            seed=cfg.seed,
             estimator_params=dict(cfg.selection_neural_params),
         )
     res = CalibrationResult(
