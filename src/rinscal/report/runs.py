@@ -106,6 +106,11 @@ def study(
         An unknown or invalid spec, bad sizes.
     """
     _check.path_like("out", out)
+    _check.number("units", units, min=1, integer=True, optional=True)
+    _check.flag("quick", quick)
+    _check.number("workers", workers, min=1, integer=True, optional=True)
+    _check.flag("retry_failed", retry_failed)
+    _check.callback("progress", progress)
     if not isinstance(spec, StudySpec):
         _check.path_like("spec", spec)
         spec = load_spec(spec, quick=quick, units_override=units, imu_override=imu)
