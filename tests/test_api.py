@@ -153,3 +153,12 @@ def test_study_runs_and_writes_its_report_in_one_call(tmp_path: Path) -> None:
     assert done.written.report == out / "report.html" and done.written.report.is_file()
     again = rinscal.study(spec, out, units=1, workers=1)
     assert (again.run.computed, again.run.skipped) == (0, 4)
+
+
+def test_simulate_config_is_the_old_name_of_imu() -> None:
+    with pytest.warns(DeprecationWarning, match="config= is deprecated") as caught:
+        old = rinscal.simulate("repeat", **TINY, config="navigation_grade")
+    assert caught[0].filename == __file__  # pointed at the caller, not into the library
+    new = rinscal.simulate("repeat", **TINY, imu="navigation_grade")
+    assert old.meta["imu"] == new.meta["imu"] != rinscal.load_imu("paper").name
+    assert old.log.equals(new.log)

@@ -215,14 +215,15 @@ def callback(name: str, value: Any) -> Any:
     return value
 
 
-def deprecated(name: str, value: Any, instead: str) -> Any:
+def deprecated(name: str, value: Any, instead: str, depth: int = 1) -> Any:
     """``value`` of a keyword kept for one release: a :class:`DeprecationWarning` naming what
-    replaces it (``instead``) when it is given (not ``None``)."""
+    replaces it (``instead``) when it is given (not ``None``), pointed at the caller of the
+    public function ``depth`` frames up (1: the function that calls this)."""
     if value is not None:
         warnings.warn(
             f"{name}= is deprecated and goes in the next release: use {instead}",
             DeprecationWarning,
-            stacklevel=3,
+            stacklevel=2 + depth,
         )
     return value
 

@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rinscal import units
-from rinscal._check import wrong_type
+from rinscal._check import deprecated, wrong_type
 from rinscal.errors import ConfigError
 from rinscal.schema import CHANNELS
 from rinscal.thermal._checks import _finite, _nonneg
@@ -569,6 +569,7 @@ def resolve_imu(
             "give the IMU once: imu= (config= is its older spelling), not both "
             f"(got imu={_shown_imu(imu)} and config={_shown_imu(config)})"
         )
+    deprecated("config", config, "imu=", depth=2)  # resolve_imu's caller's caller
     name, spec = ("config", config) if config is not None else ("imu", imu)
     if spec is None:
         return ImuConfig.preset(DEFAULT_PRESET)

@@ -563,7 +563,7 @@ def calibration_stage(
     for name, hours in (("soak", cfg.soak_hours), ("repeat", cfg.repeat_hours), ("ramp", None)):
         note(f"simulating {name}")
         logs[name], truths[name], metas[name] = simulate_protocol(
-            name, hours=hours, rate_hz=cfg.cal_rate_hz, seed=cfg.seed, config=imu
+            name, hours=hours, rate_hz=cfg.cal_rate_hz, seed=cfg.seed, imu=imu
         )
     models = {}
     with warnings.catch_warnings():
