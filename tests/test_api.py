@@ -162,3 +162,32 @@ def test_simulate_config_is_the_old_name_of_imu() -> None:
     new = rinscal.simulate("repeat", **TINY, imu="navigation_grade")
     assert old.meta["imu"] == new.meta["imu"] != rinscal.load_imu("paper").name
     assert old.log.equals(new.log)
+
+
+def test_a_reproduction_is_planned_and_checked_before_any_work(tmp_path: Path) -> None:
+    """The quick reproduction's steps: the calibration's 10, its 14 navigation runs (the ramp,
+    5 quasi-static, 5 swing and 3 vehicle cold starts, as the paper's Section 5), the report;
+    with units, every study task too. A bad setting is refused before the folder exists."""
+    from rinscal.experiments.paper.run import CALIBRATION_STEPS, plan_reproduction
+
+    plan = plan_reproduction(quick=True)
+    assert plan.navigation_runs == 1 + 5 + 5 + 3
+    assert plan.steps == CALIBRATION_STEPS + 14 + 1 and plan.study is None
+    with_units = plan_reproduction(quick=True, units=2)
+    assert with_units.study is not None and with_units.study.units == 2
+    assert with_units.steps > plan.steps
+    out = tmp_path / "repro"
+    with pytest.raises(rinscal.errors.ConfigError, match="align"):
+        rinscal.reproduce(out, quick=True, align_s=-1.0)
+    assert not out.exists()
+
+
+@pytest.mark.slow
+def test_reproduce_writes_the_report_and_counts_its_steps(tmp_path: Path) -> None:
+    calls: list[tuple[float, float]] = []
+    rep = rinscal.reproduce(tmp_path, quick=True, progress=lambda d, t: calls.append((d, t)))
+    steps = float(rep.run.plan.steps)
+    assert calls[-1] == (steps, steps) and [d for d, _ in calls] == sorted(d for d, _ in calls)
+    assert rep.written.report_path.is_file() and "total" in rep.metrics["timings_s"]
+    assert len(rep.run.navigation) == rep.run.plan.navigation_runs
+    assert rep.claims and all(isinstance(c["holds"], bool) for c in rep.claims.values())
