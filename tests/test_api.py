@@ -136,6 +136,10 @@ def test_navigate_log_reports_seconds_read_then_navigated(tmp_path: Path) -> Non
     assert last == pytest.approx(total) and total == pytest.approx(reading[-1])
     old = rinscal.navigate(log=run, align_s=60.0)  # the old name dispatches to navigate_log
     assert old.result.summary() == nav.result.summary()
+    # the IMU whose noise the filter assumes: a name or an ImuConfig, the same filter
+    by_name = rinscal.navigate_log(run, align_s=60.0, imu="navigation_grade")
+    by_config = rinscal.navigate_log(run, align_s=60.0, imu=rinscal.load_imu("navigation_grade"))
+    assert by_config.result.summary() == by_name.result.summary() != nav.result.summary()
 
 
 def test_study_runs_and_writes_its_report_in_one_call(tmp_path: Path) -> None:

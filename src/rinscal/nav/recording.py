@@ -57,7 +57,7 @@ from rinscal.nav.recorded.window import (
     seen_schedule,
 )
 from rinscal.schema import CHANNELS
-from rinscal.thermal.config import load_imu
+from rinscal.thermal.config import ImuConfig, resolve_imu
 
 #: Seconds between the temperature samples kept for the figure.
 TEMPERATURE_STEP_S = 10.0
@@ -124,7 +124,7 @@ def navigate_log(
     align_s: float = 600.0,
     align_start_s: float | None = None,
     min_align_s: float = MIN_WINDOW_S,
-    imu: str | None = None,
+    imu: str | os.PathLike[str] | ImuConfig | None = None,
     allow_gaps: bool = False,
     max_gap_samples: int = 5,
     model_update_s: float = 1.0,
@@ -161,9 +161,9 @@ def navigate_log(
         Set the window's start by hand (default: found).
     min_align_s : float [s]
         Shortest window the finder accepts.
-    imu : str, optional
-        A preset or IMU TOML file whose noise the filter assumes (else the metadata's, else
-        estimated on the window).
+    imu : str, path-like or ImuConfig, optional
+        A preset, IMU TOML file or configuration whose noise the filter assumes (else the
+        metadata's, else estimated on the window).
     allow_gaps : bool
         Integrate across gaps longer than ``max_gap_samples`` instead of refusing.
     model_update_s : float [s]
@@ -207,7 +207,11 @@ def navigate_log(
     _check.number("max_gap_samples", max_gap_samples, integer=True, min=0)
     _check.flag("allow_gaps", allow_gaps)
     _check.instance(
-        "imu", imu, (str, os.PathLike), "an IMU preset name or TOML file", optional=True
+        "imu",
+        imu,
+        (str, os.PathLike, ImuConfig),
+        "an IMU preset name, TOML file or ImuConfig",
+        optional=True,
     )
     if policy not in POLICIES:
         raise ConfigError(f"policy={policy!r} is not one of {', '.join(POLICIES)}")
@@ -473,9 +477,12 @@ def _every(t: np.ndarray, step: float, next_t: float) -> np.ndarray:
     return first[t[first] >= next_t - 1e-9]
 
 
-def _imu_noise(imu: str) -> Noise:
-    """The noise of a plant (preset or TOML file) the filter is told to assume."""
-    cfg = load_imu(imu)
+def _imu_noise(imu: str | os.PathLike[str] | ImuConfig) -> Noise:
+    """The noise of a plant (preset, TOML file or configuration) the filter is told to
+    assume."""
+    cfg = resolve_imu(imu)
+    if isinstance(imu, ImuConfig):
+        imu = cfg.name
     wd = cfg.noise.white_density_si()
     rw = cfg.noise.bias_rw_si()
     return Noise(float(wd[0]), float(wd[3]), float(rw[0]), float(rw[3]), f"--imu {imu}")
