@@ -70,7 +70,7 @@ def soak_quiet(quiet_config):
     """Noise-free soak protocol, 1.5 h per run at 0.5 Hz."""
     from rinscal.sim.protocols import simulate_protocol
 
-    return simulate_protocol("soak", hours=1.5, rate_hz=0.5, seed=21, config=quiet_config)
+    return simulate_protocol("soak", hours=1.5, rate_hz=0.5, seed=21, imu=quiet_config)
 
 
 @pytest.fixture(scope="session")
@@ -78,7 +78,7 @@ def repeat_quiet(quiet_config):
     """Noise-free repetition-priming cold start at 25 °C, 2 h at 0.5 Hz."""
     from rinscal.sim.protocols import simulate_protocol
 
-    return simulate_protocol("repeat", hours=2.0, rate_hz=0.5, seed=22, config=quiet_config)
+    return simulate_protocol("repeat", hours=2.0, rate_hz=0.5, seed=22, imu=quiet_config)
 
 
 #: Light neural settings for tests (the defaults are for real data sets).

@@ -79,7 +79,8 @@ def test_imu_takes_a_preset_a_toml_file_or_a_configuration(fn: str, tmp_path: Pa
         log, _, meta = sim(*args, imu=spec, **kw)
         assert meta["imu"] == grade.name
         assert log.equals(named[0])
-    old = sim(*args, config="navigation_grade", **kw)  # the older spelling
+    with pytest.warns(DeprecationWarning, match="config="):  # the older spelling
+        old = sim(*args, config="navigation_grade", **kw)
     assert old[0].equals(named[0]) and old[2]["imu"] == grade.name
     assert not sim(*args, **kw)[0].equals(named[0])  # the default is another unit
 

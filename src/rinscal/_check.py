@@ -23,6 +23,7 @@ import math
 import numbers
 import os
 import sys
+import warnings
 from collections.abc import Collection, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -37,6 +38,7 @@ if TYPE_CHECKING:  # pandas is imported by the caller that has a table, never he
 __all__ = [
     "array",
     "callback",
+    "deprecated",
     "flag",
     "instance",
     "log_like",
@@ -46,6 +48,7 @@ __all__ = [
     "numbers_of",
     "one_of",
     "path_like",
+    "renamed",
     "shown",
     "strings",
     "text",
@@ -210,6 +213,34 @@ def callback(name: str, value: Any) -> Any:
     if value is not None and not callable(value):
         raise wrong_type(name, value, "a callable (a function) or None")
     return value
+
+
+def deprecated(name: str, value: Any, instead: str, depth: int = 1) -> Any:
+    """``value`` of a keyword kept for one release: a :class:`DeprecationWarning` naming what
+    replaces it (``instead``) when it is given (not ``None``), pointed at the caller of the
+    public function ``depth`` frames up (1: the function that calls this)."""
+    if value is not None:
+        warnings.warn(
+            f"{name}= is deprecated and goes in the next release: use {instead}",
+            DeprecationWarning,
+            stacklevel=2 + depth,
+        )
+    return value
+
+
+def renamed(new: str, value: Any, old: str, old_value: Any, default: Any = None) -> Any:
+    """A keyword and its old name (kept for one release, with a :class:`DeprecationWarning`):
+    the one given, else ``default``; both given is a :class:`ConfigError`."""
+    if old_value is None:
+        return default if value is None else value
+    if value is not None:
+        raise ConfigError(f"give {new}= once ({old}= is its old name), not both")
+    warnings.warn(
+        f"{old}= is now {new}=; the old name goes in the next release",
+        DeprecationWarning,
+        stacklevel=3,
+    )
+    return old_value
 
 
 def flag(name: str, value: Any, *, optional: bool = False) -> bool | None:

@@ -14,7 +14,7 @@ import tomllib
 from dataclasses import dataclass, fields
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -25,6 +25,7 @@ from rinscal.presets import PRESETS
 
 __all__ = [
     "NoiseConfig",
+    "NoiseSource",
     "imu_document",
     "imu_section",
     "load_noise",
@@ -176,3 +177,12 @@ def load_noise(spec: str | os.PathLike[str]) -> NoiseConfig:
     """The noise of an IMU given as a preset name or a TOML file path (its ``[noise]``)."""
     data, source = imu_document(spec)
     return NoiseConfig(**imu_section(data, "noise", {f.name for f in fields(NoiseConfig)}, source))
+
+
+@runtime_checkable
+class NoiseSource(Protocol):
+    """Anything that names a unit and holds its noise: an ``ImuConfig`` of the simulator
+    (:mod:`rinscal.sim.config`), seen from a layer that must not import it."""
+
+    name: str
+    noise: NoiseConfig

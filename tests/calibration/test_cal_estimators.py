@@ -1,4 +1,5 @@
-"""The four estimators recover the paper's coefficients from noise-free data of their own form."""
+"""The six channel estimators: the paper's four recover its coefficients from noise-free data
+of their own form; all six keep scikit-learn's conventions."""
 
 from __future__ import annotations
 
@@ -9,7 +10,15 @@ import pytest
 from sklearn.utils.estimator_checks import parametrize_with_checks
 
 from rinscal.calibration.inference import predict_params, raw_polynomial
-from rinscal.calibration.thermal.estimators import Neural, PolyT, Regression, Sectional, block_split
+from rinscal.calibration.thermal.estimators import (
+    ArduPilotFit,
+    Neural,
+    PolyT,
+    PX4Fit,
+    Regression,
+    Sectional,
+    block_split,
+)
 
 # Table 6 (method 2): accelerometer x (p = q = s = 3) and gyro x (p = q = s = 1), pulses
 TABLE6_ACCEL_X = {
@@ -206,6 +215,8 @@ def test_neural_split_is_by_contiguous_blocks_of_each_run() -> None:
         Sectional(),
         Regression(),
         Neural(max_iter=100, n_init=1, refine_max_nfev=10),
+        PX4Fit(),
+        ArduPilotFit(sample_s=1.0),  # fit(X, y) without t: rows 1 s apart
     ],
     # The thermal estimators read the columns T, Ṫ, ΔT by position and ignore the rest; the
     # generic regression data set of check_regressors_train hides its one informative
@@ -217,7 +228,7 @@ def test_neural_split_is_by_contiguous_blocks_of_each_run() -> None:
         "check_regressors_train": "uses only the first 1-3 columns (T, Tdot, dT)",
         **(
             {}
-            if isinstance(est, Neural)
+            if isinstance(est, Neural | ArduPilotFit)  # ArduPilot: smoothed, then binned
             else {
                 "check_estimators_dtypes": "refuses a rank-deficient design (3 distinct T)",
             }
@@ -233,6 +244,25 @@ def test_sklearn_estimator_conventions(estimator, check) -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         check(estimator)
+
+
+def test_ardupilot_sample_s_stands_for_the_time_of_evenly_sampled_runs() -> None:
+    """Two runs at 10 Hz: fit without t and sample_s = 0.1 s is the fit with each run's
+    time since power-on, t = row number × 0.1 s."""
+    rng = np.random.default_rng(3)
+    n = 600
+    temp = np.r_[np.linspace(5.0, 40.0, n), np.linspace(10.0, 45.0, n)]
+    y = 0.02 * (temp - 35.0) ** 2 - 1e-4 * (temp - 35.0) ** 3 + rng.normal(0.0, 0.01, 2 * n)
+    groups = np.repeat([0, 1], n)
+    x = temp[:, None]
+    t = np.r_[np.arange(n), np.arange(n)] * 0.1
+    with_t = ArduPilotFit().fit(x, y, groups, t=t)
+    without = ArduPilotFit(sample_s=0.1).fit(x, y, groups)
+    np.testing.assert_array_equal(without.coef_, with_t.coef_)
+    wrong = ArduPilotFit(sample_s=1.0).fit(x, y, groups)  # another window: another fit
+    assert not np.allclose(wrong.coef_, with_t.coef_)
+    with pytest.raises(ValueError, match="needs t"):
+        ArduPilotFit().fit(x, y, groups)
 
 
 def test_raw_polynomial_matches_the_centred_form() -> None:

@@ -18,8 +18,8 @@ def test_methods_2_and_3_beat_the_baseline_and_the_sectional_method_held_out() -
     from rinscal.sim.protocols import simulate_protocol
 
     paper = ImuConfig.paper()
-    soak, _, meta = simulate_protocol("soak", rate_hz=2.0, seed=1, config=paper)
-    rep, rep_truth, _ = simulate_protocol("repeat", rate_hz=2.0, seed=2, config=paper)
+    soak, _, meta = simulate_protocol("soak", rate_hz=2.0, seed=1, imu=paper)
+    rep, rep_truth, _ = simulate_protocol("repeat", rate_hz=2.0, seed=2, imu=paper)
     tab = heldout_table(soak, rep, rep_truth, meta)
     rms, step = wide(tab), wide(tab, "max_step")
     acc = rms.index.get_level_values("channel").str.startswith("accel")

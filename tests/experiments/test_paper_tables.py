@@ -153,7 +153,7 @@ def soak_off() -> tuple:
     imu = load_plant("paper")
     off = EffectsConfig(**{f.name: False for f in dataclasses.fields(EffectsConfig)})
     imu = dataclasses.replace(imu, effects=off)
-    log, truth, meta = simulate_protocol("soak", hours=3.0, rate_hz=1.0, seed=0, config=imu)
+    log, truth, meta = simulate_protocol("soak", hours=3.0, rate_hz=1.0, seed=0, imu=imu)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         model = ThermalModel("regression").fit(log, meta).to_file()
@@ -191,7 +191,7 @@ def test_recovery_on_the_paper_plant(soak_off: tuple) -> None:
 
 def test_ramp_is_mostly_outside_the_soak_domain(soak_off: tuple) -> None:
     imu, log, _truth, model = soak_off
-    ramp, _, _ = simulate_protocol("ramp", rate_hz=1.0, seed=0, config=imu)
+    ramp, _, _ = simulate_protocol("ramp", rate_hz=1.0, seed=0, imu=imu)
     frac = ramp_outside_training(log, ramp, model)
     assert set(frac) == {"T", "Ṫ", "ΔT", "flagged"}
     assert all(0.0 <= v <= 1.0 for v in frac.values())

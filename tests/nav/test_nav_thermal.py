@@ -54,7 +54,7 @@ def regression_model(tmp_path_factory):  # type: ignore[no-untyped-def]
     from rinscal.calibration.thermal.model import ThermalModel
     from rinscal.sim.protocols import simulate_protocol
 
-    log, _, meta = simulate_protocol("soak", hours=3.0, rate_hz=1.0, seed=5, config=IMU)
+    log, _, meta = simulate_protocol("soak", hours=3.0, rate_hz=1.0, seed=5, imu=IMU)
     path = tmp_path_factory.mktemp("model") / "regression.json"
     ThermalModel("regression").fit(log, meta).to_file().save(path)
     return path

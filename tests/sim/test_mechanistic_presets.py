@@ -57,7 +57,7 @@ def test_presets_are_listed_load_and_simulate(base: str) -> None:
             "sf_quad_per_c",
         ):
             assert getattr(a, k) == getattr(b, k)
-    log, truth, _ = simulate_protocol("repeat", hours=0.2, rate_hz=1.0, seed=0, config=cfg)
+    log, truth, _ = simulate_protocol("repeat", hours=0.2, rate_hz=1.0, seed=0, imu=cfg)
     bias = truth[[f"bias_{c}" for c in CHANNELS]].to_numpy()
     assert len(log) == len(truth) == 720 and np.all(np.isfinite(bias))
     assert np.all(bias.std(axis=0) > 0)

@@ -31,7 +31,7 @@ def test_preset_is_navigation_grade() -> None:
     aside)."""
     bias_only = replace(QUIET, effects=replace(QUIET.effects, scale_factor=False,
                                                misalignment=False))  # fmt: skip
-    _, truth, _ = simulate_protocol("soak", hours=2.0, rate_hz=0.5, seed=1, config=bias_only)
+    _, truth, _ = simulate_protocol("soak", hours=2.0, rate_hz=0.5, seed=1, imu=bias_only)
     b = truth.groupby("run")[[f"bias_{c}" for c in CHANNELS]].mean()
     swing = b.max() - b.min()
     for ch in CHANNELS[:3]:

@@ -19,6 +19,7 @@ back and forth.
 from __future__ import annotations
 
 import contextlib
+import math
 import os
 import warnings
 from collections.abc import Callable, Iterator, Mapping, Sequence
@@ -179,6 +180,7 @@ def fit(
     on_run: Callable[[int], None] | None = None,
     on_channel: Callable[[str, int], None] | None = None,
     imu_calibration: ImuCalLike | None = None,
+    progress: Callable[[float, float], None] | None = None,
 ) -> FitResult:
     """Fit a thermal bias model per channel on a calibration log.
 
@@ -221,8 +223,9 @@ def fit(
     max_samples : int, optional
         ``neural``: decimate training to this many rows.
     on_run, on_channel : callable, optional
-        Progress: called with the number of runs read so far, and with each fitted
-        channel's name and the number of channels.
+        Deprecated (the next release removes them; use ``progress``): called with the
+        number of runs read so far, and with each fitted channel's name and the number of
+        channels.
     imu_calibration : ImuCalibration or path-like, optional
         An IMU calibration (or a file holding one, :func:`rinscal.io.imucal.read_imu_calibration`)
         applied to the log before the thermal model is fitted: raw × the metadata's
@@ -231,6 +234,10 @@ def fit(
         → deg/h and µg. The thermal model is fitted on that output, in deg/h and µg
         (``--static-ref`` values too), and the model file holds the calibration, applied in
         the same order by every compensator.
+
+    progress : callable, optional
+        ``progress(done, total)``: while a file is read, ``done`` runs read and ``total``
+        NaN (not known yet); then ``done`` channels fitted out of ``total``.
 
     Returns
     -------
@@ -266,8 +273,9 @@ def fit(
     _check.strings("candidates", candidates, optional=True)
     _check.number("seed", seed, min=0, integer=True)
     _check.number("max_samples", max_samples, optional=True, integer=True, min=1)
-    _check.callback("on_run", on_run)
-    _check.callback("on_channel", on_channel)
+    _check.callback("on_run", _check.deprecated("on_run", on_run, "progress="))
+    _check.callback("on_channel", _check.deprecated("on_channel", on_channel, "progress="))
+    _check.callback("progress", progress)
     imucal_types = (str, os.PathLike, ImuCalibration)
     _check.instance(
         "imu_calibration", imu_calibration, imucal_types, IMUCAL_ACCEPTED, optional=True
@@ -292,9 +300,21 @@ def fit(
         **({"candidates": tuple(candidates)} if candidates is not None else {}),
     )
 
+    fitted = 0
+
     def step(channel: str) -> None:
+        nonlocal fitted
+        fitted += 1
         if on_channel is not None:
             on_channel(channel, len(model.channels))
+        if progress is not None:
+            progress(float(fitted), float(len(model.channels)))
+
+    def read(k: int) -> None:
+        if on_run is not None:
+            on_run(k)
+        if progress is not None:
+            progress(float(k), math.nan)
 
     if not isinstance(log, pd.DataFrame) and meta is None:
         meta = foreign_meta(Path(log), mapping)
@@ -333,7 +353,7 @@ def fit(
                 path,
                 mapping,
                 lambda s: model.fit_runs(
-                    _counted(runs(s), on_run), meta, on_channel=step, source=str(path)
+                    _counted(runs(s), read), meta, on_channel=step, source=str(path)
                 ),
             )
             source = {"log": path.name}

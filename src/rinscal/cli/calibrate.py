@@ -306,9 +306,11 @@ def fit(
             mapping, meta = _mapping_meta(log, options)
             meta.update(_static_options(latitude, heading, static_ref))
 
-            def step(channel: str, n: int) -> None:
-                progress.update(task, advance=1, description=f"fitted {channel}")
-                progress.update(task, total=n)
+            def step(done: float, total: float) -> None:
+                if math.isnan(total):  # reading: done counts the runs read
+                    progress.update(task, description=f"features of run {done:.0f}")
+                else:
+                    progress.update(task, completed=done, total=total, description="fitting")
 
             result = fit_log(
                 log,
@@ -326,8 +328,7 @@ def fit(
                 candidates=fams,
                 seed=seed,
                 max_samples=max_samples,
-                on_run=lambda k: progress.update(task, description=f"features of run {k}"),
-                on_channel=step,
+                progress=step,
                 imu_calibration=imu_cal,
             )
             result.save(out)
@@ -515,9 +516,11 @@ def select(
                         tried,
                         tolerance,
                         derivative=DerivativeConfig(window),
-                        random_state=seed,
+                        seed=seed,
                         estimator_params=params,
-                        on_fit=step,
+                        progress=lambda done, total: progress.update(
+                            task, completed=done, total=total, description=f"{done:.0f} fits"
+                        ),
                     )
     except RinscalError as exc:
         raise fail(str(exc)) from None
@@ -594,7 +597,7 @@ def _select_auto(
                     "auto",
                     tolerance=tolerance,
                     derivative=DerivativeConfig(window),
-                    random_state=seed,
+                    seed=seed,
                     meta=meta,
                     candidates=fams,
                     source=str(log),

@@ -449,9 +449,10 @@ def _navigate_log(log: Path, out: Path, models: list[Path], policy: str, **kw: o
         with _progress() as progress:  # type: ignore[attr-defined]
             task = progress.add_task("reading", total=1.0)
 
-            def tick(stage: str, done: float, total: float) -> None:
+            def tick(done: float, total: float) -> None:
                 # first pass: the length is not known yet (the bar shows seconds read)
-                known = total if stage == "navigating" else max(done, 1.0)
+                stage = "reading" if math.isnan(total) else "navigating"
+                known = max(done, 1.0) if math.isnan(total) else total
                 progress.update(task, description=stage, completed=done, total=known)
 
             nav = navigate_log(

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import json
-import time
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -95,22 +93,10 @@ def reproduce(
 
     from rinscal.cli._app import console, err_console, fail, styled
     from rinscal.cli._options import prepare_outputs
-    from rinscal.cluster import local_workers
     from rinscal.errors import RinscalError
-    from rinscal.experiments.paper.calibration import calibration_stage
-    from rinscal.experiments.paper.claims import PAPER_PAIRS, claims
-    from rinscal.experiments.paper.config import ReproConfig, load_plant, plant_info
-    from rinscal.experiments.paper.navigation import (
-        alignment_config,
-        navigation_jobs,
-        navigation_stage,
-    )
-    from rinscal.experiments.study.runner import StudyStore, run_study
-    from rinscal.experiments.study.spec import reproduction_spec
-    from rinscal.experiments.study.tasks import study_tasks
-    from rinscal.io.atomic import write_atomic
-    from rinscal.report.paper_report import write_reproduction
-    from rinscal.report.study_report import write_study_report
+    from rinscal.experiments.paper.claims import PAPER_PAIRS
+    from rinscal.experiments.paper.run import plan_reproduction
+    from rinscal.report.runs import reproduce as run_and_report
     from rinscal.report.verdict_view import claims_lines
 
     if jobs is not None:
@@ -118,20 +104,16 @@ def reproduce(
             raise fail("--jobs is the old name of --workers: give one of them")
         err_console.print(styled("note:", "cyan", " --jobs is now --workers (-w)"))
         workers = jobs
-    jobs = local_workers(workers)  # navigation runs in parallel
+    options = {
+        "quick": quick, "seed": seed, "imu": imu, "align_s": align_s,
+        "align_start_s": align_start_s, "units": units, "workers": workers,
+    }  # fmt: skip
     try:
-        options = {"imu": imu, "align_s": align_s, "align_start_s": align_start_s}
-        make = ReproConfig.quick_preset if quick else ReproConfig.full
-        cfg = make(seed, jobs, **options)
-        plant = load_plant(cfg.imu)
-        if units:
-            reproduction_spec(cfg, units)  # refuse bad settings before any work
-        alignment_config(plant, cfg.align_s, cfg.align_start_s)
+        plan = plan_reproduction(**options)
     except RinscalError as exc:
         raise fail(str(exc)) from None
     prepare_outputs(folders=[("--out", out)])
-    info = plant_info(cfg.imu, plant)
-    n_nav = len(navigation_jobs(cfg))
+    info = plan.info
     console.print(
         f"plant: {info['name']} ({info['kind']} {info['spec']}); other presets: "
         + (", ".join(info["run_other"]) or "none"),
@@ -141,77 +123,29 @@ def reproduce(
         console.print(f"quick reproduction, seed {seed}: {expected_time(True)}", highlight=False)
     else:
         console.print(
-            f"full reproduction, seed {seed}, {jobs} worker(s): {expected_time(False)}; "
-            f"--quick: {timing_phrase('quick_reproduction')}",
+            f"full reproduction, seed {seed}, {plan.config.jobs} worker(s): "
+            f"{expected_time(False)}; --quick: {timing_phrase('quick_reproduction')}",
             highlight=False,
         )
-    timings: dict[str, float] = {}
-    t_all = time.perf_counter()
     columns = (
         TextColumn("{task.description}"),
         BarColumn(),
-        TextColumn("{task.fields[what]}"),
+        TextColumn("{task.completed:.0f}/{task.total:.0f} steps"),
         TimeElapsedColumn(),
     )
     try:
         with Progress(*columns, console=console) as progress:
-            t0 = time.perf_counter()
-            cal_task = progress.add_task("calibration", total=10, what="")
+            bar = progress.add_task("reproduction", total=plan.steps)
 
-            def cal_step(what: str) -> None:
-                progress.update(cal_task, advance=1, what=what)
+            def show(done: float, total: float) -> None:
+                progress.update(bar, completed=done, total=total)
 
-            cal = calibration_stage(cfg, imu=plant, step=cal_step)
-            progress.update(cal_task, completed=10, what="done")
-            timings["calibration (simulate, fit, select, held-out)"] = time.perf_counter() - t0
-
-            t0 = time.perf_counter()
-            nav_task = progress.add_task("navigation", total=n_nav, what="")
-
-            def nav_done(r: object) -> None:
-                job = r.job  # type: ignore[attr-defined]
-                progress.update(nav_task, advance=1, what=f"{job.scenario} {job.index}")
-
-            nav = navigation_stage(
-                cfg, cal.models, done=nav_done, imu=plant, extra=cal.extra_models
-            )
-            timings["navigation (all runs)"] = time.perf_counter() - t0
-
-            study_tables, study_lines = None, []
-            if units:
-                t0 = time.perf_counter()
-                spec = reproduction_spec(cfg, units)
-                n_tasks = sum(1 + len(n) for _, n in study_tasks(spec))
-                st_task = progress.add_task(f"study ({units} units)", total=n_tasks, what="")
-
-                def st_done(p: object) -> None:
-                    progress.update(
-                        st_task,
-                        completed=p.done + p.failed,  # type: ignore[attr-defined]
-                        what=f"{p.failed} failed" if p.failed else "",  # type: ignore[attr-defined]
-                    )
-
-                store = StudyStore(out / "study")
-                run = run_study(spec, store, workers=jobs, on_progress=st_done)
-                st = write_study_report(store, spec, run)
-                study_tables, study_lines = st.tables, st.verdicts
-                timings[f"study ({units} units)"] = time.perf_counter() - t0
-
-            t0 = time.perf_counter()
-            rep_task = progress.add_task("report", total=1, what="figures, tables, html")
-            written = write_reproduction(
-                out, cfg, cal, nav, timings, plant=info, study=study_tables
-            )
-            progress.update(rep_task, advance=1, what="done")
+            result = run_and_report(out, **options, progress=show)  # type: ignore[arg-type]
     except RinscalError as exc:
         raise fail(str(exc)) from None
-    timings["report"] = time.perf_counter() - t0
-    total = time.perf_counter() - t_all
-    checked = claims(cal)
-    metrics = json.loads(written.metrics_path.read_text())
-    metrics["timings_s"] = {**timings, "total": total}
-    text = json.dumps(metrics, indent=2, allow_nan=True) + "\n"
-    write_atomic(written.metrics_path, lambda tmp: tmp.write_text(text))
+    metrics, written, checked = result.metrics, result.written, result.claims
+    total = metrics["timings_s"]["total"]
+    study_lines = result.study.verdicts if result.study is not None else []
     console.print(f"wrote {out / 'report.html'} in {total:.0f} s", highlight=False)
     _print_headline(console, metrics.get("nav_by_method", []))
     cl = written.tables["claims"]

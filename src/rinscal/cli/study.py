@@ -91,10 +91,9 @@ def study(
 
     from rinscal.cli._app import console, fail, styled
     from rinscal.errors import RinscalError
-    from rinscal.experiments.study.runner import StudyStore, run_study
     from rinscal.experiments.study.spec import load_spec
     from rinscal.experiments.study.tasks import study_tasks
-    from rinscal.report.study_report import write_study_report
+    from rinscal.report.runs import study as run_and_report
 
     if workers is not None and workers < 1:
         raise fail(f"--workers must be >= 1, got {workers}")
@@ -112,37 +111,32 @@ def study(
         highlight=False,
     )
     prepare_outputs(folders=[("--out", out)])
-    store = StudyStore(out)
     columns = (
         TextColumn("{task.description}"),
         BarColumn(),
         MofNCompleteColumn(),
-        TextColumn("[red]{task.fields[failed]} failed[/] · {task.fields[left]} left"),
+        TextColumn("{task.fields[left]} left"),
         TimeElapsedColumn(),
         TextColumn("eta"),
         TimeRemainingColumn(),
     )
     try:
         with Progress(*columns, console=console) as progress:
-            bar = progress.add_task("tasks", total=n_tasks, failed=0, left=n_tasks)
+            bar = progress.add_task("tasks", total=n_tasks, left=n_tasks)
 
-            def show(p: object) -> None:
-                progress.update(
-                    bar,
-                    completed=p.done + p.failed,  # type: ignore[attr-defined]
-                    failed=p.failed,  # type: ignore[attr-defined]
-                    left=p.remaining,  # type: ignore[attr-defined]
-                )
+            def show(done: float, total: float) -> None:
+                progress.update(bar, completed=done, total=total, left=int(total - done))
 
-            run = run_study(
+            result = run_and_report(
                 s,
-                store,
+                out,
                 workers=workers,
                 scheduler=scheduler,
                 tls=tls,
                 retry_failed=retry_failed,
-                on_progress=show,
+                progress=show,
             )
+        run, written = result.run, result.written
         if run.skipped:
             console.print(
                 f"resumed: {run.skipped} task(s) had finished in an earlier run and were not "
@@ -164,7 +158,6 @@ def study(
                 ),
                 highlight=False,
             )
-        written = write_study_report(store, s, run)
     except RinscalError as exc:
         raise fail(str(exc)) from None
     except KeyboardInterrupt:

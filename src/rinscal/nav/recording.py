@@ -25,7 +25,7 @@ from rinscal import _check
 from rinscal.calibration.imulog import check_recording_for_imu
 from rinscal.calibration.modelfile import POLICIES, FittedModel
 from rinscal.errors import ConfigError, LogError
-from rinscal.imunoise import load_noise
+from rinscal.imunoise import NoiseSource, load_noise
 from rinscal.io.mapping import ColumnMapping
 from rinscal.io.navopen import nav_log_header, open_nav_log
 from rinscal.io.track import parse_utc, read_track
@@ -124,12 +124,12 @@ def navigate_log(
     align_s: float = 600.0,
     align_start_s: float | None = None,
     min_align_s: float = MIN_WINDOW_S,
-    imu: str | None = None,
+    imu: str | os.PathLike[str] | NoiseSource | None = None,
     allow_gaps: bool = False,
     max_gap_samples: int = 5,
     model_update_s: float = 1.0,
     out_dt_s: float = 1.0,
-    progress: Callable[[str, float, float], None] | None = None,
+    progress: Callable[[float, float], None] | None = None,
 ) -> RecordedNavigation:
     """Navigate a recording with and without each thermal model.
 
@@ -161,9 +161,9 @@ def navigate_log(
         Set the window's start by hand (default: found).
     min_align_s : float [s]
         Shortest window the finder accepts.
-    imu : str, optional
-        A preset or IMU TOML file whose noise the filter assumes (else the metadata's, else
-        estimated on the window).
+    imu : str, path-like or ImuConfig, optional
+        A preset, IMU TOML file or configuration whose noise the filter assumes (else the
+        metadata's, else estimated on the window).
     allow_gaps : bool
         Integrate across gaps longer than ``max_gap_samples`` instead of refusing.
     model_update_s : float [s]
@@ -171,7 +171,9 @@ def navigate_log(
     out_dt_s : float [s]
         Interval of the reported errors.
     progress : callable, optional
-        ``progress(stage, done_s, total_s)``: stage ``"reading"`` or ``"navigating"``.
+        ``progress(done_s, total_s)`` [s of the recording]: ``total_s`` is NaN while the
+        first pass reads the log (its length not known yet), then the log's length while it
+        is navigated.
 
     Raises
     ------
@@ -205,7 +207,11 @@ def navigate_log(
     _check.number("max_gap_samples", max_gap_samples, integer=True, min=0)
     _check.flag("allow_gaps", allow_gaps)
     _check.instance(
-        "imu", imu, (str, os.PathLike), "an IMU preset name or TOML file", optional=True
+        "imu",
+        imu,
+        (str, os.PathLike, NoiseSource),
+        "an IMU preset name, TOML file or ImuConfig",
+        optional=True,
     )
     if policy not in POLICIES:
         raise ConfigError(f"policy={policy!r} is not one of {', '.join(POLICIES)}")
@@ -296,7 +302,7 @@ def navigate_log(
                 temps.append(np.column_stack([s.t[keep], out, s.temps[keep]]))
                 next_t = float(s.t[keep[-1]]) + TEMPERATURE_STEP_S
         if progress is not None:
-            progress("reading", float(s.t[-1]) if s.n else 0.0, math.nan)
+            progress(float(s.t[-1]) if s.n else 0.0, math.nan)
     blocks = stats.finish()
     dt = blocks.dt
     rate_meta = (log.meta or {}).get("rate_hz")
@@ -377,7 +383,7 @@ def navigate_log(
 
     def tick(done: float) -> None:
         if progress is not None:
-            progress("navigating", done, total)
+            progress(done, total)
 
     sched = seen_schedule(blocks)
     unseen, warn = check_turning_without_encoder(blocks, reference.lat, reference.h)
@@ -471,9 +477,14 @@ def _every(t: np.ndarray, step: float, next_t: float) -> np.ndarray:
     return first[t[first] >= next_t - 1e-9]
 
 
-def _imu_noise(imu: str) -> Noise:
-    """The noise of a plant (preset or TOML file) the filter is told to assume."""
-    noise = load_noise(imu)
+def _imu_noise(imu: str | os.PathLike[str] | NoiseSource) -> Noise:
+    """The noise of a plant (preset, TOML file or an ``ImuConfig``) the filter is told to
+    assume (a configuration is read for its ``noise`` and ``name`` only: the recorded path
+    imports no simulator module)."""
+    if isinstance(imu, str | os.PathLike):
+        noise = load_noise(imu)
+    else:
+        noise, imu = imu.noise, imu.name
     wd = noise.white_density_si()
     rw = noise.bias_rw_si()
     return Noise(float(wd[0]), float(wd[3]), float(rw[0]), float(rw[3]), f"--imu {imu}")

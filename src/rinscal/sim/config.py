@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rinscal import units
-from rinscal._check import wrong_type
+from rinscal._check import deprecated, wrong_type
 from rinscal.errors import ConfigError
 from rinscal.imunoise import (
     NoiseConfig,
@@ -457,6 +457,7 @@ def resolve_imu(
             "give the IMU once: imu= (config= is its older spelling), not both "
             f"(got imu={_shown_imu(imu)} and config={_shown_imu(config)})"
         )
+    deprecated("config", config, "imu=", depth=2)  # resolve_imu's caller's caller
     name, spec = ("config", config) if config is not None else ("imu", imu)
     if spec is None:
         return ImuConfig.preset(DEFAULT_PRESET)

@@ -109,7 +109,7 @@ from rinscal.sim.plant import (
     to_log_units,
     turn_on_offsets,
 )
-from rinscal.sim.protocols import THERMAL_DT_S, base_meta, run_name
+from rinscal.sim.protocols import THERMAL_DT_S, Simulation, base_meta, run_name
 from rinscal.sim.sensor import drift_law, sensor_law
 
 __all__ = [
@@ -729,7 +729,7 @@ def simulate_multiposition(
     rate_error_ppm: float = 10.0,
     rate_hz: float = 10.0,
     seed: int = 0,
-) -> tuple[pd.DataFrame, pd.DataFrame, dict[str, object]]:
+) -> Simulation:
     """Simulate a multi-position and rate-table calibration on a two-axis turntable.
 
     Parameters
@@ -766,6 +766,8 @@ def simulate_multiposition(
 
     Returns
     -------
+    Simulation
+        Unpacks as ``log, truth, meta``:
     log : pandas.DataFrame
         The canonical log with the turntable columns, runs stacked.
     truth : pandas.DataFrame
@@ -827,7 +829,7 @@ def simulate_multiposition(
         seed=seed,
         runs=runs,
     )
-    return log, truth, meta
+    return Simulation(log, truth, meta)
 
 
 def multiposition_meta(

@@ -20,6 +20,7 @@ from __future__ import annotations
 import os
 from collections.abc import Iterator
 from dataclasses import dataclass, replace
+from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
@@ -321,6 +322,19 @@ def log_meta(
     }
 
 
+class Simulation(NamedTuple):
+    """A simulated log with what produced it; unpacks as ``log, truth, meta``.
+
+    ``log`` the calibration log (the simulator's units: deg/h and µg, or pulses),
+    ``truth`` the true thermal bias of every sample (same units), ``meta`` its metadata
+    (units, site, the IMU's name).
+    """
+
+    log: pd.DataFrame
+    truth: pd.DataFrame
+    meta: dict[str, object]
+
+
 def simulate_protocol(
     protocol: str,
     hours: float | None = None,
@@ -329,7 +343,7 @@ def simulate_protocol(
     imu: str | os.PathLike[str] | ImuConfig | None = None,
     *,
     config: str | os.PathLike[str] | ImuConfig | None = None,
-) -> tuple[pd.DataFrame, pd.DataFrame, dict[str, object]]:
+) -> Simulation:
     """Simulate a whole protocol into one stacked log (:func:`rinscal.simulate`).
 
     Parameters
@@ -351,6 +365,8 @@ def simulate_protocol(
 
     Returns
     -------
+    Simulation
+        Unpacks as ``log, truth, meta``:
     log : pandas.DataFrame
         The canonical calibration log, runs stacked.
     truth : pandas.DataFrame
@@ -370,7 +386,7 @@ def simulate_protocol(
     truth = pd.concat([r.truth for r in runs], ignore_index=True)
     for df in (log, truth):
         df["run"] = df["run"].astype(str)
-    return log, truth, log_meta(protocol, config, rate_hz, seed, runs)
+    return Simulation(log, truth, log_meta(protocol, config, rate_hz, seed, runs))
 
 
 __all__ = [
@@ -379,6 +395,7 @@ __all__ = [
     "SOAK_SET_POINTS_C",
     "RunSpec",
     "SimulatedRun",
+    "Simulation",
     "base_meta",
     "iter_protocol",
     "log_meta",

@@ -194,7 +194,7 @@ def navigate_scenario(
     Examples
     --------
     >>> import rinscal
-    >>> nav = rinscal.navigate("quasi-static", hours=1, models=["m.json"])  # doctest: +SKIP
+    >>> nav = rinscal.navigate_scenario("quasi-static", models=["m.json"])  # doctest: +SKIP
     >>> nav.summary["variants"]["regression"]["max_error_nmi"]  # doctest: +SKIP
     """
     _check.instance("scenario", scenario, (str, ScenarioConfig), "a scenario name or a Scenario")
@@ -355,7 +355,10 @@ def navigate(
     log: str | os.PathLike[str] | None = None,
     **options: Any,
 ) -> Any:
-    """Navigate a single-axis RINS, simulated (``scenario``) or recorded (``log``).
+    """Navigate a single-axis RINS, simulated (``scenario``) or recorded (``log``): the old
+    entry point, kept for one release (not in ``rinscal.__all__``); call
+    :func:`navigate_scenario` or :func:`rinscal.nav.recording.navigate_log`, whose result
+    types differ.
 
     Parameters
     ----------

@@ -351,6 +351,28 @@ def _scores(
     return out
 
 
+def _fit_counter(
+    on_fit: Callable[[str, int], None] | None,
+    progress: Callable[[float, float], None] | None,
+    total: int,
+) -> Callable[[str, int], None] | None:
+    """One ``on_fit(channel, setting)`` hook that also reports ``progress(done, total)``
+    [fits]; ``None`` when neither is given."""
+    if on_fit is None and progress is None:
+        return None
+    done = 0
+
+    def step(channel: str, setting: int) -> None:
+        nonlocal done
+        done += 1
+        if on_fit is not None:
+            on_fit(channel, setting)
+        if progress is not None:
+            progress(float(done), float(total))
+
+    return step
+
+
 def select_model(
     log: pd.DataFrame,
     method: str,
@@ -360,7 +382,7 @@ def select_model(
     derivative: DerivativeConfig | None = None,
     outliers: OutlierConfig | None = None,
     use_gradient: bool | None = None,
-    random_state: int = 0,
+    random_state: int | None = None,
     estimator_params: Mapping[str, Any] | None = None,
     features: Features | None = None,
     on_fit: Callable[[str, int], None] | None = None,
@@ -368,6 +390,8 @@ def select_model(
     meta: Mapping[str, Any] | None = None,
     candidates: Sequence[str] | None = None,
     source: str | None = None,
+    seed: int | None = None,
+    progress: Callable[[float, float], None] | None = None,
 ) -> SelectionResult | AutoSelectionResult:
     """Held-out RMS per channel: of every ``auto`` candidate, or per setting (Tables 5, 7).
 
@@ -391,20 +415,27 @@ def select_model(
         ``auto`` (on top of its paired test), 0.02 for ``regression`` and ``neural``.
     channels : sequence of str
         Channels.
-    derivative, outliers, use_gradient, random_state, estimator_params
+    derivative, outliers, use_gradient, estimator_params
         As for :class:`~rinscal.calibration.thermal.model.ThermalFitter`
         (``estimator_params``: not for ``auto``).
+    random_state : int, optional
+        Old name of ``seed`` (kept for one release, with a ``DeprecationWarning``).
     features : Features, optional
         ``regression``/``neural``: precomputed features of ``log``.
     on_fit : callable, optional
-        ``regression``/``neural``: called ``on_fit(channel, setting)`` after each setting of
-        each channel.
+        Deprecated (the next release removes it; use ``progress``): called
+        ``on_fit(channel, setting)`` after each setting of each channel.
     meta : mapping, optional
         ``auto``: the log's metadata (units, static reference), as for :func:`rinscal.fit`.
     candidates : sequence of str, optional
         ``auto``: the candidate families (default all but ``neural``).
     source : str, optional
         ``auto``: the log's name, recorded in the fitted model.
+    seed : int
+        Seed of the estimators' random starts (``neural``); default 0.
+    progress : callable, optional
+        ``regression``/``neural``: ``progress(done, total)`` [fits] after each setting of
+        each channel.
 
     Returns
     -------
@@ -416,11 +447,13 @@ def select_model(
     _check.text("method", method)
     _check.numbers_of("settings", settings, optional=True, nonempty=False, integer=True)
     _check.number("tolerance", tolerance, min=0.0, optional=True)
-    _check.number("random_state", random_state, min=0, integer=True)
+    random_state = _check.renamed("seed", seed, "random_state", random_state, default=0)
+    _check.number("seed", random_state, min=0, integer=True)
     _check.strings("channels", channels)
     _check.mapping("estimator_params", estimator_params, optional=True)
     _check.flag("use_gradient", use_gradient, optional=True)
-    _check.callback("on_fit", on_fit)
+    _check.callback("on_fit", _check.deprecated("on_fit", on_fit, "progress="))
+    _check.callback("progress", progress)
     _check.mapping("meta", meta, optional=True)
     _check.strings("candidates", candidates, optional=True)
     if tolerance is None:
@@ -442,6 +475,7 @@ def select_model(
     if candidates is not None:
         raise ConfigError("candidates apply to method auto only")
     settings = _settings(method, settings, tolerance)
+    on_fit = _fit_counter(on_fit, progress, len(channels) * len(settings))
     feats = features or build_features(
         log, derivative, outliers, channels, use_gradient=use_gradient
     )

@@ -709,6 +709,10 @@ class ArduPilotFit(_ThermalEstimator):
         Sensor type of the channel (changes only the dropped constant of the fit).
     window_s : int
         Moving-average width [s] (2, as the script).
+    sample_s : float, optional
+        Sample interval [s] of evenly sampled runs: with it, ``fit`` without ``t`` takes
+        each run's time as its row number × ``sample_s`` (the scikit-learn call
+        ``fit(X, y)``); without it ``t`` is required.
 
     Attributes
     ----------
@@ -724,9 +728,15 @@ class ArduPilotFit(_ThermalEstimator):
 
     method = "ardupilot"
 
-    def __init__(self, sensor: str = "gyro", window_s: int = ARDUPILOT_WINDOW_S) -> None:
+    def __init__(
+        self,
+        sensor: str = "gyro",
+        window_s: int = ARDUPILOT_WINDOW_S,
+        sample_s: float | None = None,
+    ) -> None:
         self.sensor = sensor
         self.window_s = window_s
+        self.sample_s = sample_s
 
     def fit(self, X: Any, y: Any, groups: Any = None, t: Any = None) -> ArduPilotFit:
         """Fit one channel.
@@ -740,7 +750,8 @@ class ArduPilotFit(_ThermalEstimator):
         groups : array_like, shape (n,), optional
             Run code of each row (runs contiguous, rows in time order); None: one run.
         t : array_like, shape (n,) [s]
-            Time since each run's power-on (sets the 2 s window); required.
+            Time since each run's power-on (sets the 2 s window); required unless
+            ``sample_s`` is set.
 
         Returns
         -------
@@ -749,19 +760,32 @@ class ArduPilotFit(_ThermalEstimator):
         Raises
         ------
         ValueError
-            If ``t`` is None, among others.
+            If ``t`` is None and ``sample_s`` is not set, among others.
         """
-        if t is None:
+        if t is None and self.sample_s is None:
             raise ValueError(
                 "ArduPilotFit.fit needs t, the time [s] since each run's power-on: "
-                "ArduPilot smooths over 2 s before fitting"
+                "ArduPilot smooths over 2 s before fitting (or sample_s, for evenly sampled runs)"
             )
         X, y = _fit_inputs(self, X, y)
+        if t is None:
+            t = _even_time(len(y), groups, float(self.sample_s))  # type: ignore[arg-type]
         p = ardupilot_fit(X[:, 0], y, t, groups, sensor=self.sensor, window_s=self.window_s)
         self.t_ref_, self.t_min_, self.t_max_ = p["t_ref"], p["t_min"], p["t_max"]
         self.coef_ = np.asarray(p["coef"])
         self.params_ = p
         return self
+
+
+def _even_time(n: int, groups: Any, sample_s: float) -> np.ndarray:
+    """Time since each run's start [s] of ``n`` evenly sampled rows, ``sample_s`` [s] apart;
+    runs are the contiguous stretches of equal ``groups`` (None: one run)."""
+    idx = np.arange(n)
+    if groups is None:
+        return idx * sample_s
+    codes = np.asarray(groups)
+    starts = np.r_[0, np.flatnonzero(codes[1:] != codes[:-1]) + 1]
+    return (idx - starts[np.searchsorted(starts, idx, side="right") - 1]) * sample_s
 
 
 #: Estimator class of each of the field's methods.

@@ -563,7 +563,7 @@ def calibration_stage(
     for name, hours in (("soak", cfg.soak_hours), ("repeat", cfg.repeat_hours), ("ramp", None)):
         note(f"simulating {name}")
         logs[name], truths[name], metas[name] = simulate_protocol(
-            name, hours=hours, rate_hz=cfg.cal_rate_hz, seed=cfg.seed, config=imu
+            name, hours=hours, rate_hz=cfg.cal_rate_hz, seed=cfg.seed, imu=imu
         )
     models = {}
     with warnings.catch_warnings():
@@ -572,12 +572,12 @@ def calibration_stage(
             note(f"fitting {m}")
             models[m] = _fit(m, logs["soak"], metas["soak"], cfg)
         note("order table (regression, leave-one-run-out)")
-        sel_reg = select_model(logs["soak"], "regression", random_state=cfg.seed)
+        sel_reg = select_model(logs["soak"], "regression", seed=cfg.seed)
         note("neuron table (neural, leave-one-run-out)")
         sel_nn = select_model(
             logs["soak"],
             "neural",
-            random_state=cfg.seed,
+            seed=cfg.seed,
             estimator_params=dict(cfg.selection_neural_params),
         )
     res = CalibrationResult(

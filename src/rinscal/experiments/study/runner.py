@@ -37,6 +37,7 @@ from typing import Any
 import pandas as pd
 from threadpoolctl import threadpool_limits
 
+from rinscal import _check
 from rinscal._version import __version__
 from rinscal.cluster import TLSFiles, dask_client
 from rinscal.errors import ConfigError, RinscalError
@@ -319,8 +320,9 @@ def run_study(
     scheduler: str | None = None,
     tls: TLSFiles | None = None,
     retry_failed: bool = False,
-    on_progress: Callable[[Progress], None] | None = None,
+    progress: Callable[[float, float], None] | None = None,
     client: Any = None,
+    on_progress: Callable[[Progress], None] | None = None,
 ) -> RunSummary:
     """Run every task of ``spec`` not yet in ``store`` on Dask, writing results as they come.
 
@@ -339,11 +341,24 @@ def run_study(
         Certificate files for a ``tls://`` scheduler (else Dask's configuration).
     retry_failed : bool
         Run again the tasks that failed in an earlier run (default: keep their record).
-    on_progress : callable, optional
-        Called with a :class:`Progress` after every finished task.
+    progress : callable, optional
+        ``progress(done, total)`` [tasks] after every finished task (the failed counted done).
     client : distributed.Client, optional
         Run on this client (left open) instead of one made from ``workers``/``scheduler``.
+    on_progress : callable, optional
+        Deprecated (the next release removes it): called with a :class:`Progress` (done,
+        failed, skipped, remaining) after every finished task.
     """
+    _check.callback("progress", progress)
+    _check.callback("on_progress", _check.deprecated("on_progress", on_progress, "progress="))
+    shown = on_progress
+
+    def on_progress(p: Progress) -> None:
+        if shown is not None:
+            shown(p)
+        if progress is not None:
+            progress(float(p.done + p.failed), float(p.total))
+
     t0 = time.perf_counter()
     resumed = store.open(spec)
     variants = {i: plant_config(p) for i, p in enumerate(spec.plants)}
@@ -370,8 +385,7 @@ def run_study(
     prog.done = prog.skipped
     summary = RunSummary(resumed, prog.total, 0, 0, prog.skipped, 0, scheduler or "local", 0.0)
     summary.task_seconds = {"calibration": [], "navigation": []}
-    if on_progress:
-        on_progress(prog)
+    on_progress(prog)
     if not todo:
         summary.failed = prog.failed
         summary.wall_s = time.perf_counter() - t0

@@ -206,7 +206,7 @@ def calibrate_unit(spec: StudySpec, plant: ImuConfig, task: CalTask) -> dict[str
         hours=spec.calibration.hours,
         rate_hz=spec.calibration.rate_hz,
         seed=seed,
-        config=imu,
+        imu=imu,
     )
     models: dict[str, str] = {}
     caught: dict[str, list[str]] = {}
