@@ -29,6 +29,7 @@ from rinscal.nav.recorded.window import (
 from rinscal.nav.scenario import ThermalPlant, align_for, preset, run_scenario
 from rinscal.schema import CHANNELS, DTHETA, DVEL, NavSamples
 from rinscal.thermal.config import load_imu
+from tests.calibration._helpers import linear_model
 
 
 def _record(scenario: str, hours: float, rate: float, increments: bool, seed: int = 2):
@@ -121,29 +122,6 @@ def test_a_recorded_run_navigates_as_the_run_it_recorded(scenario, increments) -
     np.testing.assert_allclose(b["heading_err"], a["heading_err"], atol=1e-9)
 
 
-def _linear_model():  # type: ignore[no-untyped-def]
-    """A model file in T and Ṫ with known coefficients, SI out: 1e-6·T + 1e-5·Ṫ [°C, °C/min]
-    per channel, no static reference, every input inside its training range."""
-    from rinscal.calibration.modelfile import ChannelModel, ThermalModelFile
-
-    params = {"method": "regression", "orders": [1, 1], "center": [0.0, 0.0],
-              "scale": [1.0, 1.0], "intercept": 0.0, "coef": [[1e-6], [1e-5]]}  # fmt: skip
-    cm = ChannelModel(
-        params=params,
-        train_range=np.array([[-100.0, 200.0], [-1e3, 1e3]]),
-        unit="SI",
-        unit_to_si=1.0,
-        static_reference=0.0,
-    )
-    return ThermalModelFile(
-        method="regression",
-        channels=CHANNELS,
-        models=dict.fromkeys(CHANNELS, cm),
-        use_gradient=False,
-        derivative_window_s=60.0,
-    )
-
-
 def test_the_piece_wise_model_compensator_is_the_scenario_s(tmp_path) -> None:  # type: ignore[no-untyped-def]
     """A model run on the recorded 1-s thermometer readings navigates as the scenario's
     ModelCompensator on the plant's thermometers: the same readings, the same causal slope."""
@@ -196,7 +174,7 @@ def test_the_compensator_does_not_care_how_the_recording_is_cut() -> None:
     temps[100:130, 2] = np.nan  # a thermometer missing for 3 s: the last reading holds
 
     def run(size: int) -> np.ndarray:
-        comp = CausalModelCompensator(_linear_model())
+        comp = CausalModelCompensator(linear_model())
         out = []
         for a in range(0, n, size):
             b = slice(a, a + size)
@@ -387,7 +365,7 @@ def test_thermometers_empty_at_the_start_make_the_model_wait() -> None:
     t = np.arange(1, n + 1) * 0.1
     temps = np.full((n, 6), 25.0)
     temps[:55, 1] = np.nan  # one thermometer reads only from 5.5 s on
-    comp = CausalModelCompensator(_linear_model())
+    comp = CausalModelCompensator(linear_model())
     out = comp(NavSamples(t, np.full(n, 0.1), np.zeros((n, 3)), np.zeros((n, 3)), temps=temps))
     assert np.isfinite(out).all()
     assert comp.skipped == 6  # the readings of seconds 0-5 (the first sample of each)
