@@ -389,6 +389,7 @@ class ModelCompensator:
         self.bias = comp.record_bias_si(grid, temp, t_out, CHANNELS)
         self.model = comp.model
         self.grid = grid
+        self._readings = np.arange(grid.size)  # index of each reading
         self.channels = tuple(comp.model.channels)
         cal = imu_calibration or getattr(comp.model, "imu_calibration", None)
         self.imu_calibration: ImuCalibration | None = cal
@@ -422,7 +423,7 @@ class ModelCompensator:
         """Bias estimate held from the last thermometer reading at ``t`` [s], (n, 6) SI,
         plus the IMU calibration's signal errors of the raw ``omega_r`` [rad/s] and ``f_r``
         [m/s²] (n, 3) when it has one (without the signal: the thermal bias alone)."""
-        k = hold(self.grid, np.arange(self.grid.size), t)  # the reading each sample holds
+        k = hold(self.grid, self._readings, t)  # the reading each sample holds
         out = self.bias[k]
         if self._triads is not None and omega_r is not None and f_r is not None:
             out = out + self.signal_errors(k, omega_r, f_r)
