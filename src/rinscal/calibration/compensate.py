@@ -102,29 +102,10 @@ def predict_log(
     features: Features | None = None,
     first_row: int = 0,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Modelled output of every channel of a log.
-
-    Parameters
-    ----------
-    log : DataFrame
-        Validated calibration log.
-    model : FittedModel
-        The model.
-    policy : {"clamp", "fallback", "extrapolate", "error"}
-        Handling of samples outside the training data.
-    derivative_kind : {"centred", "causal"}, optional
-        Override the model's derivative kind.
-    features : Features, optional
-        Precomputed :func:`model_features` of ``log``.
-    first_row : int
-        Data rows of the file before ``log`` (a log read run by run), for messages.
-
-    Returns
-    -------
-    f : ndarray, shape (n, m) [log units]
-        Modelled output per channel (:attr:`FittedModel.channels` order).
-    out_of_range : ndarray of bool, shape (n, m)
-    """
+    """Modelled output ``f`` of every channel of a log, in log units: the batch mode
+    :meth:`Compensator.predict <rinscal.calibration.compensator.Compensator.predict>` of
+    ``Compensator(model, policy)`` (see there; ``f`` of shape (n, m) [log units] and the
+    out-of-range flags, shape (n, m))."""
     return Compensator(model, policy).predict(log, derivative_kind, features, first_row)
 
 

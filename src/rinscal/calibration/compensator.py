@@ -34,7 +34,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from rinscal.calibration.imustage import ImuStage
-from rinscal.calibration.modelfile import FittedModel, ModelFileError, Policy, check_policy
+from rinscal.calibration.modelfile import FittedModel, Policy, check_policy
 from rinscal.calibration.thermal.features import (
     DerivativeConfig,
     Features,
@@ -297,16 +297,7 @@ class Compensator:
         ModelFileError
             When the file lacks the unit or the static reference of a channel.
         """
-        for c in self.channels:
-            cm = self.model.models[c]
-            if cm.unit_to_si is None or cm.static_reference is None:
-                missing = "unit" if cm.unit_to_si is None else "static_reference"
-                raise ModelFileError(
-                    f"model of {c} has no {missing} (the calibration log had no metadata with "
-                    "units, latitude_deg and heading_deg); predict() gives the full output in "
-                    "log units"
-                )
-        k = np.array([self.model.models[c].unit_to_si for c in self.channels])
+        k = self.model.si_factors()
         return self.bias(temp, rate, temp_out)[0] * k
 
     # ------------------------------------------------------------ batch
