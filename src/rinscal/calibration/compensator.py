@@ -197,9 +197,9 @@ class Compensator:
     Examples
     --------
     >>> comp = Compensator(model)                                   # doctest: +SKIP
-    >>> values, flagged = comp.batch(log)                           # a whole log
-    >>> corrected, flag = comp.update(t, raw, temps, t_out)         # one sample
-    >>> bias_si = comp(piece)                                       # a recording's piece
+    >>> values, flagged = comp.batch(log)               # a whole log; doctest: +SKIP
+    >>> corrected, flag = comp.update(t, raw, temps, t_out)  # a sample; doctest: +SKIP
+    >>> bias_si = comp(piece)                           # a recording's piece; doctest: +SKIP
     """
 
     def __init__(self, model: FittedModel, policy: Policy = "clamp", update_s: float = 1.0) -> None:
