@@ -196,10 +196,12 @@ class Compensator:
 
     Examples
     --------
+    A whole log, one sample, a recording's piece:
+
     >>> comp = Compensator(model)                                   # doctest: +SKIP
-    >>> values, flagged = comp.batch(log)               # a whole log; doctest: +SKIP
-    >>> corrected, flag = comp.update(t, raw, temps, t_out)  # a sample; doctest: +SKIP
-    >>> bias_si = comp(piece)                           # a recording's piece; doctest: +SKIP
+    >>> values, flagged = comp.batch(log)                           # doctest: +SKIP
+    >>> corrected, flag = comp.update(t, raw, temps, t_out)         # doctest: +SKIP
+    >>> bias_si = comp(piece)                                       # doctest: +SKIP
     """
 
     def __init__(self, model: FittedModel, policy: Policy = "clamp", update_s: float = 1.0) -> None:
