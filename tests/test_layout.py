@@ -526,3 +526,85 @@ def test_navigating_or_compensating_a_recording_loads_no_simulator(tmp_path: Pat
     assert "rinscal.nav.recorded.navigate" in loaded and "rinscal.calibration.compensate" in loaded
     assert "rinscal.imunoise" in loaded  # the preset's noise, read below the simulator
     assert not [m for m in loaded if _within(m, (SIM, "rinscal.thermal"))], loaded
+
+
+# --------------------------------------------------------------------------- one compensator
+#: The one compensator (issue 37): the class that computes a thermal model's bias in every
+#: mode (batch, streaming, causal held between thermometer readings).
+ONE_COMPENSATOR = ("rinscal.calibration.compensator", "Compensator")
+#: The other classes whose name ends in "Compensator", and why each is not a second one.
+OTHER_COMPENSATORS = {
+    ("rinscal.nav.recorded.compensation", "PieceCompensator"): "protocol navigation calls",
+    ("rinscal.sim.sensors", "ModelCompensator"): "adapter: the plant's thermometers fed to it",
+}
+#: The model's inference behind the bias: called by the model file and the one compensator.
+BIAS_CALLS = ("predict_channel", "predict_bias_si", "apply_policy")
+BIAS_HOMES = ("rinscal.calibration.modelfile", ONE_COMPENSATOR[0])
+#: Who compensates with a model file, each importing the one class.
+COMPENSATOR_CALLERS = {
+    "compensate": "rinscal.calibration.compensate",
+    "compensate (API, streamed)": "rinscal.calibration.workflow",
+    "evaluate": "rinscal.calibration.evaluate",
+    "nav scenario": "rinscal.sim.sensors",
+    "nav recorded": "rinscal.nav.recording",
+    "study": "rinscal.experiments.paper.navigation",
+}
+
+
+@functools.cache
+def _tree(text: str) -> ast.Module:
+    return ast.parse(text)
+
+
+def one_compensator(root: Path = SRC) -> list[str]:
+    """Second compensators: a class named ``*Compensator`` other than the one and those
+    listed, the model's bias inference called outside the model file and the one class, or a
+    caller that does not import the one class."""
+    bad = []
+    sources = _sources(root)
+    for mod, (path, src) in sources.items():
+        rel = path.relative_to(root)
+        for node in ast.walk(_tree("\n".join(src.lines))):
+            key = (mod, getattr(node, "name", ""))
+            if (
+                isinstance(node, ast.ClassDef)
+                and node.name.endswith("Compensator")
+                and key != ONE_COMPENSATOR
+                and key not in OTHER_COMPENSATORS
+            ):
+                bad.append(f"{rel}:{node.lineno}: class {node.name} (a second compensator)")
+            if isinstance(node, ast.Attribute) and node.attr in BIAS_CALLS:
+                if mod not in BIAS_HOMES:
+                    bad.append(f"{rel}:{node.lineno}: .{node.attr} (the bias outside Compensator)")
+    for what, mod in COMPENSATOR_CALLERS.items():
+        path, src = sources[mod]
+        if not any(
+            isinstance(st.node, ast.ImportFrom)
+            and st.node.module == ONE_COMPENSATOR[0]
+            and any(a.name == ONE_COMPENSATOR[1] for a in st.node.names)
+            for st in src.statements
+        ):
+            bad.append(f"{path.relative_to(root)}: {what} does not use {'.'.join(ONE_COMPENSATOR)}")
+    return bad
+
+
+def test_one_compensator_class() -> None:
+    bad = one_compensator(SRC)
+    assert not bad, "one compensator:\n" + "\n".join(bad)
+
+
+def test_a_second_compensator_is_named(tmp_path: Path) -> None:
+    root = _copy(tmp_path)
+    _append(
+        root,
+        "nav/align.py",
+        "\n\nclass HeldCompensator:\n    def __call__(self, m, x):\n"
+        "        return m.predict_channel('gyro_x', x)\n",
+    )
+    p = root / "rinscal" / "calibration" / "evaluate.py"
+    p.write_text(p.read_text().replace("import Compensator,", "import"))
+    bad = _new(one_compensator, root)
+    assert len(bad) == 3, bad
+    assert "nav/align.py" in bad[0] and "HeldCompensator" in bad[0]
+    assert "nav/align.py" in bad[1] and "predict_channel" in bad[1]
+    assert "evaluate.py" in bad[2] and "evaluate does not use" in bad[2]

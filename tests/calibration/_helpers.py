@@ -29,3 +29,27 @@ def synthetic_log(
         cols["chamber_temp"] = np.full(n, 7.0 * k)
         frames.append(pd.DataFrame(cols))
     return pd.concat(frames, ignore_index=True)
+
+
+def linear_model(k_temp: float = 1e-6, k_rate: float = 1e-5):  # type: ignore[no-untyped-def]
+    """A model file with known coefficients: ``f = k_temp·T + k_rate·Ṫ`` per channel
+    [T in °C, Ṫ in °C/min, f in SI: unit_to_si 1], static reference 0, and every input
+    inside its training range (−100-200 °C, ±1000 °C/min)."""
+    from rinscal.calibration.modelfile import ChannelModel, ThermalModelFile
+
+    params = {"method": "regression", "orders": [1, 1], "center": [0.0, 0.0],
+              "scale": [1.0, 1.0], "intercept": 0.0, "coef": [[k_temp], [k_rate]]}  # fmt: skip
+    cm = ChannelModel(
+        params=params,
+        train_range=np.array([[-100.0, 200.0], [-1e3, 1e3]]),
+        unit="SI",
+        unit_to_si=1.0,
+        static_reference=0.0,
+    )
+    return ThermalModelFile(
+        method="regression",
+        channels=CHANNELS,
+        models=dict.fromkeys(CHANNELS, cm),
+        use_gradient=False,
+        derivative_window_s=60.0,
+    )

@@ -29,6 +29,7 @@ from rinscal.nav.recorded.window import (
 from rinscal.schema import CHANNELS, DTHETA, DVEL, NavSamples
 from rinscal.sim.config import load_imu
 from rinscal.sim.scenario import ThermalPlant, align_for, preset, run_scenario
+from tests.calibration._helpers import linear_model
 
 
 def _record(scenario: str, hours: float, rate: float, increments: bool, seed: int = 2):
@@ -166,15 +167,6 @@ def test_the_piece_wise_model_compensator_is_the_scenario_s(tmp_path) -> None:  
 
 
 def test_the_compensator_does_not_care_how_the_recording_is_cut() -> None:
-    from rinscal.calibration.modelfile import ThermalModelFile  # noqa: F401
-
-    class Linear:  # a model in T and Ṫ with known coefficients, SI out
-        channels = CHANNELS
-        derivative_window_s = 60.0
-
-        def predict_bias_si(self, temp, rate, t_out, policy="clamp"):  # type: ignore[no-untyped-def]
-            return 1e-6 * temp + 1e-5 * rate
-
     rng = np.random.default_rng(0)
     n = 5000
     t = np.arange(1, n + 1) * 0.1
@@ -182,7 +174,7 @@ def test_the_compensator_does_not_care_how_the_recording_is_cut() -> None:
     temps[100:130, 2] = np.nan  # a thermometer missing for 3 s: the last reading holds
 
     def run(size: int) -> np.ndarray:
-        comp = CausalModelCompensator(Linear())
+        comp = CausalModelCompensator(linear_model())
         out = []
         for a in range(0, n, size):
             b = slice(a, a + size)
@@ -369,18 +361,11 @@ def test_nothing_left_after_the_alignment_is_said_plainly() -> None:
 
 
 def test_thermometers_empty_at_the_start_make_the_model_wait() -> None:
-    class Linear:
-        channels = CHANNELS
-        derivative_window_s = 60.0
-
-        def predict_bias_si(self, temp, rate, t_out, policy="clamp"):  # type: ignore[no-untyped-def]
-            return 1e-6 * temp + 1e-5 * rate
-
     n = 300
     t = np.arange(1, n + 1) * 0.1
     temps = np.full((n, 6), 25.0)
     temps[:55, 1] = np.nan  # one thermometer reads only from 5.5 s on
-    comp = CausalModelCompensator(Linear())
+    comp = CausalModelCompensator(linear_model())
     out = comp(NavSamples(t, np.full(n, 0.1), np.zeros((n, 3)), np.zeros((n, 3)), temps=temps))
     assert np.isfinite(out).all()
     assert comp.skipped == 6  # the readings of seconds 0-5 (the first sample of each)

@@ -15,8 +15,11 @@ Modules
 :mod:`~rinscal.calibration.modelfile`
     ``FittedModel``: the validated JSON model file and numpy-only inference
     (``predict``, ``predict_bias_si``).
+:mod:`~rinscal.calibration.compensator`
+    ``Compensator``: the one compensator, batch, streaming and causal (held between
+    thermometer readings) modes of one bias computation.
 :mod:`~rinscal.calibration.compensate`
-    Batch and streaming compensation (Eq. 10).
+    Compensation of a log (Eq. 10) and what it reports, through ``Compensator``.
 :mod:`~rinscal.calibration.evaluate`
     RMS before/after (Eq. 16) and steps at segment edges (Figure 7).
 :mod:`~rinscal.calibration.allan`

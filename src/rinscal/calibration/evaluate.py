@@ -28,7 +28,8 @@ import numpy as np
 import pandas as pd
 
 from rinscal.calibration.allan import AllanCurve, allan_deviation, noise_parameters
-from rinscal.calibration.compensate import imu_calibrated_frame, model_features, predict_log
+from rinscal.calibration.compensate import imu_calibrated_frame
+from rinscal.calibration.compensator import Compensator, model_features
 from rinscal.calibration.modelfile import FittedModel, Policy
 from rinscal.calibration.regression import least_squares
 from rinscal.calibration.thermal.features import DerivativeConfig, Features, OutlierConfig
@@ -204,7 +205,7 @@ def prepare(
     flagged : ndarray of bool, shape (n, m)
     """
     feats = model_features(log, model, derivative_kind, outliers or OutlierConfig())
-    f, flags = predict_log(log, model, policy, derivative_kind, features=feats, first_row=first_row)
+    f, flags = Compensator(model, policy).predict(log, derivative_kind, feats, first_row)
     return feats, f, flags
 
 

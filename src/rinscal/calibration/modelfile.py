@@ -765,6 +765,20 @@ class FittedModel:
             When the file lacks the unit or the static reference of a channel (the log had
             no metadata with units, latitude and heading).
         """
+        k = self.si_factors()
+        f = self.predict(temp, rate, temp_out, policy=policy)
+        ref = np.array([self.models[c].static_reference for c in self.channels])
+        return (f - ref) * k
+
+    def si_factors(self) -> np.ndarray:
+        """SI value of one log unit per channel [rad/s or m/s² per unit], for a bias in SI.
+
+        Raises
+        ------
+        ModelFileError
+            When the file lacks the unit or the static reference of a channel (the log had
+            no metadata with units, latitude and heading): its bias in SI is then unknown.
+        """
         for c in self.channels:
             cm = self.models[c]
             if cm.unit_to_si is None or cm.static_reference is None:
@@ -774,10 +788,7 @@ class FittedModel:
                     "units, latitude_deg and heading_deg); predict() gives the full output in "
                     "log units"
                 )
-        f = self.predict(temp, rate, temp_out, policy=policy)
-        ref = np.array([self.models[c].static_reference for c in self.channels])
-        k = np.array([self.models[c].unit_to_si for c in self.channels])
-        return (f - ref) * k
+        return np.array([self.models[c].unit_to_si for c in self.channels], dtype=np.float64)
 
     def subset(self, channels: Sequence[str]) -> FittedModel:
         """The same model restricted to some of its channels (e.g. one at a time)."""

@@ -34,12 +34,12 @@ from rinscal import _check
 from rinscal.calibration.compensate import (
     FLAG_COLUMN,
     check_units,
-    compensated_channels,
     describe_reference,
     imu_calibrated_frame,
     physical_meta,
 )
 from rinscal.calibration.compensate import compensate as _compensate_frame
+from rinscal.calibration.compensator import Compensator
 from rinscal.calibration.evaluate import StepConfig, evaluate_runs
 from rinscal.calibration.imulog import (
     CalibrationRangeTally,
@@ -683,12 +683,8 @@ def _write_runs(
                 writer = stack.enter_context(
                     LogStreamWriter(out, validate=False, sep=src.sep if same_kind else None)
                 )
-            values, flagged = compensated_channels(
-                src.log,
-                mf,
-                policy,  # type: ignore[arg-type]
-                kind,
-                first_row=src.first_row,  # type: ignore[arg-type]
+            values, flagged = Compensator(mf, policy).batch(  # type: ignore[arg-type]
+                src.log, kind, first_row=src.first_row
             )
             writer.write(src.write_back(values, {FLAG_COLUMN: flagged}))
             for run, k, n in zip(*run_counts(src.log["run"], flagged), strict=True):

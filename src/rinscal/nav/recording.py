@@ -22,6 +22,7 @@ import numpy as np
 import pandas as pd
 
 from rinscal import _check
+from rinscal.calibration.compensator import Compensator
 from rinscal.calibration.imulog import check_recording_for_imu
 from rinscal.calibration.modelfile import POLICIES, FittedModel
 from rinscal.errors import ConfigError, LogError
@@ -30,7 +31,6 @@ from rinscal.io.mapping import ColumnMapping
 from rinscal.io.navopen import nav_log_header, open_nav_log
 from rinscal.io.track import parse_utc, read_track
 from rinscal.nav.recorded.blocks import BlockStats
-from rinscal.nav.recorded.compensation import CausalModelCompensator
 from rinscal.nav.recorded.kind import (
     calibration_log,
     motion,
@@ -244,7 +244,7 @@ def navigate_log(
                 model.imu_stage, log.kind, log.units, _units_declared(log), log.meta,
                 f"{path}", f"the IMU calibration of {m}",
             )  # fmt: skip
-        comp = CausalModelCompensator(model, policy=policy, update_s=model_update_s)
+        comp = Compensator(model, policy=policy, update_s=model_update_s)
         if comp.needs_outer and not log.has_temp_out:
             raise ConfigError(
                 f"{path}: the model {m} uses the gradient ΔT = T − temp_out, and the log has no "
@@ -377,7 +377,7 @@ def navigate_log(
         name = Path(m).stem
         while name in comps:
             name += "_"
-        comps[name] = CausalModelCompensator(model, policy=policy, update_s=model_update_s)
+        comps[name] = Compensator(model, policy=policy, update_s=model_update_s)
 
     total = float(blocks.t1[-1])
 

@@ -28,7 +28,8 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from rinscal.calibration.compensate import StreamingCompensator
+from rinscal.calibration.compensator import Compensator as ThermalCompensator
+from rinscal.calibration.compensator import hold
 from rinscal.errors import ConfigError
 from rinscal.nav.rotation import RotationSchedule
 from rinscal.schema import CHANNELS
@@ -338,18 +339,19 @@ def oracle_compensator(plant: ThermalPlant) -> Compensator:
 
 
 class ModelCompensator:
-    """Compensation by a thermal model file, as the navigation computer would run it.
+    """The plant's thermometers fed to the one compensator, as the navigation computer runs it.
 
-    The thermometers (inner per sensor, outer on the package) are read once per
-    ``update_s`` (noise and 0.01 °C quantisation of the plant's thermometer model), the
-    temperature rate is the model's causal windowed slope, and the model's bias estimate
-    ``(f(T, Ṫ, ΔT) − static_reference) · unit_to_si`` (computed by
-    :meth:`rinscal.calibration.compensate.StreamingCompensator.bias_si`) is held until the
-    next reading (causal). Channels the model lacks are not compensated.
+    An adapter, not a second compensator: the thermometers (inner per sensor, outer on the
+    package) are read once per ``update_s`` (noise and 0.01 °C quantisation of the plant's
+    thermometer model) and handed to
+    :meth:`rinscal.calibration.compensator.Compensator.record_bias_si` (its causal mode: the
+    model's causal windowed slope, the bias ``(f(T, Ṫ, ΔT) − r) · unit_to_si``), whose
+    result is held until the next reading (:func:`rinscal.calibration.compensator.hold`).
+    Channels the model lacks are not compensated.
 
     Parameters
     ----------
-    model : FittedModel or StreamingCompensator
+    model : FittedModel or Compensator
         A loaded model file with units and static references (or its compensator, whose
         policy then applies).
     plant : ThermalPlant
@@ -379,16 +381,15 @@ class ModelCompensator:
         if not (math.isfinite(update_s) and update_s > 0):
             raise ConfigError(f"model compensator: update_s must be > 0, got {update_s}")
         comp = (
-            model
-            if isinstance(model, StreamingCompensator)
-            else StreamingCompensator(model, policy)  # type: ignore[arg-type]
+            model if isinstance(model, ThermalCompensator) else ThermalCompensator(model, policy)  # type: ignore[arg-type]
         )
         t_end = float(plant.field.t[-1])
         grid = np.arange(0.0, t_end + 1e-9, update_s)
         temp, t_out = plant.measured_temperatures(grid)
-        self.bias = comp.bias_si(grid, temp, t_out, CHANNELS)
+        self.bias = comp.record_bias_si(grid, temp, t_out, CHANNELS)
         self.model = comp.model
         self.grid = grid
+        self._readings = np.arange(grid.size)  # index of each reading
         self.channels = tuple(comp.model.channels)
         cal = imu_calibration or getattr(comp.model, "imu_calibration", None)
         self.imu_calibration: ImuCalibration | None = cal
@@ -422,8 +423,7 @@ class ModelCompensator:
         """Bias estimate held from the last thermometer reading at ``t`` [s], (n, 6) SI,
         plus the IMU calibration's signal errors of the raw ``omega_r`` [rad/s] and ``f_r``
         [m/s²] (n, 3) when it has one (without the signal: the thermal bias alone)."""
-        k = np.searchsorted(self.grid, np.asarray(t, dtype=float), side="right") - 1
-        k = np.clip(k, 0, self.grid.size - 1)
+        k = hold(self.grid, self._readings, t)  # the reading each sample holds
         out = self.bias[k]
         if self._triads is not None and omega_r is not None and f_r is not None:
             out = out + self.signal_errors(k, omega_r, f_r)

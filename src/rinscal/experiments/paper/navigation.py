@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 
 from rinscal import earth, units
+from rinscal.calibration.compensator import Compensator
 from rinscal.calibration.modelfile import FittedModel
 from rinscal.cluster import dask_client
 from rinscal.experiments.paper.config import METHODS, VARIANTS, ReproConfig, load_plant
@@ -142,7 +143,8 @@ def run_navigation_job(
     plant = ThermalPlant.for_scenario(imu, cfg, seed=job.seed)
     comps: dict[str, Any] = {"none": None}
     for m, text in model_texts.items():
-        comps[m] = ModelCompensator(FittedModel.loads(text, m), plant)
+        # the one compensator (clamp), fed the plant's 1 s thermometer readings
+        comps[m] = ModelCompensator(Compensator(FittedModel.loads(text, m)), plant)
     comps["true"] = oracle_compensator(plant)
     if counterfactual:
         comps[ORACLE_NO_OFFSETS] = _without_offsets(plant)
