@@ -23,18 +23,18 @@ calibration latitude and heading, in log units) — see
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, replace
-from typing import Any
 
 import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from rinscal import _check, earth, units
+from rinscal import _check, units
 from rinscal.errors import ConfigError
-from rinscal.nav.align import AlignConfig, Aligner, AlignResult, feed_and_hand_over
+from rinscal.nav.align import AlignConfig, Aligner
 from rinscal.nav.config import ScenarioConfig
+from rinscal.nav.engine import NavResult, PieceCorrection, navigate_pieces
 from rinscal.nav.imu import ImuChunk, ImuSynthesizer
 from rinscal.nav.rotation import C_br, RotationSchedule
 from rinscal.nav.sensors import (
@@ -46,15 +46,15 @@ from rinscal.nav.sensors import (
     oracle_compensator,
     temperature_frame,
 )
-from rinscal.nav.strapdown import Strapdown, quat_to_dcm
+from rinscal.nav.strapdown import Strapdown
 from rinscal.nav.trajectory import (
     C_nb_from_euler,
     StaticMotion,
     SwingMotion,
     Trajectory,
-    euler_from_C_nb,
     vehicle_route,
 )
+from rinscal.schema import NavSamples
 from rinscal.thermal.config import ImuConfig
 from rinscal.thermal.field import ChamberProfile
 
@@ -266,108 +266,7 @@ def align_from_noise(
     )
 
 
-# --------------------------------------------------------------------------- results
-@dataclass
-class NavResult:
-    """Outcome of a navigation scenario.
-
-    Attributes
-    ----------
-    config : ScenarioConfig
-        What was run.
-    truth : pandas.DataFrame
-        True state at the reported times: ``time_s, lat_deg, lon_deg, alt_m, v_e, v_n,
-        v_u`` [s, deg, deg, m, m/s ×3], ``heading_deg, pitch_deg, roll_deg, encoder_deg``.
-    errors : dict of str to pandas.DataFrame
-        Per variant, from the start of free navigation on: ``time_s``, position error
-        ``east_m, north_m, horizontal_m, horizontal_nmi, up_m``, INS position ``lat_deg,
-        lon_deg``, velocity error ``v_e_err, v_n_err`` [m/s], attitude error of the body
-        frame ``att_e, att_n, att_u`` [rad] (small angles, ENU) and the same as Euler-angle
-        errors, INS minus truth, ``heading_err, pitch_err, roll_err`` [rad] (heading
-        clockwise from north, wrapped to ±π).
-    alignment : dict of str to AlignResult or None
-        Per variant.
-    """
-
-    config: ScenarioConfig
-    truth: pd.DataFrame
-    errors: dict[str, pd.DataFrame]
-    alignment: dict[str, AlignResult | None]
-
-    def max_error_m(self, variant: str) -> float:
-        """Maximum horizontal position error of a variant [m]."""
-        return float(self.errors[variant]["horizontal_m"].max())
-
-    def summary(self) -> dict[str, Any]:
-        """JSON-able summary: per variant max/final/RMS error [m, nmi] and alignment.
-
-        Per variant: ``max_error_m``, ``max_error_nmi``, ``time_of_max_s``,
-        ``final_error_m``, ``rms_error_m``, ``attitude_error_at_nav_start`` (``{"heading_arcsec",
-        "pitch_arcsec", "roll_arcsec"}``: INS body heading, pitch and roll minus the truth at
-        the first navigation output, heading clockwise from north, wrapped to ±180°), with an
-        alignment also ``alignment`` (bias estimates, filter attitude sd and the small-angle
-        ``attitude_error_arcsec``), and ``improvement_vs_none_pct`` beside a ``none`` variant.
-        """
-        c = self.config
-        out: dict[str, Any] = {
-            "scenario": c.name,
-            "duration_s": c.duration_s,
-            "rate_hz": c.rate_hz,
-            "rotation": c.schedule.name,
-            "alignment_s": None if c.align is None else c.align.total_s,
-            "alignment_start_s": c.align_start_s,
-            "navigation_start_s": c.nav_start_s,
-            "variants": {},
-        }
-        for name, df in self.errors.items():
-            h = df["horizontal_m"].to_numpy()
-            i = int(np.argmax(h)) if h.size else 0
-            v: dict[str, Any] = {
-                "max_error_m": float(h.max()) if h.size else float("nan"),
-                "max_error_nmi": float(h.max() / units.NMI_TO_M) if h.size else float("nan"),
-                "time_of_max_s": float(df["time_s"].iloc[i]) if h.size else float("nan"),
-                "final_error_m": float(h[-1]) if h.size else float("nan"),
-                "rms_error_m": float(np.sqrt(np.mean(h**2))) if h.size else float("nan"),
-            }
-            eul = df[["heading_err", "pitch_err", "roll_err"]].to_numpy()
-            e0 = eul[0] / units.ARCSEC_TO_RAD if h.size else np.full(3, np.nan)
-            # a recording knows at most its heading: an unknown truth is left out, not NaN
-            v["attitude_error_at_nav_start"] = {
-                f"{k}_arcsec": float(x)
-                for k, x in zip(("heading", "pitch", "roll"), e0, strict=True)
-                if math.isfinite(x)
-            }
-            a = self.alignment.get(name)
-            if a is not None:
-                v["alignment"] = {
-                    "gyro_bias_dph": (a.gyro_bias / units.DPH_TO_RPS).tolist(),
-                    "accel_bias_ug": (a.accel_bias / units.UG_TO_MPS2).tolist(),
-                    "attitude_sd_arcsec": (a.attitude_sd / units.ARCSEC_TO_RAD).tolist(),
-                }
-                att = df[["att_e", "att_n", "att_u"]].to_numpy()
-                if att.shape[0] and np.isfinite(att[0]).all():
-                    v["alignment"]["attitude_error_arcsec"] = (
-                        att[0] / units.ARCSEC_TO_RAD
-                    ).tolist()
-            out["variants"][name] = v
-        if "none" in out["variants"]:
-            base = out["variants"]["none"]["max_error_m"]
-            for name, v in out["variants"].items():
-                if name != "none" and base > 0:
-                    v["improvement_vs_none_pct"] = 100.0 * (1.0 - v["max_error_m"] / base)
-        return out
-
-
-@dataclass
-class _Variant:
-    compensator: Compensator | None
-    aligner: Aligner | None
-    nav: Strapdown | None
-    gyro_bias: NDArray[np.float64]
-    accel_bias: NDArray[np.float64]
-    rows: list[NDArray[np.float64]]
-
-
+# --------------------------------------------------------------------------- the run
 def _true_initial_nav(config: ScenarioConfig) -> Strapdown:
     tr = config.trajectory
     kin = tr.kinematics(np.zeros(1))
@@ -375,12 +274,37 @@ def _true_initial_nav(config: ScenarioConfig) -> Strapdown:
     return Strapdown(tr.lat0, tr.lon0, tr.alt0, kin.v_n[0], C_nr, config.dt, config.vertical)
 
 
-def _attitude_error(C_true: NDArray, C_est: NDArray) -> NDArray[np.float64]:
-    """Small-angle φ with C_est = (I − [φ×]) C_true, shape (m, 3) [rad]."""
-    M = np.einsum("mij,mkj->mik", C_true, C_est)
-    return 0.5 * np.stack(
-        [M[:, 2, 1] - M[:, 1, 2], M[:, 0, 2] - M[:, 2, 0], M[:, 1, 0] - M[:, 0, 1]], axis=1
-    )
+@dataclass(frozen=True)
+class _ChunkTruth:
+    """The simulator's truth at a chunk's samples (:class:`rinscal.nav.engine.PieceTruth`)."""
+
+    chunk: ImuChunk
+
+    @property
+    def alt(self) -> NDArray[np.float64]:
+        return self.chunk.alt
+
+    @property
+    def vu(self) -> NDArray[np.float64]:
+        return self.chunk.v_n[:, 2]
+
+    def rows(self, sel: NDArray[np.bool_]) -> NDArray[np.float64]:
+        ch = self.chunk
+        return np.column_stack(
+            [ch.t[sel], ch.lat[sel], ch.lon[sel], ch.alt[sel], ch.v_n[sel], ch.euler[sel],
+             ch.encoder[sel], np.ones(int(sel.sum()))]
+        )  # fmt: skip
+
+
+def _piece_correction(comp: Compensator | None, dt: float) -> PieceCorrection | None:
+    """A scenario's compensator ``comp(t_mid, omega_raw, f_raw)`` as a piece correction."""
+    if comp is None:
+        return None
+
+    def correct(s: NavSamples) -> NDArray[np.float64]:
+        return comp(s.t - 0.5 * dt, s.dtheta / dt, s.dv / dt)
+
+    return correct
 
 
 def run_scenario(
@@ -390,7 +314,8 @@ def run_scenario(
     progress: Callable[[float, float], None] | None = None,
     recorder: Callable[[ImuChunk, NDArray, NDArray], None] | None = None,
 ) -> NavResult:
-    """Run a navigation scenario.
+    """Run a navigation scenario (the simulator's chunks through
+    :func:`rinscal.nav.engine.navigate_pieces`).
 
     Parameters
     ----------
@@ -428,67 +353,41 @@ def run_scenario(
     # samples since power-on at the alignment start and at the navigation start
     n_start = 0 if config.align is None else round(config.align.start_s * config.rate_hz)
     n_nav = n_start
-    variants: dict[str, _Variant] = {}
-    for name, comp in comps.items():
-        if config.align is not None:
-            al = Aligner(tr.lat0, tr.lon0, tr.alt0, dt, config.align, config.vertical, k0=n_start)
-            n_nav = n_start + al.n_total
-            variants[name] = _Variant(comp, al, None, np.zeros(3), np.zeros(3), [])
-        else:
-            variants[name] = _Variant(
-                comp, None, _true_initial_nav(config), np.zeros(3), np.zeros(3), []
-            )
-    out_every = config.out_every
-    truth_rows: list[NDArray[np.float64]] = []
+    aligner = None
+    if config.align is not None:
+        align = config.align
 
-    splits = () if config.align is None else (n_start * dt, n_nav * dt)
-    for ch in synth.chunks(config.duration_s, config.chunk_s, split_at=splits):
-        t_mid = ch.t - 0.5 * dt
-        raw_th = ch.dtheta
-        raw_v = ch.dv
-        if errors is not None:  # called on every chunk, in time order (state carries)
-            e = np.asarray(errors(t_mid, ch.dtheta / dt, ch.dv / dt), dtype=float)
-            if e.shape != (ch.n, 6):
-                raise ConfigError(f"errors_r returned shape {e.shape}, expected ({ch.n}, 6)")
-            raw_th = raw_th + e[:, :3] * dt
-            raw_v = raw_v + e[:, 3:] * dt
-        if recorder is not None:
-            recorder(ch, raw_th, raw_v)
-        if ch.k0 + ch.n <= n_start:  # warming up before the alignment: nobody navigates
-            if progress is not None:
-                progress(float(ch.t[-1]), config.duration_s)
-            continue
-        gidx = ch.k0 + np.arange(1, ch.n + 1)
-        sel = (gidx % out_every == 0) & (gidx > n_nav)
-        if np.any(sel):
-            truth_rows.append(_truth_rows(ch, sel))
-        raw_rate = raw_accel = None  # the raw signal the compensators see, once per chunk
-        for v in variants.values():
-            d_th, d_v = raw_th, raw_v
-            if v.compensator is not None:
-                if raw_rate is None:
-                    raw_rate, raw_accel = raw_th / dt, raw_v / dt
-                c = np.asarray(v.compensator(t_mid, raw_rate, raw_accel), dtype=float)
-                d_th = d_th - c[:, :3] * dt
-                d_v = d_v - c[:, 3:] * dt
-            i0 = 0
-            if v.aligner is not None and not v.aligner.done:
-                i0 = feed_and_hand_over(v, d_th, d_v)
-            if i0 < ch.n:
-                assert v.nav is not None
-                out = v.nav.run(
-                    d_th[i0:] - v.gyro_bias * dt,
-                    d_v[i0:] - v.accel_bias * dt,
-                    alt_ref=ch.alt[i0:],
-                    vu_ref=ch.v_n[i0:, 2],
-                    out_every=out_every,
-                )
-                if out.shape[0]:
-                    v.rows.append(out)
-        if progress is not None:
-            progress(float(ch.t[-1]), config.duration_s)
+        def aligner(k0: int) -> Aligner:
+            return Aligner(tr.lat0, tr.lon0, tr.alt0, dt, align, config.vertical, k0=k0)
 
-    truth = np.concatenate(truth_rows) if truth_rows else np.empty((0, 11))
+        n_nav = n_start + aligner(n_start).n_total
+
+    def pieces() -> Iterator[tuple[NavSamples, _ChunkTruth]]:
+        splits = () if config.align is None else (n_start * dt, n_nav * dt)
+        for ch in synth.chunks(config.duration_s, config.chunk_s, split_at=splits):
+            raw_th, raw_v = ch.dtheta, ch.dv
+            if errors is not None:  # called on every chunk, in time order (state carries)
+                e = np.asarray(errors(ch.t - 0.5 * dt, ch.dtheta / dt, ch.dv / dt), dtype=float)
+                if e.shape != (ch.n, 6):
+                    raise ConfigError(f"errors_r returned shape {e.shape}, expected ({ch.n}, 6)")
+                raw_th = raw_th + e[:, :3] * dt
+                raw_v = raw_v + e[:, 3:] * dt
+            if recorder is not None:
+                recorder(ch, raw_th, raw_v)
+            yield NavSamples(ch.t, np.full(ch.n, dt), raw_th, raw_v), _ChunkTruth(ch)
+
+    run = navigate_pieces(
+        pieces(),
+        {name: _piece_correction(comp, dt) for name, comp in comps.items()},
+        dt=dt,
+        start_s=n_start * dt,
+        out_every=config.out_every,
+        aligner=aligner,
+        initial=None if aligner is not None else (lambda: _true_initial_nav(config)),
+        correct_warm_up=False,
+        progress=None if progress is None else (lambda t: progress(t, config.duration_s)),
+    )
+    truth = run.truth
     truth_df = pd.DataFrame(
         {
             "time_s": truth[:, 0],
@@ -504,64 +403,7 @@ def run_scenario(
             "encoder_deg": truth[:, 10] / units.DEG_TO_RAD,
         }
     )
-    err: dict[str, pd.DataFrame] = {}
-    for name, v in variants.items():
-        rows = np.concatenate(v.rows) if v.rows else np.empty((0, 10))
-        err[name] = _error_frame(truth, rows)
-    alignment = {
-        name: (v.aligner.result() if v.aligner is not None and v.aligner.done else None)
-        for name, v in variants.items()
-    }
-    return NavResult(config, truth_df, err, alignment)
-
-
-def _truth_rows(ch: ImuChunk, sel: NDArray[np.bool_]) -> NDArray[np.float64]:
-    return np.column_stack(
-        [
-            ch.t[sel],
-            ch.lat[sel],
-            ch.lon[sel],
-            ch.alt[sel],
-            ch.v_n[sel],
-            ch.euler[sel],
-            ch.encoder[sel],
-        ]
-    )
-
-
-def _error_frame(truth: NDArray[np.float64], ins: NDArray[np.float64]) -> pd.DataFrame:
-    if ins.shape[0] != truth.shape[0]:
-        raise AssertionError("internal: INS and truth rows differ")  # pragma: no cover
-    lat_t, lon_t, alt_t = truth[:, 1], truth[:, 2], truth[:, 3]
-    rn, re = earth.principal_radii(lat_t)
-    north = (ins[:, 0] - lat_t) * (rn + alt_t)
-    east = (ins[:, 1] - lon_t) * (re + alt_t) * np.cos(lat_t)
-    horiz = np.hypot(east, north)
-    C_true = C_nb_from_euler(truth[:, 7:10])
-    C_est = quat_to_dcm(ins[:, 6:10]) @ np.swapaxes(C_br(truth[:, 10]), -1, -2)  # C_nr C_rb
-    att = _attitude_error(C_true, C_est) if truth.shape[0] else np.empty((0, 3))
-    eul = euler_from_C_nb(C_est) - truth[:, 7:10] if truth.shape[0] else np.empty((0, 3))
-    eul = (eul + np.pi) % (2 * np.pi) - np.pi  # heading (and roll) wrap to ±π
-    return pd.DataFrame(
-        {
-            "time_s": truth[:, 0],
-            "east_m": east,
-            "north_m": north,
-            "horizontal_m": horiz,
-            "horizontal_nmi": horiz / units.NMI_TO_M,
-            "up_m": ins[:, 2] - alt_t,
-            "lat_deg": ins[:, 0] / units.DEG_TO_RAD,
-            "lon_deg": ins[:, 1] / units.DEG_TO_RAD,
-            "v_e_err": ins[:, 3] - truth[:, 4],
-            "v_n_err": ins[:, 4] - truth[:, 5],
-            "att_e": att[:, 0],
-            "att_n": att[:, 1],
-            "att_u": att[:, 2],
-            "heading_err": eul[:, 0],
-            "pitch_err": eul[:, 1],
-            "roll_err": eul[:, 2],
-        }
-    )
+    return NavResult(config, truth_df, run.errors, run.alignment)
 
 
 def with_duration(config: ScenarioConfig, duration_s: float) -> ScenarioConfig:
