@@ -8,6 +8,8 @@
   why it is one idea ("Why one module").
 * Imports sit at module top; one inside a function says why on its line or the line above
   (a comment containing "deferred").
+* Scenarios and recordings are navigated by the same engine function: each feeder
+  (:data:`FEEDERS`) calls :data:`ENGINE_FUNCTION`, imported from :data:`ENGINE`.
 
 Each rule is a function of the source tree, so the tests below also run it on a copy of the
 package with one bad import added, and check that it fails naming that import.
@@ -54,6 +56,11 @@ APART = (("rinscal.experiments", "rinscal.production"),)
 MAX_LINES = 900
 EXPLAIN_LINES = 700
 EXEMPT_SIZE = {"rinscal.nav._kernels"}
+#: The one navigation loop, and the functions that feed it a stream of pieces (the
+#: simulator's scenario, a recording's second pass).
+ENGINE = "rinscal.nav.engine"
+ENGINE_FUNCTION = "navigate_pieces"
+FEEDERS = ("run_scenario", "navigate_recording")
 
 
 @dataclass(frozen=True)
@@ -368,12 +375,48 @@ def undeclared_deferred(root: Path = SRC) -> list[str]:
     return bad
 
 
+def engine_feeders(root: Path = SRC) -> list[str]:
+    """Feeders that do not call the engine function (imported from the engine), and
+    feeders defined nowhere or twice."""
+    bad = []
+    found: dict[str, list[str]] = {f: [] for f in FEEDERS}
+    for mod, path in _modules(root).items():
+        text = path.read_text()
+        if not any(f"def {f}(" in text for f in FEEDERS):
+            continue  # most files: no parse
+        tree = ast.parse(text)
+        imported = any(
+            isinstance(n, ast.ImportFrom)
+            and n.module == ENGINE
+            and any(a.name == ENGINE_FUNCTION and a.asname is None for a in n.names)
+            for n in ast.walk(tree)
+        )
+        for node in tree.body:
+            if not (isinstance(node, ast.FunctionDef) and node.name in FEEDERS):
+                continue
+            where = f"{path.relative_to(root)}:{node.lineno}: {node.name}"
+            found[node.name].append(where)
+            calls = any(
+                isinstance(n, ast.Call)
+                and isinstance(n.func, ast.Name)
+                and n.func.id == ENGINE_FUNCTION
+                for n in ast.walk(node)
+            )
+            if not (calls and imported):
+                bad.append(f"{where} does not call {ENGINE}.{ENGINE_FUNCTION} (mod {mod})")
+    for f, where in found.items():
+        if len(where) != 1:
+            bad.append(f"{f}: defined {len(where)} times ({', '.join(where) or 'nowhere'})")
+    return bad
+
+
 RULES = {
     "upward imports": upward_imports,
     "import cycles": import_cycles,
     "private names across packages": private_imports,
     "module sizes": module_sizes,
     "undeclared deferred imports": undeclared_deferred,
+    "scenarios and recordings navigated by the same engine function": engine_feeders,
 }
 
 
@@ -450,3 +493,13 @@ def test_a_long_module_is_named(tmp_path: Path) -> None:
     _append(root, "units.py", "\n" + "\n".join(f"X{k} = {k}" for k in range(950)) + "\n")
     bad = _new(module_sizes, root)
     assert len(bad) == 1 and "units.py" in bad[0]
+
+
+def test_a_recording_navigated_by_a_loop_of_its_own_is_named(tmp_path: Path) -> None:
+    root = _copy(tmp_path)
+    p = root / "rinscal" / "nav" / "recorded" / "navigate.py"
+    text = p.read_text()
+    assert text.count("run = navigate_pieces(") == 1
+    p.write_text(text.replace("run = navigate_pieces(", "run = _own_loop("))
+    bad = _new(engine_feeders, root)
+    assert len(bad) == 1 and "navigate_recording" in bad[0] and "navigate.py" in bad[0]
