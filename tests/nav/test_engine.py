@@ -74,9 +74,9 @@ def test_a_recordings_summary_names_its_log_first_and_holds_its_report(biased) -
 
 def test_the_engine_refuses_what_it_cannot_do() -> None:
     with pytest.raises(ConfigError, match="aligner or an initial state"):
-        navigate_pieces([], {"none": None}, dt=0.01, start_s=0.0, out_every=1)
+        navigate_pieces([], lambda s: s, {"none": None}, dt=0.01, start_s=0.0, out_every=1)
     with pytest.raises(ConfigError, match="aiding"):
         navigate_pieces(
-            [], {"none": None}, dt=0.01, start_s=0.0, out_every=1, initial=lambda: None,
-            aiding=[object()],
+            [], lambda s: s, {"none": None}, dt=0.01, start_s=0.0, out_every=1,
+            initial=lambda: None, aiding=[object()],
         )  # fmt: skip

@@ -127,7 +127,8 @@ class _Variant:
 
 
 def navigate_pieces(
-    pieces: Iterable[tuple[NavSamples, PieceTruth]],
+    pieces: Iterable[NavSamples],
+    truth_of: Callable[[NavSamples], PieceTruth],
     corrections: Mapping[str, PieceCorrection | None],
     *,
     dt: float,
@@ -143,8 +144,11 @@ def navigate_pieces(
 
     Parameters
     ----------
-    pieces : iterable of (NavSamples, PieceTruth)
-        The increments [rad, m/s] in time order, each piece with its truth.
+    pieces : iterable of NavSamples
+        The increments [rad, m/s] in time order.
+    truth_of : callable
+        ``truth_of(piece) -> PieceTruth``: the truth at a piece's samples, called once per
+        piece in time order (a track's or an encoder's state may carry).
     corrections : mapping of str to PieceCorrection or None
         Variants: each one's sensor correction (None: none), called once per piece.
     dt : float [s]
@@ -188,9 +192,10 @@ def navigate_pieces(
     consumed = 0
     t_origin: float | None = None
     t_last = t_align = t_nav = math.nan
-    for s, truth in pieces:
+    for s in pieces:  # a piece and its truth are freed as the next is read (peak memory)
         if s.n == 0:
             continue
+        truth = truth_of(s)
         if t_origin is None:
             t_origin = float(s.t[0] - s.dt[0])
         if n_start is None:

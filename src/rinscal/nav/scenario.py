@@ -275,6 +275,13 @@ def _true_initial_nav(config: ScenarioConfig) -> Strapdown:
 
 
 @dataclass(frozen=True)
+class _SimSamples(NavSamples):
+    """A simulated piece: the erroneous increments with the chunk of truth they came from."""
+
+    chunk: ImuChunk | None = None
+
+
+@dataclass(frozen=True)
 class _ChunkTruth:
     """The simulator's truth at a chunk's samples (:class:`rinscal.nav.engine.PieceTruth`)."""
 
@@ -362,7 +369,7 @@ def run_scenario(
 
         n_nav = n_start + aligner(n_start).n_total
 
-    def pieces() -> Iterator[tuple[NavSamples, _ChunkTruth]]:
+    def pieces() -> Iterator[_SimSamples]:
         splits = () if config.align is None else (n_start * dt, n_nav * dt)
         for ch in synth.chunks(config.duration_s, config.chunk_s, split_at=splits):
             raw_th, raw_v = ch.dtheta, ch.dv
@@ -374,10 +381,11 @@ def run_scenario(
                 raw_v = raw_v + e[:, 3:] * dt
             if recorder is not None:
                 recorder(ch, raw_th, raw_v)
-            yield NavSamples(ch.t, np.full(ch.n, dt), raw_th, raw_v), _ChunkTruth(ch)
+            yield _SimSamples(ch.t, np.full(ch.n, dt), raw_th, raw_v, chunk=ch)
 
     run = navigate_pieces(
         pieces(),
+        lambda s: _ChunkTruth(s.chunk),  # type: ignore[attr-defined]
         {name: _piece_correction(comp, dt) for name, comp in comps.items()},
         dt=dt,
         start_s=n_start * dt,

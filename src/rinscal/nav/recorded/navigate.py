@@ -191,13 +191,13 @@ def navigate_recording(
     out_every = round(out_dt_s / dt)
     if out_every < 1:
         raise ConfigError(f"output interval {out_dt_s} s is shorter than a sample ({dt} s)")
-    truth_of = _LogTruth(reference, use_heading_column)
 
     def aligner(k0: int) -> Aligner:
         return Aligner(reference.lat, reference.lon, reference.h, dt, align, vertical, k0=k0)
 
     run = navigate_pieces(
-        ((s, truth_of(s)) for s in pieces),
+        pieces,
+        _LogTruth(reference, use_heading_column),
         comps,
         dt=dt,
         start_s=window.start_s,
