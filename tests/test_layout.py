@@ -380,7 +380,7 @@ def engine_feeders(root: Path = SRC) -> list[str]:
     feeders defined nowhere or twice."""
     bad = []
     found: dict[str, list[str]] = {f: [] for f in FEEDERS}
-    for mod, path in _modules(root).items():
+    for path in _modules(root).values():
         text = path.read_text()
         if not any(f"def {f}(" in text for f in FEEDERS):
             continue  # most files: no parse
@@ -403,7 +403,7 @@ def engine_feeders(root: Path = SRC) -> list[str]:
                 for n in ast.walk(node)
             )
             if not (calls and imported):
-                bad.append(f"{where} does not call {ENGINE}.{ENGINE_FUNCTION} (mod {mod})")
+                bad.append(f"{where} does not call {ENGINE}.{ENGINE_FUNCTION}")
     for f, where in found.items():
         if len(where) != 1:
             bad.append(f"{f}: defined {len(where)} times ({', '.join(where) or 'nowhere'})")

@@ -152,6 +152,20 @@ def navigate_log(
     progress : callable, optional
         ``progress(stage, done_s, total_s)``: stage ``"reading"`` or ``"navigating"``.
 
+    Returns
+    -------
+    Navigation
+        ``result``: errors per variant (``none`` uncompensated, one per model, named by the
+        model file's stem), the reference at the same times, the alignment per variant;
+        ``report`` (JSON-able): ``log``, ``recording_kind`` (what the recording is:
+        ``kind``, ``evidence``, ``text``, ``rate_hz``; :mod:`rinscal.nav.recorded.kind`),
+        ``window`` (start, length, how it was chosen, its quality), ``noise`` (what the
+        filter assumed and where it came from), ``at_rest`` (|f| and |ω| against gravity
+        and the Earth rate), ``gaps``, ``rotation`` (what the encoder saw), ``reference``
+        and ``warnings``; ``temperatures``: ``time_s, chamber, outer, sensor_<channel>``
+        every :data:`TEMPERATURE_STEP_S` [s, °C] (NaN where the log has none);
+        ``summary``: what ``summary.json`` holds.
+
     Raises
     ------
     LogError

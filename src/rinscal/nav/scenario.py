@@ -8,6 +8,9 @@ A scenario runs chunk by chunk (bounded memory for runs of many hours)::
       -> self-alignment (align.py) -> free strapdown navigation (strapdown.py)
       -> position error against the true trajectory
 
+the last three (and the compensation) in :func:`rinscal.nav.engine.navigate_pieces`, the loop
+a recording's pieces run through too.
+
 Several compensators ("variants") run side by side on the *same* erroneous increments, so
 their position errors differ only by the compensation.
 
