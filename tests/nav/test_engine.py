@@ -32,7 +32,10 @@ def biased() -> Navigation:
     )
     exact = constant_errors(BIAS)
     result = run_scenario(cfg, exact, {"none": None, "removed": lambda t, w, f: exact(t)})
-    return Navigation(result, pd.DataFrame({"time_s": [0.0]}), info={"seed": 0})
+    temps = pd.DataFrame(
+        {"time_s": [0.0, 600.0], "chamber": 20.0, "outer": 20.0, "sensor_gx": 21.0}
+    )
+    return Navigation(result, temps, info={"seed": 0})
 
 
 def test_an_uncompensated_bias_drives_the_schuler_error_and_a_removed_one_none(biased) -> None:  # type: ignore[no-untyped-def]
@@ -80,3 +83,14 @@ def test_the_engine_refuses_what_it_cannot_do() -> None:
             [], lambda s: s, {"none": None}, dt=0.01, start_s=0.0, out_every=1,
             initial=lambda: None, aiding=[object()],
         )  # fmt: skip
+
+
+def test_save_navigation_writes_the_commands_folder(biased, tmp_path) -> None:  # type: ignore[no-untyped-def]
+    from rinscal.report.nav_plots import save_navigation
+
+    save_navigation(biased, tmp_path)
+    names = {"errors.csv", "truth.csv", "summary.json", "position_error.png", "trajectory.png",
+             "temperatures.png"}  # fmt: skip
+    assert {p.name for p in tmp_path.iterdir()} == names
+    for png in tmp_path.glob("*.png"):
+        assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
