@@ -10,6 +10,8 @@
   why it is one idea ("Why one module").
 * Imports sit at module top; one inside a function says why on its line or the line above
   (a comment containing "deferred").
+* Scenarios and recordings are navigated by the same engine function: each feeder
+  (:data:`FEEDERS`) calls :data:`ENGINE_FUNCTION`, imported from :data:`ENGINE`.
 
 Each rule is a function of the source tree, so the tests below also run it on a copy of the
 package with one bad import added, and check that it fails naming that import.
@@ -71,6 +73,11 @@ SIM_IMPORTERS = (
 MAX_LINES = 900
 EXPLAIN_LINES = 700
 EXEMPT_SIZE = {"rinscal._kernels"}
+#: The one navigation loop, and the functions that feed it a stream of pieces (the
+#: simulator's scenario, a recording's second pass).
+ENGINE = "rinscal.nav.engine"
+ENGINE_FUNCTION = "navigate_pieces"
+FEEDERS = ("run_scenario", "navigate_recording")
 
 
 @dataclass(frozen=True)
@@ -400,6 +407,41 @@ def undeclared_deferred(root: Path = SRC) -> list[str]:
     return bad
 
 
+def engine_feeders(root: Path = SRC) -> list[str]:
+    """Feeders that do not call the engine function (imported from the engine), and
+    feeders defined nowhere or twice."""
+    bad = []
+    found: dict[str, list[str]] = {f: [] for f in FEEDERS}
+    for path in _modules(root).values():
+        text = path.read_text()
+        if not any(f"def {f}(" in text for f in FEEDERS):
+            continue  # most files: no parse
+        tree = ast.parse(text)
+        imported = any(
+            isinstance(n, ast.ImportFrom)
+            and n.module == ENGINE
+            and any(a.name == ENGINE_FUNCTION and a.asname is None for a in n.names)
+            for n in ast.walk(tree)
+        )
+        for node in tree.body:
+            if not (isinstance(node, ast.FunctionDef) and node.name in FEEDERS):
+                continue
+            where = f"{path.relative_to(root)}:{node.lineno}: {node.name}"
+            found[node.name].append(where)
+            calls = any(
+                isinstance(n, ast.Call)
+                and isinstance(n.func, ast.Name)
+                and n.func.id == ENGINE_FUNCTION
+                for n in ast.walk(node)
+            )
+            if not (calls and imported):
+                bad.append(f"{where} does not call {ENGINE}.{ENGINE_FUNCTION}")
+    for f, where in found.items():
+        if len(where) != 1:
+            bad.append(f"{f}: defined {len(where)} times ({', '.join(where) or 'nowhere'})")
+    return bad
+
+
 RULES = {
     "upward imports": upward_imports,
     "import cycles": import_cycles,
@@ -407,6 +449,7 @@ RULES = {
     "private names across packages": private_imports,
     "module sizes": module_sizes,
     "undeclared deferred imports": undeclared_deferred,
+    "scenarios and recordings navigated by the same engine function": engine_feeders,
 }
 
 
@@ -608,3 +651,13 @@ def test_a_second_compensator_is_named(tmp_path: Path) -> None:
     assert "nav/align.py" in bad[0] and "HeldCompensator" in bad[0]
     assert "nav/align.py" in bad[1] and "predict_channel" in bad[1]
     assert "evaluate.py" in bad[2] and "evaluate does not use" in bad[2]
+
+
+def test_a_recording_navigated_by_a_loop_of_its_own_is_named(tmp_path: Path) -> None:
+    root = _copy(tmp_path)
+    p = root / "rinscal" / "nav" / "recorded" / "navigate.py"
+    text = p.read_text()
+    assert text.count("run = navigate_pieces(") == 1
+    p.write_text(text.replace("run = navigate_pieces(", "run = _own_loop("))
+    bad = _new(engine_feeders, root)
+    assert len(bad) == 1 and "navigate_recording" in bad[0] and "navigate.py" in bad[0]

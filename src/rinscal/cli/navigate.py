@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import io
-import json
 import math
 from pathlib import Path
 from typing import Annotated, Any
@@ -305,8 +303,8 @@ def navigate(
             )  # fmt: skip
     except RinscalError as exc:
         raise fail(str(exc)) from None
-    cfg, result, summary = nav.config, nav.result, nav.summary
-    _write_outputs(out, result, summary, nav.temperatures)
+    cfg, summary = nav.config, nav.summary
+    _save(nav, out)
     console.print(
         f"navigation from {cfg.nav_start_s:g} s after power-on "
         f"(alignment from {cfg.align_start_s:g} s, {align_s:g} s long)",
@@ -334,52 +332,12 @@ def navigate(
     _print_variants(summary)
 
 
-def _write_outputs(out: Path, result: object, summary: dict, temps: object) -> None:
+def _save(nav: object, out: Path) -> None:
     """errors.csv, truth.csv, summary.json and the figures, each written atomically."""
-
     # deferred: loaded when the command runs, so that `rinscal --help` starts fast
-    import pandas as pd
+    from rinscal.report.nav_plots import save_navigation
 
-    from rinscal.io.atomic import atomic_path
-    from rinscal.report.nav_plots import plot_position_error, plot_temperatures, plot_trajectory
-
-    out.mkdir(parents=True, exist_ok=True)
-    frames = []
-    for name, df in result.errors.items():  # type: ignore[attr-defined]
-        d = df.copy()
-        d.insert(0, "variant", name)
-        frames.append(d)
-    errors = pd.concat(frames, ignore_index=True)
-    # everything is made before anything is written: a failure leaves the folder as it was
-
-    import pyarrow as pa
-    import pyarrow.csv as pacsv
-
-    text = json.dumps(summary, indent=2, allow_nan=False, default=float) + "\n"
-    figures = {
-        "position_error.png": plot_position_error(result),  # type: ignore[arg-type]
-        "trajectory.png": plot_trajectory(result),  # type: ignore[arg-type]
-        "temperatures.png": plot_temperatures(temps),  # type: ignore[arg-type]
-    }
-    png = {}
-    for fname, fig in figures.items():
-        buf = io.BytesIO()
-        fig.savefig(buf, format="png", dpi=110)
-        png[fname] = buf.getvalue()
-    # Arrow's CSV writer: every float to round-trip precision, 10× faster than pandas'
-    # formatting (which was a third of an 8 h run's whole command)
-    tables = {
-        name: pa.Table.from_pandas(frame, preserve_index=False)
-        for name, frame in (("errors.csv", errors), ("truth.csv", result.truth))  # type: ignore[attr-defined]
-    }
-    for name, table in tables.items():
-        with atomic_path(out / name) as tmp:
-            pacsv.write_csv(table, tmp)
-    with atomic_path(out / "summary.json") as tmp:
-        tmp.write_text(text)
-    for fname, data in png.items():
-        with atomic_path(out / fname) as tmp:
-            tmp.write_bytes(data)
+    save_navigation(nav, out)  # type: ignore[arg-type]
 
 
 def _print_variants(summary: dict) -> None:
@@ -464,10 +422,8 @@ def _navigate_log(log: Path, out: Path, models: list[Path], policy: str, **kw: o
             )  # type: ignore[arg-type]  # fmt: skip
     except RinscalError as exc:
         raise fail(str(exc)) from None
-    summary = nav.result.summary()
-    summary.pop("scenario", None)
-    summary = {"log": str(log), **summary, "recording": nav.report}
-    _write_outputs(out, nav.result, summary, nav.temperatures)
+    summary = nav.summary
+    _save(nav, out)
     console.print(nav.report["recording_kind"]["text"], highlight=False, soft_wrap=True)
     console.print(heading_text(nav.report), highlight=False, soft_wrap=True)
     rot = nav.report["rotation"]

@@ -6,7 +6,7 @@ the results; it prints nothing and writes nothing (the command writes the output
 
 >>> from rinscal.nav.recording import navigate_log                  # doctest: +SKIP
 >>> nav = navigate_log("run.parquet", models=["regression.json"])  # doctest: +SKIP
->>> nav.result.summary()["variants"]["regression"]["max_error_nmi"]  # doctest: +SKIP
+>>> nav.summary["variants"]["regression"]["max_error_nmi"]  # doctest: +SKIP
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -30,6 +30,7 @@ from rinscal.imunoise import NoiseSource, load_noise
 from rinscal.io.mapping import ColumnMapping
 from rinscal.io.navopen import nav_log_header, open_nav_log
 from rinscal.io.track import parse_utc, read_track
+from rinscal.nav.engine import Navigation
 from rinscal.nav.recorded.blocks import BlockStats
 from rinscal.nav.recorded.kind import (
     calibration_log,
@@ -63,31 +64,9 @@ from rinscal.schema import CHANNELS
 TEMPERATURE_STEP_S = 10.0
 
 
-@dataclass
-class RecordedNavigation:
-    """A navigated recording.
-
-    Attributes
-    ----------
-    result : NavResult
-        Errors per variant (``none`` uncompensated, one per model, named by the model
-        file's stem), the reference at the same times, the alignment per variant.
-    report : dict
-        JSON-able: ``log``, ``recording_kind`` (what the recording is: ``kind``, ``evidence``,
-        ``text``, ``rate_hz``; :mod:`rinscal.nav.recorded.kind`), ``window`` (start, length,
-        how it was chosen, its quality),
-        ``noise`` (what the filter assumed and where it came from), ``at_rest`` (|f| and
-        |ω| against gravity and the Earth rate), ``gaps``, ``rotation`` (what the encoder
-        saw), ``reference`` and ``warnings``.
-    temperatures : DataFrame
-        ``time_s, chamber, outer, sensor_<channel>`` every :data:`TEMPERATURE_STEP_S`
-        (NaN where the log has none), for the figure.
-    """
-
-    result: Any
-    report: dict[str, Any]
-    temperatures: pd.DataFrame
-    warnings: list[str] = field(default_factory=list)
+#: A navigated recording: :class:`rinscal.nav.engine.Navigation` (``result``, ``report``,
+#: ``temperatures``, ``warnings``; ``summary`` what ``summary.json`` holds).
+RecordedNavigation = Navigation
 
 
 def parse_site(text: str) -> tuple[float, float, float]:
@@ -174,6 +153,20 @@ def navigate_log(
         ``progress(done_s, total_s)`` [s of the recording]: ``total_s`` is NaN while the
         first pass reads the log (its length not known yet), then the log's length while it
         is navigated.
+
+    Returns
+    -------
+    Navigation
+        ``result``: errors per variant (``none`` uncompensated, one per model, named by the
+        model file's stem), the reference at the same times, the alignment per variant;
+        ``report`` (JSON-able): ``log``, ``recording_kind`` (what the recording is:
+        ``kind``, ``evidence``, ``text``, ``rate_hz``; :mod:`rinscal.nav.recorded.kind`),
+        ``window`` (start, length, how it was chosen, its quality), ``noise`` (what the
+        filter assumed and where it came from), ``at_rest`` (|f| and |ω| against gravity
+        and the Earth rate), ``gaps``, ``rotation`` (what the encoder saw), ``reference``
+        and ``warnings``; ``temperatures``: ``time_s, chamber, outer, sensor_<channel>``
+        every :data:`TEMPERATURE_STEP_S` [s, °C] (NaN where the log has none);
+        ``summary``: what ``summary.json`` holds.
 
     Raises
     ------
@@ -467,7 +460,7 @@ def navigate_log(
     frame = pd.DataFrame({"time_s": temp[:, 0] - t0, "chamber": np.nan, "outer": temp[:, 1]})
     for j, c in enumerate(CHANNELS):
         frame[f"sensor_{c}"] = temp[:, 2 + j]
-    return RecordedNavigation(result, report, frame, warnings)
+    return Navigation(result, frame, report=report, warnings=warnings)
 
 
 def _every(t: np.ndarray, step: float, next_t: float) -> np.ndarray:

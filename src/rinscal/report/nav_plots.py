@@ -6,18 +6,23 @@
   in km from the start (Figure 15).
 * :func:`plot_temperatures` — chamber/ambient, outer and inner sensor temperatures of the
   thermal scenario that ran alongside.
+* :func:`navigation_figures` — the three above of a navigation, by file name;
+  :func:`save_navigation` writes a navigation's whole folder with them.
 
 Functions return a :class:`matplotlib.figure.Figure` (no pyplot state); the caller saves.
 """
 
 from __future__ import annotations
 
+import os
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
 from rinscal import earth, units
-from rinscal.sim.scenario import NavResult
+from rinscal.nav.engine import Navigation, NavResult
 
 _STYLES = {"none": ("0.35", "--"), "true": ("black", ":")}
 _LABELS = {"none": "uncompensated", "true": "true thermal bias (oracle)"}
@@ -124,4 +129,27 @@ def plot_temperatures(temps: pd.DataFrame, title: str | None = None) -> Figure:
     return fig
 
 
-__all__ = ["plot_position_error", "plot_temperatures", "plot_trajectory"]
+def navigation_figures(nav: Navigation) -> dict[str, Figure]:
+    """The figures of a navigation's folder, by file name: ``position_error.png``,
+    ``trajectory.png`` and ``temperatures.png`` (what ``rinscal navigate`` writes)."""
+    return {
+        "position_error.png": plot_position_error(nav.result),
+        "trajectory.png": plot_trajectory(nav.result),
+        "temperatures.png": plot_temperatures(nav.temperatures),
+    }
+
+
+def save_navigation(nav: Navigation, folder: str | os.PathLike[str]) -> Path:
+    """Write a navigation's folder as ``rinscal navigate`` does: ``errors.csv``,
+    ``truth.csv``, ``summary.json`` and the figures of :func:`navigation_figures`
+    (:meth:`rinscal.nav.engine.Navigation.save`). Returns the folder."""
+    return nav.save(folder, figures=navigation_figures)
+
+
+__all__ = [
+    "navigation_figures",
+    "plot_position_error",
+    "plot_temperatures",
+    "plot_trajectory",
+    "save_navigation",
+]

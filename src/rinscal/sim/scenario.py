@@ -8,6 +8,9 @@ A scenario runs chunk by chunk (bounded memory for runs of many hours)::
       -> self-alignment (align.py) -> free strapdown navigation (strapdown.py)
       -> position error against the true trajectory
 
+the last three (and the compensation) in :func:`rinscal.nav.engine.navigate_pieces`, the loop
+a recording's pieces run through too.
+
 Several compensators ("variants") run side by side on the *same* erroneous increments, so
 their position errors differ only by the compensation.
 
@@ -23,7 +26,7 @@ calibration latitude and heading, in log units) — see
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -32,16 +35,12 @@ from numpy.typing import NDArray
 
 from rinscal import _check, units
 from rinscal.errors import ConfigError
-from rinscal.nav.align import (
-    AlignConfig,
-    Aligner,
-    align_from_noise,
-    feed_and_hand_over,
-)
+from rinscal.nav.align import AlignConfig, Aligner, align_from_noise
 from rinscal.nav.attitude import C_nb_from_euler
-from rinscal.nav.result import NavResult, error_frame
+from rinscal.nav.engine import NavResult, PieceCorrection, navigate_pieces
 from rinscal.nav.rotation import C_br, RotationSchedule
 from rinscal.nav.strapdown import Strapdown
+from rinscal.schema import NavSamples
 from rinscal.sim.config import ImuConfig
 from rinscal.sim.field import ChamberProfile
 from rinscal.sim.ideal_imu import ImuChunk, ImuSynthesizer
@@ -208,21 +207,52 @@ def align_for(
     )
 
 
-@dataclass
-class _Variant:
-    compensator: Compensator | None
-    aligner: Aligner | None
-    nav: Strapdown | None
-    gyro_bias: NDArray[np.float64]
-    accel_bias: NDArray[np.float64]
-    rows: list[NDArray[np.float64]]
-
-
+# --------------------------------------------------------------------------- the run
 def _true_initial_nav(config: ScenarioConfig) -> Strapdown:
     tr = config.trajectory
     kin = tr.kinematics(np.zeros(1))
     C_nr = C_nb_from_euler(kin.euler[0]) @ C_br(config.schedule.angle(0.0)[0])
     return Strapdown(tr.lat0, tr.lon0, tr.alt0, kin.v_n[0], C_nr, config.dt, config.vertical)
+
+
+@dataclass(frozen=True)
+class _SimSamples(NavSamples):
+    """A simulated piece: the erroneous increments with the chunk of truth they came from."""
+
+    chunk: ImuChunk | None = None
+
+
+@dataclass(frozen=True)
+class _ChunkTruth:
+    """The simulator's truth at a chunk's samples (:class:`rinscal.nav.engine.PieceTruth`)."""
+
+    chunk: ImuChunk
+
+    @property
+    def alt(self) -> NDArray[np.float64]:
+        return self.chunk.alt
+
+    @property
+    def vu(self) -> NDArray[np.float64]:
+        return self.chunk.v_n[:, 2]
+
+    def rows(self, sel: NDArray[np.bool_]) -> NDArray[np.float64]:
+        ch = self.chunk
+        return np.column_stack(
+            [ch.t[sel], ch.lat[sel], ch.lon[sel], ch.alt[sel], ch.v_n[sel], ch.euler[sel],
+             ch.encoder[sel], np.ones(int(sel.sum()))]
+        )  # fmt: skip
+
+
+def _piece_correction(comp: Compensator | None, dt: float) -> PieceCorrection | None:
+    """A scenario's compensator ``comp(t_mid, omega_raw, f_raw)`` as a piece correction."""
+    if comp is None:
+        return None
+
+    def correct(s: NavSamples) -> NDArray[np.float64]:
+        return comp(s.t - 0.5 * dt, s.dtheta / dt, s.dv / dt)
+
+    return correct
 
 
 def run_scenario(
@@ -232,7 +262,8 @@ def run_scenario(
     progress: Callable[[float, float], None] | None = None,
     recorder: Callable[[ImuChunk, NDArray, NDArray], None] | None = None,
 ) -> NavResult:
-    """Run a navigation scenario.
+    """Run a navigation scenario (the simulator's chunks through
+    :func:`rinscal.nav.engine.navigate_pieces`).
 
     Parameters
     ----------
@@ -241,7 +272,7 @@ def run_scenario(
     errors : callable, optional
         Sensor errors in ``r``, ``errors(t, omega_r, f_r) -> (n, 6)`` SI at the sample
         mid-times from the true mean rate and specific force of each sample (see
-        :mod:`rinscal.sim.sensors`; e.g. a :class:`ThermalPlant` or
+        :mod:`rinscal.nav.sensors`; e.g. a :class:`ThermalPlant` or
         :func:`constant_errors`); None for an ideal IMU. Called once per chunk, in time
         order.
     compensators : mapping of str to callable or None, optional
@@ -270,67 +301,42 @@ def run_scenario(
     # samples since power-on at the alignment start and at the navigation start
     n_start = 0 if config.align is None else round(config.align.start_s * config.rate_hz)
     n_nav = n_start
-    variants: dict[str, _Variant] = {}
-    for name, comp in comps.items():
-        if config.align is not None:
-            al = Aligner(tr.lat0, tr.lon0, tr.alt0, dt, config.align, config.vertical, k0=n_start)
-            n_nav = n_start + al.n_total
-            variants[name] = _Variant(comp, al, None, np.zeros(3), np.zeros(3), [])
-        else:
-            variants[name] = _Variant(
-                comp, None, _true_initial_nav(config), np.zeros(3), np.zeros(3), []
-            )
-    out_every = config.out_every
-    truth_rows: list[NDArray[np.float64]] = []
+    aligner = None
+    if config.align is not None:
+        align = config.align
 
-    splits = () if config.align is None else (n_start * dt, n_nav * dt)
-    for ch in synth.chunks(config.duration_s, config.chunk_s, split_at=splits):
-        t_mid = ch.t - 0.5 * dt
-        raw_th = ch.dtheta
-        raw_v = ch.dv
-        if errors is not None:  # called on every chunk, in time order (state carries)
-            e = np.asarray(errors(t_mid, ch.dtheta / dt, ch.dv / dt), dtype=float)
-            if e.shape != (ch.n, 6):
-                raise ConfigError(f"errors_r returned shape {e.shape}, expected ({ch.n}, 6)")
-            raw_th = raw_th + e[:, :3] * dt
-            raw_v = raw_v + e[:, 3:] * dt
-        if recorder is not None:
-            recorder(ch, raw_th, raw_v)
-        if ch.k0 + ch.n <= n_start:  # warming up before the alignment: nobody navigates
-            if progress is not None:
-                progress(float(ch.t[-1]), config.duration_s)
-            continue
-        gidx = ch.k0 + np.arange(1, ch.n + 1)
-        sel = (gidx % out_every == 0) & (gidx > n_nav)
-        if np.any(sel):
-            truth_rows.append(_truth_rows(ch, sel))
-        raw_rate = raw_accel = None  # the raw signal the compensators see, once per chunk
-        for v in variants.values():
-            d_th, d_v = raw_th, raw_v
-            if v.compensator is not None:
-                if raw_rate is None:
-                    raw_rate, raw_accel = raw_th / dt, raw_v / dt
-                c = np.asarray(v.compensator(t_mid, raw_rate, raw_accel), dtype=float)
-                d_th = d_th - c[:, :3] * dt
-                d_v = d_v - c[:, 3:] * dt
-            i0 = 0
-            if v.aligner is not None and not v.aligner.done:
-                i0 = feed_and_hand_over(v, d_th, d_v)
-            if i0 < ch.n:
-                assert v.nav is not None
-                out = v.nav.run(
-                    d_th[i0:] - v.gyro_bias * dt,
-                    d_v[i0:] - v.accel_bias * dt,
-                    alt_ref=ch.alt[i0:],
-                    vu_ref=ch.v_n[i0:, 2],
-                    out_every=out_every,
-                )
-                if out.shape[0]:
-                    v.rows.append(out)
-        if progress is not None:
-            progress(float(ch.t[-1]), config.duration_s)
+        def aligner(k0: int) -> Aligner:
+            return Aligner(tr.lat0, tr.lon0, tr.alt0, dt, align, config.vertical, k0=k0)
 
-    truth = np.concatenate(truth_rows) if truth_rows else np.empty((0, 11))
+        n_nav = n_start + aligner(n_start).n_total
+
+    def pieces() -> Iterator[_SimSamples]:
+        splits = () if config.align is None else (n_start * dt, n_nav * dt)
+        for ch in synth.chunks(config.duration_s, config.chunk_s, split_at=splits):
+            raw_th, raw_v = ch.dtheta, ch.dv
+            if errors is not None:  # called on every chunk, in time order (state carries)
+                e = np.asarray(errors(ch.t - 0.5 * dt, ch.dtheta / dt, ch.dv / dt), dtype=float)
+                if e.shape != (ch.n, 6):
+                    raise ConfigError(f"errors_r returned shape {e.shape}, expected ({ch.n}, 6)")
+                raw_th = raw_th + e[:, :3] * dt
+                raw_v = raw_v + e[:, 3:] * dt
+            if recorder is not None:
+                recorder(ch, raw_th, raw_v)
+            yield _SimSamples(ch.t, np.full(ch.n, dt), raw_th, raw_v, chunk=ch)
+
+    run = navigate_pieces(
+        pieces(),
+        lambda s: _ChunkTruth(s.chunk),  # type: ignore[attr-defined]
+        {name: _piece_correction(comp, dt) for name, comp in comps.items()},
+        dt=dt,
+        start_s=n_start * dt,
+        out_every=config.out_every,
+        aligner=aligner,
+        initial=None if aligner is not None else (lambda: _true_initial_nav(config)),
+        correct_warm_up=False,
+        progress=None if progress is None else (lambda t: progress(t, config.duration_s)),
+    )
+    truth = run.truth
     truth_df = pd.DataFrame(
         {
             "time_s": truth[:, 0],
@@ -346,29 +352,7 @@ def run_scenario(
             "encoder_deg": truth[:, 10] / units.DEG_TO_RAD,
         }
     )
-    err: dict[str, pd.DataFrame] = {}
-    for name, v in variants.items():
-        rows = np.concatenate(v.rows) if v.rows else np.empty((0, 10))
-        err[name] = error_frame(truth, rows)
-    alignment = {
-        name: (v.aligner.result() if v.aligner is not None and v.aligner.done else None)
-        for name, v in variants.items()
-    }
-    return NavResult(config, truth_df, err, alignment)
-
-
-def _truth_rows(ch: ImuChunk, sel: NDArray[np.bool_]) -> NDArray[np.float64]:
-    return np.column_stack(
-        [
-            ch.t[sel],
-            ch.lat[sel],
-            ch.lon[sel],
-            ch.alt[sel],
-            ch.v_n[sel],
-            ch.euler[sel],
-            ch.encoder[sel],
-        ]
-    )
+    return NavResult(config, truth_df, run.errors, run.alignment)
 
 
 def with_duration(config: ScenarioConfig, duration_s: float) -> ScenarioConfig:

@@ -14,16 +14,16 @@ from __future__ import annotations
 import inspect
 import os
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pandas as pd
 
 from rinscal import _check
 from rinscal.calibration.modelfile import FittedModel, check_policy
 from rinscal.errors import ConfigError
+from rinscal.nav.engine import Navigation
 from rinscal.nav.rotation import schedule_from_name
 from rinscal.presets import DEFAULT_PRESET
 from rinscal.sim.config import ImuConfig, resolve_imu
@@ -46,34 +46,6 @@ ModelLike = str | os.PathLike[str] | FittedModel
 MIN_DISTURBED_RATE_HZ = 50.0
 #: What ``record=`` may be named (the log formats of :data:`rinscal.io.tables.FORMATS`).
 RECORD_SUFFIXES = (".parquet", ".pq", ".csv", ".tsv")
-
-
-@dataclass(frozen=True)
-class Navigation:
-    """A navigated scenario.
-
-    Attributes
-    ----------
-    result : NavResult
-        ``errors[variant]``: position error [m] and attitude error over time from the
-        navigation start; ``truth``: the true trajectory.
-    summary : dict
-        What ``summary.json`` holds: per variant the maximum position error [m, nmi], the
-        attitude error the alignment handed over [″], improvement over no compensation
-        [%]; and the seed, IMU, models and chamber profile.
-    temperatures : DataFrame
-        The plant's thermometer readings over the run (10 s steps) [°C].
-    config : ScenarioConfig
-        The scenario run (``nav_start_s``, ``align_start_s``, ``duration_s`` [s] ...).
-    imu : ImuConfig
-        The plant.
-    """
-
-    result: NavResult
-    summary: dict[str, Any]
-    temperatures: pd.DataFrame
-    config: ScenarioConfig
-    imu: ImuConfig
 
 
 def model_compensator(model: ModelLike, plant: ThermalPlant, policy: str = "clamp") -> Any:
@@ -242,21 +214,22 @@ def navigate_scenario(
         result = run_scenario(cfg, plant, comps, progress=progress)
     else:
         result = _record(cfg, plant, comps, progress, Path(record), increments, seed)
-    summary = result.summary()
-    summary["seed"] = seed
-    summary["imu"] = plant_cfg.name
-    summary["imu_spec"] = str(imu) if not isinstance(imu, ImuConfig) else imu.name
-    summary["output"] = _output_summary(plant)
+    info: dict[str, Any] = {
+        "seed": seed,
+        "imu": plant_cfg.name,
+        "imu_spec": str(imu) if not isinstance(imu, ImuConfig) else imu.name,
+        "output": _output_summary(plant),
+    }
     if isinstance(cfg.trajectory, DisturbedStart):
-        summary["disturbance"] = cfg.trajectory.summary()
-    summary["models"] = {
+        info["disturbance"] = cfg.trajectory.summary()
+    info["models"] = {
         k: (m.source.get("log") if isinstance(m, FittedModel) else str(m)) for k, m in named.items()
     }
-    summary["chamber"] = {
+    info["chamber"] = {
         "times_s": list(cfg.chamber.times_s),
         "temps_c": list(cfg.chamber.temps_c),
     }
-    return Navigation(result, summary, temperature_frame(plant), cfg, plant_cfg)
+    return Navigation(result, temperature_frame(plant), config=cfg, imu=plant_cfg, info=info)
 
 
 def _record(

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -19,13 +19,13 @@ from numpy.typing import NDArray
 
 from rinscal import earth
 from rinscal.errors import ConfigError, LogError
-from rinscal.nav.align import AlignConfig, Aligner, AlignResult, feed_and_hand_over
+from rinscal.nav.align import AlignConfig, Aligner
+from rinscal.nav.engine import NavResult, navigate_pieces
 from rinscal.nav.recorded.blocks import TableUnwrap
 from rinscal.nav.recorded.compensation import PieceCompensator, _ffill
 from rinscal.nav.recorded.window import Window
-from rinscal.nav.result import NavResult, error_frame
-from rinscal.nav.strapdown import Strapdown, VerticalMode
-from rinscal.schema import GAP_FACTOR, NavSamples
+from rinscal.nav.strapdown import VerticalMode
+from rinscal.schema import NavSamples
 
 __all__ = [
     "RecordedRun",
@@ -131,16 +131,6 @@ class _Site:
     lon0: float
 
 
-@dataclass
-class _Variant:
-    comp: PieceCompensator | None
-    aligner: Aligner
-    nav: Strapdown | None = None
-    gyro_bias: NDArray[np.float64] = field(default_factory=lambda: np.zeros(3))
-    accel_bias: NDArray[np.float64] = field(default_factory=lambda: np.zeros(3))
-    rows: list[NDArray[np.float64]] = field(default_factory=list)
-
-
 def navigate_recording(
     pieces: Iterable[NavSamples],
     reference: Reference,
@@ -155,8 +145,9 @@ def navigate_recording(
     schedule: str = "encoder",
     use_heading_column: bool = True,
     progress: Callable[[float], None] | None = None,
-) -> Any:
-    """Navigate a recording's variants side by side (the second pass).
+) -> NavResult:
+    """Navigate a recording's variants side by side (the second pass; the pieces with their
+    reference through :func:`rinscal.nav.engine.navigate_pieces`).
 
     Parameters
     ----------
@@ -200,101 +191,30 @@ def navigate_recording(
     out_every = round(out_dt_s / dt)
     if out_every < 1:
         raise ConfigError(f"output interval {out_dt_s} s is shorter than a sample ({dt} s)")
-    variants: dict[str, _Variant] = {}
-    n_start = n_nav = None
-    truth_rows: list[NDArray] = []
-    consumed = 0
-    t_origin: float | None = None
-    unwrap = TableUnwrap()
-    track = _LogTrack(reference)
-    t_last = float("nan")
-    t_align = t_nav = float("nan")
-    for s in pieces:
-        if s.n == 0:
-            continue
-        if t_origin is None:
-            t_origin = float(s.t[0] - s.dt[0])
-        if n_start is None:
-            # the window starts at the first sample whose interval starts at window.start_s
-            n_before = int(np.searchsorted(s.t - s.dt, window.start_s - 0.25 * dt))
-            if n_before < s.n:
-                n_start = consumed + n_before
-                for vname, comp in comps.items():
-                    al = Aligner(
-                        reference.lat, reference.lon, reference.h, dt, align, vertical,
-                        k0=n_start,
-                    )  # fmt: skip
-                    variants[vname] = _Variant(comp, al)
-                n_nav = n_start + next(iter(variants.values())).aligner.n_total
-        gidx = consumed + np.arange(1, s.n + 1)
-        consumed += s.n
-        t_last = float(s.t[-1])
-        ref, valid = track(s)
-        if n_start is not None and gidx[0] <= n_start + 1 <= gidx[-1]:
-            i = n_start - (gidx[0] - 1)
-            t_align = float(s.t[i] - s.dt[i])
-        if n_nav is not None and gidx[0] <= n_nav <= gidx[-1]:
-            t_nav = float(s.t[n_nav - gidx[0]])
-        table = unwrap(s.table) if s.table is not None else np.zeros(s.n)
-        if n_start is None or gidx[-1] <= n_start:
-            comps_run = [c for c in comps.values() if c is not None]
-            for c in comps_run:  # the compensators' temperature history runs from power-on
-                c(s)
-            if progress is not None:
-                progress(t_last)
-            continue
-        assert n_nav is not None
-        sel = (gidx % out_every == 0) & (gidx > n_nav)
-        if sel.any():
-            column = s.ref_heading if use_heading_column else None
-            head = np.full(s.n, np.nan) if column is None else column
-            static = reference.track is None and s.ref is None
-            if column is None and reference.heading is not None:
-                if static:  # the body stands: its heading is the one given, all along
-                    head = np.full(s.n, reference.heading)
-                elif not truth_rows:  # a track: the heading given holds at the start only
-                    head[np.flatnonzero(sel)[0]] = reference.heading
-            truth_rows.append(
-                np.column_stack(
-                    [
-                        s.t[sel],
-                        ref[sel],
-                        head[sel],
-                        np.full((sel.sum(), 2), np.nan),
-                        table[sel],
-                        valid[sel],
-                    ]
-                )
-            )
-        i_first = max(0, n_start - (gidx[0] - 1))
-        for v in variants.values():
-            d_th, d_v = s.dtheta, s.dv
-            if v.comp is not None:
-                c = v.comp(s)
-                d_th = d_th - c[:, :3] * s.dt[:, None]
-                d_v = d_v - c[:, 3:] * s.dt[:, None]
-            i0 = i_first
-            if not v.aligner.done:
-                i0 += feed_and_hand_over(v, d_th[i_first:], d_v[i_first:])
-            if i0 < s.n:
-                assert v.nav is not None
-                step = s.dt[i0:, None]  # the estimates are rates: over each sample's own interval
-                out = _run_nav(
-                    v.nav, d_th[i0:] - v.gyro_bias * step, d_v[i0:] - v.accel_bias * step,
-                    s.dt[i0:], dt, ref[i0:, 2], ref[i0:, 5], out_every,
-                )  # fmt: skip
-                if out.shape[0]:
-                    v.rows.append(out)
-        if progress is not None:
-            progress(t_last)
-    if n_start is None or t_origin is None:
+
+    def aligner(k0: int) -> Aligner:
+        return Aligner(reference.lat, reference.lon, reference.h, dt, align, vertical, k0=k0)
+
+    run = navigate_pieces(
+        pieces,
+        _LogTruth(reference, use_heading_column),
+        comps,
+        dt=dt,
+        start_s=window.start_s,
+        out_every=out_every,
+        aligner=aligner,
+        correct_warm_up=True,
+        progress=progress,
+    )
+    t_last = run.t_last
+    if run.n_start is None:
         raise LogError(f"the alignment window ({window.start_s:g} s) starts after the recording")
-    if not all(v.aligner.done for v in variants.values()):
+    if not run.aligned:
         raise LogError(
             f"the recording ends at {t_last:.1f} s, before the alignment "
             f"({window.start_s:g} s + {window.length_s:g} s) does"
         )
-    truth = np.concatenate(truth_rows) if truth_rows else np.empty((0, 12))
+    truth = run.truth
     if truth.shape[0] == 0:
         raise LogError(
             f"the recording ends at {t_last:.1f} s, when the alignment "
@@ -327,25 +247,74 @@ def navigate_recording(
             "encoder_deg": np.rad2deg(truth[:, 10]),
         }
     )
-    errors = {}
-    for vname, v in variants.items():
-        rows = np.concatenate(v.rows) if v.rows else np.empty((0, 10))
-        errors[vname] = error_frame(truth[keep, :11], rows[keep]).reset_index(drop=True)
     truth_df = truth_df[keep].reset_index(drop=True)
-    alignment: dict[str, AlignResult | None] = {k: v.aligner.result() for k, v in variants.items()}
-    run = RecordedRun(
+    config = RecordedRun(
         name=name,
-        duration_s=t_last - t_origin,
+        duration_s=t_last - run.t_origin,
         rate_hz=1.0 / dt,
-        align_start_s=t_align,
-        nav_start_s=t_nav,
+        align_start_s=run.t_align,
+        nav_start_s=run.t_nav,
         align=align,
         schedule=_Named(schedule),
         trajectory=_Site(reference.lat, reference.lon),
-        time_origin_s=t_origin,
+        time_origin_s=run.t_origin,
         notes=tuple(notes),
     )
-    return NavResult(run, truth_df, errors, alignment)  # type: ignore[arg-type]
+    return NavResult(config, truth_df, run.errors, run.alignment)
+
+
+@dataclass(frozen=True)
+class _PieceReference:
+    """The reference at one piece's samples (:class:`rinscal.nav.engine.PieceTruth`)."""
+
+    t: NDArray[np.float64]
+    ref: NDArray[np.float64]  # (n, 6): lat, lon, h, v_e, v_n, v_u
+    valid: NDArray[np.bool_]
+    table: NDArray[np.float64]
+    heading: NDArray[np.float64] | None  # the log's column (None: none)
+    static: bool  # no track: the body stands
+    owner: _LogTruth
+
+    @property
+    def alt(self) -> NDArray[np.float64]:
+        return self.ref[:, 2]
+
+    @property
+    def vu(self) -> NDArray[np.float64]:
+        return self.ref[:, 5]
+
+    def rows(self, sel: NDArray[np.bool_]) -> NDArray[np.float64]:
+        o = self.owner
+        head = np.full(sel.size, np.nan) if self.heading is None else self.heading
+        given = o.reference.heading
+        if self.heading is None and given is not None:
+            if self.static:  # the body stands: its heading is the one given, all along
+                head = np.full(sel.size, given)
+            elif not o.started:  # a track: the heading given holds at the start only
+                head[np.flatnonzero(sel)[0]] = given
+        o.started = True
+        return np.column_stack(
+            [self.t[sel], self.ref[sel], head[sel], np.full((sel.sum(), 2), np.nan),
+             self.table[sel], self.valid[sel]]
+        )  # fmt: skip
+
+
+class _LogTruth:
+    """Each piece's reference, in time order (the track's and the encoder's state carry)."""
+
+    def __init__(self, reference: Reference, use_heading_column: bool) -> None:
+        self.reference = reference
+        self.use_heading_column = use_heading_column
+        self.track = _LogTrack(reference)
+        self.unwrap = TableUnwrap()
+        self.started = False  # a row given out
+
+    def __call__(self, s: NavSamples) -> _PieceReference:
+        ref, valid = self.track(s)
+        table = self.unwrap(s.table) if s.table is not None else np.zeros(s.n)
+        static = self.reference.track is None and s.ref is None
+        column = s.ref_heading if self.use_heading_column else None
+        return _PieceReference(s.t, ref, valid, table, column, static, self)
 
 
 class _LogTrack:
@@ -383,32 +352,3 @@ class _LogTrack:
         out[:, 4] = rate[:, 0] * (rn + r[:, 2])
         out[:, 5] = rate[:, 2]
         return out, valid
-
-
-def _run_nav(
-    nav: Strapdown,
-    d_th: NDArray,
-    d_v: NDArray,
-    dts: NDArray,
-    dt: float,
-    alt_ref: NDArray,
-    vu_ref: NDArray,
-    out_every: int,
-) -> NDArray[np.float64]:
-    """Strapdown over a stretch; an interval longer than 1.5 steps (a gap) with its own length."""
-    gaps = np.flatnonzero(dts > GAP_FACTOR * dt)
-    if gaps.size == 0:
-        return nav.run(d_th, d_v, alt_ref=alt_ref, vu_ref=vu_ref, out_every=out_every)
-    outs = []
-    a = 0
-    for g in [*gaps.tolist(), None]:
-        b = d_th.shape[0] if g is None else g
-        if b > a:
-            outs.append(nav.run(d_th[a:b], d_v[a:b], alt_ref[a:b], vu_ref[a:b], out_every))
-        if g is not None:
-            nav.dt = float(dts[g])
-            outs.append(nav.run(d_th[g : g + 1], d_v[g : g + 1], alt_ref[g : g + 1],
-                                vu_ref[g : g + 1], out_every))  # fmt: skip
-            nav.dt = dt
-            a = g + 1
-    return np.concatenate(outs) if outs else np.empty((0, 10))
