@@ -20,6 +20,7 @@ package with one bad import added, and check that it fails naming that import.
 from __future__ import annotations
 
 import ast
+import dataclasses
 import functools
 import os
 import shutil
@@ -130,6 +131,7 @@ class _Source:
     statements: tuple[_Statement, ...]
     docstring: str
     api: tuple[tuple[str, str], ...]
+    tree: ast.Module = dataclasses.field(compare=False, repr=False, default_factory=ast.Module)
 
 
 @functools.cache
@@ -144,6 +146,7 @@ def _source(text: str, package_init: bool) -> _Source:
         tuple(found),
         ast.get_docstring(tree) or "",
         tuple(_lazy_table(tree).items()),
+        tree,
     )
 
 
@@ -594,11 +597,6 @@ COMPENSATOR_CALLERS = {
 }
 
 
-@functools.cache
-def _tree(text: str) -> ast.Module:
-    return ast.parse(text)
-
-
 def one_compensator(root: Path = SRC) -> list[str]:
     """Second compensators: a class named ``*Compensator`` other than the one and those
     listed, the model's bias inference called outside the model file and the one class, or a
@@ -607,7 +605,7 @@ def one_compensator(root: Path = SRC) -> list[str]:
     sources = _sources(root)
     for mod, (path, src) in sources.items():
         rel = path.relative_to(root)
-        for node in ast.walk(_tree("\n".join(src.lines))):
+        for node in ast.walk(src.tree):
             key = (mod, getattr(node, "name", ""))
             if (
                 isinstance(node, ast.ClassDef)
