@@ -86,7 +86,7 @@ def test_help_quotes_the_file() -> None:
 
 
 def test_console_line_of_reproduce_quick_quotes_the_file(monkeypatch, tmp_path) -> None:
-    import rinscal.experiments.paper.calibration as calibration
+    import rinscal.experiments.paper.run as run  # where the reproduction calls the stage
 
     class Stop(Exception):
         pass
@@ -94,7 +94,7 @@ def test_console_line_of_reproduce_quick_quotes_the_file(monkeypatch, tmp_path) 
     def stop(*args, **kwargs):
         raise Stop
 
-    monkeypatch.setattr(calibration, "calibration_stage", stop)
+    monkeypatch.setattr(run, "calibration_stage", stop)
     res = CliRunner().invoke(app, ["reproduce", "--quick", "--out", str(tmp_path / "q")])
     assert isinstance(res.exception, Stop)
     t = timing("quick_reproduction")
