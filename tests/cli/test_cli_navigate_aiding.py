@@ -68,11 +68,12 @@ def test_gnss_aiding_keeps_the_position_within_the_fixes_sigma(drive, tmp_path) 
     assert s["recording"]["aiding"] == "gnss" and s["recording"]["gnss_sd_m"] == GNSS_SD_M
     # the errors against the log's own noise-free reference: independent of the fixes
     horiz = _horizontal(tmp_path / "a")
-    # the aided error stays at the fixes' scatter (per coordinate: measured 2.09 m RMS for
-    # σ 1.5 m over this 6 min drive, the transients after the drive starts and the turn
-    # included; the issue's "RMS at most σ" over 1 h is not shown by this short drive)
+    # each coordinate's RMS at most σ, the largest horizontal error at most 3σ: the filter
+    # follows the fixes and averages their noise (the transients after the drive starts and
+    # after the turn included)
     rms = math.sqrt(float(np.mean(horiz**2)) / 2)
-    assert rms <= 2 * GNSS_SD_M, rms
+    assert rms <= GNSS_SD_M, rms
+    assert float(horiz.max()) <= 3 * GNSS_SD_M
     # while the pure inertial run over the same drive drifts by kilometres (this IMU, 5 Hz)
     free_h = _horizontal(tmp_path / "free")
     assert horiz.size == free_h.size and float(horiz.max()) < 0.01 * float(free_h.max())

@@ -43,6 +43,7 @@ from rinscal.errors import ConfigError
 from rinscal.nav.aiding import GnssTrack, Measurement, enu_difference
 from rinscal.nav.align import wahba
 from rinscal.nav.gnss_ins import (
+    HEADING_PRIOR_SD,
     AidedInertial,
     AidedResult,
     ImuNoise,
@@ -243,7 +244,7 @@ def navigate_aided(
             position_sd=track.position_sd,
             velocity_sd=0.5,
             level_sd=math.radians(0.5),
-            heading_sd=math.radians(3.0),
+            heading_sd=HEADING_PRIOR_SD,
         )
     nav = Strapdown(coarse.lat, coarse.lon, coarse.alt, coarse.v_n, coarse.C_nr, dt, "free")
     filt = AidedInertial(nav, initial_covariance(initial, noise), noise)

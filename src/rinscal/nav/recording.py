@@ -32,7 +32,7 @@ from rinscal.io.navopen import nav_log_header, open_nav_log
 from rinscal.io.track import parse_utc, read_track
 from rinscal.nav.aiding import GnssTrack
 from rinscal.nav.engine import Navigation
-from rinscal.nav.gnss_ins import AidedInertial, ImuNoise
+from rinscal.nav.gnss_ins import HEADING_PRIOR_SD, AidedInertial, ImuNoise
 from rinscal.nav.recorded.blocks import BlockStats
 from rinscal.nav.recorded.kind import (
     calibration_log,
@@ -526,15 +526,17 @@ def gnss_aiding(tr: Any, noise: Any, position_sd: float, dt: float) -> dict[str,
 
     The filter starts where the alignment ended: position uncertain by ``position_sd``,
     velocity by ``position_sd`` per second, attitude and biases by the alignment's own
-    standard deviations.
+    standard deviations, the heading's at least
+    :data:`rinscal.nav.gnss_ins.HEADING_PRIOR_SD` (the alignment's can be far too small).
     """
     track = GnssTrack(tr.t, tr.lat, tr.lon, tr.h, position_sd)
 
     def aided_filter(nav: Any, res: Any, gyro_bias: Any, accel_bias: Any) -> AidedInertial:
         free = Strapdown(nav.lat, nav.lon, nav.alt, nav.v_n, nav.C_nr, dt, "free")
         free.k = nav.k
+        attitude = np.maximum(res.attitude_sd, [0.0, 0.0, HEADING_PRIOR_SD])
         sd = np.concatenate(
-            [np.full(3, position_sd), np.full(3, position_sd / 1.0), res.attitude_sd,
+            [np.full(3, position_sd), np.full(3, position_sd / 1.0), attitude,
              res.gyro_bias_sd, res.accel_bias_sd]
         )  # fmt: skip
         imu = ImuNoise(
