@@ -210,8 +210,9 @@ def navigate(
         typer.Option(
             "--gnss-sd",
             min=0.0,
-            help="--log --aiding gnss: standard deviation of each coordinate of the track's "
-            "fixes that the filter assumes [m] (default 2).",
+            help="--log --track: standard deviation of each coordinate of the track's fixes "
+            "that the filter assumes with --aiding gnss or in an in-motion alignment [m] "
+            "(default 2).",
         ),
     ] = None,
 ) -> None:
@@ -244,13 +245,14 @@ def navigate(
         ]
         if given:
             raise fail(f"{', '.join(given)}: only with --scenario, not with --log")
-        if gnss_sd is not None and aiding != "gnss":
-            raise fail("--gnss-sd: only with --aiding gnss")
+        if gnss_sd is not None and track is None:
+            raise fail("--gnss-sd: only with --track (its fixes' σ, for --aiding gnss or an "
+                       "in-motion alignment)")  # fmt: skip
         _navigate_log(
             log, out, list(model or []), policy, mapping=mapping, run=run, site=site,
             heading=heading, track=track, track_utc_start=track_utc_start, align_s=align_s,
             align_start_s=align_start_s, imu=imu, allow_gaps=allow_gaps,
-            aiding={} if aiding is None else {"aiding": aiding}
+            aiding=({} if aiding is None else {"aiding": aiding})
             | ({} if gnss_sd is None else {"gnss_sd_m": gnss_sd}),
         )  # fmt: skip
         return

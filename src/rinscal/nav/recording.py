@@ -33,6 +33,7 @@ from rinscal.io.track import parse_utc, read_track
 from rinscal.nav.aiding import GnssTrack
 from rinscal.nav.engine import Navigation
 from rinscal.nav.gnss_ins import HEADING_PRIOR_SD, AidedInertial, ImuNoise
+from rinscal.nav.inmotion import InMotionAligner
 from rinscal.nav.recorded.blocks import BlockStats
 from rinscal.nav.recorded.kind import (
     calibration_log,
@@ -52,6 +53,7 @@ from rinscal.nav.recorded.window import (
     MIN_WINDOW_S,
     Disturbance,
     Noise,
+    Window,
     align_config,
     check_at_rest,
     check_encoder,
@@ -160,8 +162,9 @@ def navigate_log(
         (loosely coupled, :mod:`rinscal.nav.gnss_ins`), the errors taken against the same
         track (so they are not independent of it).
     gnss_sd_m : float [m]
-        With ``aiding="gnss"``: standard deviation of each coordinate of the track's fixes
-        that the filter assumes (an assumption, reported; not measured here).
+        With ``aiding="gnss"`` or an in-motion alignment: standard deviation of each
+        coordinate of the track's fixes that the filter assumes (an assumption, reported;
+        not measured here).
     progress : callable, optional
         ``progress(done_s, total_s)`` [s of the recording]: ``total_s`` is NaN while the
         first pass reads the log (its length not known yet), then the log's length while it
@@ -299,8 +302,11 @@ def navigate_log(
     temps: list[np.ndarray] = []
     refs: list[np.ndarray] = []  # the log's own track, a point a second (its speed)
     next_t = next_ref = -math.inf
+    t_first = math.nan  # the start of the first sample's interval [s]
     for s in pieces():
         stats.add(s)
+        if s.n and math.isnan(t_first):
+            t_first = float(s.t[0] - s.dt[0])
         if s.ref is not None and s.n:
             keep = _every(s.t, 1.0, next_ref)
             if keep.size:
@@ -343,45 +349,61 @@ def navigate_log(
     )  # fmt: skip
     kind, refuse = recording_motion(blocks, moved, min(min_align_s, align_s))
     rate_hz = 1.0 / dt
-    if refuse is None and align_start_s is not None:
-        refuse = window_motion(blocks, moved, align_start_s, align_start_s + align_s)
-    if refuse is not None:
-        raise LogError(f"{path}: {refuse}")
-    if cal_kind is not None:
-        kind = replace(cal_kind, evidence={**cal_kind.evidence, "motion": kind.to_dict()})
-    try:
-        window = find_window(
-            blocks if align_start_s is not None or not moved.moving.any()
-            else still_blocks(blocks, moved),
-            align_s, min_s=min_align_s, start_s=align_start_s,
-        )  # fmt: skip
-    except LogError as exc:  # name the rate: a low-rate recording's seconds hold few samples
-        raise LogError(f"{path} ({rate_hz:.3g} Hz, {kind.kind}): {exc}") from None
-    # a second holding one or two samples has no spread of |f| to judge it quiet by (1-2 Hz):
-    # the window set by hand was checked for motion above, its quiet fraction says nothing
-    judged = float(np.median(blocks.n)) >= 3
-    if window.how == "given" and judged and window.quality.get("quiet_fraction", 1.0) < 0.9:
+    # a moving recording with a track file and no still stretch: aligned in motion on it
+    in_motion = refuse is not None and align_start_s is None and tr is not None
+    aligner: Any = None
+    if in_motion:
+        noise, align, window, aligner = _in_motion(
+            log, imu_noise, tr, gnss_sd_m, dt, t_first, align_s, path
+        )
+        at_rest: dict[str, Any] = {}
         warnings.append(
-            f"only {100 * window.quality['quiet_fraction']:.0f} % of the seconds of the "
-            "alignment window set by hand are quiet: the base moved while it aligned"
+            f"the recording moves and has no still stretch: aligned in motion on the track "
+            f"(OBA + GNSS, {align_s:g} s, heading unknown), navigated from its end"
         )
-    if blocks.gaps is not None and blocks.gaps[blocks.select(window.start_s, window.end_s)].any():
-        warnings.append("the alignment window holds a gap in time: the alignment steps over it")
-    try:
-        at_rest, warn = check_at_rest(
-            blocks, window, reference.lat, reference.h, _declared_units(log)
-        )
-    except LogError as exc:
-        low = f" ({rate_hz:.3g} Hz)" if rate_hz < 10 else ""
-        raise LogError(f"{path}{low}: {exc} [{_unit_source(log)}]") from None
-    warnings += warn
-    noise = imu_noise or _noise(log, blocks, window, reference.lat)
-    if not noise.source.startswith("estimated on the window"):
-        at_rest["scatter"], warn = check_never_at_rest(
-            blocks, window, noise.accel_density, noise.source
-        )
+    else:
+        if refuse is None and align_start_s is not None:
+            refuse = window_motion(blocks, moved, align_start_s, align_start_s + align_s)
+        if refuse is not None:
+            raise LogError(f"{path}: {refuse}")
+        if cal_kind is not None:
+            kind = replace(cal_kind, evidence={**cal_kind.evidence, "motion": kind.to_dict()})
+        try:
+            window = find_window(
+                blocks if align_start_s is not None or not moved.moving.any()
+                else still_blocks(blocks, moved),
+                align_s, min_s=min_align_s, start_s=align_start_s,
+            )  # fmt: skip
+        except LogError as exc:  # name the rate: few samples a second at a low rate
+            raise LogError(f"{path} ({rate_hz:.3g} Hz, {kind.kind}): {exc}") from None
+        # a second holding one or two samples has no spread of |f| to judge it quiet by (1-2 Hz):
+        # the window set by hand was checked for motion above, its quiet fraction says nothing
+        judged = float(np.median(blocks.n)) >= 3
+        if window.how == "given" and judged and window.quality.get("quiet_fraction", 1.0) < 0.9:
+            warnings.append(
+                f"only {100 * window.quality['quiet_fraction']:.0f} % of the seconds of the "
+                "alignment window set by hand are quiet: the base moved while it aligned"
+            )
+        if (
+            blocks.gaps is not None
+            and blocks.gaps[blocks.select(window.start_s, window.end_s)].any()
+        ):
+            warnings.append("the alignment window holds a gap in time: the alignment steps over it")
+        try:
+            at_rest, warn = check_at_rest(
+                blocks, window, reference.lat, reference.h, _declared_units(log)
+            )
+        except LogError as exc:
+            low = f" ({rate_hz:.3g} Hz)" if rate_hz < 10 else ""
+            raise LogError(f"{path}{low}: {exc} [{_unit_source(log)}]") from None
         warnings += warn
-    align = align_config(noise, window)
+        noise = imu_noise or _noise(log, blocks, window, reference.lat)
+        if not noise.source.startswith("estimated on the window"):
+            at_rest["scatter"], warn = check_never_at_rest(
+                blocks, window, noise.accel_density, noise.source
+            )
+            warnings += warn
+        align = align_config(noise, window)
 
     comps: dict[str, Any] = {"none": None}
     for m, model in loaded:
@@ -421,6 +443,7 @@ def navigate_log(
         schedule="encoder" if blocks.has_table else "fixed (no encoder)",
         use_heading_column=heading_source != "--heading",
         progress=tick,
+        aligner=aligner,
         **aided,
     )
     warnings += list(result.config.notes)
@@ -465,6 +488,9 @@ def navigate_log(
         if tr is None
         else {"file": str(track), "used": tr.used, "skipped": dict(tr.skipped)},
         "heading_source": heading_source,
+        "alignment": (
+            f"in motion (OBA + GNSS, {align_s:g} s)" if in_motion else "at rest (zero velocity)"
+        ),
         **(
             {}
             if aiding == "none"
@@ -506,6 +532,47 @@ GNSS_NOTE = (
     "GNSS-aided: the errors are taken against the same track the filter used, so they are "
     "not independent of it (they show how closely the filter follows the fixes)"
 )
+
+
+def _in_motion(
+    log: Any,
+    imu_noise: Any,
+    tr: Any,
+    position_sd: float,
+    dt: float,
+    t_first: float,
+    align_s: float,
+    path: Any,
+) -> tuple[Any, Any, Window, Callable[[int], InMotionAligner]]:
+    """The noise, alignment settings, window and aligner of an in-motion alignment on the
+    track ``tr`` from the recording's start ``t_first`` [s] for ``align_s`` [s] (the noise
+    the log's metadata's or ``imu=``'s: a moving recording has no still stretch to estimate
+    it on)."""
+    if imu_noise is None and not log.noise:
+        raise LogError(
+            f"{path}: the recording moves and is aligned in motion on its track, which needs "
+            "the IMU's noise: give imu= (a preset or IMU file), or a 'noise' entry in the "
+            "log's metadata"
+        )
+    noise = imu_noise or _noise(log, None, None, 0.0)
+    coarse_s = min(IN_MOTION_COARSE_S, align_s)
+    window = Window(start_s=t_first, length_s=align_s, how="in motion")
+    align = align_config(noise, window, coarse_s)
+    imu = ImuNoise(
+        noise.gyro_density, noise.accel_density, align.gyro_bias_sd, align.accel_bias_sd,
+        noise.gyro_bias_rw, noise.accel_bias_rw,
+    )  # fmt: skip
+    track = GnssTrack(tr.t, tr.lat, tr.lon, tr.h, position_sd)
+
+    def aligner(k0: int) -> InMotionAligner:
+        return InMotionAligner(track, imu, dt, t_first + k0 * dt, align_s, coarse_s, k0=k0)
+
+    return noise, align, window, aligner
+
+
+#: Coarse (OBA) window of an in-motion alignment [s]
+#: (:func:`rinscal.nav.inmotion.coarse_in_motion`).
+IN_MOTION_COARSE_S = 60.0
 
 
 def gnss_aiding(tr: Any, noise: Any, position_sd: float, dt: float) -> dict[str, Any]:
@@ -647,6 +714,12 @@ def heading_text(report: dict[str, Any]) -> str:
     """One line on the window for the terminal."""
     w = report["window"]
     a = round(w["start_s"], 3) + 0.0  # never "-0" for a clock starting a hair before 0
+    if w["how"] == "in motion":
+        return (
+            f"alignment {a:.0f}-{a + w['length_s']:.0f} s {report['alignment']}, heading "
+            "unknown: coarse on the track's velocity changes, then the filter on its "
+            "positions; " + noise_text(report["noise"])
+        )
     return (
         f"alignment window {a:.0f}-{a + w['length_s']:.0f} s ({w['how']}"
         f", |f| spread median {w['sd_ug_median']:.0f} µg against a floor of "

@@ -147,6 +147,7 @@ def navigate_recording(
     use_heading_column: bool = True,
     aiding: Sequence[Measurement] = (),
     aided_filter: AidedFilter | None = None,
+    aligner: Callable[[int], Any] | None = None,
     progress: Callable[[float], None] | None = None,
 ) -> NavResult:
     """Navigate a recording's variants side by side (the second pass; the pieces with their
@@ -177,6 +178,10 @@ def navigate_recording(
     aiding, aided_filter
         Aiding after the alignment (:func:`rinscal.nav.engine.navigate_pieces`); none:
         pure inertial.
+    aligner : callable, optional
+        ``aligner(k0)``: the alignment from sample ``k0`` on (e.g.
+        :class:`rinscal.nav.inmotion.InMotionAligner`); default the zero-velocity
+        :class:`~rinscal.nav.align.Aligner` at the reference's site.
 
     Returns
     -------
@@ -198,7 +203,7 @@ def navigate_recording(
     if out_every < 1:
         raise ConfigError(f"output interval {out_dt_s} s is shorter than a sample ({dt} s)")
 
-    def aligner(k0: int) -> Aligner:
+    def at_rest(k0: int) -> Aligner:
         return Aligner(reference.lat, reference.lon, reference.h, dt, align, vertical, k0=k0)
 
     run = navigate_pieces(
@@ -208,7 +213,7 @@ def navigate_recording(
         dt=dt,
         start_s=window.start_s,
         out_every=out_every,
-        aligner=aligner,
+        aligner=at_rest if aligner is None else aligner,
         correct_warm_up=True,
         aiding=aiding,
         aided_filter=aided_filter,
