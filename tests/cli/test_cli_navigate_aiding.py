@@ -62,7 +62,8 @@ def drive(tmp_path_factory) -> dict[str, Path]:  # type: ignore[no-untyped-def]
 
 
 def test_gnss_aiding_keeps_the_position_within_the_fixes_sigma(drive, tmp_path) -> None:  # type: ignore[no-untyped-def]
-    args = ["navigate", "--log", drive["rec"], "--track", drive["track"], "--align-s", "60"]
+    args = ["navigate", "--log", drive["rec"], "--track", drive["track"], "--align-start-s", "0",
+            "--align-s", "60"]  # fmt: skip
     code, text = _run(*args, "--out", tmp_path / "free")
     assert code == 0, text
     free = json.loads((tmp_path / "free" / "summary.json").read_text())
@@ -113,6 +114,9 @@ def test_a_drive_with_no_stop_is_aligned_in_motion_on_its_track(drive, tmp_path)
     assert s["recording"]["recording_kind"]["kind"] == "moving"
     assert s["navigation_start_s"] == pytest.approx(61.0 + 300.0, abs=0.5)
     heading = s["variants"]["none"]["attitude_error_at_nav_start"]["heading_arcsec"]
+    # over 10 track-noise seeds (0-9, this fixture otherwise): |error| 0.070° ± 0.025°
+    # (95 %), 0.004°-0.114°, 2 of 10 above 0.1° (the filter's own sd ~0.07°): this seed is
+    # one realisation, not a guarantee
     assert abs(heading) <= 0.1 * 3600.0, heading
     # the same alignment, then aided: the errors stay at the fixes' scatter
     code, text = _run(*args, "--aiding", "gnss", "--out", tmp_path / "a")
