@@ -16,6 +16,7 @@ from typer.testing import CliRunner
 
 from rinscal import earth
 from rinscal.cli import app
+from tests.cli._vehicle import record_vehicle
 
 runner = CliRunner()
 GNSS_SD_M = 1.5
@@ -34,11 +35,7 @@ def drive(tmp_path_factory) -> dict[str, Path]:  # type: ignore[no-untyped-def]
     columns, which the errors are taken against (the heading column only as the truth the
     heading error is measured on: no alignment reads it)."""
     d = tmp_path_factory.mktemp("aid")
-    rec = d / "veh.parquet"
-    code, text = _run("navigate", "--scenario", "vehicle", "--hours", "0.12", "--rate", "5",
-                      "--align-s", "60", "--no-oracle", "--out", d / "sim",
-                      "--record", rec)  # fmt: skip
-    assert code == 0, text
+    rec = record_vehicle(d, 0.12)
     full = pd.read_parquet(rec)
     full[full["time_s"] > 61.0].to_parquet(d / "drive.parquet", index=False)
     (d / "drive.parquet.meta.json").write_text(Path(f"{rec}.meta.json").read_text())

@@ -20,6 +20,7 @@ from rinscal import earth, units
 from rinscal.cli import app
 from rinscal.nav.recorded.blocks import Blocks
 from rinscal.nav.recorded.kind import motion, moving_message
+from tests.cli._vehicle import record_vehicle
 
 runner = CliRunner()
 UTC_START = "2026-11-20T08:14:03Z"
@@ -53,11 +54,7 @@ def vehicle(tmp_path_factory) -> dict[str, Path]:  # type: ignore[no-untyped-def
     at 230 s); and the
     drive alone (the log from 61 s, no reference columns) with its track as NMEA GGA."""
     d = tmp_path_factory.mktemp("veh")
-    rec = d / "veh.parquet"
-    code, text = _run("navigate", "--scenario", "vehicle", "--hours", "0.07", "--rate", "5",
-                      "--align-s", "60", "--no-oracle", "--out", d / "sim",
-                      "--record", rec)  # fmt: skip
-    assert code == 0, text
+    rec = record_vehicle(d, 0.07)
     df = pd.read_parquet(rec)
     drive = df[df["time_s"] > 61.0]
     lines = [
