@@ -121,3 +121,17 @@ def test_a_drive_with_no_stop_is_aligned_in_motion_on_its_track(drive, tmp_path)
     assert "not independent" in text
     horiz = _horizontal(tmp_path / "a")
     assert math.sqrt(float(np.mean(horiz**2)) / 2) <= GNSS_SD_M
+
+
+def test_the_apis_aiding_is_checked(drive) -> None:  # type: ignore[no-untyped-def]
+    import rinscal
+    from rinscal.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="aiding must be one of none, gnss, got 'gps'"):
+        rinscal.navigate_log(drive["rec"], aiding="gps")
+    with pytest.raises(ConfigError, match="gnss_sd_m must be > 0 m"):
+        rinscal.navigate_log(drive["rec"], aiding="gnss", gnss_sd_m=0.0)
+    with pytest.raises(
+        ConfigError, match=r"takes its fixes from a reference track file \(track=\)"
+    ):
+        rinscal.navigate_log(drive["rec"], aiding="gnss", align_start_s=0.0, align_s=60.0)
