@@ -49,6 +49,7 @@ from rinscal.schema import GAP_FACTOR, NavSamples
 
 __all__ = [
     "TRUTH_COLUMNS",
+    "AidedFilter",
     "EngineRun",
     "NavResult",
     "Navigation",
