@@ -19,7 +19,8 @@ from typer.testing import CliRunner
 from rinscal import earth, units
 from rinscal.cli import app
 from rinscal.nav.recorded.blocks import Blocks
-from rinscal.nav.recorded.kind import motion
+from rinscal.nav.recorded.kind import motion, moving_message
+from tests.cli._vehicle import record_vehicle
 
 runner = CliRunner()
 UTC_START = "2026-11-20T08:14:03Z"
@@ -53,11 +54,7 @@ def vehicle(tmp_path_factory) -> dict[str, Path]:  # type: ignore[no-untyped-def
     at 230 s); and the
     drive alone (the log from 61 s, no reference columns) with its track as NMEA GGA."""
     d = tmp_path_factory.mktemp("veh")
-    rec = d / "veh.parquet"
-    code, text = _run("navigate", "--scenario", "vehicle", "--hours", "0.07", "--rate", "5",
-                      "--align-s", "60", "--no-oracle", "--out", d / "sim",
-                      "--record", rec)  # fmt: skip
-    assert code == 0, text
+    rec = record_vehicle(d, 0.07)
     df = pd.read_parquet(rec)
     drive = df[df["time_s"] > 61.0]
     lines = [
@@ -76,19 +73,28 @@ def vehicle(tmp_path_factory) -> dict[str, Path]:  # type: ignore[no-untyped-def
 
 def test_a_drive_with_a_gga_track_is_named_moving_not_quiet(vehicle, tmp_path) -> None:  # type: ignore[no-untyped-def]
     track = ["--track", vehicle["nmea"], "--track-utc-start", UTC_START]
-    # found: before, the finder called the drive 100 % quiet and navigated it
+    # found: before, the finder called the drive 100 % quiet and navigated it; then it was
+    # refused as moving; now, with its track and no still stretch, it is aligned in motion
     code, text = _run("navigate", "--log", vehicle["drive"], *track, "--align-s", "60",
                       "--out", tmp_path / "a")  # fmt: skip
-    assert code == 2, text
-    assert "the recording moves (track speed" in text
+    assert code == 0, text
+    assert "recording: moving (track speed" in text
     speed = [float(v) for v in text.split("track speed ")[1].split(" m/s")[0].split("-")]
     assert 12 <= speed[-1] <= 21  # the route drives at 12, then 20 m/s
     yaw = float(text.split("yaw rates up to ")[1].split(" °/s")[0])
     assert 12 <= yaw <= 17  # 90° in 12 s (the table's own turn removed)
-    assert "the alignment needs the vehicle at rest" in text
-    assert "stop for 5-10 min for the alignment" in text
-    assert "in-motion alignment with a track is not built yet" in text
+    assert "aligned in motion on the track" in text
+    rec = json.loads((tmp_path / "a" / "summary.json").read_text())["recording"]
+    assert rec["recording_kind"]["kind"] == "moving"
+    assert (
+        rec["alignment"] == "in motion (OBA + GNSS, 60 s)" and rec["window"]["how"] == "in motion"
+    )
     assert "wrong gyro units" not in text and "Traceback" not in text
+    # without a track file, a moving recording with no still stretch is refused, naming it
+    said = moving_message("track speed 12-20 m/s", (0.0, 0.0), 60.0)
+    assert "the alignment needs the vehicle at rest" in said
+    assert "stop for 5-10 min for the alignment" in said
+    assert "give its reference track file (track=) to align it in motion" in said
     # a window set by hand on the drive: moving, not a unit
     code, text = _run("navigate", "--log", vehicle["drive"], *track, "--align-start-s", "70",
                       "--align-s", "60", "--out", tmp_path / "b")  # fmt: skip

@@ -108,6 +108,8 @@ ARG_FLAGS: dict[str, str] = {
     "heading_deg": "--heading",
     "track": "--track",
     "track_utc_start": "--track-utc-start",
+    "aiding": "--aiding",
+    "gnss_sd_m": "--gnss-sd",
     "run": "--run",
     "allow_gaps": "--allow-gaps",
     "align_s": "--align-s",

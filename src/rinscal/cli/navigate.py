@@ -197,6 +197,24 @@ def navigate(
         bool,
         typer.Option("--allow-gaps", help="--log: integrate across gaps longer than 5 samples."),
     ] = False,
+    aiding: Annotated[
+        str | None,
+        typer.Option(
+            "--aiding",
+            help="--log: none (pure inertial against the track, the default) or gnss (every "
+            "variant aided by the --track's positions, loosely coupled).",
+        ),
+    ] = None,
+    gnss_sd: Annotated[
+        float | None,
+        typer.Option(
+            "--gnss-sd",
+            min=0.0,
+            help="--log --track: standard deviation of each coordinate of the track's fixes "
+            "that the filter assumes with --aiding gnss or in an in-motion alignment [m] "
+            "(default 2).",
+        ),
+    ] = None,
 ) -> None:
     """Navigate a single-axis RINS, simulated (--scenario) or recorded (--log), and report
     its position error.
@@ -227,15 +245,21 @@ def navigate(
         ]
         if given:
             raise fail(f"{', '.join(given)}: only with --scenario, not with --log")
+        if gnss_sd is not None and track is None:
+            raise fail("--gnss-sd: only with --track (its fixes' σ, for --aiding gnss or an "
+                       "in-motion alignment)")  # fmt: skip
         _navigate_log(
             log, out, list(model or []), policy, mapping=mapping, run=run, site=site,
             heading=heading, track=track, track_utc_start=track_utc_start, align_s=align_s,
             align_start_s=align_start_s, imu=imu, allow_gaps=allow_gaps,
+            aiding=({} if aiding is None else {"aiding": aiding})
+            | ({} if gnss_sd is None else {"gnss_sd_m": gnss_sd}),
         )  # fmt: skip
         return
     assert scenario is not None
     given = [k for k, v in {"--map": mapping, "--run": run, "--site": site,
-             "--heading": heading, "--track": track, "--track-utc-start": track_utc_start}.items()
+             "--heading": heading, "--track": track, "--track-utc-start": track_utc_start,
+             "--aiding": aiding, "--gnss-sd": gnss_sd}.items()
              if v is not None] + (["--allow-gaps"] * allow_gaps)  # fmt: skip
     if given:
         raise fail(f"{', '.join(given)}: only with --log, not with --scenario")
@@ -418,7 +442,7 @@ def _navigate_log(log: Path, out: Path, models: list[Path], policy: str, **kw: o
                 policy=policy, site=site, heading_deg=kw["heading"], track=kw["track"],
                 track_utc_start=kw["track_utc_start"], align_s=kw["align_s"],
                 align_start_s=kw["align_start_s"], imu=kw["imu"], allow_gaps=kw["allow_gaps"],
-                progress=tick,
+                progress=tick, **kw["aiding"],  # type: ignore[arg-type]
             )  # type: ignore[arg-type]  # fmt: skip
     except RinscalError as exc:
         raise fail(str(exc)) from None
@@ -439,6 +463,13 @@ def _navigate_log(log: Path, out: Path, models: list[Path], policy: str, **kw: o
     if gaps["count"]:
         console.print(f"{gaps['count']} gap(s) in time, the longest {gaps['longest_s']:.3f} s",
                       highlight=False, soft_wrap=True)  # fmt: skip
+    if "aiding" in nav.report:
+        console.print(
+            f"aiding: {nav.report['aiding']} (σ {nav.report['gnss_sd_m']:g} m per coordinate); "
+            + nav.report["aiding_note"],
+            highlight=False,
+            soft_wrap=True,
+        )
     for w in nav.warnings:  # a library's words: its arguments said as flags
         console.print(f"warning: {flag_text(w)}", highlight=False, soft_wrap=True)
     c = nav.result.config

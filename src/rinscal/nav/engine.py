@@ -17,8 +17,10 @@ whose :attr:`Navigation.summary` is what ``summary.json`` holds (built here, onc
 :meth:`Navigation.save` writes a navigation's folder.
 
 Aiding: the alignment is today's zero-velocity measurement inside the aligner; ``aiding=``
-of :func:`navigate_pieces` is where further measurements
-(:class:`rinscal.nav.aiding.Measurement`: a known site, a GNSS track) will enter the loop.
+of :func:`navigate_pieces` adds measurements (:class:`rinscal.nav.aiding.Measurement`: a
+known site, a GNSS track) after it: each variant's strapdown is handed to the 15-state
+filter of :mod:`rinscal.nav.gnss_ins` (loosely coupled), which takes them in their time.
+Without them the navigation after the alignment is pure inertial, as before.
 """
 
 from __future__ import annotations
@@ -38,13 +40,16 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from rinscal.errors import ConfigError
+from rinscal.nav.aiding import Measurement
 from rinscal.nav.align import Aligner, AlignResult, feed_and_hand_over
+from rinscal.nav.gnss_ins import AidedInertial, run_aided
 from rinscal.nav.result import NavResult, error_frame
 from rinscal.nav.strapdown import Strapdown
 from rinscal.schema import GAP_FACTOR, NavSamples
 
 __all__ = [
     "TRUTH_COLUMNS",
+    "AidedFilter",
     "EngineRun",
     "NavResult",
     "Navigation",
@@ -122,6 +127,15 @@ class _Variant:
     gyro_bias: NDArray[np.float64] = field(default_factory=lambda: np.zeros(3))
     accel_bias: NDArray[np.float64] = field(default_factory=lambda: np.zeros(3))
     rows: list[NDArray[np.float64]] = field(default_factory=list)
+    filt: AidedInertial | None = None
+
+
+#: ``aided_filter(nav, alignment, gyro_bias, accel_bias) -> AidedInertial``: the filter that
+#: takes a variant's navigation over once its alignment ended (``alignment`` None: none), its
+#: bias estimates [rad/s, m/s²] the alignment's.
+AidedFilter = Callable[
+    [Strapdown, "AlignResult | None", NDArray[np.float64], NDArray[np.float64]], AidedInertial
+]
 
 
 def navigate_pieces(
@@ -135,7 +149,8 @@ def navigate_pieces(
     aligner: Callable[[int], Aligner] | None = None,
     initial: Callable[[], Strapdown] | None = None,
     correct_warm_up: bool = True,
-    aiding: Sequence[Any] = (),
+    aiding: Sequence[Measurement] = (),
+    aided_filter: AidedFilter | None = None,
     progress: Callable[[float], None] | None = None,
 ) -> EngineRun:
     """Navigate every variant side by side on the same pieces (the one navigation loop).
@@ -167,8 +182,11 @@ def navigate_pieces(
         Call the corrections on the pieces before the alignment too (a recording's
         compensators keep a temperature history from power-on); else from its start on.
     aiding : sequence of rinscal.nav.aiding.Measurement
-        Aiding measurements beside the alignment's zero velocity; the engine does not take
-        any yet (the place for a known site or a GNSS track).
+        Aiding measurements after the alignment (a known site, a GNSS track); empty: pure
+        inertial navigation. The aided stretch steps by ``dt`` (gaps are not stepped over).
+    aided_filter : callable, optional
+        With ``aiding``: :data:`AidedFilter`, the filter each variant's navigation is
+        handed to when its alignment ends (or at the start, without an aligner).
     progress : callable, optional
         ``progress(t_s)`` after each piece, with the end of its last interval [s].
 
@@ -182,8 +200,8 @@ def navigate_pieces(
         raise ConfigError("navigation: give an aligner or an initial state, one of them")
     if out_every < 1:
         raise ConfigError(f"navigation: out_every must be >= 1 sample, got {out_every}")
-    if aiding:
-        raise ConfigError("navigation: aiding measurements are not taken yet")
+    if aiding and aided_filter is None:
+        raise ConfigError("navigation: aiding measurements need an aided_filter")
     variants: dict[str, _Variant] = {}
     n_start = n_nav = None
     truth_rows: list[NDArray[np.float64]] = []
@@ -241,7 +259,18 @@ def navigate_pieces(
             i0 = i_first
             if v.aligner is not None and not v.aligner.done:
                 i0 += feed_and_hand_over(v, d_th[i_first:], d_v[i_first:])
-            if i0 < s.n:
+            if i0 < s.n and aiding:
+                assert v.nav is not None and aided_filter is not None
+                if v.filt is None:
+                    res = v.aligner.result() if v.aligner is not None else None
+                    v.filt = aided_filter(v.nav, res, v.gyro_bias, v.accel_bias)
+                out = _run_aided(
+                    v.filt, d_th[i0:], d_v[i0:], s.t[i0:] - s.dt[i0:],
+                    int(gidx[i0]) - 1, out_every, aiding,
+                )  # fmt: skip
+                if out.shape[0]:
+                    v.rows.append(out)
+            elif i0 < s.n:
                 assert v.nav is not None
                 step = s.dt[i0:, None]  # the estimates are rates: over each sample's own interval
                 out = _run_nav(
@@ -274,6 +303,33 @@ def navigate_pieces(
         t_align=t_align,
         t_nav=t_nav,
     )
+
+
+def _run_aided(
+    filt: AidedInertial,
+    d_th: NDArray,
+    d_v: NDArray,
+    t_start: NDArray,
+    k0: int,
+    out_every: int,
+    aiding: Sequence[Measurement],
+) -> NDArray[np.float64]:
+    """The aided filter over a stretch whose sample ``i`` starts at ``t_start[i]`` [s] and is
+    sample ``k0 + i + 1`` from the first: the state rows (as :meth:`Strapdown.run`'s) after
+    every sample count that is a whole multiple of ``out_every``."""
+    n = d_th.shape[0]
+    first = (k0 // out_every + 1) * out_every - k0
+    ends = [*range(first, n + 1, out_every)]
+    if not ends or ends[-1] != n:
+        ends.append(n)
+    rows = []
+    a = 0
+    for e in ends:
+        run_aided(filt, d_th[a:e], d_v[a:e], float(t_start[a]), aiding)
+        if (k0 + e) % out_every == 0:
+            rows.append(filt.nav.state[:10].copy())
+        a = e
+    return np.array(rows) if rows else np.empty((0, 10))
 
 
 def _run_nav(

@@ -86,6 +86,14 @@ class ImuNoise:
                 raise ConfigError(f"IMU noise: {name} must be >= 0, got {v}")
 
 
+#: Heading uncertainty the filter starts with after a coarse or short alignment [rad] (3°):
+#: wide enough for the linearised filter to pull in a heading the alignment got wrong by
+#: several degrees (a 60 s zero-velocity alignment's own standard deviation can be far
+#: too small: 0.5° given for a 15° error on the simulated vehicle drive of
+#: tests/cli/test_cli_navigate_aiding.py).
+HEADING_PRIOR_SD = math.radians(3.0)
+
+
 @dataclass(frozen=True)
 class InitialSd:
     """Prior standard deviations of the navigation errors at the filter's start.
@@ -446,6 +454,7 @@ def run_aided(
 
 
 __all__ = [
+    "HEADING_PRIOR_SD",
     "AidedInertial",
     "AidedResult",
     "ImuNoise",

@@ -41,8 +41,9 @@ from numpy.typing import NDArray
 from rinscal import _kernels, earth
 from rinscal.errors import ConfigError
 from rinscal.nav.aiding import GnssTrack, Measurement, enu_difference
-from rinscal.nav.align import wahba
+from rinscal.nav.align import AlignResult, wahba
 from rinscal.nav.gnss_ins import (
+    HEADING_PRIOR_SD,
     AidedInertial,
     AidedResult,
     ImuNoise,
@@ -243,7 +244,7 @@ def navigate_aided(
             position_sd=track.position_sd,
             velocity_sd=0.5,
             level_sd=math.radians(0.5),
-            heading_sd=math.radians(3.0),
+            heading_sd=HEADING_PRIOR_SD,
         )
     nav = Strapdown(coarse.lat, coarse.lon, coarse.alt, coarse.v_n, coarse.C_nr, dt, "free")
     filt = AidedInertial(nav, initial_covariance(initial, noise), noise)
@@ -252,8 +253,125 @@ def navigate_aided(
     return InMotionResult(coarse, aided)
 
 
+class InMotionAligner:
+    """In-motion alignment on a track for the navigation engine, fed chunk by chunk: the
+    coarse (OBA) stage on the first ``coarse_s``, then the filter aided by the track's
+    positions up to ``align_s``; the interface of :class:`rinscal.nav.align.Aligner`
+    (:attr:`n_total`, :attr:`done`, :meth:`feed`, then :attr:`nav`, :attr:`gyro_bias`,
+    :attr:`accel_bias` and :meth:`result`).
+
+    Parameters
+    ----------
+    track : GnssTrack
+        The reference track (positions at 1 Hz or so) [s, rad, m].
+    noise : ImuNoise
+        The IMU's noise and bias priors for the filter (SI).
+    dt : float [s]
+        Sample interval.
+    t0 : float [s]
+        Start of the first sample fed.
+    align_s : float [s]
+        Length of the alignment (coarse stage included); free navigation follows.
+    coarse_s : float [s]
+        Coarse (OBA) window, at most ``align_s``.
+    vertical : {"hold", "damped", "free"}
+        Vertical channel of the navigation handed over.
+    k0 : int
+        Samples before the first fed (the navigation counts samples from there).
+    """
+
+    def __init__(
+        self,
+        track: GnssTrack,
+        noise: ImuNoise,
+        dt: float,
+        t0: float,
+        align_s: float,
+        coarse_s: float = 60.0,
+        vertical: str = "hold",
+        k0: int = 0,
+    ) -> None:
+        if not (math.isfinite(align_s) and align_s >= coarse_s > 0):
+            raise ConfigError(
+                f"in-motion alignment: need align_s >= coarse_s > 0 s, got {align_s}, {coarse_s}"
+            )
+        self.track, self.noise = track, noise
+        self.dt, self.t0, self.coarse_s = float(dt), float(t0), float(coarse_s)
+        self.vertical, self.k0 = vertical, int(k0)
+        self.n_total = round(align_s / dt)
+        self.n_coarse = round(coarse_s / dt)
+        self.k = 0
+        self._buf: list[tuple[NDArray[np.float64], NDArray[np.float64]]] = []
+        self.coarse: CoarseResult | None = None
+        self.filt: AidedInertial | None = None
+        self.nav: Strapdown | None = None
+        self.gyro_bias = np.zeros(3)
+        self.accel_bias = np.zeros(3)
+
+    @property
+    def done(self) -> bool:
+        return self.k >= self.n_total
+
+    def feed(self, dtheta: NDArray[np.float64], dv: NDArray[np.float64]) -> int:
+        """Take raw increments [rad], [m/s] (n, 3); return how many the alignment used."""
+        m = min(dtheta.shape[0], self.n_total - self.k)
+        if m <= 0:
+            return 0
+        if self.filt is None:
+            self._buf.append((dtheta[:m], dv[:m]))
+            if self.k + m >= self.n_coarse:
+                self._start(np.concatenate([b[0] for b in self._buf]),
+                            np.concatenate([b[1] for b in self._buf]))  # fmt: skip
+                self._buf = []
+        else:
+            run_aided(self.filt, dtheta[:m], dv[:m], self.t0 + self.k * self.dt, [self.track])
+        self.k += m
+        if self.done:
+            self._hand_over()
+        return m
+
+    def _start(self, dtheta: NDArray[np.float64], dv: NDArray[np.float64]) -> None:
+        c = coarse_in_motion(dtheta, dv, self.dt, self.t0, self.track, self.coarse_s)
+        initial = InitialSd(
+            position_sd=self.track.position_sd,
+            velocity_sd=0.5,
+            level_sd=math.radians(0.5),
+            heading_sd=HEADING_PRIOR_SD,
+        )
+        nav = Strapdown(c.lat, c.lon, c.alt, c.v_n, c.C_nr, self.dt, "free")
+        nav.k = self.k0 + c.index
+        self.coarse = c
+        self.filt = AidedInertial(nav, initial_covariance(initial, self.noise), self.noise)
+        i = c.index
+        run_aided(self.filt, dtheta[i:], dv[i:], self.t0 + i * self.dt, [self.track])
+
+    def _hand_over(self) -> None:
+        if self.filt is None:
+            raise ConfigError("in-motion alignment: ended before its coarse window")
+        f = self.filt.nav
+        self.nav = Strapdown(f.lat, f.lon, f.alt, f.v_n, f.C_nr, self.dt, self.vertical)  # type: ignore[arg-type]
+        self.nav.k = f.k
+        self.gyro_bias = self.filt.gyro_bias.copy()
+        self.accel_bias = self.filt.accel_bias.copy()
+
+    def result(self) -> AlignResult:
+        """The alignment's outcome (the filter's estimates and standard deviations)."""
+        assert self.filt is not None and self.coarse is not None and self.nav is not None
+        sd = np.sqrt(np.diag(self.filt.P))
+        return AlignResult(
+            C_nr=self.nav.C_nr,
+            gyro_bias=self.gyro_bias.copy(),
+            accel_bias=self.accel_bias.copy(),
+            attitude_sd=sd[6:9],
+            gyro_bias_sd=sd[9:12],
+            accel_bias_sd=sd[12:15],
+            C_nr_coarse=self.coarse.C_nr,
+        )
+
+
 __all__ = [
     "CoarseResult",
+    "InMotionAligner",
     "InMotionResult",
     "coarse_in_motion",
     "navigate_aided",

@@ -31,6 +31,7 @@ from rinscal.io.mapping import ColumnMapping
 from rinscal.io.navopen import nav_log_header, open_nav_log
 from rinscal.io.track import parse_utc, read_track
 from rinscal.nav.engine import Navigation
+from rinscal.nav.recorded.aided import AIDING, GNSS_NOTE, gnss_aiding, in_motion_alignment
 from rinscal.nav.recorded.blocks import BlockStats
 from rinscal.nav.recorded.kind import (
     calibration_log,
@@ -108,6 +109,8 @@ def navigate_log(
     max_gap_samples: int = 5,
     model_update_s: float = 1.0,
     out_dt_s: float = 1.0,
+    aiding: str = "none",
+    gnss_sd_m: float = 2.0,
     progress: Callable[[float, float], None] | None = None,
 ) -> RecordedNavigation:
     """Navigate a recording with and without each thermal model.
@@ -149,6 +152,15 @@ def navigate_log(
         Thermometer reading interval of the compensators.
     out_dt_s : float [s]
         Interval of the reported errors.
+    aiding : {"none", "gnss"}
+        ``"none"``: pure inertial after the alignment, the errors taken against the
+        reference. ``"gnss"``: every variant navigates aided by the positions of ``track``
+        (loosely coupled, :mod:`rinscal.nav.gnss_ins`), the errors taken against the same
+        track (so they are not independent of it).
+    gnss_sd_m : float [m]
+        With ``aiding="gnss"`` or an in-motion alignment: standard deviation of each
+        coordinate of the track's fixes that the filter assumes (an assumption, reported;
+        not measured here).
     progress : callable, optional
         ``progress(done_s, total_s)`` [s of the recording]: ``total_s`` is NaN while the
         first pass reads the log (its length not known yet), then the log's length while it
@@ -198,6 +210,11 @@ def navigate_log(
     ):
         _check.number(name, v)
     _check.number("max_gap_samples", max_gap_samples, integer=True, min=0)
+    if aiding not in AIDING:
+        raise ConfigError(f"aiding must be one of {', '.join(AIDING)}, got {aiding!r}")
+    _check.number("gnss_sd_m", gnss_sd_m)
+    if not gnss_sd_m > 0:
+        raise ConfigError(f"gnss_sd_m must be > 0 m, got {gnss_sd_m}")
     _check.flag("allow_gaps", allow_gaps)
     _check.instance(
         "imu",
@@ -281,8 +298,11 @@ def navigate_log(
     temps: list[np.ndarray] = []
     refs: list[np.ndarray] = []  # the log's own track, a point a second (its speed)
     next_t = next_ref = -math.inf
+    t_first = math.nan  # the start of the first sample's interval [s]
     for s in pieces():
         stats.add(s)
+        if s.n and math.isnan(t_first):
+            t_first = float(s.t[0] - s.dt[0])
         if s.ref is not None and s.n:
             keep = _every(s.t, 1.0, next_ref)
             if keep.size:
@@ -325,45 +345,62 @@ def navigate_log(
     )  # fmt: skip
     kind, refuse = recording_motion(blocks, moved, min(min_align_s, align_s))
     rate_hz = 1.0 / dt
-    if refuse is None and align_start_s is not None:
-        refuse = window_motion(blocks, moved, align_start_s, align_start_s + align_s)
-    if refuse is not None:
-        raise LogError(f"{path}: {refuse}")
-    if cal_kind is not None:
-        kind = replace(cal_kind, evidence={**cal_kind.evidence, "motion": kind.to_dict()})
-    try:
-        window = find_window(
-            blocks if align_start_s is not None or not moved.moving.any()
-            else still_blocks(blocks, moved),
-            align_s, min_s=min_align_s, start_s=align_start_s,
+    # a moving recording with a track file and no still stretch: aligned in motion on it
+    in_motion = refuse is not None and align_start_s is None and tr is not None
+    aligner: Any = None
+    if in_motion:
+        noise, align, window, aligner = in_motion_alignment(
+            log, imu_noise, lambda lg: _noise(lg, None, None, 0.0), tr, gnss_sd_m, dt,
+            t_first, align_s, path,
         )  # fmt: skip
-    except LogError as exc:  # name the rate: a low-rate recording's seconds hold few samples
-        raise LogError(f"{path} ({rate_hz:.3g} Hz, {kind.kind}): {exc}") from None
-    # a second holding one or two samples has no spread of |f| to judge it quiet by (1-2 Hz):
-    # the window set by hand was checked for motion above, its quiet fraction says nothing
-    judged = float(np.median(blocks.n)) >= 3
-    if window.how == "given" and judged and window.quality.get("quiet_fraction", 1.0) < 0.9:
+        at_rest: dict[str, Any] = {}
         warnings.append(
-            f"only {100 * window.quality['quiet_fraction']:.0f} % of the seconds of the "
-            "alignment window set by hand are quiet: the base moved while it aligned"
+            f"the recording moves and has no still stretch: aligned in motion on the track "
+            f"(OBA + GNSS, {align_s:g} s, heading unknown), navigated from its end"
         )
-    if blocks.gaps is not None and blocks.gaps[blocks.select(window.start_s, window.end_s)].any():
-        warnings.append("the alignment window holds a gap in time: the alignment steps over it")
-    try:
-        at_rest, warn = check_at_rest(
-            blocks, window, reference.lat, reference.h, _declared_units(log)
-        )
-    except LogError as exc:
-        low = f" ({rate_hz:.3g} Hz)" if rate_hz < 10 else ""
-        raise LogError(f"{path}{low}: {exc} [{_unit_source(log)}]") from None
-    warnings += warn
-    noise = imu_noise or _noise(log, blocks, window, reference.lat)
-    if not noise.source.startswith("estimated on the window"):
-        at_rest["scatter"], warn = check_never_at_rest(
-            blocks, window, noise.accel_density, noise.source
-        )
+    else:
+        if refuse is None and align_start_s is not None:
+            refuse = window_motion(blocks, moved, align_start_s, align_start_s + align_s)
+        if refuse is not None:
+            raise LogError(f"{path}: {refuse}")
+        if cal_kind is not None:
+            kind = replace(cal_kind, evidence={**cal_kind.evidence, "motion": kind.to_dict()})
+        try:
+            window = find_window(
+                blocks if align_start_s is not None or not moved.moving.any()
+                else still_blocks(blocks, moved),
+                align_s, min_s=min_align_s, start_s=align_start_s,
+            )  # fmt: skip
+        except LogError as exc:  # name the rate: few samples a second at a low rate
+            raise LogError(f"{path} ({rate_hz:.3g} Hz, {kind.kind}): {exc}") from None
+        # a second holding one or two samples has no spread of |f| to judge it quiet by (1-2 Hz):
+        # the window set by hand was checked for motion above, its quiet fraction says nothing
+        judged = float(np.median(blocks.n)) >= 3
+        if window.how == "given" and judged and window.quality.get("quiet_fraction", 1.0) < 0.9:
+            warnings.append(
+                f"only {100 * window.quality['quiet_fraction']:.0f} % of the seconds of the "
+                "alignment window set by hand are quiet: the base moved while it aligned"
+            )
+        if (
+            blocks.gaps is not None
+            and blocks.gaps[blocks.select(window.start_s, window.end_s)].any()
+        ):
+            warnings.append("the alignment window holds a gap in time: the alignment steps over it")
+        try:
+            at_rest, warn = check_at_rest(
+                blocks, window, reference.lat, reference.h, _declared_units(log)
+            )
+        except LogError as exc:
+            low = f" ({rate_hz:.3g} Hz)" if rate_hz < 10 else ""
+            raise LogError(f"{path}{low}: {exc} [{_unit_source(log)}]") from None
         warnings += warn
-    align = align_config(noise, window)
+        noise = imu_noise or _noise(log, blocks, window, reference.lat)
+        if not noise.source.startswith("estimated on the window"):
+            at_rest["scatter"], warn = check_never_at_rest(
+                blocks, window, noise.accel_density, noise.source
+            )
+            warnings += warn
+        align = align_config(noise, window)
 
     comps: dict[str, Any] = {"none": None}
     for m, model in loaded:
@@ -384,6 +421,13 @@ def navigate_log(
         sched["source"] = "none (no encoder angle), but the z gyro shows a turntable turning"
         sched["turning_without_encoder"] = unseen
     warnings += warn
+    aided: dict[str, Any] = {}
+    if aiding == "gnss":
+        if tr is None:
+            raise ConfigError(
+                f"{path}: aiding='gnss' takes its fixes from a reference track file (track=)"
+            )
+        aided = gnss_aiding(tr, noise, gnss_sd_m, dt)
     result = navigate_recording(
         pieces(),
         reference,
@@ -396,6 +440,8 @@ def navigate_log(
         schedule="encoder" if blocks.has_table else "fixed (no encoder)",
         use_heading_column=heading_source != "--heading",
         progress=tick,
+        aligner=aligner,
+        **aided,
     )
     warnings += list(result.config.notes)
     for name, c in comps.items():
@@ -439,6 +485,17 @@ def navigate_log(
         if tr is None
         else {"file": str(track), "used": tr.used, "skipped": dict(tr.skipped)},
         "heading_source": heading_source,
+        # said only when in motion (a summary at rest stays as it was)
+        **({"alignment": f"in motion (OBA + GNSS, {align_s:g} s)"} if in_motion else {}),
+        **(
+            {}
+            if aiding == "none"
+            else {
+                "aiding": aiding,
+                "gnss_sd_m": gnss_sd_m,
+                "aiding_note": GNSS_NOTE,
+            }
+        ),
         "site": {
             "lat_deg": math.degrees(reference.lat),
             "lon_deg": math.degrees(reference.lon),
@@ -558,6 +615,12 @@ def heading_text(report: dict[str, Any]) -> str:
     """One line on the window for the terminal."""
     w = report["window"]
     a = round(w["start_s"], 3) + 0.0  # never "-0" for a clock starting a hair before 0
+    if w["how"] == "in motion":
+        return (
+            f"alignment {a:.0f}-{a + w['length_s']:.0f} s {report['alignment']}, heading "
+            "unknown: coarse on the track's velocity changes, then the filter on its "
+            "positions; " + noise_text(report["noise"])
+        )
     return (
         f"alignment window {a:.0f}-{a + w['length_s']:.0f} s ({w['how']}"
         f", |f| spread median {w['sd_ug_median']:.0f} µg against a floor of "

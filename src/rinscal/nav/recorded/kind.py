@@ -473,5 +473,10 @@ def moving_message(
     )
     return (
         f"{what} ({said}): the alignment needs the vehicle at rest; {where} for 5-10 min for "
-        "the alignment (in-motion alignment with a track is not built yet)"
+        "the alignment"
+        + (
+            ""
+            if given is not None
+            else ", or give its reference track file (track=) to align it in motion"
+        )
     )

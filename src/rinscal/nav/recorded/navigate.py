@@ -9,7 +9,7 @@ taken against the :class:`Reference` (a known site or a track).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -19,8 +19,9 @@ from numpy.typing import NDArray
 
 from rinscal import earth
 from rinscal.errors import ConfigError, LogError
+from rinscal.nav.aiding import Measurement
 from rinscal.nav.align import AlignConfig, Aligner
-from rinscal.nav.engine import NavResult, navigate_pieces
+from rinscal.nav.engine import AidedFilter, NavResult, navigate_pieces
 from rinscal.nav.recorded.blocks import TableUnwrap
 from rinscal.nav.recorded.compensation import PieceCompensator, _ffill
 from rinscal.nav.recorded.window import Window
@@ -144,6 +145,9 @@ def navigate_recording(
     vertical: VerticalMode = "hold",
     schedule: str = "encoder",
     use_heading_column: bool = True,
+    aiding: Sequence[Measurement] = (),
+    aided_filter: AidedFilter | None = None,
+    aligner: Callable[[int], Any] | None = None,
     progress: Callable[[float], None] | None = None,
 ) -> NavResult:
     """Navigate a recording's variants side by side (the second pass; the pieces with their
@@ -171,6 +175,13 @@ def navigate_recording(
     use_heading_column : bool
         Take the body's true heading from the pieces' ``ref_heading`` (else only the
         reference's ``heading``, e.g. one given on the command line).
+    aiding, aided_filter
+        Aiding after the alignment (:func:`rinscal.nav.engine.navigate_pieces`); none:
+        pure inertial.
+    aligner : callable, optional
+        ``aligner(k0)``: the alignment from sample ``k0`` on (e.g.
+        :class:`rinscal.nav.inmotion.InMotionAligner`); default the zero-velocity
+        :class:`~rinscal.nav.align.Aligner` at the reference's site.
 
     Returns
     -------
@@ -192,7 +203,7 @@ def navigate_recording(
     if out_every < 1:
         raise ConfigError(f"output interval {out_dt_s} s is shorter than a sample ({dt} s)")
 
-    def aligner(k0: int) -> Aligner:
+    def at_rest(k0: int) -> Aligner:
         return Aligner(reference.lat, reference.lon, reference.h, dt, align, vertical, k0=k0)
 
     run = navigate_pieces(
@@ -202,8 +213,10 @@ def navigate_recording(
         dt=dt,
         start_s=window.start_s,
         out_every=out_every,
-        aligner=aligner,
+        aligner=at_rest if aligner is None else aligner,
         correct_warm_up=True,
+        aiding=aiding,
+        aided_filter=aided_filter,
         progress=progress,
     )
     t_last = run.t_last
