@@ -195,7 +195,7 @@ def test_quick_run_reproduces_the_committed_metrics(tmp_path: Path) -> None:
 
     Default options and threads, as a user runs it; tolerance ``REL``.
     """
-    out = tmp_path / "quick-paper"
+    out = tmp_path / "runs" / "quick-paper"  # the committed run's --out, from tmp_path
     cmd = [
         sys.executable,
         "-c",
@@ -207,9 +207,12 @@ def test_quick_run_reproduces_the_committed_metrics(tmp_path: Path) -> None:
         "--imu",
         "paper",
         "--out",
-        str(out),
+        "runs/quick-paper",
     ]
-    done = subprocess.run(cmd, capture_output=True, text=True, timeout=1800, check=False)
+    (tmp_path / "runs").mkdir()
+    done = subprocess.run(
+        cmd, capture_output=True, text=True, timeout=1800, check=False, cwd=tmp_path
+    )
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
     fresh = json.loads((out / "metrics.json").read_text(encoding="utf-8"))
     committed = json.loads(
