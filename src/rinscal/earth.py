@@ -162,3 +162,39 @@ def C_nb_from_euler(heading: float, pitch: float, roll: float) -> NDArray[np.flo
     Rx = np.array([[1.0, 0.0, 0.0], [0.0, cp, -sp], [0.0, sp, cp]])
     Ry = np.array([[cr, 0.0, sr], [0.0, 1.0, 0.0], [-sr, 0.0, cr]])
     return Rz @ Rx @ Ry
+
+
+def enu_difference(
+    lat: ArrayLike,
+    lon: ArrayLike,
+    alt: ArrayLike,
+    lat0: ArrayLike,
+    lon0: ArrayLike,
+    alt0: ArrayLike,
+) -> NDArray[np.float64]:
+    """Small position difference ``(lat, lon, alt) − (lat0, lon0, alt0)`` in metres, ENU.
+
+    Parameters
+    ----------
+    lat, lon, lat0, lon0 : array_like [rad]
+    alt, alt0 : array_like [m]
+
+    Returns
+    -------
+    ndarray, shape (..., 3) [m]
+        East, north, up (first order in the difference: exact to ~1e-6 relative for the
+        few hundred metres a filter ever sees).
+    """
+    lat0 = np.asarray(lat0, dtype=float)
+    alt0 = np.asarray(alt0, dtype=float)
+    rn, re = principal_radii(lat0)
+    dlat = np.asarray(lat, dtype=float) - lat0
+    dlon = np.asarray(lon, dtype=float) - np.asarray(lon0, dtype=float)
+    return np.stack(
+        [
+            dlon * (re + alt0) * np.cos(lat0),
+            dlat * (rn + alt0),
+            np.asarray(alt, dtype=float) - alt0,
+        ],
+        axis=-1,
+    )

@@ -35,7 +35,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from rinscal import earth
+from rinscal.earth import enu_difference
 from rinscal.errors import ConfigError
 from rinscal.nav.strapdown import skew
 
@@ -110,43 +110,7 @@ class Measurement(Protocol):
         ...
 
 
-# --------------------------------------------------------------------------- geometry
-def enu_difference(
-    lat: ArrayLike,
-    lon: ArrayLike,
-    alt: ArrayLike,
-    lat0: ArrayLike,
-    lon0: ArrayLike,
-    alt0: ArrayLike,
-) -> NDArray[np.float64]:
-    """Small position difference ``(lat, lon, alt) − (lat0, lon0, alt0)`` in metres, ENU.
-
-    Parameters
-    ----------
-    lat, lon, lat0, lon0 : array_like [rad]
-    alt, alt0 : array_like [m]
-
-    Returns
-    -------
-    ndarray, shape (..., 3) [m]
-        East, north, up (first order in the difference: exact to ~1e-6 relative for the
-        few hundred metres a filter ever sees).
-    """
-    lat0 = np.asarray(lat0, dtype=float)
-    alt0 = np.asarray(alt0, dtype=float)
-    rn, re = earth.principal_radii(lat0)
-    dlat = np.asarray(lat, dtype=float) - lat0
-    dlon = np.asarray(lon, dtype=float) - np.asarray(lon0, dtype=float)
-    return np.stack(
-        [
-            dlon * (re + alt0) * np.cos(lat0),
-            dlat * (rn + alt0),
-            np.asarray(alt, dtype=float) - alt0,
-        ],
-        axis=-1,
-    )
-
-
+# --------------------------------------------------------------------------- checks
 def _check_times(name: str, t: ArrayLike) -> NDArray[np.float64]:
     tt = np.atleast_1d(np.asarray(t, dtype=float))
     if tt.ndim != 1 or not np.all(np.isfinite(tt)) or np.any(np.diff(tt) <= 0):

@@ -122,9 +122,9 @@ def error_frame(truth: NDArray[np.float64], ins: NDArray[np.float64]) -> pd.Data
     if ins.shape[0] != truth.shape[0]:
         raise AssertionError("internal: INS and truth rows differ")  # pragma: no cover
     lat_t, lon_t, alt_t = truth[:, 1], truth[:, 2], truth[:, 3]
-    rn, re = earth.principal_radii(lat_t)
-    north = (ins[:, 0] - lat_t) * (rn + alt_t)
-    east = (ins[:, 1] - lon_t) * (re + alt_t) * np.cos(lat_t)
+    east, north, up = np.moveaxis(
+        earth.enu_difference(ins[:, 0], ins[:, 1], ins[:, 2], lat_t, lon_t, alt_t), -1, 0
+    )
     horiz = np.hypot(east, north)
     C_true = C_nb_from_euler(truth[:, 7:10])
     C_est = quat_to_dcm(ins[:, 6:10]) @ np.swapaxes(C_br(truth[:, 10]), -1, -2)  # C_nr C_rb
@@ -138,7 +138,7 @@ def error_frame(truth: NDArray[np.float64], ins: NDArray[np.float64]) -> pd.Data
             "north_m": north,
             "horizontal_m": horiz,
             "horizontal_nmi": horiz / units.NMI_TO_M,
-            "up_m": ins[:, 2] - alt_t,
+            "up_m": up,
             "lat_deg": ins[:, 0] / units.DEG_TO_RAD,
             "lon_deg": ins[:, 1] / units.DEG_TO_RAD,
             "v_e_err": ins[:, 3] - truth[:, 4],
