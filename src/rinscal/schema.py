@@ -422,6 +422,9 @@ TABLE = "table_deg"
 REF_TRACK: tuple[str, ...] = ("ref_lat_deg", "ref_lon_deg", "ref_h_m")
 #: Optional reference heading of the body, clockwise from true north [deg].
 REF_HEADING = "ref_heading_deg"
+#: Optional reference velocity of a track file: east, north, up [m/s] (all three or none;
+#: a FOG-INS or GNSS receiver's velocity, used by the filter as a measurement).
+REF_VELOCITY: tuple[str, ...] = ("ref_ve_mps", "ref_vn_mps", "ref_vu_mps")
 #: An interval longer than this many nominal intervals is a gap in a recording.
 GAP_FACTOR = 1.5
 #: Every column with a meaning in the recorded-navigation log.

@@ -215,6 +215,16 @@ def navigate(
             "(default 2).",
         ),
     ] = None,
+    track_velocity_sd: Annotated[
+        float | None,
+        typer.Option(
+            "--track-velocity-sd",
+            min=0.0,
+            help="--log --track: standard deviation of each velocity component of a track "
+            "with ref_ve_mps, ref_vn_mps, ref_vu_mps that the filter assumes [m/s] "
+            "(default 0.1).",
+        ),
+    ] = None,
 ) -> None:
     """Navigate a single-axis RINS, simulated (--scenario) or recorded (--log), and report
     its position error.
@@ -248,18 +258,22 @@ def navigate(
         if gnss_sd is not None and track is None:
             raise fail("--gnss-sd: only with --track (its fixes' σ, for --aiding gnss or an "
                        "in-motion alignment)")  # fmt: skip
+        if track_velocity_sd is not None and track is None:
+            raise fail("--track-velocity-sd: only with --track (its velocities' σ)")
         _navigate_log(
             log, out, list(model or []), policy, mapping=mapping, run=run, site=site,
             heading=heading, track=track, track_utc_start=track_utc_start, align_s=align_s,
             align_start_s=align_start_s, imu=imu, allow_gaps=allow_gaps,
             aiding=({} if aiding is None else {"aiding": aiding})
-            | ({} if gnss_sd is None else {"gnss_sd_m": gnss_sd}),
+            | ({} if gnss_sd is None else {"gnss_sd_m": gnss_sd})
+            | ({} if track_velocity_sd is None else {"track_velocity_sd": track_velocity_sd}),
         )  # fmt: skip
         return
     assert scenario is not None
     given = [k for k, v in {"--map": mapping, "--run": run, "--site": site,
              "--heading": heading, "--track": track, "--track-utc-start": track_utc_start,
-             "--aiding": aiding, "--gnss-sd": gnss_sd}.items()
+             "--aiding": aiding, "--gnss-sd": gnss_sd,
+             "--track-velocity-sd": track_velocity_sd}.items()
              if v is not None] + (["--allow-gaps"] * allow_gaps)  # fmt: skip
     if given:
         raise fail(f"{', '.join(given)}: only with --log, not with --scenario")

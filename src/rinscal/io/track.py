@@ -1,7 +1,7 @@
 """Read a reference track: a table of positions or NMEA GGA sentences, and UTC times.
 
-:func:`read_track` reads ``time_s, ref_lat_deg, ref_lon_deg, ref_h_m`` from a CSV, TSV or
-Parquet table, or the GGA sentences of an NMEA file (their UTC times put on the log's
+:func:`read_track` reads ``time_s, ref_lat_deg, ref_lon_deg, ref_h_m`` (and, if there,
+``ref_ve_mps, ref_vn_mps, ref_vu_mps``) from a CSV, TSV or Parquet table, or the GGA sentences of an NMEA file (their UTC times put on the log's
 clock by ``utc_start``, :func:`parse_utc`), for ``rinscal navigate --log``.
 """
 
@@ -21,6 +21,7 @@ from rinscal.io.tables import _CSV_READ_KW, _check_parquet, _sniff_text, _text_f
 from rinscal.schema import (
     _ROWS,
     REF_TRACK,
+    REF_VELOCITY,
     TIME,
     as_float,
     check_finite,
@@ -88,6 +89,9 @@ class Track:
         ``"unparsable"``, ``"repeated_time"`` (a GGA of an epoch already used),
         ``"no_geoid_separation"`` (used, with the altitude taken as the height: counted,
         not left out). Empty for a table.
+    v_n : ndarray, shape (n, 3) [m/s], optional
+        East, north, up velocity (a table's ``ref_ve_mps, ref_vn_mps, ref_vu_mps``); None:
+        positions only (always for NMEA).
     """
 
     t: np.ndarray
@@ -97,6 +101,7 @@ class Track:
     source: Path
     used: int
     skipped: dict[str, int] = field(default_factory=dict)
+    v_n: np.ndarray | None = None
 
 
 _NMEA_SUFFIXES = (".nmea", ".txt", ".gga", ".log")
@@ -108,8 +113,8 @@ def read_track(path: str | os.PathLike[str], utc_start: str | datetime | None = 
     Parameters
     ----------
     path : path-like
-        A table with ``time_s, ref_lat_deg, ref_lon_deg, ref_h_m`` [s, deg, deg, m]
-        (suffix ``.csv``, ``.tsv``, ``.parquet``) or NMEA text (suffix ``.nmea``, ``.txt``,
+        A table with ``time_s, ref_lat_deg, ref_lon_deg, ref_h_m`` [s, deg, deg, m],
+        optionally ``ref_ve_mps, ref_vn_mps, ref_vu_mps`` [m/s] (all three) (suffix ``.csv``, ``.tsv``, ``.parquet``) or NMEA text (suffix ``.nmea``, ``.txt``,
         ``.gga``, ``.log``, or any file whose first line starts with ``$``).
     utc_start : str or datetime, optional
         ISO 8601 UTC of the log's ``time_s`` = 0; needed for NMEA (GGA carries the UTC time
@@ -164,6 +169,14 @@ def _read_track_table(p: Path) -> Track:
             **_CSV_READ_KW,
         }
         df = next(_text_frames(p, options))
+    vel = [c for c in REF_VELOCITY if c in df.columns]
+    if vel and len(vel) < 3:
+        lacking = [c for c in REF_VELOCITY if c not in vel]
+        raise LogError(
+            f"{p}: velocity column(s) {', '.join(map(repr, vel))} without "
+            f"{', '.join(map(repr, lacking))}: a track's velocity needs all three (east, "
+            "north, up [m/s])"
+        )
     want = (TIME, *REF_TRACK)
     missing = [c for c in want if c not in df.columns]
     if missing:
@@ -175,7 +188,7 @@ def _read_track_table(p: Path) -> Track:
     if len(df) < 1:
         raise LogError(f"{p}: no data rows (only a header)")
     arrays = {}
-    for c in want:
+    for c in (*want, *vel):
         x = as_float(df[c], str(p), c)
         check_finite(x, str(p), c, None, False, "a track value must be finite")
         arrays[c] = x
@@ -195,6 +208,7 @@ def _read_track_table(p: Path) -> Track:
         h=arrays[REF_TRACK[2]],
         source=p,
         used=len(t),
+        v_n=np.column_stack([arrays[c] for c in REF_VELOCITY]) if vel else None,
     )
 
 

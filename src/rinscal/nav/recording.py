@@ -31,7 +31,14 @@ from rinscal.io.mapping import ColumnMapping
 from rinscal.io.navopen import nav_log_header, open_nav_log
 from rinscal.io.track import parse_utc, read_track
 from rinscal.nav.engine import Navigation
-from rinscal.nav.recorded.aided import AIDING, GNSS_NOTE, gnss_aiding, in_motion_alignment
+from rinscal.nav.recorded.aided import (
+    AIDING,
+    GNSS_NOTE,
+    IN_MOTION_SHARE,
+    gnss_aiding,
+    in_motion_alignment,
+    in_motion_lengths,
+)
 from rinscal.nav.recorded.blocks import BlockStats
 from rinscal.nav.recorded.kind import (
     calibration_log,
@@ -111,6 +118,7 @@ def navigate_log(
     out_dt_s: float = 1.0,
     aiding: str = "none",
     gnss_sd_m: float = 2.0,
+    track_velocity_sd: float = 0.1,
     progress: Callable[[float, float], None] | None = None,
 ) -> RecordedNavigation:
     """Navigate a recording with and without each thermal model.
@@ -161,6 +169,11 @@ def navigate_log(
         With ``aiding="gnss"`` or an in-motion alignment: standard deviation of each
         coordinate of the track's fixes that the filter assumes (an assumption, reported;
         not measured here).
+    track_velocity_sd : float [m/s]
+        With the same: standard deviation of each velocity component of a track that has
+        them (``ref_ve_mps, ref_vn_mps, ref_vu_mps``), assumed likewise. A track is used at
+        most :data:`~rinscal.nav.recorded.aided.TRACK_MAX_RATE_HZ` fixes a second (every
+        k-th fix of a faster one).
     progress : callable, optional
         ``progress(done_s, total_s)`` [s of the recording]: ``total_s`` is NaN while the
         first pass reads the log (its length not known yet), then the log's length while it
@@ -215,6 +228,9 @@ def navigate_log(
     _check.number("gnss_sd_m", gnss_sd_m)
     if not gnss_sd_m > 0:
         raise ConfigError(f"gnss_sd_m must be > 0 m, got {gnss_sd_m}")
+    _check.number("track_velocity_sd", track_velocity_sd)
+    if not track_velocity_sd > 0:
+        raise ConfigError(f"track_velocity_sd must be > 0 m/s, got {track_velocity_sd}")
     _check.flag("allow_gaps", allow_gaps)
     _check.instance(
         "imu",
@@ -349,15 +365,24 @@ def navigate_log(
     in_motion = refuse is not None and align_start_s is None and tr is not None
     aligner: Any = None
     if in_motion:
+        duration = float(blocks.t1[-1]) - t_first
         noise, align, window, aligner = in_motion_alignment(
             log, imu_noise, lambda lg: _noise(lg, None, None, 0.0), tr, gnss_sd_m, dt,
-            t_first, align_s, path,
+            t_first, align_s, path, duration_s=duration, velocity_sd=track_velocity_sd,
         )  # fmt: skip
         at_rest: dict[str, Any] = {}
+        in_motion_s = window.length_s
         warnings.append(
             f"the recording moves and has no still stretch: aligned in motion on the track "
-            f"(OBA + GNSS, {align_s:g} s, heading unknown), navigated from its end"
+            f"(OBA + GNSS, {in_motion_s:g} s, heading unknown), navigated from its end"
         )
+        if in_motion_s < align_s:
+            warnings.append(
+                f"align_s={align_s:g} s is more than {100 * IN_MOTION_SHARE:.0f} % of the "
+                f"{duration:.1f} s recording: aligned in motion on its first "
+                f"{in_motion_s:.1f} s ({100 * IN_MOTION_SHARE:.0f} %), navigated the last "
+                f"{duration - in_motion_s:.1f} s"
+            )
     else:
         if refuse is None and align_start_s is not None:
             refuse = window_motion(blocks, moved, align_start_s, align_start_s + align_s)
@@ -427,7 +452,7 @@ def navigate_log(
             raise ConfigError(
                 f"{path}: aiding='gnss' takes its fixes from a reference track file (track=)"
             )
-        aided = gnss_aiding(tr, noise, gnss_sd_m, dt)
+        aided = gnss_aiding(tr, noise, gnss_sd_m, dt, track_velocity_sd)
     result = navigate_recording(
         pieces(),
         reference,
@@ -483,16 +508,39 @@ def navigate_log(
         ),
         "track": None
         if tr is None
-        else {"file": str(track), "used": tr.used, "skipped": dict(tr.skipped)},
+        else {
+            "file": str(track),
+            "used": tr.used,
+            "skipped": dict(tr.skipped),
+            "velocities": tr.v_n is not None,
+        },
         "heading_source": heading_source,
         # said only when in motion (a summary at rest stays as it was)
-        **({"alignment": f"in motion (OBA + GNSS, {align_s:g} s)"} if in_motion else {}),
+        **(
+            {
+                "alignment": f"in motion (OBA + GNSS, {window.length_s:g} s)",
+                "in_motion": {
+                    "align_s": window.length_s,
+                    "coarse_s": in_motion_lengths(align_s, float(blocks.t1[-1]) - t_first)[1],
+                    "align_s_asked": align_s,
+                    "duration_s": float(blocks.t1[-1]) - t_first,
+                    "track_velocities": tr is not None and tr.v_n is not None,
+                },
+            }
+            if in_motion
+            else {}
+        ),
         **(
             {}
             if aiding == "none"
             else {
                 "aiding": aiding,
                 "gnss_sd_m": gnss_sd_m,
+                **(
+                    {"track_velocity_sd_mps": track_velocity_sd}
+                    if tr is not None and tr.v_n is not None
+                    else {}
+                ),
                 "aiding_note": GNSS_NOTE,
             }
         ),
