@@ -135,3 +135,93 @@ def test_the_apis_aiding_is_checked(drive) -> None:  # type: ignore[no-untyped-d
         ConfigError, match=r"takes its fixes from a reference track file \(track=\)"
     ):
         rinscal.navigate_log(drive["rec"], aiding="gnss", align_start_s=0.0, align_s=60.0)
+
+
+def test_a_short_drive_is_aligned_on_60_percent_of_it(drive, tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """A 100 s drive (no stop) with the default --align-s (600 s, longer than the drive):
+    aligned in motion on its first 60 s (60 %: coarse on 30 s, the filter on the other 30),
+    navigated the last 40 s, and said so; the heading it hands over lies within 3σ of the
+    filter's own σ. A 30 s drive (18 s of alignment, under the 20 s needed) is refused
+    naming how long it must be."""
+    full = pd.read_parquet(drive["drive"])
+    short = tmp_path / "short.parquet"
+    full[full["time_s"] <= 161.0 + 1e-9].to_parquet(short, index=False)
+    Path(f"{short}.meta.json").write_text(Path(f"{drive['drive']}.meta.json").read_text())
+    code, text = _run("navigate", "--log", short, "--track", drive["track"], "--gnss-sd",
+                      GNSS_SD_M, "--out", tmp_path / "o")  # fmt: skip
+    assert code == 0, text
+    assert "in motion (OBA + GNSS, 60 s), heading unknown" in text
+    assert "aligned in motion on its first 60.0 s (60 %), navigated the last 40.0 s" in text
+    s = json.loads((tmp_path / "o" / "summary.json").read_text())
+    im = s["recording"]["in_motion"]
+    assert im["align_s"] == pytest.approx(60.0) and im["coarse_s"] == pytest.approx(30.0)
+    assert im["align_s_asked"] == 600.0 and im["duration_s"] == pytest.approx(100.0)
+    assert s["navigation_start_s"] == pytest.approx(61.0 + 60.0, abs=0.25)
+    err = pd.read_csv(tmp_path / "o" / "errors.csv")
+    assert err["time_s"].max() == pytest.approx(161.0, abs=1.0)
+    v = s["variants"]["none"]
+    heading = v["attitude_error_at_nav_start"]["heading_arcsec"]
+    assert abs(heading) <= 3 * v["alignment"]["attitude_sd_arcsec"][2], heading
+    tiny = tmp_path / "tiny.parquet"
+    full[full["time_s"] <= 91.0 + 1e-9].to_parquet(tiny, index=False)
+    Path(f"{tiny}.meta.json").write_text(Path(f"{drive['drive']}.meta.json").read_text())
+    code, text = _run("navigate", "--log", tiny, "--track", drive["track"], "--out", tmp_path / "t")
+    assert code == 2 and "shorter than the 20 s it needs" in text and "34 s or more" in text
+
+
+def _velocity_track(drive: dict[str, Path], sd: float, seed: int) -> Path:
+    """The fixture's 1 Hz track with ENU velocities: the central difference of the log's
+    noise-free 5 Hz reference (its error from the manoeuvres below 1 mm/s) plus white
+    noise ``sd`` [m/s]."""
+    full = pd.read_parquet(drive["rec"])
+    lat = np.deg2rad(full["ref_lat_deg"].to_numpy())
+    lon = np.deg2rad(full["ref_lon_deg"].to_numpy())
+    h = full["ref_h_m"].to_numpy()
+    t = full["time_s"].to_numpy()
+    rn, re = earth.principal_radii(lat)
+    v = np.column_stack([np.gradient((lon - lon[0]) * (re + h) * np.cos(lat), t),
+                         np.gradient((lat - lat[0]) * (rn + h), t), np.gradient(h, t)])  # fmt: skip
+    track = pd.read_csv(drive["track"])
+    rows = np.searchsorted(t, track["time_s"].to_numpy())
+    assert np.allclose(t[rows], track["time_s"].to_numpy())
+    noisy = v[rows] + np.random.default_rng(seed).normal(0.0, sd, (rows.size, 3))
+    track["ref_ve_mps"], track["ref_vn_mps"], track["ref_vu_mps"] = noisy.T
+    out = drive["dir"] / f"trackv{seed}.csv"
+    track.to_csv(out, index=False)
+    return out
+
+
+def test_track_velocities_sharpen_the_in_motion_heading(drive, tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """The same in-motion alignment of the drive (300 s), the track with its velocities
+    (0.05 m/s, --track-velocity-sd 0.05): the filter's heading σ at the hand-over falls to
+    about half (126″ against 238″ measured; 0.018° against 0.036° in
+    tests/nav/test_gnss_ins.py's 50 Hz drive), and the error stays within 3σ of it."""
+    base = ["navigate", "--log", drive["drive"], "--align-s", "300", "--gnss-sd", GNSS_SD_M]
+    code, text = _run(*base, "--track", drive["track"], "--out", tmp_path / "p")
+    assert code == 0, text
+    code, text = _run(*base, "--track", _velocity_track(drive, 0.05, 3),
+                      "--track-velocity-sd", "0.05", "--out", tmp_path / "v")  # fmt: skip
+    assert code == 0, text
+    p, v = (json.loads((tmp_path / f / "summary.json").read_text()) for f in ("p", "v"))
+    assert v["recording"]["in_motion"]["track_velocities"] is True
+    assert p["recording"]["in_motion"]["track_velocities"] is False
+    sd_p = p["variants"]["none"]["alignment"]["attitude_sd_arcsec"][2]
+    sd_v = v["variants"]["none"]["alignment"]["attitude_sd_arcsec"][2]
+    assert sd_v < 0.6 * sd_p, (sd_v, sd_p)
+    heading = v["variants"]["none"]["attitude_error_at_nav_start"]["heading_arcsec"]
+    assert abs(heading) <= 3 * sd_v, (heading, sd_v)
+
+
+def test_a_track_velocity_needs_all_three_columns(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    from rinscal.errors import LogError
+    from rinscal.io.track import read_track
+
+    p = tmp_path / "t.csv"
+    pd.DataFrame({"time_s": [1.0, 2.0], "ref_lat_deg": [30.0, 30.0], "ref_lon_deg": [100.0, 100.0],
+                  "ref_h_m": [5.0, 5.0], "ref_ve_mps": [1.0, 2.0], "ref_vn_mps": [3.0, 4.0]}
+                 ).to_csv(p, index=False)  # fmt: skip
+    with pytest.raises(LogError, match="'ref_vu_mps': a track's velocity needs all three"):
+        read_track(p)
+    pd.read_csv(p).assign(ref_vu_mps=[5.0, 6.0]).to_csv(p, index=False)
+    tr = read_track(p)
+    np.testing.assert_array_equal(tr.v_n, [[1.0, 3.0, 5.0], [2.0, 4.0, 6.0]])

@@ -55,3 +55,27 @@ def test_an_in_motion_alignment_without_noise_is_refused() -> None:
         in_motion_alignment(
             log, None, lambda _: None, _track(), 1.5, 0.01, 0.0, 300.0, "run.parquet"
         )
+
+
+def test_in_motion_lengths_and_a_fast_track_thinned() -> None:
+    from rinscal.nav.recorded.aided import in_motion_lengths, track_measurement
+
+    # an alignment that leaves 10 s or more is kept, its coarse window at most 60 s / half
+    assert in_motion_lengths(300.0, 371.0) == (300.0, 60.0)
+    assert in_motion_lengths(80.0, 100.0) == (80.0, 40.0)
+    # one that leaves less: 60 % of the recording
+    assert in_motion_lengths(600.0, 100.0) == pytest.approx((60.0, 30.0))
+    assert in_motion_lengths(95.0, 100.0) == pytest.approx((60.0, 30.0))
+    with pytest.raises(LogError, match="must last 34 s or more"):
+        in_motion_lengths(600.0, 33.0)
+    # a 100 Hz track with velocities: every 10th fix, equally spaced at 0.1 s
+    t = 61.0 + 0.01 * np.arange(1, 1001)
+    v = np.column_stack([t, -t, 0 * t])
+    tr = SimpleNamespace(t=t, lat=t * 1e-6, lon=t * 2e-6, h=t, v_n=v)
+    g = track_measurement(tr, 0.02, 0.05)
+    np.testing.assert_allclose(np.diff(g.times), 0.1, atol=1e-9)
+    assert g.times.size == 100 and g.v_n is not None
+    np.testing.assert_array_equal(g.v_n[:, 0], g.times)
+    assert g.position_sd == 0.02
+    # a 1 Hz track kept whole, no velocities
+    assert track_measurement(_track(), 1.5, 0.1).times.size == 10

@@ -1,7 +1,8 @@
 """Read a reference track: a table of positions or NMEA GGA sentences, and UTC times.
 
 :func:`read_track` reads ``time_s, ref_lat_deg, ref_lon_deg, ref_h_m`` (and, if there,
-``ref_ve_mps, ref_vn_mps, ref_vu_mps``) from a CSV, TSV or Parquet table, or the GGA sentences of an NMEA file (their UTC times put on the log's
+``ref_ve_mps, ref_vn_mps, ref_vu_mps``) from a CSV, TSV or Parquet table, or the GGA
+sentences of an NMEA file (their UTC times put on the log's
 clock by ``utc_start``, :func:`parse_utc`), for ``rinscal navigate --log``.
 """
 
@@ -114,7 +115,8 @@ def read_track(path: str | os.PathLike[str], utc_start: str | datetime | None = 
     ----------
     path : path-like
         A table with ``time_s, ref_lat_deg, ref_lon_deg, ref_h_m`` [s, deg, deg, m],
-        optionally ``ref_ve_mps, ref_vn_mps, ref_vu_mps`` [m/s] (all three) (suffix ``.csv``, ``.tsv``, ``.parquet``) or NMEA text (suffix ``.nmea``, ``.txt``,
+        optionally ``ref_ve_mps, ref_vn_mps, ref_vu_mps`` [m/s] (all three) (suffix
+        ``.csv``, ``.tsv``, ``.parquet``) or NMEA text (suffix ``.nmea``, ``.txt``,
         ``.gga``, ``.log``, or any file whose first line starts with ``$``).
     utc_start : str or datetime, optional
         ISO 8601 UTC of the log's ``time_s`` = 0; needed for NMEA (GGA carries the UTC time

@@ -34,6 +34,7 @@ from rinscal.nav.engine import Navigation
 from rinscal.nav.recorded.aided import (
     AIDING,
     GNSS_NOTE,
+    IN_MOTION_NAV_MIN_S,
     IN_MOTION_SHARE,
     gnss_aiding,
     in_motion_alignment,
@@ -378,8 +379,8 @@ def navigate_log(
         )
         if in_motion_s < align_s:
             warnings.append(
-                f"align_s={align_s:g} s is more than {100 * IN_MOTION_SHARE:.0f} % of the "
-                f"{duration:.1f} s recording: aligned in motion on its first "
+                f"align_s={align_s:g} s leaves less than {IN_MOTION_NAV_MIN_S:g} s of the "
+                f"{duration:.1f} s recording to navigate: aligned in motion on its first "
                 f"{in_motion_s:.1f} s ({100 * IN_MOTION_SHARE:.0f} %), navigated the last "
                 f"{duration - in_motion_s:.1f} s"
             )

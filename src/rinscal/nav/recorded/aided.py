@@ -23,6 +23,7 @@ __all__ = [
     "GNSS_NOTE",
     "IN_MOTION_COARSE_S",
     "IN_MOTION_MIN_S",
+    "IN_MOTION_NAV_MIN_S",
     "IN_MOTION_SHARE",
     "TRACK_MAX_RATE_HZ",
     "gnss_aiding",
@@ -46,9 +47,10 @@ def in_motion_lengths(align_s: float, duration_s: float) -> tuple[float, float]:
     """The alignment and coarse window [s] of an in-motion alignment asked for ``align_s``
     [s] on a recording ``duration_s`` [s] long.
 
-    The alignment is ``align_s``, at most :data:`IN_MOTION_SHARE` of the recording (the
-    rest is navigated: a 100 s drive with the default 600 s aligns on 60 s and navigates
-    40 s); the coarse (OBA) window is :data:`IN_MOTION_COARSE_S`, at most half the
+    The alignment is ``align_s`` when it leaves at least :data:`IN_MOTION_NAV_MIN_S` of the
+    recording to navigate, else :data:`IN_MOTION_SHARE` of the recording (the rest is
+    navigated: a 100 s drive with the default 600 s aligns on 60 s and navigates 40 s);
+    the coarse (OBA) window is :data:`IN_MOTION_COARSE_S`, at most half the
     alignment (the filter refines the other half on the track's fixes).
 
     Raises
@@ -56,13 +58,15 @@ def in_motion_lengths(align_s: float, duration_s: float) -> tuple[float, float]:
     LogError
         When the alignment would be shorter than :data:`IN_MOTION_MIN_S`.
     """
-    length = min(float(align_s), IN_MOTION_SHARE * float(duration_s))
+    length = float(align_s)
+    if length > float(duration_s) - IN_MOTION_NAV_MIN_S:
+        length = IN_MOTION_SHARE * float(duration_s)
     if length < IN_MOTION_MIN_S:
         raise LogError(
-            f"an in-motion alignment of {length:.1f} s (align_s={align_s:g} s, at most "
+            f"an in-motion alignment of {length:.1f} s (align_s={align_s:g} s, or "
             f"{100 * IN_MOTION_SHARE:.0f} % of the {duration_s:.1f} s recording) is shorter "
             f"than the {IN_MOTION_MIN_S:g} s it needs: a moving recording aligned on its "
-            f"track must last {IN_MOTION_MIN_S / IN_MOTION_SHARE:.0f} s or more"
+            f"track must last {math.ceil(IN_MOTION_MIN_S / IN_MOTION_SHARE)} s or more"
         )
     return length, min(IN_MOTION_COARSE_S, 0.5 * length)
 
@@ -132,8 +136,11 @@ def in_motion_alignment(
 #: Coarse (OBA) window of an in-motion alignment [s], at most half the alignment
 #: (:func:`rinscal.nav.inmotion.coarse_in_motion`).
 IN_MOTION_COARSE_S = 60.0
-#: Largest share of a moving recording an in-motion alignment takes (the rest is navigated).
+#: Share of a moving recording an in-motion alignment takes when the one asked for leaves
+#: less than :data:`IN_MOTION_NAV_MIN_S` to navigate (the rest is navigated).
 IN_MOTION_SHARE = 0.6
+#: Least navigation an in-motion alignment asked for must leave, else it is cut [s].
+IN_MOTION_NAV_MIN_S = 10.0
 #: Shortest in-motion alignment [s].
 IN_MOTION_MIN_S = 20.0
 #: Most fixes a second of a track that the filter (and the coarse stage) use [Hz].
