@@ -256,7 +256,9 @@ def simulate_field_start(
     with LogStreamWriter(truth, validate=False) as w:
         w.write(df)
     meta = recording_meta(
-        cfg, plant, f"rinscal simulate field-starts --seed {start.seed} (start {start.index})",
+        cfg,
+        plant,
+        f"rinscal simulate field-starts --seed {start.seed} (start {start.index})",
         increments=False,
     )
     meta["field_start"] = start.meta()
@@ -278,9 +280,7 @@ def _truth_rows(
     if plant.last_size_effect is not None:
         err[:, 3:] += plant.last_size_effect[sel]
     table = (np.rad2deg(ch.encoder[sel]) + 180.0) % 360.0 - 180.0
-    return np.column_stack(
-        [ch.t[sel], err, thermal, np.rad2deg(ch.euler[sel]), table]
-    )
+    return np.column_stack([ch.t[sel], err, thermal, np.rad2deg(ch.euler[sel]), table])
 
 
 def simulate_field_starts(
@@ -347,4 +347,3 @@ def simulate_field_starts(
         tick = None if progress is None else (lambda d, t, k=s.index: progress(k, d, t))
         logs.append(simulate_field_start(s, out, imu=plant_cfg, progress=tick))
     return logs
-
