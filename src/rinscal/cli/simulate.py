@@ -514,8 +514,10 @@ def _simulate_field_starts(
         raise fail(msg.replace("daily_cycle_c", "--daily-cycle")) from None
     existing = [p for st in starts for p in field_start_files(out, st.index) if p.exists()]
     if existing:
-        raise fail(f"--out {out}: {existing[0].name} exists ({len(existing)} of the files to "
-                   "write do); field-starts never overwrites a file, give another folder")  # fmt: skip
+        raise fail(
+            f"--out {out}: {existing[0].name} exists ({len(existing)} of the files to write "
+            "do); field-starts never overwrites a file, give another folder"
+        )
     console.print(
         f"simulating {len(starts)} parked cold start(s) of {kw['hours']:g} h at "
         f"{kw['rate_hz']:g} Hz, ambients "
