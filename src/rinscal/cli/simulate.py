@@ -238,6 +238,7 @@ def simulate(
                                daily_cycle=daily_cycle)  # fmt: skip
         return
     if any(v is not None for v in field.values()):
+        # deferred: loaded when the command runs, so that `rinscal --help` starts fast
         from rinscal.cli._app import fail
 
         given = [k for k, v in field.items() if v is not None]

@@ -148,23 +148,6 @@ class ChamberProfile:
             return cls((0.0, hold_before_s, hold_before_s + t_ramp), (start_c, start_c, end_c))
         return cls((0.0, t_ramp), (start_c, end_c))
 
-    @classmethod
-    def daily(
-        cls, mean_c: float, amplitude_c: float, duration_s: float, step_s: float = 600.0
-    ) -> ChamberProfile:
-        """An outdoor ambient: ``mean_c + amplitude_c · sin(2π t / 24 h)`` [°C], sampled every
-        ``step_s`` [s] over ``duration_s`` [s] (a break point at most 10 min apart is within
-        0.1 % of the amplitude of the sinusoid). The unit has soaked at ``mean_c`` before
-        power-on (t = 0); ``amplitude_c`` 0: a constant ambient."""
-        if not amplitude_c:
-            return cls.constant(mean_c)
-        if not (duration_s > 0 and step_s > 0):
-            raise ConfigError(f"daily ambient: duration_s and step_s must be > 0, got "
-                              f"{duration_s}, {step_s}")  # fmt: skip
-        t = np.arange(0.0, duration_s + step_s, step_s)
-        y = mean_c + amplitude_c * np.sin(2.0 * np.pi * t / 86400.0)
-        return cls(tuple(float(v) for v in t), tuple(float(v) for v in y))
-
     def __call__(self, t: ArrayLike) -> NDArray[np.float64]:
         """Chamber temperature [°C] at times ``t`` [s]."""
         return np.interp(np.asarray(t, dtype=float), self.times_s, self.temps_c)

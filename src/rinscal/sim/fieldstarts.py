@@ -51,8 +51,7 @@ from rinscal.nav.rotation import RotationSchedule
 from rinscal.presets import DEFAULT_PRESET
 from rinscal.schema import CHANNELS
 from rinscal.sim.config import ImuConfig, resolve_imu
-from rinscal.sim.field import ChamberProfile
-from rinscal.sim.scenario import MAX_HOURS, MAX_RATE_HZ, imu_samples
+from rinscal.sim.scenario import MAX_HOURS, MAX_RATE_HZ, daily_ambient, imu_samples
 from rinscal.sim.scenario_config import ScenarioConfig
 from rinscal.sim.sensors import ThermalPlant
 from rinscal.sim.trajectory import StaticMotion
@@ -126,7 +125,7 @@ class FieldStart:
             duration_s=duration,
             rate_hz=self.rate_hz,
             align=None,
-            chamber=ChamberProfile.daily(self.ambient_c, self.daily_cycle_c, duration),
+            chamber=daily_ambient(self.ambient_c, self.daily_cycle_c, duration),
             chunk_s=_CHUNK_S,
         )
 

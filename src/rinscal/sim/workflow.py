@@ -30,8 +30,7 @@ from rinscal.nav.rotation import schedule_from_name
 from rinscal.presets import DEFAULT_PRESET
 from rinscal.sim.config import ImuConfig, resolve_imu
 from rinscal.sim.disturbance import DisturbedStart
-from rinscal.sim.field import ChamberProfile
-from rinscal.sim.scenario import NavResult, align_for, preset, run_scenario
+from rinscal.sim.scenario import NavResult, align_for, daily_ambient, preset, run_scenario
 from rinscal.sim.scenario_config import ScenarioConfig
 from rinscal.sim.sensors import (
     ModelCompensator,
@@ -174,7 +173,7 @@ def navigate_scenario(
         before power-on (a parked cold start at that temperature).
     daily_cycle_c : float [°C]
         With ``ambient_c``: the amplitude of a daily sinusoid about it (period 24 h, rising
-        from ``ambient_c`` at power-on; :meth:`rinscal.sim.field.ChamberProfile.daily`).
+        from ``ambient_c`` at power-on; :func:`rinscal.sim.scenario.daily_ambient`).
     progress : callable, optional
         Called with (simulated seconds done, total seconds).
 
@@ -224,7 +223,7 @@ def navigate_scenario(
             schedule=schedule_from_name(rotation),
         )
     if ambient_c is not None:
-        chamber = ChamberProfile.daily(ambient_c, daily_cycle_c, cfg.duration_s)
+        chamber = daily_ambient(ambient_c, daily_cycle_c, cfg.duration_s)
         cfg = replace(cfg, chamber=chamber)
     if cfg.chamber is None:
         raise ConfigError(f"scenario {cfg.name!r} has no chamber profile: no thermal plant")
