@@ -9,7 +9,7 @@ from typing import Annotated, Any
 import typer
 
 from rinscal.cli._app import app, fail
-from rinscal.cli._options import PolicyOpt, is_same_file, prepare_outputs
+from rinscal.cli._options import DailyCycleOpt, PolicyOpt, is_same_file, prepare_outputs
 from rinscal.presets import DEFAULT_PRESET, PRESETS
 
 #: The plant ``rinscal navigate`` runs unless ``--imu`` names another (as simulate and
@@ -161,16 +161,7 @@ def navigate(
             metavar="C",
         ),
     ] = None,
-    daily_cycle: Annotated[
-        float | None,
-        typer.Option(
-            "--daily-cycle",
-            min=0.0,
-            max=40.0,
-            help="Scenario, with --ambient: amplitude [°C] of a daily sinusoid about it.",
-            metavar="AMP_C",
-        ),
-    ] = None,
+    daily_cycle: DailyCycleOpt = None,
     mapping: Annotated[
         Path | None,
         typer.Option(

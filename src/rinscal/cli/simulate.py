@@ -10,6 +10,7 @@ import typer
 from rinscal.cli._app import app
 from rinscal.cli._options import (
     ColOpt,
+    DailyCycleOpt,
     DropOpt,
     ImuOpt,
     LogArg,
@@ -209,16 +210,7 @@ def simulate(
             "(instead of --ambient).",
         ),
     ] = None,
-    daily_cycle: Annotated[
-        float | None,
-        typer.Option(
-            "--daily-cycle",
-            min=0.0,
-            max=40.0,
-            metavar="AMP_C",
-            help="field-starts: amplitude [°C] of a daily sinusoid about each ambient.",
-        ),
-    ] = None,
+    daily_cycle: DailyCycleOpt = None,
 ) -> None:
     """Simulate a thermal-chamber protocol into a calibration log, a truth file and metadata.
 
