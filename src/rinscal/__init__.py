@@ -52,8 +52,10 @@ Data
     :func:`write_meta` (a table and its ``.meta.json`` sidecar, atomically),
     :func:`simulate` (a chamber protocol → :class:`Simulation`: log, truth, metadata),
     :func:`simulate_multiposition` (the IMU on a two-axis turntable in the chamber →
-    :class:`Simulation`: log, truth parameter table, metadata), :func:`load_imu` (an IMU
-    preset or TOML file → :class:`ImuConfig`).
+    :class:`Simulation`: log, truth parameter table, metadata),
+    :func:`simulate_field_starts` (parked cold starts at given ambients → recorded-navigation
+    logs with metadata and truth in a folder), :func:`load_imu` (an IMU preset or TOML file
+    → :class:`ImuConfig`).
 Calibration
     :func:`fit` (→ :class:`FitResult`: the model and its report), :func:`load_model` (a
     JSON model file → :class:`FittedModel`, the fitted model), :func:`compensate` (in
@@ -111,6 +113,7 @@ _API: dict[str, str] = {
     "write_meta": "rinscal.io.metadata",
     "simulate": "rinscal.sim.protocols:simulate_protocol",
     "simulate_multiposition": "rinscal.sim.multiposition",
+    "simulate_field_starts": "rinscal.sim.fieldstarts",
     "Simulation": "rinscal.sim.protocols",
     "load_imu": "rinscal.sim.config",
     "ImuConfig": "rinscal.sim.config",

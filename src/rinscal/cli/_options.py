@@ -72,6 +72,19 @@ ImuOpt = Annotated[
         help=f"The simulated IMU: a preset ({', '.join(PRESETS)}) or an IMU TOML file.",
     ),
 ]
+#: ``--daily-cycle``: a daily sinusoid about the ambient of a parked cold start
+#: (``navigate --scenario ... --ambient``, ``simulate field-starts``).
+DailyCycleOpt = Annotated[
+    float | None,
+    typer.Option(
+        "--daily-cycle",
+        min=0.0,
+        max=40.0,
+        metavar="AMP_C",
+        help="Amplitude [°C] of a daily sinusoid about the ambient (navigate --scenario with "
+        "--ambient; simulate field-starts).",
+    ),
+]
 WorkersOpt = Annotated[
     int | None,
     typer.Option(

@@ -9,7 +9,7 @@ from typing import Annotated, Any
 import typer
 
 from rinscal.cli._app import app, fail
-from rinscal.cli._options import PolicyOpt, is_same_file, prepare_outputs
+from rinscal.cli._options import DailyCycleOpt, PolicyOpt, is_same_file, prepare_outputs
 from rinscal.presets import DEFAULT_PRESET, PRESETS
 
 #: The plant ``rinscal navigate`` runs unless ``--imu`` names another (as simulate and
@@ -150,6 +150,18 @@ def navigate(
             metavar="MIN",
         ),
     ] = None,
+    ambient: Annotated[
+        float | None,
+        typer.Option(
+            "--ambient",
+            min=-60.0,
+            max=100.0,
+            help="Scenario: a constant ambient [°C] instead of the scenario's chamber profile, "
+            "the unit soaked at it before power-on (a parked cold start).",
+            metavar="C",
+        ),
+    ] = None,
+    daily_cycle: DailyCycleOpt = None,
     mapping: Annotated[
         Path | None,
         typer.Option(
@@ -246,7 +258,8 @@ def navigate(
         raise fail("give either --scenario (a simulated run) or --log (a recording), not both")
     if log is not None:
         extra = {"--record": record, "--hours": hours, "--imu-config": imu_config,
-                 "--counts/--no-counts": counts, "--disturbed-start": disturbed_start}  # fmt: skip
+                 "--counts/--no-counts": counts, "--disturbed-start": disturbed_start,
+                 "--ambient": ambient, "--daily-cycle": daily_cycle}  # fmt: skip
         given = [k for k, v in extra.items() if v is not None] + (["--increments"] * increments)
         given += [
             f"--{p.replace('_', '-')}"
@@ -279,6 +292,8 @@ def navigate(
         raise fail(f"{', '.join(given)}: only with --log, not with --scenario")
     if increments and record is None:
         raise fail("--increments says how --record writes; give --record too")
+    if daily_cycle is not None and ambient is None:
+        raise fail("--daily-cycle is a cycle about --ambient; give --ambient too")
     align_start_s = 0.0 if align_start_s is None else align_start_s
 
     if imu is not None and imu_config is not None:
@@ -337,7 +352,8 @@ def navigate(
                 scenario, imu=imu_spec, models=models, hours=hours, rate_hz=rate, seed=seed,
                 rotation=rotation, align_s=align_s, align_start_s=align_start_s, oracle=oracle,
                 policy=policy, record=record, increments=increments, quantise=counts,
-                disturbed_start_min=disturbed_start, progress=tick,
+                disturbed_start_min=disturbed_start, ambient_c=ambient,
+                daily_cycle_c=daily_cycle or 0.0, progress=tick,
             )  # fmt: skip
     except RinscalError as exc:
         raise fail(str(exc)) from None

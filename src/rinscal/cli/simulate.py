@@ -10,6 +10,7 @@ import typer
 from rinscal.cli._app import app
 from rinscal.cli._options import (
     ColOpt,
+    DailyCycleOpt,
     DropOpt,
     ImuOpt,
     LogArg,
@@ -125,8 +126,9 @@ def simulate(
         str,
         typer.Argument(
             metavar="PROTOCOL",
-            help="Protocol: soak (Table 3), ramp (-2 -> 50 °C), repeat (25 °C) or "
-            "multiposition (two-axis turntable: positions and rate tests at set points).",
+            help="Protocol: soak (Table 3), ramp (-2 -> 50 °C), repeat (25 °C), "
+            "multiposition (two-axis turntable: positions and rate tests at set points) or "
+            "field-starts (parked cold starts at given ambients, into the folder --out).",
         ),
     ],
     out: Annotated[Path, typer.Option("--out", "-o", help="Log to write (.parquet, .csv, .tsv).")],
@@ -188,6 +190,27 @@ def simulate(
             help="multiposition: the turntable's errors (±5′ position, ±10 ppm rate).",
         ),
     ] = False,
+    runs: Annotated[
+        int | None,
+        typer.Option("--runs", min=1, max=10000, help="field-starts: number of starts (7)."),
+    ] = None,
+    ambient: Annotated[
+        str | None,
+        typer.Option(
+            "--ambient",
+            help="field-starts: ambients [°C], comma separated, cycled over the runs "
+            "(default 0,7,14,21,28,35,42).",
+        ),
+    ] = None,
+    season: Annotated[
+        str | None,
+        typer.Option(
+            "--season",
+            help="field-starts: LOW,HIGH [°C]: draw each start's ambient uniformly from it "
+            "(instead of --ambient).",
+        ),
+    ] = None,
+    daily_cycle: DailyCycleOpt = None,
 ) -> None:
     """Simulate a thermal-chamber protocol into a calibration log, a truth file and metadata.
 
@@ -195,8 +218,23 @@ def simulate(
     sample, in the log's unit) and LOG + '.meta.json' (units, site, offsets, seed). The
     multiposition protocol writes, instead of the first, LOG's stem + '.params.truth.csv':
     the true sensor-error parameters (biases, scale factors, nonlinear terms,
-    misalignments) at each set point.
+    misalignments) at each set point. field-starts (parked cold starts at given ambients,
+    the table indexing four positions) writes into the folder --out start_<k>.parquet (a
+    recorded-navigation log without heading), its .meta.json and start_<k>.truth.parquet.
     """
+    field = {"--runs": runs, "--ambient": ambient, "--season": season,
+             "--daily-cycle": daily_cycle}  # fmt: skip
+    if protocol == "field-starts":
+        _simulate_field_starts(rate=rate, out=out, hours=hours, seed=seed, imu=imu,
+                               units=units, runs=runs, ambient=ambient, season=season,
+                               daily_cycle=daily_cycle)  # fmt: skip
+        return
+    if any(v is not None for v in field.values()):
+        # deferred: loaded when the command runs, so that `rinscal --help` starts fast
+        from rinscal.cli._app import fail
+
+        given = [k for k, v in field.items() if v is not None]
+        raise fail(f"{', '.join(given)}: field-starts only, not {protocol}")
     if protocol == "multiposition":
         if hours is not None:
             # deferred: loaded when the command runs, so that `rinscal --help` starts fast
@@ -414,6 +452,89 @@ def _simulate_multiposition(
     except RinscalError as exc:
         raise fail(str(exc)) from None
     console.print(f"wrote {out} ({rows:,} rows), {truth_path.name}, {meta_file.name}")
+
+
+def _simulate_field_starts(
+    *,
+    rate: float,
+    out: Path,
+    hours: float | None,
+    seed: int,
+    imu: str,
+    units: str | None,
+    runs: int | None,
+    ambient: str | None,
+    season: str | None,
+    daily_cycle: float | None,
+) -> None:
+    """`rinscal simulate field-starts --out DIR`: parked cold starts, each a recording, its
+    metadata and its truth."""
+    # deferred: loaded when the command runs, so that `rinscal --help` starts fast
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from rinscal.cli._app import console, fail
+    from rinscal.errors import RinscalError
+    from rinscal.sim.fieldstarts import (
+        DEFAULT_AMBIENTS_C,
+        field_start_files,
+        field_starts,
+        simulate_field_starts,
+    )
+
+    if units is not None:
+        raise fail("--units: not for field-starts (the IMU's own output mode decides)")
+    if ambient is not None and season is not None:
+        raise fail("give --ambient or --season, not both")
+    if out.exists() and not out.is_dir():
+        raise fail(f"--out {out}: field-starts writes into a folder; that is a file")
+    ambients = _floats(ambient, "--ambient") or DEFAULT_AMBIENTS_C
+    bounds = _floats(season, "--season")
+    if bounds is not None and len(bounds) != 2:
+        raise fail(f"--season: give LOW,HIGH [°C], got {season!r}")
+    kw = {
+        "runs": 7 if runs is None else runs,
+        "ambient_c": ambients,
+        "hours": 4.0 if hours is None else hours,
+        "rate_hz": rate,
+        "seed": seed,
+        "daily_cycle_c": daily_cycle or 0.0,
+        "season": bounds,
+    }
+    try:
+        starts = field_starts(**kw)  # type: ignore[arg-type]
+    except RinscalError as exc:
+        msg = str(exc).replace("rate_hz", "--rate").replace("ambient_c", "--ambient")
+        raise fail(msg.replace("daily_cycle_c", "--daily-cycle")) from None
+    existing = [p for st in starts for p in field_start_files(out, st.index) if p.exists()]
+    if existing:
+        raise fail(
+            f"--out {out}: {existing[0].name} exists ({len(existing)} of the files to write "
+            "do); field-starts never overwrites a file, give another folder"
+        )
+    console.print(
+        f"simulating {len(starts)} parked cold start(s) of {kw['hours']:g} h at "
+        f"{kw['rate_hz']:g} Hz, ambients "
+        f"{', '.join(f'{s.ambient_c:g}' for s in starts)} °C, seed {seed}",
+        highlight=False,
+    )
+    try:
+        with Progress(
+            TextColumn("{task.description}"),
+            BarColumn(),
+            TimeElapsedColumn(),
+            console=console,
+            transient=True,
+        ) as progress:
+            task = progress.add_task("start 0", total=len(starts))
+
+            def tick(k: int, done: float, total: float) -> None:
+                progress.update(task, completed=k + done / total, description=f"start {k}")
+
+            logs = simulate_field_starts(out, imu=imu, progress=tick, **kw)  # type: ignore[arg-type]
+    except RinscalError as exc:
+        raise fail(str(exc)) from None
+    console.print(f"wrote {len(logs)} start(s) into {out} (start_<k>.parquet, .meta.json, "
+                  ".truth.parquet)", highlight=False)  # fmt: skip
 
 
 # ======================================================================== end simulate

@@ -265,6 +265,9 @@ class SensorNoise:
         self.outlier_sd = config.noise.outlier_sd_si()
         self.outlier_p = min(1.0, config.noise.outlier_rate_hz * dt)
         self.walk = np.zeros(6)
+        #: The bias random walk of each sample of the last :meth:`draw`, (n, 6) [rad/s,
+        #: m/s²]; None when the plant has no random walk.
+        self.last_walk: NDArray | None = None
         white_a, markov_a, tau_a = config.noise.angle_noise_si()
         self.angle_white_sd = white_a if config.effects.angle_noise else 0.0
         self.angle_markov_sd = markov_a if config.effects.angle_noise else 0.0
@@ -291,6 +294,7 @@ class SensorNoise:
             np.cumsum(walk, axis=0, out=walk)
             walk += self.walk
             self.walk = walk[-1].copy()
+            self.last_walk = walk
             e += walk
         outlier = np.zeros((n, 6), dtype=bool)
         if self.outlier_p > 0:

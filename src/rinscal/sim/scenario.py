@@ -156,6 +156,24 @@ def preset(
     )
 
 
+def daily_ambient(
+    mean_c: float, amplitude_c: float, duration_s: float, step_s: float = 600.0
+) -> ChamberProfile:
+    """An outdoor ambient: ``mean_c + amplitude_c · sin(2π t / 24 h)`` [°C], sampled every
+    ``step_s`` [s] over ``duration_s`` [s] as a chamber profile (break points 10 min apart
+    are within 0.03 % of the amplitude of the sinusoid). The unit has soaked at ``mean_c``
+    before power-on (t = 0); ``amplitude_c`` 0: a constant ambient."""
+    if not amplitude_c:
+        return ChamberProfile.constant(mean_c)
+    if not (duration_s > 0 and step_s > 0):
+        raise ConfigError(
+            f"daily ambient: duration_s and step_s must be > 0, got {duration_s}, {step_s}"
+        )
+    t = np.arange(0.0, duration_s + step_s, step_s)
+    y = mean_c + amplitude_c * np.sin(2.0 * np.pi * t / 86400.0)
+    return ChamberProfile(tuple(float(v) for v in t), tuple(float(v) for v in y))
+
+
 def align_for(
     imu: ImuConfig,
     total_s: float = 600.0,
@@ -255,6 +273,47 @@ def _piece_correction(comp: Compensator | None, dt: float) -> PieceCorrection | 
     return correct
 
 
+def imu_samples(
+    config: ScenarioConfig,
+    errors: ErrorSource | None = None,
+    split_at: tuple[float, ...] = (),
+) -> Iterator[tuple[ImuChunk, NDArray[np.float64], NDArray[np.float64]]]:
+    """A scenario's raw IMU output from power-on, chunk by chunk, without navigating it:
+    the trajectory's ideal r-frame increments (:class:`rinscal.sim.ideal_imu.ImuSynthesizer`)
+    plus the sensor errors.
+
+    Parameters
+    ----------
+    config : ScenarioConfig
+        The scenario (trajectory, turntable, duration, rate, chunk length).
+    errors : callable, optional
+        Sensor errors in ``r``, ``errors(t, omega_r, f_r) -> (n, 6)`` [rad/s, m/s²] at the
+        sample mid-times [s] from the true mean rate [rad/s] and specific force [m/s²] of each
+        sample (e.g. a :class:`ThermalPlant`); called once per chunk, in time order. None:
+        an ideal IMU.
+    split_at : tuple of float [s]
+        Times at which a chunk must end.
+
+    Yields
+    ------
+    chunk : ImuChunk
+        The truth of the chunk (ideal increments, encoder, position, attitude).
+    dtheta, dv : ndarray, shape (n, 3) [rad, m/s]
+        The raw increments the IMU put out (errors included).
+    """
+    dt = config.dt
+    synth = ImuSynthesizer(config.trajectory, config.schedule, config.rate_hz)
+    for ch in synth.chunks(config.duration_s, config.chunk_s, split_at=split_at):
+        raw_th, raw_v = ch.dtheta, ch.dv
+        if errors is not None:  # called on every chunk, in time order (state carries)
+            e = np.asarray(errors(ch.t - 0.5 * dt, ch.dtheta / dt, ch.dv / dt), dtype=float)
+            if e.shape != (ch.n, 6):
+                raise ConfigError(f"errors_r returned shape {e.shape}, expected ({ch.n}, 6)")
+            raw_th = raw_th + e[:, :3] * dt
+            raw_v = raw_v + e[:, 3:] * dt
+        yield ch, raw_th, raw_v
+
+
 def run_scenario(
     config: ScenarioConfig,
     errors: ErrorSource | None = None,
@@ -297,7 +356,6 @@ def run_scenario(
         raise ConfigError("run_scenario: need at least one variant")
     tr = config.trajectory
     dt = config.dt
-    synth = ImuSynthesizer(tr, config.schedule, config.rate_hz)
     # samples since power-on at the alignment start and at the navigation start
     n_start = 0 if config.align is None else round(config.align.start_s * config.rate_hz)
     n_nav = n_start
@@ -312,14 +370,7 @@ def run_scenario(
 
     def pieces() -> Iterator[_SimSamples]:
         splits = () if config.align is None else (n_start * dt, n_nav * dt)
-        for ch in synth.chunks(config.duration_s, config.chunk_s, split_at=splits):
-            raw_th, raw_v = ch.dtheta, ch.dv
-            if errors is not None:  # called on every chunk, in time order (state carries)
-                e = np.asarray(errors(ch.t - 0.5 * dt, ch.dtheta / dt, ch.dv / dt), dtype=float)
-                if e.shape != (ch.n, 6):
-                    raise ConfigError(f"errors_r returned shape {e.shape}, expected ({ch.n}, 6)")
-                raw_th = raw_th + e[:, :3] * dt
-                raw_v = raw_v + e[:, 3:] * dt
+        for ch, raw_th, raw_v in imu_samples(config, errors, split_at=splits):
             if recorder is not None:
                 recorder(ch, raw_th, raw_v)
             yield _SimSamples(ch.t, np.full(ch.n, dt), raw_th, raw_v, chunk=ch)
@@ -372,6 +423,8 @@ __all__ = [
     "align_for",
     "align_from_noise",
     "constant_errors",
+    "daily_ambient",
+    "imu_samples",
     "oracle_compensator",
     "preset",
     "run_scenario",

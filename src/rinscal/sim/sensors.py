@@ -169,6 +169,9 @@ class ThermalPlant:
         arms = np.array([c.lever_arm_m for c in config.thermal[3:]], dtype=float)
         self._lever_arms = arms if config.effects.lever_arm and np.any(arms) else None
         self._last_omega: NDArray[np.float64] | None = None
+        #: The accelerometers' size effect of the samples last drawn by :meth:`errors_r`,
+        #: (n, 3) [m/s²]; None without lever arms.
+        self.last_size_effect: NDArray[np.float64] | None = None
         # the thermal errors of the chunk last drawn, for the oracle (same sample times)
         self._last_thermal: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
 
@@ -267,8 +270,10 @@ class ThermalPlant:
         cached.flags.writeable = False  # handed to every oracle variant: nobody may alter it
         self._last_thermal = (np.asarray(t), cached)
         e += self.offsets
+        self.last_size_effect = None
         if self._lever_arms is not None:
-            e[:, 3:] += self.size_effect(omega_r)
+            self.last_size_effect = self.size_effect(omega_r)
+            e[:, 3:] += self.last_size_effect
         if self.noise is not None:
             e += self.noise.draw(np.shape(t)[0])[0]
         if self.pulse_weights is not None:

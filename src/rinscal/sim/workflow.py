@@ -13,12 +13,14 @@ from __future__ import annotations
 
 import inspect
 import os
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from rinscal import _check
 from rinscal.calibration.modelfile import FittedModel, check_policy
@@ -28,7 +30,7 @@ from rinscal.nav.rotation import schedule_from_name
 from rinscal.presets import DEFAULT_PRESET
 from rinscal.sim.config import ImuConfig, resolve_imu
 from rinscal.sim.disturbance import DisturbedStart
-from rinscal.sim.scenario import NavResult, align_for, preset, run_scenario
+from rinscal.sim.scenario import NavResult, align_for, daily_ambient, preset, run_scenario
 from rinscal.sim.scenario_config import ScenarioConfig
 from rinscal.sim.sensors import (
     ModelCompensator,
@@ -38,7 +40,15 @@ from rinscal.sim.sensors import (
 )
 from rinscal.sim.trajectory import StaticMotion
 
-__all__ = ["Navigation", "check_models", "model_compensator", "navigate", "navigate_scenario"]
+__all__ = [
+    "Navigation",
+    "check_models",
+    "model_compensator",
+    "navigate",
+    "navigate_scenario",
+    "recording",
+    "recording_meta",
+]
 
 ModelLike = str | os.PathLike[str] | FittedModel
 #: The lowest IMU rate a disturbed start is simulated at [Hz]: its 1-3 Hz sway must be
@@ -107,6 +117,8 @@ def navigate_scenario(
     increments: bool = False,
     quantise: bool | None = None,
     disturbed_start_min: float | None = None,
+    ambient_c: float | None = None,
+    daily_cycle_c: float = 0.0,
     progress: Callable[[float, float], None] | None = None,
 ) -> Navigation:
     """Navigate a single-axis RINS through a simulated cold start, per compensation variant.
@@ -156,6 +168,12 @@ def navigate_scenario(
         (:class:`rinscal.sim.disturbance.DisturbedStart`, drawn from ``seed``), carried by
         the truth. Static scenarios only (``quasi-static``, ``ramp``), at
         :data:`MIN_DISTURBED_RATE_HZ` or more.
+    ambient_c : float, optional [°C]
+        A constant ambient instead of the scenario's chamber profile, the unit soaked at it
+        before power-on (a parked cold start at that temperature).
+    daily_cycle_c : float [°C]
+        With ``ambient_c``: the amplitude of a daily sinusoid about it (period 24 h, rising
+        from ``ambient_c`` at power-on; :func:`rinscal.sim.scenario.daily_ambient`).
     progress : callable, optional
         Called with (simulated seconds done, total seconds).
 
@@ -184,6 +202,11 @@ def navigate_scenario(
     disturbed_start_min = _check.number(
         "disturbed_start_min", disturbed_start_min, above=0.0, optional=True, unit="min"
     )
+    ambient_c = _check.number("ambient_c", ambient_c, min=-60.0, max=100.0, optional=True,
+                              unit="°C")  # fmt: skip
+    daily_cycle_c = _check.number("daily_cycle_c", daily_cycle_c, min=0.0, max=40.0, unit="°C")
+    if daily_cycle_c and ambient_c is None:
+        raise ConfigError("daily_cycle_c: give ambient_c too (the cycle is about it)")
     check_models(models)
     if record is not None and Path(record).suffix.lower() not in RECORD_SUFFIXES:
         raise ConfigError(f"record {record}: give a .parquet, .csv or .tsv file name")
@@ -199,6 +222,9 @@ def navigate_scenario(
             align=align,
             schedule=schedule_from_name(rotation),
         )
+    if ambient_c is not None:
+        chamber = daily_ambient(ambient_c, daily_cycle_c, cfg.duration_s)
+        cfg = replace(cfg, chamber=chamber)
     if cfg.chamber is None:
         raise ConfigError(f"scenario {cfg.name!r} has no chamber profile: no thermal plant")
     if disturbed_start_min is not None:
@@ -242,52 +268,91 @@ def _record(
     seed: int,
 ) -> NavResult:
     """Run the scenario and stream the raw IMU output it navigated into ``record``."""
-    # deferred: the writers (pyarrow) and the recording's columns only when recording
+    moving = cfg.name == "vehicle"
+    with recording(record, plant, increments=increments, track=moving) as rec:
+        result = run_scenario(cfg, plant, comps, progress=tick, recorder=rec)
+    meta = recording_meta(
+        cfg, plant, f"rinscal navigate --scenario {cfg.name} --seed {seed}", increments
+    )
+    meta["heading_deg"] = (
+        float(result.truth["heading_deg"].iloc[0]) if len(result.truth) and not moving else None
+    )
+    if isinstance(cfg.trajectory, DisturbedStart):
+        meta["disturbance"] = cfg.trajectory.summary()
+    # deferred: the writers only when recording
     from rinscal.io.metadata import write_meta
+
+    write_meta(meta, record)
+    return result
+
+
+@contextmanager
+def recording(
+    record: Path,
+    plant: ThermalPlant,
+    *,
+    increments: bool = False,
+    track: bool = False,
+    heading: bool = True,
+) -> Iterator[Callable[[Any, NDArray[np.float64], NDArray[np.float64]], None]]:
+    """Stream a simulated run's raw IMU output into ``record`` in the recorded-navigation
+    log's columns (:func:`rinscal.nav.recorded.frame.recording_frame`), atomically: yields
+    ``rec(chunk, dtheta, dv)`` to be called with every chunk from power-on on (the truth and
+    the raw increments [rad, m/s]). The plant's thermometer readings (1 s) go with each
+    sample; a quantised plant's output is written as integer counts, else rates (deg/h, µg)
+    or, with ``increments``, increments [rad, m/s]. ``track`` writes the true position,
+    ``heading`` the true body heading (``ref_*`` columns). The metadata is written apart
+    (:func:`recording_meta`)."""
+    # deferred: the writers (pyarrow) and the recording's columns only when recording
     from rinscal.io.streaming import LogStreamWriter
-    from rinscal.nav.recorded.frame import recording_frame, weight_texts
+    from rinscal.nav.recorded.frame import recording_frame
 
     counts = None if increments else plant.pulse_weights
     grid = np.arange(0.0, float(plant.field.t[-1]) + 1e-9, 1.0)
     inner, outer = plant.measured_temperatures(grid)
-    tr = cfg.trajectory
-    moving = cfg.name == "vehicle"
     with LogStreamWriter(record, validate=False) as w:
 
         def rec(ch: Any, dth: Any, dv: Any) -> None:
             w.write(recording_frame(ch, dth, dv, increments=increments, counts=counts,
-                                    readings=(grid, inner, outer), track=moving))  # fmt: skip
+                                    readings=(grid, inner, outer), track=track,
+                                    heading=heading))  # fmt: skip
 
-        result = run_scenario(cfg, plant, comps, progress=tick, recorder=rec)
-        noise = plant.config.noise
-        wd, rw = noise.white_density_si(), noise.bias_rw_si()
-        meta = {
-            "kind": "navigation recording",
-            "source": f"rinscal navigate --scenario {cfg.name} --seed {seed}",
-            "rate_hz": cfg.rate_hz,
-            "units": {"gyro": "deg/h", "accel": "ug"} if not increments and counts is None else {},
-            "site": {
-                "lat_deg": float(np.rad2deg(tr.lat0)),
-                "lon_deg": float(np.rad2deg(tr.lon0)),
-                "h_m": float(tr.alt0),
-            },
-            "heading_deg": float(result.truth["heading_deg"].iloc[0])
-            if len(result.truth) and not moving
-            else None,
-            "noise": {
-                "gyro_noise_density": float(wd[0]),
-                "accel_noise_density": float(wd[3]),
-                "gyro_bias_rw": float(rw[0]),
-                "accel_bias_rw": float(rw[3]),
-            },
-            "imu": plant.config.name,
-        }
-        if counts is not None:
-            meta["weights"] = weight_texts(counts)
-        if isinstance(tr, DisturbedStart):
-            meta["disturbance"] = tr.summary()
-    write_meta(meta, record)
-    return result
+        yield rec
+
+
+def recording_meta(
+    cfg: ScenarioConfig, plant: ThermalPlant, source: str, increments: bool
+) -> dict[str, Any]:
+    """The metadata of a recording written by :func:`recording` (rate [Hz], units or pulse
+    weights, the site [deg, deg, m], the plant's noise in SI, the IMU's name)."""
+    # deferred: the recording's columns, as in recording
+    from rinscal.nav.recorded.frame import weight_texts
+
+    tr = cfg.trajectory
+    counts = None if increments else plant.pulse_weights
+    noise = plant.config.noise
+    wd, rw = noise.white_density_si(), noise.bias_rw_si()
+    meta: dict[str, Any] = {
+        "kind": "navigation recording",
+        "source": source,
+        "rate_hz": cfg.rate_hz,
+        "units": {"gyro": "deg/h", "accel": "ug"} if not increments and counts is None else {},
+        "site": {
+            "lat_deg": float(np.rad2deg(tr.lat0)),
+            "lon_deg": float(np.rad2deg(tr.lon0)),
+            "h_m": float(tr.alt0),
+        },
+        "noise": {
+            "gyro_noise_density": float(wd[0]),
+            "accel_noise_density": float(wd[3]),
+            "gyro_bias_rw": float(rw[0]),
+            "accel_bias_rw": float(rw[3]),
+        },
+        "imu": plant.config.name,
+    }
+    if counts is not None:
+        meta["weights"] = weight_texts(counts)
+    return meta
 
 
 def disturbed(cfg: ScenarioConfig, duration_s: float, seed: int = 0) -> ScenarioConfig:

@@ -40,6 +40,7 @@ def recording_frame(
     readings: tuple[NDArray, NDArray, NDArray] | None = None,
     track: bool = False,
     counts: NDArray[np.float64] | None = None,
+    heading: bool = True,
 ) -> pd.DataFrame:
     """The raw recording of a simulated chunk, in the recorded-navigation log's columns.
 
@@ -61,12 +62,16 @@ def recording_frame(
         Pulse weights of an IMU whose output is whole pulses (a quantised plant): write
         ``dtheta_*`` and ``dvel_*`` as integer counts per interval (``increments`` is then
         ignored); the metadata's ``weights`` say what one count is.
+    heading : bool
+        Write the true body heading as ``ref_heading_deg`` [deg] (False: a parked start
+        whose heading the calibration must find).
 
     Returns
     -------
     DataFrame
         ``time_s`` (end of each interval), the IMU, ``table_deg`` (wrapped to ±180°),
-        temperatures, the reference track and ``ref_heading_deg`` (true body heading).
+        temperatures, the reference track and ``ref_heading_deg`` (true body heading, if
+        ``heading``).
     """
     t = chunk.t
     dt = np.diff(t, prepend=t[0] - (t[1] - t[0] if t.size > 1 else 1.0))
@@ -96,5 +101,6 @@ def recording_frame(
         cols[REF_TRACK[0]] = np.rad2deg(chunk.lat)
         cols[REF_TRACK[1]] = np.rad2deg(chunk.lon)
         cols[REF_TRACK[2]] = chunk.alt
-    cols[REF_HEADING] = np.rad2deg(chunk.euler[:, 0])
+    if heading:
+        cols[REF_HEADING] = np.rad2deg(chunk.euler[:, 0])
     return pd.DataFrame(cols)
