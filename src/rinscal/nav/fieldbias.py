@@ -166,7 +166,7 @@ def _concat(pieces: Iterable[NavSamples]) -> dict[str, NDArray[np.float64]]:
     return {k: np.concatenate(v) for k, v in parts.items()}
 
 
-def first_period_end(t: ArrayLike, angle: ArrayLike, tol: float = math.radians(1.0)) -> float:
+def first_period_end(t: ArrayLike, angle: ArrayLike, tol: float = math.radians(0.05)) -> float:
     """End of the table's first full rotation period [s].
 
     The first time at which the (unwrapped) encoder angle, relative to its first value, has
