@@ -40,6 +40,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.linalg import block_diag
 
 from rinscal.errors import ConfigError
 from rinscal.nav.aiding import (
@@ -284,7 +285,7 @@ def estimate_bias_series(
         lin = Linearised(
             np.concatenate([v.residual for v in lins]),
             np.vstack([v.H for v in lins]),
-            _block_diag([v.R for v in lins]),
+            block_diag(*(v.R for v in lins)),
         )
         filt.P, x, _ = kalman_update(filt.P, x0, lin)
         filt.feed_back(x)
@@ -319,17 +320,6 @@ def estimate_bias_series(
     t0 = t_all[0] - dt
     first = first_period_end(np.concatenate([[t0], t_all]), np.concatenate([[enc[0]], enc]))
     return BiasSeries(t_ep, bias, sd, temps, temp_out, att, att_sd, first)
-
-
-def _block_diag(blocks: list[NDArray[np.float64]]) -> NDArray[np.float64]:
-    size = sum(b.shape[0] for b in blocks)
-    out = np.zeros((size, size))
-    i = 0
-    for b in blocks:
-        j = i + b.shape[0]
-        out[i:j, i:j] = b
-        i = j
-    return out
 
 
 def _skew_rows(v: NDArray[np.float64]) -> NDArray[np.float64]:
