@@ -35,6 +35,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from rinscal import earth
 from rinscal.earth import enu_difference
 from rinscal.errors import ConfigError
 from rinscal.nav.strapdown import skew
@@ -260,6 +261,82 @@ class GnssTrack:
         return Linearised(np.concatenate(ys), np.vstack(Hs), np.diag(self._var))
 
 
+class BodyHeadingHeld:
+    """The parked body does not turn: its heading change over each step is zero, the table
+    (IMU frame ``r``) turning about the body's z by the encoder's angle (a zero integrated
+    heading rate, ZIHR, against the encoder).
+
+    The body's angular rate relative to ``n`` is ``ω_nb^n = C_nr (ω_ir^r − φ̇ z) − ω_ie^n``
+    (``C_br = R_z(φ)``, :func:`rinscal.nav.rotation.C_br`; the transport rate is zero at
+    rest), and the heading (clockwise from north) turns at ``−(ω_nb^n)_U``. Over a step of
+    ``T`` seconds, with the step's mean compensated rate ``ω̄`` (``NavState.omega_r``) and
+    the encoder's change ``Δφ`` over the same samples, the INS predicts the heading change::
+
+        Δψ̂ = −[C_nr (ω̄ T − Δφ z)]_U + Ω sin L · T          (truth: 0)
+
+    With ``C̃_nr = (I − [φ×]) C_nr`` and the bias ``ε`` left in ``ω̄`` the residual is,
+    to first order, ``Δψ̂ = −T (C_nr ε)_U + T (φ × w)_U`` with ``w = C_nr (ω̄ − Δφ/T z) ≈
+    ω_ie^n`` (the encoder removes the table's own rate), i.e. the same ``−(C ε)_U + Ω cos L
+    φ_E`` that drives the heading error in :mod:`rinscal.nav.gnss_ins`. Measured against the
+    mean *rate* of the step, not against the heading of the previous epoch, the residual
+    involves only the states at the step's end (no delayed state is needed); its noise is
+    the angle random walk over the step, ``σ_g² T``, plus the encoder's reading noise twice
+    (the two readings that make ``Δφ``). That white noise also drives the heading error in
+    the filter's process model; the correlation is left out (it touches ``φ_U``, which the
+    measurement does not see). The vertical gyro bias is seen directly, at every step, as
+    the table's rate against the encoder.
+
+    Parameters
+    ----------
+    times : array_like, shape (m,) [s]
+        Step ends.
+    angle_change : array_like, shape (m,) [rad]
+        Encoder change ``Δφ`` over each step (unwrapped).
+    duration : array_like, shape (m,) [s]
+        Length ``T`` of each step.
+    gyro_noise_density : float [rad/√s]
+        Angle random walk of the gyros.
+    encoder_sd : float [rad]
+        Standard deviation of one encoder reading (0: none).
+    """
+
+    def __init__(
+        self,
+        times: ArrayLike,
+        angle_change: ArrayLike,
+        duration: ArrayLike,
+        gyro_noise_density: float,
+        encoder_sd: float = 0.0,
+    ) -> None:
+        self.times = _check_times("body heading held", times)
+        m = self.times.size
+        self.angle_change = np.asarray(angle_change, dtype=float).reshape(-1)
+        self.duration = np.asarray(duration, dtype=float).reshape(-1)
+        if self.angle_change.size != m or self.duration.size != m:
+            raise ConfigError(
+                "body heading held: times, angle_change and duration must have equal length"
+            )
+        if not (np.all(np.isfinite(self.angle_change)) and np.all(self.duration > 0)):
+            raise ConfigError("body heading held: angle_change finite and duration > 0 s")
+        g = _check_sd("body heading held: gyro_noise_density", gyro_noise_density)
+        if not (math.isfinite(encoder_sd) and encoder_sd >= 0):
+            raise ConfigError(f"body heading held: encoder_sd must be >= 0, got {encoder_sd}")
+        self._var = g * g * self.duration + 2.0 * float(encoder_sd) ** 2
+
+    def linearise(self, k: int, state: NavState) -> Linearised:
+        T = float(self.duration[k])
+        C = np.asarray(state.C_nr, dtype=float)
+        rel = np.asarray(state.omega_r, dtype=float) * T
+        rel[2] -= self.angle_change[k]
+        w = C @ rel / T
+        dpsi = -w[2] * T + earth.RATE * math.sin(state.lat) * T
+        H = np.zeros((1, N_STATES))
+        H[0, GYRO] = -T * C[2]
+        H[0, 6] = T * w[1]
+        H[0, 7] = -T * w[0]
+        return Linearised(np.array([dpsi]), H, np.array([[self._var[k]]]))
+
+
 __all__ = [
     "ACCEL",
     "ATT",
@@ -267,6 +344,7 @@ __all__ = [
     "N_STATES",
     "POS",
     "VEL",
+    "BodyHeadingHeld",
     "GnssTrack",
     "KnownPosition",
     "Linearised",

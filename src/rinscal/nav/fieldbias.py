@@ -1,0 +1,358 @@
+"""Each channel's bias over time from a parked cold start on a static base (issue 38).
+
+A parked vehicle at a known site records its IMU (on the turntable), the encoder angle and
+the temperatures. The aided filter of :mod:`rinscal.nav.gnss_ins` (15 error states, the
+biases in ``r`` as random walks) runs over the whole recording with three measurements at
+every step: zero velocity and the known site (:mod:`rinscal.nav.aiding`, the engine's static
+aiding, not a navigation loop of its own) and :class:`rinscal.nav.aiding.BodyHeadingHeld`
+(the body does not turn: the table's rate against the encoder). Between opposite table
+positions the projection of gravity through the unknown tilt and of the horizontal Earth
+rate through the unknown heading change sign in ``r`` while the biases do not, so the
+horizontal biases become observable once the table has turned; the vertical accelerometer
+is seen against gravity, the vertical gyro against ``Ω sin L`` and the encoder. Heading and
+tilt are the filter's attitude errors (nuisances), started from a coarse inertial-frame
+alignment with the heading unknown; nothing is read from a reference.
+
+A Rauch-Tung-Striebel fixed-interval smoother then runs backwards over the filter's stored
+step covariances, so every epoch's bias uses the data on both sides. Closed-loop feedback
+is handled as follows: with ``x⁺_k`` the correction fed back at step ``k``, an error
+relative to the solution *before* that feedback is the error relative to the solution
+after it plus ``x⁺_k`` (to first order, every state), so with ``e_k`` the smoothed error
+relative to the fed-back solution at ``k``::
+
+    A_k = P⁺_k Φ_{k+1}ᵀ (P⁻_{k+1})⁻¹
+    e_k = A_k (e_{k+1} + x⁺_{k+1}),   e_last = 0
+    P^s_k = P⁺_k + A_k (P^s_{k+1} − P⁻_{k+1}) A_kᵀ
+
+and the smoothed bias is the filter's estimate plus ``e_k`` (the bias states are the bias
+left in the compensated output). The prior of the first bias is zero with the unit's
+turn-on repeatability (a zero-mean random effect per run); the random walk lets the bias
+follow a cold start's warm-up. One axis cannot tell a horizontal sensor's misalignment
+towards z (``g γ``) from its bias: the series is the *total equivalent error* on the static
+base.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.linalg import block_diag
+
+from rinscal.errors import ConfigError
+from rinscal.nav.aiding import (
+    ATT,
+    N_STATES,
+    BodyHeadingHeld,
+    KnownPosition,
+    Linearised,
+    ZeroVelocity,
+)
+from rinscal.nav.align import InertialCoarseAlign
+from rinscal.nav.attitude import euler_from_C_nb
+from rinscal.nav.gnss_ins import (
+    AidedInertial,
+    ImuNoise,
+    InitialSd,
+    initial_covariance,
+    kalman_update,
+)
+from rinscal.nav.rotation import C_br
+from rinscal.nav.strapdown import Strapdown
+from rinscal.schema import NavSamples
+
+#: Time over which a cold start's warm-up may move a bias by one turn-on repeatability [s]:
+#: sets the default bias random walk (:func:`field_noise`). Measured on 4 h parked starts
+#: (tests/nav/_parked.py: a 0.02 °/h, 50 µg exponential warm-up of 30 min against 0.003 °/h,
+#: 15 µg turn-on, 6 seeds): at 300 s every horizontal channel is within 2 sd on 100 % of
+#: the epochs after the first period (median sd 0.0036 °/h, 3.1 µg); at 600 s the sd
+#: halves but one seed's y gyro falls to 80 % (the others ≥ 98 %); at 3600 s the
+#: horizontal gyros lag the warm-up (45-60 %).
+WARM_UP_S = 300.0
+
+
+def field_noise(
+    gyro_noise_density: float,
+    accel_noise_density: float,
+    gyro_turn_on: float,
+    accel_turn_on: float,
+    gyro_bias_rw: float = 0.0,
+    accel_bias_rw: float = 0.0,
+    warm_up_s: float = WARM_UP_S,
+) -> ImuNoise:
+    """The filter's noise for a parked cold start, from the unit's noise.
+
+    The bias prior is the turn-on repeatability; the bias random walk is the unit's own or,
+    if larger, the one that moves a bias by one turn-on repeatability in ``warm_up_s``
+    (``turn_on / √warm_up_s``): wide enough to follow the warm-up after a cold start.
+
+    Parameters
+    ----------
+    gyro_noise_density : float [rad/√s]
+    accel_noise_density : float [m/s²/√Hz]
+    gyro_turn_on : float [rad/s]
+        Turn-on-to-turn-on repeatability, 1σ.
+    accel_turn_on : float [m/s²]
+    gyro_bias_rw : float [rad/s/√s]
+        The unit's bias random walk.
+    accel_bias_rw : float [m/s²/√s]
+    warm_up_s : float [s]
+    """
+    if not (math.isfinite(warm_up_s) and warm_up_s > 0):
+        raise ConfigError(f"field noise: warm_up_s must be > 0 s, got {warm_up_s}")
+    r = 1.0 / math.sqrt(warm_up_s)
+    return ImuNoise(
+        gyro_noise_density=gyro_noise_density,
+        accel_noise_density=accel_noise_density,
+        gyro_bias_sd=gyro_turn_on,
+        accel_bias_sd=accel_turn_on,
+        gyro_bias_rw=max(gyro_bias_rw, gyro_turn_on * r),
+        accel_bias_rw=max(accel_bias_rw, accel_turn_on * r),
+    )
+
+
+@dataclass(frozen=True)
+class BiasSeries:
+    """Smoothed bias of each channel on an epoch grid (SI, IMU frame ``r``).
+
+    Attributes
+    ----------
+    t : ndarray, shape (m,) [s]
+        Epochs (end of each filter step).
+    bias : ndarray, shape (m, 6) [rad/s, m/s²]
+        Total equivalent error of gx, gy, gz, ax, ay, az on the static base.
+    sd : ndarray, shape (m, 6)
+        Its smoothed standard deviation (same units).
+    temps : ndarray, shape (m, 6) [°C]
+        Mean inner temperature per channel over each step (NaN where not recorded).
+    temp_out : ndarray, shape (m,) [°C]
+        Mean outer temperature over each step (NaN where not recorded).
+    attitude : ndarray, shape (m, 3) [rad]
+        Smoothed heading (clockwise from north), pitch and roll of the body.
+    attitude_sd : ndarray, shape (m, 3) [rad]
+        Their standard deviations.
+    first_period_s : float [s]
+        End of the table's first full rotation period (it has stood in, or passed, all
+        four quarter turns and come back to its starting angle); ``inf`` if it never did.
+    """
+
+    t: NDArray[np.float64]
+    bias: NDArray[np.float64]
+    sd: NDArray[np.float64]
+    temps: NDArray[np.float64]
+    temp_out: NDArray[np.float64]
+    attitude: NDArray[np.float64]
+    attitude_sd: NDArray[np.float64]
+    first_period_s: float
+
+
+def _concat(pieces: Iterable[NavSamples]) -> dict[str, NDArray[np.float64]]:
+    parts: dict[str, list[NDArray[np.float64]]] = {
+        k: [] for k in ("t", "dt", "dtheta", "dv", "table", "temps", "temp_out")
+    }
+    for p in pieces:
+        if p.table is None:
+            raise ConfigError("field bias: the recording has no encoder angle (table)")
+        n = p.n
+        parts["t"].append(p.t)
+        parts["dt"].append(p.dt)
+        parts["dtheta"].append(p.dtheta)
+        parts["dv"].append(p.dv)
+        parts["table"].append(p.table)
+        parts["temps"].append(p.temps if p.temps is not None else np.full((n, 6), np.nan))
+        parts["temp_out"].append(p.temp_out if p.temp_out is not None else np.full(n, np.nan))
+    if not parts["t"]:
+        raise ConfigError("field bias: the recording has no samples")
+    return {k: np.concatenate(v) for k, v in parts.items()}
+
+
+def first_period_end(t: ArrayLike, angle: ArrayLike, tol: float = math.radians(0.05)) -> float:
+    """End of the table's first full rotation period [s].
+
+    The first time at which the (unwrapped) encoder angle, relative to its first value, has
+    been nearest to each of the four quarter turns and is back within ``tol`` [rad] of its
+    start (modulo a turn); ``inf`` if that never happens.
+
+    Parameters
+    ----------
+    t : array_like, shape (n,) [s]
+    angle : array_like, shape (n,) [rad]
+        Encoder angle (wrapped or not).
+    """
+    a = np.unwrap(np.asarray(angle, dtype=float))
+    rel = a - a[0]
+    quarter = np.mod(np.rint(rel / (0.5 * math.pi)), 4).astype(np.int64)
+    tt = np.asarray(t, dtype=float)
+    firsts = [np.flatnonzero(quarter == q) for q in range(4)]
+    if any(f.size == 0 for f in firsts):
+        return math.inf
+    first_all = max(int(f[0]) for f in firsts)
+    wrapped = np.abs(np.angle(np.exp(1j * rel[first_all:])))
+    back = np.flatnonzero(wrapped <= tol)
+    return float(tt[first_all + back[0]]) if back.size else math.inf
+
+
+def estimate_bias_series(
+    pieces: Iterable[NavSamples],
+    *,
+    site: tuple[float, float, float],
+    noise: ImuNoise,
+    step_s: float = 1.0,
+    align_s: float = 120.0,
+    velocity_sd: float = 0.005,
+    position_sd: float = 0.05,
+    encoder_sd: float = 0.0,
+    level_sd: float = 1e-3,
+    heading_sd: float = math.radians(5.0),
+) -> BiasSeries:
+    """Smoothed bias series of a parked cold start (module docstring).
+
+    Parameters
+    ----------
+    pieces : iterable of NavSamples
+        The recording, in time order (SI increments in ``r``, encoder angle required;
+        :meth:`rinscal.io.navopen.NavLog.pieces`). The sample interval must be uniform.
+    site : (float, float, float)
+        Latitude [rad], longitude [rad], height [m] of the parked IMU.
+    noise : ImuNoise
+        White noise, bias prior (turn-on repeatability) and bias random walk
+        (:func:`field_noise`).
+    step_s : float [s]
+        Filter step and epoch spacing.
+    align_s : float [s]
+        Length of the coarse alignment at the start (the epochs start after it).
+    velocity_sd : float [m/s]
+        Zero-velocity measurement noise (each ENU component).
+    position_sd : float [m]
+        Known-site measurement noise (each coordinate).
+    encoder_sd : float [rad]
+        Encoder reading noise.
+    level_sd, heading_sd : float [rad]
+        Prior sd of the tilts and the heading after the coarse alignment.
+    """
+    lat, lon, alt = (float(v) for v in site)
+    if not (math.isfinite(lat) and abs(lat) < 0.5 * math.pi and math.isfinite(lon)):
+        raise ConfigError(f"field bias: site must be (lat [rad], lon [rad], h [m]), got {site}")
+    for name, v in (("step_s", step_s), ("align_s", align_s)):
+        if not (math.isfinite(v) and v > 0):
+            raise ConfigError(f"field bias: {name} must be > 0 s, got {v}")
+    d = _concat(pieces)
+    t_all = d["t"]
+    dt = float(np.median(d["dt"]))
+    if np.any(np.abs(d["dt"] - dt) > 1e-3 * dt) or np.any(np.diff(t_all) <= 0):
+        raise ConfigError("field bias: the sample interval must be uniform (no gaps)")
+    n = t_all.size
+    n_align = round(align_s / dt)
+    n_step = max(1, round(step_s / dt))
+    if n_align + 2 * n_step > n:
+        raise ConfigError(
+            f"field bias: the recording ({n * dt:.0f} s) is shorter than the alignment "
+            f"({align_s:g} s) and two steps"
+        )
+    dth, dvv = d["dtheta"], d["dv"]
+    coarse = InertialCoarseAlign(lat, alt, dt)
+    coarse.feed(dth[:n_align], dvv[:n_align])
+    C0 = coarse.solve()
+    P0 = initial_covariance(InitialSd(position_sd, velocity_sd, level_sd, heading_sd), noise)
+    filt = AidedInertial(Strapdown(lat, lon, alt, np.zeros(3), C0, dt, "free"), P0, noise)
+
+    ends = np.arange(n_align + n_step, n + 1, n_step)
+    m = ends.size
+    t_ep = t_all[ends - 1]
+    enc = np.unwrap(d["table"])
+    starts = np.concatenate([[n_align], ends[:-1]])
+    dphi = enc[ends - 1] - enc[starts - 1]
+    dur = (ends - starts) * dt
+    zv = ZeroVelocity(t_ep, velocity_sd, horizontal=False)
+    kp = KnownPosition(t_ep, lat, lon, alt, position_sd)
+    held = BodyHeadingHeld(t_ep, dphi, dur, noise.gyro_noise_density, encoder_sd)
+
+    Pp = np.empty((m, N_STATES, N_STATES))
+    Pm = np.empty((m, N_STATES, N_STATES))
+    Phi = np.empty((m, N_STATES, N_STATES))
+    xp = np.empty((m, N_STATES))
+    b_hat = np.empty((m, 6))
+    C_nr = np.empty((m, 3, 3))
+    x0 = np.zeros(N_STATES)
+    i = n_align
+    for k, e in enumerate(ends):
+        Phi[k] = filt.propagate(dth[i:e], dvv[i:e])
+        i = int(e)
+        Pm[k] = filt.P
+        st = filt.state(float(t_ep[k]))
+        lins = [zv.linearise(k, st), kp.linearise(k, st), held.linearise(k, st)]
+        lin = Linearised(
+            np.concatenate([v.residual for v in lins]),
+            np.vstack([v.H for v in lins]),
+            block_diag(*(v.R for v in lins)),
+        )
+        filt.P, x, _ = kalman_update(filt.P, x0, lin)
+        filt.feed_back(x)
+        Pp[k] = filt.P
+        xp[k] = x
+        b_hat[k, :3] = filt.gyro_bias
+        b_hat[k, 3:] = filt.accel_bias
+        C_nr[k] = filt.nav.C_nr
+
+    es, Ps = _rts(Pp, Pm, Phi, xp)
+    bias = b_hat + es[:, 9:15]
+    var = np.diagonal(Ps, axis1=1, axis2=2)
+    sd = np.sqrt(np.maximum(var[:, 9:15], 0.0))
+    # smoothed attitude: C_true = (I + [φ×]) C̃ (φ the smoothed error left in C̃)
+    C_s = np.einsum("mij,mjk->mik", np.eye(3) + _skew_rows(es[:, ATT]), C_nr)
+    C_nb = np.einsum("mij,mkj->mik", C_s, C_br(enc[ends - 1]))
+    att = euler_from_C_nb(C_nb)
+    P_att = Ps[:, ATT, ATT]
+    # heading: φ_U; pitch about the body x, roll about the body y (their horizontal parts)
+    bx = C_nb[:, :, 0]
+    by = C_nb[:, :, 1]
+    att_sd = np.stack(
+        [
+            np.sqrt(np.maximum(P_att[:, 2, 2], 0.0)),
+            np.sqrt(np.maximum(np.einsum("mi,mij,mj->m", bx, P_att, bx), 0.0)),
+            np.sqrt(np.maximum(np.einsum("mi,mij,mj->m", by, P_att, by), 0.0)),
+        ],
+        axis=1,
+    )
+    temps = _step_means(d["temps"], starts, ends)
+    temp_out = _step_means(d["temp_out"][:, None], starts, ends)[:, 0]
+    t0 = t_all[0] - dt
+    first = first_period_end(np.concatenate([[t0], t_all]), np.concatenate([[enc[0]], enc]))
+    return BiasSeries(t_ep, bias, sd, temps, temp_out, att, att_sd, first)
+
+
+def _skew_rows(v: NDArray[np.float64]) -> NDArray[np.float64]:
+    out = np.zeros((v.shape[0], 3, 3))
+    out[:, 0, 1], out[:, 0, 2] = -v[:, 2], v[:, 1]
+    out[:, 1, 0], out[:, 1, 2] = v[:, 2], -v[:, 0]
+    out[:, 2, 0], out[:, 2, 1] = -v[:, 1], v[:, 0]
+    return out
+
+
+def _step_means(a: NDArray[np.float64], starts: NDArray, ends: NDArray) -> NDArray[np.float64]:
+    c = np.concatenate([np.zeros((1, a.shape[1])), np.cumsum(a, axis=0)])
+    return (c[ends] - c[starts]) / (ends - starts)[:, None]
+
+
+def _rts(
+    Pp: NDArray[np.float64], Pm: NDArray[np.float64], Phi: NDArray[np.float64], xp: NDArray
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Fixed-interval smoother over a closed-loop filter (module docstring): the smoothed
+    errors relative to each fed-back solution and their covariances."""
+    m = Pp.shape[0]
+    es = np.zeros((m, N_STATES))
+    Ps = np.empty_like(Pp)
+    Ps[-1] = Pp[-1]
+    if m > 1:
+        # A_k = P⁺_k Φ_{k+1}ᵀ (P⁻_{k+1})⁻¹  (P⁻ symmetric: solve for A_kᵀ)
+        A = np.transpose(np.linalg.solve(Pm[1:], Phi[1:] @ Pp[:-1]), (0, 2, 1))
+        for k in range(m - 2, -1, -1):
+            es[k] = A[k] @ (es[k + 1] + xp[k + 1])
+            Ps[k] = Pp[k] + A[k] @ (Ps[k + 1] - Pm[k + 1]) @ A[k].T
+    return es, Ps
+
+
+__all__ = ["WARM_UP_S", "BiasSeries", "estimate_bias_series", "field_noise", "first_period_end"]
