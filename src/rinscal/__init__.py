@@ -63,7 +63,9 @@ Calibration
     before/after, steps, Allan), :func:`select` (held-out RMS of every ``auto`` candidate,
     as ``rinscal select``, or per setting, Tables 5 and 7), :func:`calibrate_imu` (a
     multi-position turntable log → scale factors, misalignments and biases over
-    temperature, :class:`ImuCalibrationResult`; its laws an :class:`ImuCalibration`).
+    temperature, :class:`ImuCalibrationResult`; its laws an :class:`ImuCalibration`),
+    :func:`calibrate_field` (recordings of parked cold starts → a thermal model with no
+    chamber, :class:`FieldCalibration`: the model and what the starts determined).
     :class:`ThermalFitter` is the fitter (scikit-learn style, all channels), and the six
     channel estimators it uses are scikit-learn regressors: :class:`PolyT`,
     :class:`Regression` (the paper's method 2), :class:`Sectional` (method 1),
@@ -129,6 +131,8 @@ _API: dict[str, str] = {
     "calibrate_imu": "rinscal.calibration.imu.workflow",
     "ImuCalibrationResult": "rinscal.calibration.imu.workflow",
     "ImuCalibration": "rinscal.sensormodel",
+    "calibrate_field": "rinscal.nav.fieldcal",
+    "FieldCalibration": "rinscal.nav.fieldcal",
     "PolyT": "rinscal.calibration.thermal.estimators",
     "Regression": "rinscal.calibration.thermal.estimators",
     "Sectional": "rinscal.calibration.thermal.estimators",

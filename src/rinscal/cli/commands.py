@@ -13,6 +13,7 @@ os.environ.setdefault("MIMALLOC_PURGE_DELAY", "0")
 from rinscal.cli import (  # noqa: F401  (registers)
     calibrate,
     compensate,
+    fieldcal,
     fleet,
     imucal,
     navigate,
@@ -29,6 +30,7 @@ SUMMARIES: dict[str, str] = {
     "simulate": "Simulate a chamber protocol: calibration log, truth, metadata.",
     "calibrate-imu": "Scale factor, misalignment, bias over temperature (turntable).",
     "fit": "Fit a thermal model per channel; write a JSON model file.",
+    "calibrate-field": "A thermal model from parked cold starts: no chamber needed.",
     "select": "Held-out RMS of every candidate per channel (Tables 5, 7).",
     "evaluate": "RMS before and after a model (Eq. 16), steps, Allan deviation.",
     "compensate": "Subtract the modelled thermal bias from every row (Eq. 10).",

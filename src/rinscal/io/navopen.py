@@ -34,7 +34,8 @@ mapped are never read.
 Sidecar metadata ``<log>.meta.json`` (:func:`rinscal.io.metadata.read_meta`) may give ``rate_hz``,
 ``units`` (of rate columns), ``site`` = ``{"lat_deg", "lon_deg", "h_m"}``, ``heading_deg``,
 ``noise`` = ``{"gyro_noise_density" [rad/√s], "accel_noise_density" [m/s²/√Hz]}`` (and
-optionally ``"gyro_bias_rw"`` [rad/s/√s], ``"accel_bias_rw"`` [m/s²/√s]) and
+optionally ``"gyro_bias_rw"`` [rad/s/√s], ``"accel_bias_rw"`` [m/s²/√s], and the turn-on
+repeatability ``"gyro_turn_on"`` [rad/s], ``"accel_turn_on"`` [m/s²], 1σ) and
 ``utc_start`` (ISO 8601, the UTC of ``time_s`` = 0, for NMEA reference tracks).
 
 A reference track may also be a separate file, read by
@@ -255,6 +256,8 @@ def _read_meta_fields(meta: dict[str, Any] | None, mp: str) -> dict[str, Any]:
                 "accel_bias_rw",
                 "gyro_angle_noise",
                 "accel_velocity_noise",
+                "gyro_turn_on",
+                "accel_turn_on",
             )
             if k in noise
         }

@@ -331,7 +331,7 @@ def recording_meta(
     tr = cfg.trajectory
     counts = None if increments else plant.pulse_weights
     noise = plant.config.noise
-    wd, rw = noise.white_density_si(), noise.bias_rw_si()
+    wd, rw, on = noise.white_density_si(), noise.bias_rw_si(), noise.turn_on_sd_si()
     meta: dict[str, Any] = {
         "kind": "navigation recording",
         "source": source,
@@ -347,6 +347,8 @@ def recording_meta(
             "accel_noise_density": float(wd[3]),
             "gyro_bias_rw": float(rw[0]),
             "accel_bias_rw": float(rw[3]),
+            "gyro_turn_on": float(on[0]),
+            "accel_turn_on": float(on[3]),
         },
         "imu": plant.config.name,
     }
