@@ -82,7 +82,8 @@ def test_config_errors_keep_their_section_names(tmp_path) -> None:
 # ------------------------------------------------------------------ issue 21, items 8 and 9
 
 WORKFLOW = [
-    "simulate", "calibrate-imu", "fit", "select", "evaluate", "compensate", "export", "plot",
+    "simulate", "calibrate-imu", "fit", "calibrate-field", "select", "evaluate", "compensate",
+    "export", "plot",
     "navigate", "reproduce", "study", "fleet",
 ]  # fmt: skip
 

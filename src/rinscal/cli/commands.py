@@ -25,22 +25,22 @@ from rinscal.cli._app import PlainUsageCommand, app, guard_os_errors
 
 #: ``rinscal --help``: every command in workflow order, with a summary that reads whole at 80
 #: columns (click would cut a docstring's first sentence at "Eq." or after 45 characters):
-#: 62 characters at most, beside the longest command name (calibrate-imu).
+#: 59 characters at most, beside the longest command name (calibrate-field).
 SUMMARIES: dict[str, str] = {
-    "simulate": "Simulate a chamber protocol: calibration log, truth, metadata.",
-    "calibrate-imu": "Scale factor, misalignment, bias over temperature (turntable).",
+    "simulate": "Simulate a chamber protocol or parked starts; log and truth.",
+    "calibrate-imu": "Scale factor, misalignment, bias over temperature (table).",
     "fit": "Fit a thermal model per channel; write a JSON model file.",
     "calibrate-field": "A thermal model from parked cold starts: no chamber needed.",
     "select": "Held-out RMS of every candidate per channel (Tables 5, 7).",
-    "evaluate": "RMS before and after a model (Eq. 16), steps, Allan deviation.",
+    "evaluate": "RMS before/after a model (Eq. 16), steps, Allan deviation.",
     "compensate": "Subtract the modelled thermal bias from every row (Eq. 10).",
     "export": "Write a model for PX4, ArduPilot or as a C header.",
-    "plot": "Draw outputs and temperatures per run against time (Figure 3).",
-    "navigate": "Navigate a single-axis RINS from a cold start; error in nmi.",
-    "reproduce": "Re-run the paper's Section 5 on a simulated IMU: one report.",
+    "plot": "Draw outputs and temperatures per run over time (Figure 3).",
+    "navigate": "Navigate a RINS from a cold start; position error in nmi.",
+    "reproduce": "Re-run the paper's Section 5 on a simulated IMU: a report.",
     "study": "Monte Carlo study over many units and cold starts, on Dask.",
     "fleet": "Calibrate a fleet of IMUs, one log per unit, on Dask.",
-    "fleet fit": "Fit every unit's log as a Dask task; check limits; resumable.",
+    "fleet fit": "Fit each unit's log as a Dask task; check limits; resumable.",
 }
 
 for _info in [  # one place turns OS errors into a message
