@@ -40,6 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from rinscal.calibration.regression import least_squares
 from rinscal.calibration.thermal.features import Features
 
 __all__ = [
@@ -130,7 +131,7 @@ def _vif(x: np.ndarray) -> np.ndarray:
     out = np.empty(x.shape[1])
     for k in range(x.shape[1]):
         others = np.column_stack([np.ones(x.shape[0]), np.delete(x, k, axis=1)])
-        beta, *_ = np.linalg.lstsq(others, x[:, k], rcond=None)
+        beta = least_squares(others, x[:, k])
         resid = x[:, k] - others @ beta
         v = float(np.var(x[:, k]))
         out[k] = math.inf if v == 0 else v / max(float(np.var(resid)), 1e-300)
@@ -170,7 +171,7 @@ def observability(
         codes = features.run_codes[ok]
         X = _design(temp, rate, grad)
         terms = TERMS[: X.shape[1] - 1]
-        beta, *_ = np.linalg.lstsq(X, y, rcond=None)
+        beta = least_squares(X, y)
         resid = y - X @ beta
         n_eff = _effective_n(resid, codes)
         s2 = float(resid @ resid) / max(n_eff - X.shape[1], 1.0)
@@ -182,7 +183,7 @@ def observability(
             est = []
             for r in runs:
                 keep = codes != r
-                b, *_ = np.linalg.lstsq(X[keep], y[keep], rcond=None)
+                b = least_squares(X[keep], y[keep])
                 est.append(b[1:])
             e = np.asarray(est)
             sd_runs = np.sqrt((runs.size - 1) / runs.size * np.sum((e - e.mean(0)) ** 2, axis=0))

@@ -45,6 +45,7 @@ from scipy.linalg import block_diag
 from rinscal.errors import ConfigError
 from rinscal.nav.aiding import (
     ATT,
+    GYRO,
     N_STATES,
     BodyHeadingHeld,
     KnownPosition,
@@ -64,6 +65,10 @@ from rinscal.nav.rotation import C_br
 from rinscal.nav.strapdown import Strapdown
 from rinscal.schema import NavSamples
 
+#: Prior sd of the z gyro's error per unit of table rate [rad/rad] (200 ppm).
+RATE_ERROR_SD = 2e-4
+#: Its random walk [1/√s]: 60 ppm in an hour, as it drifts with the warm-up (about 5 ppm/°C).
+RATE_ERROR_RW = 1e-6
 #: Time over which a cold start's warm-up may move a bias by one turn-on repeatability [s]:
 #: sets the default bias random walk (:func:`field_noise`). Measured on 4 h parked starts
 #: (tests/nav/_parked.py: a 0.02 °/h, 50 µg exponential warm-up of 30 min against 0.003 °/h,
@@ -134,6 +139,13 @@ class BiasSeries:
         Smoothed heading (clockwise from north), pitch and roll of the body.
     attitude_sd : ndarray, shape (m, 3) [rad]
         Their standard deviations.
+    rate_error : ndarray, shape (m,) [rad/rad], optional
+        Smoothed z gyro error per unit of table rate (its scale-factor error), which acts
+        only while the table turns.
+    rate_error_sd : ndarray, shape (m,), optional
+        Its standard deviation.
+    table_rate : ndarray, shape (m,) [rad/s], optional
+        Mean table rate over each step.
     first_period_s : float [s]
         End of the table's first full rotation period (it has stood in, or passed, all
         four quarter turns and come back to its starting angle); ``inf`` if it never did.
@@ -147,6 +159,18 @@ class BiasSeries:
     attitude: NDArray[np.float64]
     attitude_sd: NDArray[np.float64]
     first_period_s: float
+    rate_error: NDArray[np.float64] | None = None
+    rate_error_sd: NDArray[np.float64] | None = None
+    table_rate: NDArray[np.float64] | None = None
+
+    def total_error(self) -> NDArray[np.float64]:
+        """The total error over each step (m, 6) [rad/s, m/s²]: the bias plus the z
+        gyro's table-rate part ``k φ̇`` (zero in the dwells)."""
+        if self.rate_error is None or self.table_rate is None:
+            return self.bias
+        out = self.bias.copy()
+        out[:, 2] += self.rate_error * self.table_rate
+        return out
 
 
 def _concat(pieces: Iterable[NavSamples]) -> dict[str, NDArray[np.float64]]:
@@ -207,6 +231,8 @@ def estimate_bias_series(
     encoder_sd: float = 0.0,
     level_sd: float = 1e-3,
     heading_sd: float = math.radians(5.0),
+    rate_error_sd: float = RATE_ERROR_SD,
+    rate_error_rw: float = RATE_ERROR_RW,
 ) -> BiasSeries:
     """Smoothed bias series of a parked cold start (module docstring).
 
@@ -232,6 +258,10 @@ def estimate_bias_series(
         Encoder reading noise.
     level_sd, heading_sd : float [rad]
         Prior sd of the tilts and the heading after the coarse alignment.
+    rate_error_sd : float [rad/rad]
+        Prior sd of the z gyro's error per unit of table rate (its scale-factor error).
+    rate_error_rw : float [1/√s]
+        Its random walk (it drifts with temperature).
     """
     lat, lon, alt = (float(v) for v in site)
     if not (math.isfinite(lat) and abs(lat) < 0.5 * math.pi and math.isfinite(lon)):
@@ -270,31 +300,65 @@ def estimate_bias_series(
     kp = KnownPosition(t_ep, lat, lon, alt, position_sd)
     held = BodyHeadingHeld(t_ep, dphi, dur, noise.gyro_noise_density, encoder_sd)
 
-    Pp = np.empty((m, N_STATES, N_STATES))
-    Pm = np.empty((m, N_STATES, N_STATES))
-    Phi = np.empty((m, N_STATES, N_STATES))
-    xp = np.empty((m, N_STATES))
+    # the z gyro's error per unit of table rate (its scale-factor error, one state after the
+    # filter's 15): while the table turns at φ̇ it reads k φ̇ more, which turns the platform
+    # by k Δφ each move. (The x and y gyros' misalignment towards the table axis tilts it
+    # by as much, and that tilt is exactly an accelerometer bias −g k: one axis cannot tell
+    # them apart, so it stays in the accelerometers' equivalent error.)
+    nx = N_STATES + 1
+    kz = N_STATES
+    gz = GYRO.start + 2
+    dphi_s = np.diff(enc, prepend=enc[0])  # encoder change over each sample [rad]
+    P = np.zeros((nx, nx))
+    P[:N_STATES, :N_STATES] = filt.P
+    P[kz, kz] = rate_error_sd**2
+    k_hat = 0.0
+    Pp = np.empty((m, nx, nx))
+    Pm = np.empty((m, nx, nx))
+    Phi = np.empty((m, nx, nx))
+    xp = np.empty((m, nx))
     b_hat = np.empty((m, 6))
+    k_ep = np.empty(m)
     C_nr = np.empty((m, 3, 3))
-    x0 = np.zeros(N_STATES)
+    x0 = np.zeros(nx)
     i = n_align
     for k, e in enumerate(ends):
-        Phi[k] = filt.propagate(dth[i:e], dvv[i:e])
+        rate = float(dphi[k]) / float(dur[k])  # mean table rate over the step [rad/s]
+        P15 = P[:N_STATES, :N_STATES].copy()
+        filt.P = P15.copy()
+        d_th = dth[i:e].copy()
+        d_th[:, 2] -= k_hat * dphi_s[i:e]
+        ph = filt.propagate(d_th, dvv[i:e])
         i = int(e)
-        Pm[k] = filt.P
+        Q15 = filt.P - ph @ P15 @ ph.T
+        A = np.eye(nx)
+        A[:N_STATES, :N_STATES] = ph
+        # k φ̇ acts over the step as a z gyro bias would on position, velocity and attitude
+        # (Φ's column of that bias), but it is not the bias state: that row stays zero
+        A[:N_STATES, kz] = ph[:, gz] * rate
+        A[gz, kz] = 0.0
+        P = A @ P @ A.T
+        P[:N_STATES, :N_STATES] += Q15
+        P[kz, kz] += rate_error_rw**2 * float(dur[k])
+        Phi[k] = A
+        Pm[k] = P
         st = filt.state(float(t_ep[k]))
         lins = [zv.linearise(k, st), kp.linearise(k, st), held.linearise(k, st)]
+        H = np.vstack([v.H for v in lins])
+        HA = np.zeros((H.shape[0], nx))
+        HA[:, :N_STATES] = H
+        HA[:, kz] = H[:, gz] * rate
         lin = Linearised(
-            np.concatenate([v.residual for v in lins]),
-            np.vstack([v.H for v in lins]),
-            block_diag(*(v.R for v in lins)),
+            np.concatenate([v.residual for v in lins]), HA, block_diag(*(v.R for v in lins))
         )
-        filt.P, x, _ = kalman_update(filt.P, x0, lin)
-        filt.feed_back(x)
-        Pp[k] = filt.P
+        P, x, _ = kalman_update(P, x0, lin)
+        filt.feed_back(x[:N_STATES])
+        k_hat += float(x[kz])
+        Pp[k] = P
         xp[k] = x
         b_hat[k, :3] = filt.gyro_bias
         b_hat[k, 3:] = filt.accel_bias
+        k_ep[k] = k_hat
         C_nr[k] = filt.nav.C_nr
 
     es, Ps = _rts(Pp, Pm, Phi, xp)
@@ -321,7 +385,11 @@ def estimate_bias_series(
     temp_out = _step_means(d["temp_out"][:, None], starts, ends)[:, 0]
     t0 = t_all[0] - dt
     first = first_period_end(np.concatenate([[t0], t_all]), np.concatenate([[enc[0]], enc]))
-    return BiasSeries(t_ep, bias, sd, temps, temp_out, att, att_sd, first)
+    rate_error = k_ep + es[:, kz]
+    rate_error_sd_s = np.sqrt(np.maximum(var[:, kz], 0.0))
+    return BiasSeries(
+        t_ep, bias, sd, temps, temp_out, att, att_sd, first, rate_error, rate_error_sd_s, dphi / dur
+    )
 
 
 def _skew_rows(v: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -343,7 +411,7 @@ def _rts(
     """Fixed-interval smoother over a closed-loop filter (module docstring): the smoothed
     errors relative to each fed-back solution and their covariances."""
     m = Pp.shape[0]
-    es = np.zeros((m, N_STATES))
+    es = np.zeros((m, Pp.shape[1]))
     Ps = np.empty_like(Pp)
     Ps[-1] = Pp[-1]
     if m > 1:
