@@ -42,11 +42,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.linalg import block_diag
 
+from rinscal import earth
 from rinscal.errors import ConfigError
 from rinscal.nav.aiding import (
     ATT,
     GYRO,
     N_STATES,
+    VEL,
     BodyHeadingHeld,
     KnownPosition,
     Linearised,
@@ -65,10 +67,17 @@ from rinscal.nav.rotation import C_br
 from rinscal.nav.strapdown import Strapdown
 from rinscal.schema import NavSamples
 
-#: Prior sd of the z gyro's error per unit of table rate [rad/rad] (200 ppm).
+#: Prior sd of each gyro's error per unit of table rate [rad/rad] (200 ppm).
 RATE_ERROR_SD = 2e-4
-#: Its random walk [1/√s]: 60 ppm in an hour, as it drifts with the warm-up (about 5 ppm/°C).
-RATE_ERROR_RW = 1e-6
+#: Their random walk [1/√s]: 180 ppm in an hour. They drift with the warm-up (about
+#: 5 ppm/°C), and the x and y ones, which only their sum with the accelerometer bias
+#: determines, carry into that sum (g × 3e-6 = 3 µg/√s) what a random walk of the bias alone
+#: would miss: the heat fixed in the body gives each position its own bias (±15 µg at 42 °C
+#: on ``paper``), which looks like a tilt and no state holds (docs/navigation.md).
+RATE_ERROR_RW = 3e-6
+#: Unmodelled specific-force error while the table turns [m/s²] (the lever arms' size
+#: effect: 5 cm at 10 °/s is 1.5 mm/s²).
+MOVE_ACCEL_SD = 2e-3
 #: Time over which a cold start's warm-up may move a bias by one turn-on repeatability [s]:
 #: sets the default bias random walk (:func:`field_noise`). Measured on 4 h parked starts
 #: (tests/nav/_parked.py: a 0.02 °/h, 50 µg exponential warm-up of 30 min against 0.003 °/h,
@@ -139,10 +148,11 @@ class BiasSeries:
         Smoothed heading (clockwise from north), pitch and roll of the body.
     attitude_sd : ndarray, shape (m, 3) [rad]
         Their standard deviations.
-    rate_error : ndarray, shape (m,) [rad/rad], optional
-        Smoothed z gyro error per unit of table rate (its scale-factor error), which acts
-        only while the table turns.
-    rate_error_sd : ndarray, shape (m,), optional
+    rate_error : ndarray, shape (m, 3) [rad/rad], optional
+        Smoothed gyro error per unit of table rate (z: scale-factor error; x, y:
+        misalignment towards the table axis, known only together with the accelerometer
+        bias it mimics), which acts only while the table turns.
+    rate_error_sd : ndarray, shape (m, 3), optional
         Its standard deviation.
     table_rate : ndarray, shape (m,) [rad/s], optional
         Mean table rate over each step.
@@ -164,12 +174,12 @@ class BiasSeries:
     table_rate: NDArray[np.float64] | None = None
 
     def total_error(self) -> NDArray[np.float64]:
-        """The total error over each step (m, 6) [rad/s, m/s²]: the bias plus the z
-        gyro's table-rate part ``k φ̇`` (zero in the dwells)."""
+        """The total error over each step (m, 6) [rad/s, m/s²]: the bias plus the gyros'
+        table-rate part ``k φ̇`` (zero in the dwells)."""
         if self.rate_error is None or self.table_rate is None:
             return self.bias
         out = self.bias.copy()
-        out[:, 2] += self.rate_error * self.table_rate
+        out[:, :3] += self.rate_error * self.table_rate[:, None]
         return out
 
 
@@ -233,6 +243,7 @@ def estimate_bias_series(
     heading_sd: float = math.radians(5.0),
     rate_error_sd: float = RATE_ERROR_SD,
     rate_error_rw: float = RATE_ERROR_RW,
+    move_accel_sd: float = MOVE_ACCEL_SD,
 ) -> BiasSeries:
     """Smoothed bias series of a parked cold start (module docstring).
 
@@ -259,9 +270,13 @@ def estimate_bias_series(
     level_sd, heading_sd : float [rad]
         Prior sd of the tilts and the heading after the coarse alignment.
     rate_error_sd : float [rad/rad]
-        Prior sd of the z gyro's error per unit of table rate (its scale-factor error).
+        Prior sd of each gyro's error per unit of table rate.
     rate_error_rw : float [1/√s]
-        Its random walk (it drifts with temperature).
+        Their random walk (they drift with temperature).
+    move_accel_sd : float [m/s²]
+        Specific-force error while the table turns that no state holds (the
+        accelerometers' size effect, ``ω² ρ`` and ``ω̇ × ρ`` of their lever arms): the
+        velocity's process noise over each step of a move.
     """
     lat, lon, alt = (float(v) for v in site)
     if not (math.isfinite(lat) and abs(lat) < 0.5 * math.pi and math.isfinite(lon)):
@@ -300,25 +315,24 @@ def estimate_bias_series(
     kp = KnownPosition(t_ep, lat, lon, alt, position_sd)
     held = BodyHeadingHeld(t_ep, dphi, dur, noise.gyro_noise_density, encoder_sd)
 
-    # the z gyro's error per unit of table rate (its scale-factor error, one state after the
-    # filter's 15): while the table turns at φ̇ it reads k φ̇ more, which turns the platform
-    # by k Δφ each move. (The x and y gyros' misalignment towards the table axis tilts it
-    # by as much, and that tilt is exactly an accelerometer bias −g k: one axis cannot tell
-    # them apart, so it stays in the accelerometers' equivalent error.)
-    nx = N_STATES + 1
-    kz = N_STATES
-    gz = GYRO.start + 2
+    # each gyro's error per unit of table rate (3 states after the filter's 15): while the
+    # table turns at φ̇ a gyro reads k φ̇ more (z: its scale-factor error; x, y: their
+    # misalignment towards the table axis), which turns (z) and tilts (x, y) the platform
+    # by k Δφ each move. On one axis a tilt left by the moves is exactly an accelerometer
+    # bias −g k_xy: the filter carries both, and the series reports their sum (below).
+    nx = N_STATES + 3
+    kk = slice(N_STATES, nx)
     dphi_s = np.diff(enc, prepend=enc[0])  # encoder change over each sample [rad]
     P = np.zeros((nx, nx))
     P[:N_STATES, :N_STATES] = filt.P
-    P[kz, kz] = rate_error_sd**2
-    k_hat = 0.0
+    P[kk, kk] = rate_error_sd**2 * np.eye(3)
+    k_hat = np.zeros(3)
     Pp = np.empty((m, nx, nx))
     Pm = np.empty((m, nx, nx))
     Phi = np.empty((m, nx, nx))
     xp = np.empty((m, nx))
     b_hat = np.empty((m, 6))
-    k_ep = np.empty(m)
+    k_ep = np.empty((m, 3))
     C_nr = np.empty((m, 3, 3))
     x0 = np.zeros(nx)
     i = n_align
@@ -326,20 +340,20 @@ def estimate_bias_series(
         rate = float(dphi[k]) / float(dur[k])  # mean table rate over the step [rad/s]
         P15 = P[:N_STATES, :N_STATES].copy()
         filt.P = P15.copy()
-        d_th = dth[i:e].copy()
-        d_th[:, 2] -= k_hat * dphi_s[i:e]
-        ph = filt.propagate(d_th, dvv[i:e])
+        ph = filt.propagate(dth[i:e] - np.outer(dphi_s[i:e], k_hat), dvv[i:e])
         i = int(e)
         Q15 = filt.P - ph @ P15 @ ph.T
         A = np.eye(nx)
         A[:N_STATES, :N_STATES] = ph
-        # k φ̇ acts over the step as a z gyro bias would on position, velocity and attitude
-        # (Φ's column of that bias), but it is not the bias state: that row stays zero
-        A[:N_STATES, kz] = ph[:, gz] * rate
-        A[gz, kz] = 0.0
+        # k φ̇ acts over the step as a gyro bias would on position, velocity and attitude
+        # (Φ's gyro-bias columns), but it is not the bias state: those rows stay zero
+        A[:N_STATES, kk] = ph[:, GYRO] * rate
+        A[GYRO, kk] = 0.0
         P = A @ P @ A.T
         P[:N_STATES, :N_STATES] += Q15
-        P[kz, kz] += rate_error_rw**2 * float(dur[k])
+        P[kk, kk] += rate_error_rw**2 * float(dur[k]) * np.eye(3)
+        if rate != 0.0:  # the accelerometers' lever arms while the table turns, unmodelled
+            P[VEL, VEL] += (move_accel_sd * float(dur[k])) ** 2 * np.eye(3)
         Phi[k] = A
         Pm[k] = P
         st = filt.state(float(t_ep[k]))
@@ -347,13 +361,13 @@ def estimate_bias_series(
         H = np.vstack([v.H for v in lins])
         HA = np.zeros((H.shape[0], nx))
         HA[:, :N_STATES] = H
-        HA[:, kz] = H[:, gz] * rate
+        HA[:, kk] = H[:, GYRO] * rate
         lin = Linearised(
             np.concatenate([v.residual for v in lins]), HA, block_diag(*(v.R for v in lins))
         )
         P, x, _ = kalman_update(P, x0, lin)
         filt.feed_back(x[:N_STATES])
-        k_hat += float(x[kz])
+        k_hat = k_hat + x[kk]
         Pp[k] = P
         xp[k] = x
         b_hat[k, :3] = filt.gyro_bias
@@ -362,9 +376,16 @@ def estimate_bias_series(
         C_nr[k] = filt.nav.C_nr
 
     es, Ps = _rts(Pp, Pm, Phi, xp)
+    # the horizontal accelerometers' equivalent error on the static base: their bias plus
+    # −g k_xy, the tilt the moves leave (with its sd from the joint covariance)
+    g = float(earth.gravity(lat, alt))
+    L = np.zeros((6, nx))
+    L[:, 9:15] = np.eye(6)
+    L[3, N_STATES] = L[4, N_STATES + 1] = -g
     bias = b_hat + es[:, 9:15]
+    bias[:, 3:5] -= g * (k_ep[:, :2] + es[:, N_STATES : N_STATES + 2])
     var = np.diagonal(Ps, axis1=1, axis2=2)
-    sd = np.sqrt(np.maximum(var[:, 9:15], 0.0))
+    sd = np.sqrt(np.maximum(np.einsum("ij,mjk,ik->mi", L, Ps, L), 0.0))
     # smoothed attitude: C_true = (I + [φ×]) C̃ (φ the smoothed error left in C̃)
     C_s = np.einsum("mij,mjk->mik", np.eye(3) + _skew_rows(es[:, ATT]), C_nr)
     C_nb = np.einsum("mij,mkj->mik", C_s, C_br(enc[ends - 1]))
@@ -385,8 +406,8 @@ def estimate_bias_series(
     temp_out = _step_means(d["temp_out"][:, None], starts, ends)[:, 0]
     t0 = t_all[0] - dt
     first = first_period_end(np.concatenate([[t0], t_all]), np.concatenate([[enc[0]], enc]))
-    rate_error = k_ep + es[:, kz]
-    rate_error_sd_s = np.sqrt(np.maximum(var[:, kz], 0.0))
+    rate_error = k_ep + es[:, kk]
+    rate_error_sd_s = np.sqrt(np.maximum(var[:, kk], 0.0))
     return BiasSeries(
         t_ep, bias, sd, temps, temp_out, att, att_sd, first, rate_error, rate_error_sd_s, dphi / dur
     )

@@ -45,6 +45,7 @@ from rinscal.errors import ConfigError, LogError
 from rinscal.imunoise import NoiseSource, load_noise
 from rinscal.io.navopen import nav_log_header, open_nav_log
 from rinscal.nav.fieldbias import BiasSeries, estimate_bias_series, field_noise
+from rinscal.nav.gnss_ins import ImuNoise
 from rinscal.schema import CHANNELS
 
 __all__ = [
@@ -53,6 +54,7 @@ __all__ = [
     "FieldCalibration",
     "calibrate_field",
     "calibrate_field_series",
+    "field_noise_of",
     "series_log",
 ]
 
@@ -394,9 +396,15 @@ def calibrate_field(
     )
 
 
+def field_noise_of(path: Any, meta: Mapping[str, Any] | None, imu: Any = None) -> ImuNoise:
+    """The field filter's noise for a recording ``path`` from its metadata ``noise`` (or the
+    IMU ``imu``: a preset, TOML file or ``ImuConfig``), as :func:`calibrate_field` uses."""
+    return _field_noise(path, meta, imu)[0]
+
+
 def _field_noise(
     path: Any, meta: Mapping[str, Any] | None, imu: Any
-) -> tuple[Any, tuple[float, float]]:
+) -> tuple[ImuNoise, tuple[float, float]]:
     """The filter's noise and the turn-on repeatability (gyro [rad/s], accel [m/s²])."""
     if imu is not None:
         cfg = load_noise(imu) if isinstance(imu, str | os.PathLike) else imu.noise

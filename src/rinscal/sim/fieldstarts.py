@@ -29,12 +29,27 @@ second ``time_s`` [s]:
     the body's attitude [deg] (constant over a start).
 ``table_deg``
     the encoder angle [deg], wrapped to ±180°, as the log's.
+``static_gyro_x … static_accel_z``
+    the total equivalent error *on the static base* [rad/s, m/s²], what a field calibration
+    estimates (:mod:`rinscal.nav.fieldbias`): the errors of a *level* IMU's signal (gravity
+    and the vertical Earth rate along z: thermal bias, the scale-factor and misalignment
+    terms of those, turn-on offset, random walk). Left out: the gyros' part proportional to
+    the table rate (``rate_error_* · φ̇``, a move's, not a bias) and the parts proportional
+    to the horizontal signal of the body's tilt and heading (scale factor × ``g`` tilt),
+    which turn with the table as a tilt or a heading error does and are one. Added to the
+    horizontal accelerometers: ``−g k`` of the x and y gyros' misalignment towards the table
+    axis ``k``, since each move tilts the platform by ``k Δφ`` and on one axis that tilt is
+    exactly an accelerometer bias ``−g k`` (the two cannot be told apart).
+``rate_error_gyro_x … rate_error_gyro_z``
+    each gyro's error per unit of table rate [rad/rad] (z: scale-factor error; x, y:
+    misalignment towards the table axis).
 ``temp_chamber``
     the ambient [°C].
 """
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -45,7 +60,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from rinscal import _check, units
+from rinscal import _check, earth, units
 from rinscal.errors import ConfigError
 from rinscal.nav.rotation import RotationSchedule
 from rinscal.presets import DEFAULT_PRESET
@@ -233,6 +248,9 @@ def simulate_field_start(
     plant = ThermalPlant.for_scenario(plant_cfg, cfg, seed=start.plant_seed)
     per_s = round(cfg.rate_hz)
     dt = cfg.dt
+    tr = cfg.trajectory
+    g = float(earth.gravity(tr.lat0, tr.alt0))
+    w_up = earth.RATE * math.sin(tr.lat0)
     rows: list[NDArray[np.float64]] = []
     with recording(log, plant, heading=False) as rec:
         for ch, dth, dv in imu_samples(cfg, plant):
@@ -240,16 +258,18 @@ def simulate_field_start(
             k = ch.k0 + 1 + np.arange(ch.n)
             sel = np.flatnonzero(k % per_s == 0)
             if sel.size:
-                rows.append(_truth_rows(plant, ch, sel, dt))
+                rows.append(_truth_rows(plant, ch, sel, dt, g, w_up))
             if progress is not None:
                 progress(float(ch.t[-1]), cfg.duration_s)
     # deferred: the writers only when writing
     from rinscal.io.metadata import write_meta
     from rinscal.io.streaming import LogStreamWriter
 
-    table = np.concatenate(rows) if rows else np.empty((0, 17))
+    table = np.concatenate(rows) if rows else np.empty((0, 29))
     cols = ["time_s", *(f"error_{c}" for c in CHANNELS), *(f"thermal_{c}" for c in CHANNELS),
-            "heading_deg", "pitch_deg", "roll_deg", "table_deg"]  # fmt: skip
+            "heading_deg", "pitch_deg", "roll_deg", "table_deg",
+            *(f"static_{c}" for c in CHANNELS),
+            *(f"rate_error_{c}" for c in CHANNELS[:3])]  # fmt: skip
     df = pd.DataFrame(table, columns=cols)
     df["temp_chamber"] = cfg.chamber(df["time_s"].to_numpy()) if cfg.chamber else np.nan
     with LogStreamWriter(truth, validate=False) as w:
@@ -267,10 +287,11 @@ def simulate_field_start(
 
 
 def _truth_rows(
-    plant: ThermalPlant, ch: Any, sel: NDArray[np.intp], dt: float
+    plant: ThermalPlant, ch: Any, sel: NDArray[np.intp], dt: float, g: float, w_up: float
 ) -> NDArray[np.float64]:
     """The truth of the samples ``sel`` of a chunk just drawn by the plant (its cached
-    thermal errors, offsets, random walk and size effect of those very samples)."""
+    thermal errors, offsets, random walk and size effect of those very samples); ``g`` the
+    site's gravity [m/s²], ``w_up`` the vertical Earth rate there [rad/s]."""
     t_mid = ch.t - 0.5 * dt
     thermal = plant.oracle(t_mid, ch.dtheta / dt, ch.dv / dt)[sel]
     err = thermal + plant.offsets
@@ -279,7 +300,31 @@ def _truth_rows(
     if plant.last_size_effect is not None:
         err[:, 3:] += plant.last_size_effect[sel]
     table = (np.rad2deg(ch.encoder[sel]) + 180.0) % 360.0 - 180.0
-    return np.column_stack([ch.t[sel], err, thermal, np.rad2deg(ch.euler[sel]), table])
+    # each gyro's error per unit of table rate (z: scale factor; x, y: misalignment towards
+    # the table axis), from the plant's own law at a small rate (its nonlinear terms aside)
+    n = sel.size
+    w = np.zeros((n, 3))
+    w[:, 2] = _PROBE_RATE
+    zero = np.zeros((n, 3))
+    t_sel = t_mid[sel]
+    k = (plant.thermal_errors(t_sel, w, zero) - plant.thermal_errors(t_sel, zero, zero))[:, :3]
+    k /= _PROBE_RATE
+    # on the static base: the errors of a level IMU's signal (gravity and the vertical
+    # Earth rate along z; the parts proportional to the horizontal signal of the body's
+    # tilt and heading turn with the table like a tilt or a heading error, and are one)
+    level_w = np.zeros((n, 3))
+    level_w[:, 2] = w_up
+    level_f = np.zeros((n, 3))
+    level_f[:, 2] = g
+    static = plant.thermal_errors(t_sel, level_w, level_f) + plant.offsets
+    if plant.noise is not None and plant.noise.last_walk is not None:
+        static = static + plant.noise.last_walk[sel]
+    static[:, 3:5] -= g * k[:, :2]  # the tilt each move leaves, an accelerometer bias
+    return np.column_stack([ch.t[sel], err, thermal, np.rad2deg(ch.euler[sel]), table, static, k])
+
+
+#: Table rate at which the plant's error per unit of table rate is probed [rad/s].
+_PROBE_RATE = 0.01
 
 
 def simulate_field_starts(
