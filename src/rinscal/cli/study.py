@@ -26,7 +26,8 @@ def study(
     spec: Annotated[
         str,
         typer.Argument(
-            metavar="SPEC", help="A built-in study (paper, sensitivity) or a study TOML file."
+            metavar="SPEC",
+            help="A built-in study (paper, sensitivity, field) or a study TOML file.",
         ),
     ],
     out: Annotated[

@@ -21,8 +21,10 @@ import pandas as pd
 
 from rinscal._version import __version__
 from rinscal.experiments.study.compare import (
+    FIELD_VARIANT,
     NO_DT_VARIANT,
     design_table,
+    fmt_interval,
     paired_against,
     study_claims,
 )
@@ -56,6 +58,7 @@ from rinscal.report.study_words import (
     codes_legend,
     comparison_view,
     design_view,
+    field_lines,
     map_lines,
     map_view,
     oracle_lines,
@@ -96,7 +99,8 @@ class StudyTables:
 
     ``comparisons``: each method against no compensation and the cubic in T
     (:func:`rinscal.experiments.study.compare.paired_against`); ``oracle``: no compensation
-    against the oracle; ``ablation``: method 2 against method 2 without ``ΔT``; ``design``:
+    against the oracle; ``ablation``: method 2 against method 2 without ``ΔT``; ``field_cal``: the
+    field calibration against the chamber's method 2 and no compensation; ``design``:
     each unit's soak design; ``sensitivities``: each plant variant's equivalent sensitivities;
     ``sensitivity``: the map's cells; ``claim_rows``: the claims of ``claims.csv`` under the
     one rule (:func:`rinscal.experiments.study.compare.study_claims`).
@@ -114,6 +118,7 @@ class StudyTables:
     comparisons: pd.DataFrame = field(default_factory=_empty)
     oracle: pd.DataFrame = field(default_factory=_empty)
     ablation: pd.DataFrame = field(default_factory=_empty)
+    field_cal: pd.DataFrame = field(default_factory=_empty)
     design: pd.DataFrame = field(default_factory=_empty)
     sensitivities: pd.DataFrame = field(default_factory=_empty)
     claim_rows: pd.DataFrame = field(default_factory=_empty)
@@ -158,6 +163,7 @@ def tables_from_results(
         comparisons=comp,
         oracle=paired_against(results, ("true",), ("none",)),
         ablation=paired_against(results, (NO_DT_VARIANT,), ("regression",)),
+        field_cal=paired_against(results, ("regression", "none"), (FIELD_VARIANT,)),
         design=design_table(results),
         sensitivities=sens,
         claim_rows=study_claims(results),
@@ -183,6 +189,8 @@ def verdict_lines(t: StudyTables) -> list[str]:
         out += oracle_lines(t.oracle)
     if not t.ablation.empty:
         out += ablation_lines(t.ablation, t.design)
+    if not t.field_cal.empty:
+        out += field_lines(t.field_cal)
     out.extend(t.structure)
     if not t.sensitivity.empty:
         out += map_lines(t.sensitivity)
@@ -258,6 +266,8 @@ def build_report(spec: StudySpec, t: StudyTables, run: RunSummary | None) -> Rep
         _oracle_section(rep, t)
     if not t.ablation.empty:
         _ablation_section(rep, t)
+    if not t.field_cal.empty:
+        _field_section(rep, t)
     if t.structure:
         st = rep.section("Does the verdict survive a change of thermal law?", "structure")
         st.text(
@@ -433,6 +443,41 @@ def _ablation_section(rep: Report, t: StudyTables) -> None:
         a.table("design", design_view(t.design), "Each unit's soak design", fold=True)
 
 
+def _field_section(rep: Report, t: StudyTables) -> None:
+    a = rep.section("Without a chamber: calibrated from parked cold starts", "field")
+    a.text(
+        "Each unit calibrated a second time, with no chamber: from its own parked cold "
+        "starts (the table indexing, the biases estimated on the static base, then fitted "
+        "as fit does; rinscal.calibrate_field), and navigated on the same raw output as the "
+        "chamber's method 2 and no compensation. The navigation starts are held out from "
+        "both calibrations. The mean ratio is each start's maximum position error with the "
+        "field model over method 2's (or no compensation's), averaged over a unit's starts, "
+        f"then over units, with its {CONFIDENCE:.0%} Student-t interval over units (a "
+        "description); the verdict is the one rule's on the paired difference."
+    )
+    a.raw(ul(field_lines(t.field_cal)))
+    view = comparison_view(t.field_cal)
+    view.insert(
+        4,
+        "mean ratio",
+        [
+            f"{r:.2f} {fmt_interval(lo, hi, 2)}".strip()
+            for r, lo, hi in zip(
+                t.field_cal["mean ratio"],
+                t.field_cal["mean ratio ci low"],
+                t.field_cal["mean ratio ci high"],
+                strict=True,
+            )
+        ],
+    )
+    a.table(
+        "field",
+        view,
+        "The field calibration against the chamber's method 2 and no compensation (Δ = field "
+        "− reference)",
+    )
+
+
 def _residual_section(rep: Report, t: StudyTables) -> None:
     h = rep.section("How much of each result is model error", "residual")
     h.text(
@@ -537,6 +582,7 @@ def write_study_report(
         "against_references": t.comparisons,
         "oracle": t.oracle,
         "gradient_ablation": t.ablation,
+        "field_calibration": t.field_cal,
         "soak_design": t.design,
         "paper_claims": t.claims,
         "plant_sensitivities": t.sensitivities,

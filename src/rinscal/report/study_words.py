@@ -29,6 +29,7 @@ __all__ = [
     "codes_legend",
     "comparison_view",
     "design_view",
+    "field_lines",
     "map_lines",
     "map_view",
     "oracle_lines",
@@ -73,6 +74,33 @@ def oracle_lines(oracle: pd.DataFrame) -> list[str]:
             "compensation"
         )
     return out
+
+
+def field_lines(field: pd.DataFrame) -> list[str]:
+    """Per plant and scenario: the field calibration against the chamber's method 2 (the
+    mean paired ratio of the maximum position error with its interval, the difference and
+    the verdict) and against no compensation (the verdict)."""
+    out = []
+    for (label, scen), g in field.groupby(["plant_label", "scenario"], sort=False):
+        parts = []
+        for _, r in g.iterrows():
+            ref = "method 2" if r["reference"] == "regression" else _label_ref(r["reference"])
+            ci = fmt_interval(r["mean ratio ci low"], r["mean ratio ci high"], 2)
+            ratio = f"mean ratio field / {ref} {r['mean ratio']:.2f}" + (f" {ci}" if ci else "")
+            parts.append(
+                f"{ratio}, field − {ref} = {_delta_words(r)}, field better than {ref}: "
+                f"{short_verdict(int(r['n units']), r['verdict'])}"
+            )
+        n = g.iloc[0]
+        out.append(
+            f"{label}, {scen} ({int(n['n units'])} units, {int(n['n runs'])} starts): "
+            + "; ".join(parts)
+        )
+    return out
+
+
+def _label_ref(ref: str) -> str:
+    return {"none": "no compensation", "poly-t": "the cubic in T"}.get(ref, CODES.get(ref, ref))
 
 
 def ablation_lines(abl: pd.DataFrame, design: pd.DataFrame) -> list[str]:
@@ -146,6 +174,7 @@ CODES = {
     "regression-no-dT": "m2 w/o ΔT",
     "regression+sf": "m2+sf",
     "neural": "m3",
+    "field": "field",
     "true": "oracle",
 }
 #: What each short name means, in :data:`CODES`' order.
@@ -157,6 +186,7 @@ _MEANINGS = {
     "regression-no-dT": "method 2 without its ΔT terms",
     "regression+sf": "method 2 behind the unit's scale-factor/axis calibration",
     "neural": "the paper's method 3 (BP network)",
+    "field": "calibrated from the unit's own parked cold starts, no chamber",
     "true": "the true thermal bias",
 }
 

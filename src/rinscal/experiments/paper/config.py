@@ -37,6 +37,7 @@ LABELS = {
     "true": "true bias (oracle)",
     "regression+sf": "method 2 + scale factor/axes over T",
     "regression-no-dT": "method 2 without ΔT",
+    "field": "field (from parked cold starts)",
 }
 
 

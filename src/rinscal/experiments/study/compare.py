@@ -35,15 +35,18 @@ from scipy import stats
 
 from rinscal.experiments.paper.claims import CLAIM_PAIRS, claim_name
 from rinscal.experiments.paper.config import LABELS
-from rinscal.experiments.verdict import CLAIMS_COLUMNS, CONFIDENCE, MIN_N, paired
+from rinscal.experiments.verdict import CLAIMS_COLUMNS, CONFIDENCE, MIN_N, paired, t_interval
 
 __all__ = [
     "CONFIDENCE",
     "DESIGN_COLUMNS",
+    "FIELD_VARIANT",
     "MIN_N",
     "NO_DT_VARIANT",
+    "STUDY_CLAIM_PAIRS",
     "design_table",
     "fmt_interval",
+    "mean_ratio",
     "median_ratio",
     "paired_against",
     "study_claims",
@@ -51,6 +54,13 @@ __all__ = [
 
 #: Method 2 with its ``ΔT`` terms dropped (regression on ``T`` and ``Ṫ`` only).
 NO_DT_VARIANT = "regression-no-dT"
+#: The thermal model calibrated without a chamber from the unit's own parked cold starts
+#: (:func:`rinscal.nav.fieldcal.calibrate_field`).
+FIELD_VARIANT = "field"
+#: The claims of a study: the reproduction's (:data:`CLAIM_PAIRS`), then the field
+#: calibration against the chamber's method 2 and against no compensation (pairs whose
+#: variants a study did not run are skipped).
+STUDY_CLAIM_PAIRS = (*CLAIM_PAIRS, (FIELD_VARIANT, "regression"), (FIELD_VARIANT, "none"))
 #: Per-unit soak-design columns of the results (written by the calibration task): the
 #: correlation of ``Ṫ`` and ``ΔT`` and the condition number of the standardised design
 #: ``[T, Ṫ, ΔT]``, both over the unit's soak runs (horizontal accelerometers, worse of x, y).
@@ -97,6 +107,26 @@ def median_ratio(
     return (r, float(ci.low), float(ci.high))
 
 
+def mean_ratio(
+    reference: pd.Series, method: pd.Series, confidence: float = CONFIDENCE
+) -> tuple[float, float, float]:
+    """The paired ratio ``e_method / e_reference`` of each run (same raw output), averaged
+    over a unit's runs, then over units, with the Student-t interval over units
+    (:func:`rinscal.experiments.verdict.t_interval`; NaN below :data:`MIN_N` units).
+
+    ``reference`` and ``method`` [nmi] are indexed by run with a ``unit`` level; runs where
+    the reference's error is not positive or either is not finite are left out. Returns
+    ``(mean, low, high)`` [dimensionless].
+    """
+    r = method.to_numpy(float) / reference.to_numpy(float)
+    ok = np.isfinite(r) & (reference.to_numpy(float) > 0)
+    if not ok.any():
+        return (math.nan, math.nan, math.nan)
+    per_unit = pd.Series(r[ok], index=reference.index[ok]).groupby(level="unit").mean()
+    lo, hi = t_interval(per_unit.to_numpy(), confidence)
+    return (float(per_unit.mean()), lo, hi)
+
+
 def fmt_interval(lo: float, hi: float, nd: int) -> str:
     """``"[−0.11, −0.03]"`` with ``nd`` decimals (a true minus sign); ``""`` if undefined."""
     if not (math.isfinite(lo) and math.isfinite(hi)):
@@ -136,7 +166,8 @@ def paired_against(
         reference`` and ``mean method`` [nmi] (over units), ``delta`` = mean over units of
         (method − reference) [nmi] with ``delta ci low/high`` (Student-t over units),
         ``median ratio`` (median over units of the method's unit means over the reference's)
-        with ``ratio ci low/high``, ``units method better`` (a count, of ``n units``),
+        with ``ratio ci low/high``, ``mean ratio`` (:func:`mean_ratio`) with ``mean ratio ci
+        low/high``, ``units method better`` (a count, of ``n units``),
         ``runs method better`` (a count, of ``n runs``),
         ``verdict`` on "method better than reference"
         (:func:`rinscal.experiments.verdict.verdict`).
@@ -149,7 +180,7 @@ def paired_against(
         aggfunc="first",
         observed=True,
     )
-    order = ["none", "poly-t", "sectional", "regression", NO_DT_VARIANT, "neural"]
+    order = ["none", "poly-t", "sectional", "regression", NO_DT_VARIANT, "neural", FIELD_VARIANT]
     have = sorted(runs.columns, key=lambda v: (order.index(v) if v in order else len(order), v))
     if methods is None:
         methods = [v for v in have if v != "true"]
@@ -176,6 +207,7 @@ def paired_against(
                 unit = pair.groupby(level="unit").mean()
                 p = paired(unit[ref].to_numpy(float), unit[m].to_numpy(float))
                 ratio, rlo, rhi = median_ratio(unit[ref].to_numpy(), unit[m].to_numpy())
+                mr, mlo, mhi = mean_ratio(pair[ref], pair[m])
                 rows.append(
                     {
                         "plant": plant,
@@ -198,6 +230,9 @@ def paired_against(
                         "median ratio": ratio,
                         "ratio ci low": rlo,
                         "ratio ci high": rhi,
+                        "mean ratio": mr,
+                        "mean ratio ci low": mlo,
+                        "mean ratio ci high": mhi,
                         "units method better": p.better,
                         "runs method better": int((pair[m] < pair[ref]).sum()),
                         "verdict": p.verdict,
@@ -207,10 +242,10 @@ def paired_against(
 
 
 def study_claims(
-    results: pd.DataFrame, pairs: Sequence[tuple[str, str]] = CLAIM_PAIRS
+    results: pd.DataFrame, pairs: Sequence[tuple[str, str]] = STUDY_CLAIM_PAIRS
 ) -> pd.DataFrame:
     """The claims of ``claims.csv`` for a study: each ``(method, reference)`` of ``pairs``
-    (default the reproduction's, :data:`rinscal.experiments.paper.claims.CLAIM_PAIRS`) per
+    (default :data:`STUDY_CLAIM_PAIRS`: the reproduction's and the field calibration's) per
     plant (its label) and scenario (the group), paired per unit (:func:`paired_against`).
 
     Returns

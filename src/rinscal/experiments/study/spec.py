@@ -42,11 +42,12 @@ from rinscal import units
 from rinscal.errors import ConfigError
 from rinscal.experiments.paper.config import METHODS, ReproConfig, load_plant
 from rinscal.experiments.paper.imucal import IMU_VARIANT
-from rinscal.experiments.study.compare import NO_DT_VARIANT
+from rinscal.experiments.study.compare import FIELD_VARIANT, NO_DT_VARIANT
 from rinscal.presets import PRESETS
 
 __all__ = [
     "BUILTIN_STUDIES",
+    "FIELD_AMBIENTS_C",
     "MECH_SPREAD_FIELDS",
     "SCENARIO_KINDS",
     "SPREAD_FIELDS",
@@ -64,14 +65,20 @@ __all__ = [
 ]
 
 #: Studies shipped with rinscal (``src/rinscal/data/studies/<name>.toml``).
-BUILTIN_STUDIES = ("paper", "sensitivity")
+BUILTIN_STUDIES = ("paper", "sensitivity", "field")
 #: Variants a spec may list: uncompensated, the models (``regression+sf``: method 2 behind the
 #: thermal part of the unit's own multi-position calibration, see
 #: :mod:`rinscal.experiments.paper.imucal`; ``regression-no-dT``: method 2 on ``T`` and ``Ṫ``
-#: only, the gradient ablation), the true-bias oracle. ``none`` and
+#: only, the gradient ablation; ``field``: calibrated without a chamber from the unit's own
+#: parked cold starts, :func:`rinscal.nav.fieldcal.calibrate_field`), the true-bias oracle.
+#: ``none`` and
 #: ``true`` are navigated in every task whether listed or not (the thermal part needs the
 #: oracle); the list decides which models are fitted.
-STUDY_VARIANTS = ("none", *METHODS, NO_DT_VARIANT, IMU_VARIANT, "true")
+STUDY_VARIANTS = ("none", *METHODS, NO_DT_VARIANT, IMU_VARIANT, FIELD_VARIANT, "true")
+#: The fitted variants (every study variant but ``none`` and ``true``).
+_MODEL_VARIANTS = (*METHODS, NO_DT_VARIANT, IMU_VARIANT, FIELD_VARIANT)
+#: The ambients of the field variant's parked starts by default (Table 3's soaks) [°C].
+FIELD_AMBIENTS_C = (0.0, 7.0, 14.0, 21.0, 28.0, 35.0, 42.0)
 #: Scenario kinds (:data:`rinscal.sim.scenario.SCENARIOS`).
 SCENARIO_KINDS = ("quasi-static", "swing", "vehicle", "ramp")
 
@@ -121,11 +128,20 @@ MECH_SPREAD_FIELDS = ("k_t", "k_mount", "k_mount2", "k_elec", "k_path", "k_coil"
 @dataclass(frozen=True)
 class CalibrationSpec:
     """How each unit is calibrated: the soak protocol (Table 3) at ``rate_hz`` [Hz] with
-    runs of ``hours`` [h]; the BP network is trained on ``neural_max_samples`` samples."""
+    runs of ``hours`` [h]; the BP network is trained on ``neural_max_samples`` samples.
+
+    The ``field`` variant instead learns from ``field_runs`` parked cold starts of the unit
+    (:func:`rinscal.sim.fieldstarts.simulate_field_starts`), each ``field_hours`` [h] long
+    at ``field_rate_hz`` [Hz] (a whole number), run ``k`` at ``field_ambient_c[k % len]``
+    [°C]."""
 
     hours: float = 3.0
     rate_hz: float = 10.0
     neural_max_samples: int = 20000
+    field_runs: int = 7
+    field_hours: float = 4.0
+    field_rate_hz: float = 10.0
+    field_ambient_c: tuple[float, ...] = FIELD_AMBIENTS_C
 
 
 @dataclass(frozen=True)
@@ -217,7 +233,7 @@ class StudySpec:
     @property
     def models(self) -> tuple[str, ...]:
         """The methods that are fitted (the spec's methods without ``none``/``true``)."""
-        return tuple(m for m in self.methods if m in (*METHODS, NO_DT_VARIANT, IMU_VARIANT))
+        return tuple(m for m in self.methods if m in _MODEL_VARIANTS)
 
     def to_dict(self) -> dict[str, Any]:
         """Plain JSON-able form (what the results folder records)."""
@@ -229,12 +245,23 @@ class StudySpec:
         d = self.to_dict()
         for k in ("units", "description"):
             d.pop(k)
+        if FIELD_VARIANT not in self.methods:  # they decide nothing then (older folders too)
+            for k in [k for k in d["calibration"] if k.startswith("field_")]:
+                d["calibration"].pop(k)
         return hashlib.sha256(json.dumps(d, sort_keys=True).encode()).hexdigest()[:16]
 
 
 _TOP = {"study", "calibration", "plants", "scenarios", "quick"}
 _STUDY = {"name", "description", "seed", "units", "coefficient_spread", "methods"}
-_CAL = {"hours", "rate_hz", "neural_max_samples"}
+_CAL = {
+    "hours",
+    "rate_hz",
+    "neural_max_samples",
+    "field_runs",
+    "field_hours",
+    "field_rate_hz",
+    "field_ambient_c",
+}
 _PLANT = {"imu", "sweep"}
 _SCEN = {"name", "kind", "hours", "rate_hz", "ambient_c", "align_s", "align_start_s"}
 _QUICK = {"calibration", "scenarios"}
@@ -370,6 +397,7 @@ def spec_from_dict(
         neural_max_samples=_count(
             "calibration.neural_max_samples", cal_d.get("neural_max_samples", 20000), source, 100
         ),
+        **_field_calibration(cal_d, source),
     )
     plants_d = _array_of_tables(data, "plants", source)
     sweeps: list[tuple[str, list[tuple[tuple[str, float], ...]]]] = []
@@ -461,6 +489,31 @@ def spec_from_dict(
         scenarios=tuple(scenarios),
         quick=quick,
     )
+
+
+def _field_calibration(cal: Mapping[str, Any], source: str) -> dict[str, Any]:
+    """The ``field_*`` keys of ``[calibration]`` (defaults: :class:`CalibrationSpec`'s),
+    validated: at least 3 runs (what :func:`rinscal.nav.fieldcal.calibrate_field` needs),
+    positive hours, a whole rate in Hz, a non-empty list of ambients."""
+    d = CalibrationSpec()
+    rate = _number("calibration.field_rate_hz", cal.get("field_rate_hz", d.field_rate_hz), source)
+    if rate < 1.0 or rate != round(rate):
+        raise ConfigError(
+            f"{source}: calibration.field_rate_hz must be a whole number of Hz >= 1, got {rate:g}"
+        )
+    amb = _list(cal.get("field_ambient_c", list(d.field_ambient_c)))
+    if not amb:
+        raise ConfigError(f"{source}: calibration.field_ambient_c must list at least one ambient")
+    return {
+        "field_runs": _count(
+            "calibration.field_runs", cal.get("field_runs", d.field_runs), source, 3
+        ),
+        "field_hours": _number(
+            "calibration.field_hours", cal.get("field_hours", d.field_hours), source
+        ),
+        "field_rate_hz": float(rate),
+        "field_ambient_c": tuple(_celsius("calibration.field_ambient_c", a, source) for a in amb),
+    }
 
 
 def _celsius(where: str, v: Any, source: str) -> float:

@@ -24,7 +24,7 @@ import pandas as pd
 from rinscal.experiments.paper.claims import claim_name
 from rinscal.experiments.paper.config import LABELS, PAPER
 from rinscal.experiments.paper.navigation import RESIDUAL_COLUMNS
-from rinscal.experiments.study.compare import NO_DT_VARIANT
+from rinscal.experiments.study.compare import FIELD_VARIANT, NO_DT_VARIANT
 from rinscal.experiments.verdict import (
     CONFIDENCE,
     MIN_N,
@@ -49,7 +49,7 @@ METRICS = {
     "gyro_residual_dph": "°/h",
 }
 #: Methods compared pairwise, in order: each pair (a, b) with a before b.
-PAIR_ORDER = ("none", "poly-t", "sectional", "regression", NO_DT_VARIANT, "neural")
+PAIR_ORDER = ("none", "poly-t", "sectional", "regression", NO_DT_VARIANT, "neural", FIELD_VARIANT)
 
 
 def _decrease(a: np.ndarray, b: np.ndarray) -> float:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import math
+import tempfile
 import time
 import warnings
 import zlib
@@ -23,6 +24,7 @@ import numpy as np
 import pandas as pd
 
 from rinscal import units
+from rinscal.calibration.modelfile import FittedModel
 from rinscal.calibration.thermal.features import build_features
 from rinscal.calibration.thermal.model import ThermalFitter
 from rinscal.experiments.paper.config import load_plant
@@ -33,7 +35,7 @@ from rinscal.experiments.paper.navigation import (
     run_navigation_job,
     thermal_part_m,
 )
-from rinscal.experiments.study.compare import DESIGN_COLUMNS, NO_DT_VARIANT
+from rinscal.experiments.study.compare import DESIGN_COLUMNS, FIELD_VARIANT, NO_DT_VARIANT
 from rinscal.experiments.study.spec import (
     MECH_SPREAD_FIELDS,
     SPREAD_FIELDS,
@@ -42,7 +44,9 @@ from rinscal.experiments.study.spec import (
     ScenarioSpec,
     StudySpec,
 )
+from rinscal.nav.fieldcal import calibrate_field
 from rinscal.sim.config import ImuConfig
+from rinscal.sim.fieldstarts import simulate_field_starts
 from rinscal.sim.protocols import simulate_protocol
 
 __all__ = [
@@ -50,6 +54,7 @@ __all__ = [
     "CalTask",
     "NavTask",
     "calibrate_unit",
+    "field_model",
     "navigate_unit",
     "plant_config",
     "soak_design",
@@ -192,11 +197,18 @@ def unit_config(spec: StudySpec, plant: ImuConfig, unit: int) -> ImuConfig:
 def calibrate_unit(spec: StudySpec, plant: ImuConfig, task: CalTask) -> dict[str, Any]:
     """Simulate a unit's soak calibration and fit every model of the spec.
 
+    The ``field`` variant is not fitted on the soak: it learns from the unit's own parked
+    cold starts (:func:`field_model`), drawn from their own seed, so the study's navigation
+    starts (other seeds, other scenarios) are held out from it.
+
     Returns
     -------
     dict
         ``models``: method → model file JSON text; ``warnings``: method → the warnings its
-        fit raised (a weak fit is kept and flagged); ``elapsed_s`` [s]: the task's run time.
+        fit raised (a weak fit is kept and flagged); ``design``: the soak design
+        (:func:`soak_design`); ``field`` (with the field variant): what its starts did not
+        determine (``fallback``: channel → the inputs it was restricted to) and each
+        channel's chosen model (``chosen``); ``elapsed_s`` [s]: the task's run time.
     """
     t0 = time.perf_counter()
     imu = unit_config(spec, plant, task.unit)
@@ -210,11 +222,14 @@ def calibrate_unit(spec: StudySpec, plant: ImuConfig, task: CalTask) -> dict[str
     )
     models: dict[str, str] = {}
     caught: dict[str, list[str]] = {}
+    extra: dict[str, Any] = {}
     for m in spec.models:
         params = {"max_samples": spec.calibration.neural_max_samples} if m == "neural" else {}
         with warnings.catch_warnings(record=True) as w:
             warnings.simplefilter("always")
-            if m == IMU_VARIANT:  # the unit's own multi-position calibration, then method 2
+            if m == FIELD_VARIANT:
+                mf, extra["field"] = field_model(spec, imu, task)
+            elif m == IMU_VARIANT:  # the unit's own multi-position calibration, then method 2
                 mf = imu_variant_model(imu, log, meta, seed, quick=spec.quick)
             else:
                 # the ablation: method 2 fitted without its ΔT terms (T and Ṫ only)
@@ -236,8 +251,47 @@ def calibrate_unit(spec: StudySpec, plant: ImuConfig, task: CalTask) -> dict[str
         "models": models,
         "warnings": caught,
         "design": soak_design(log),
+        **extra,
         "elapsed_s": time.perf_counter() - t0,
     }
+
+
+def field_model(
+    spec: StudySpec, imu: ImuConfig, task: CalTask
+) -> tuple[FittedModel, dict[str, Any]]:
+    """The ``field`` variant of a unit: its parked cold starts (``spec.calibration``'s
+    ``field_*`` sizes, the unit's own plant ``imu`` and seed ``task_seed(seed, unit, 3)``)
+    simulated into a temporary folder, then calibrated by
+    :func:`rinscal.nav.fieldcal.calibrate_field` with the unit's datasheet (``imu=``: its
+    noise and turn-on repeatability, as its user knows them).
+
+    Returns
+    -------
+    (FittedModel, dict)
+        The model file (``source.protocol`` ``field``) and a summary: ``fallback``
+        (channel → the inputs it was restricted to), ``chosen`` (channel → its model),
+        ``runs``.
+    """
+    c = spec.calibration
+    seed = task_seed(spec.seed, task.unit, 3)
+    with tempfile.TemporaryDirectory(prefix="rinscal-field-") as d:
+        paths = simulate_field_starts(
+            d,
+            runs=c.field_runs,
+            ambient_c=c.field_ambient_c,
+            hours=c.field_hours,
+            rate_hz=c.field_rate_hz,
+            imu=imu,
+            seed=seed,
+        )
+        fc = calibrate_field(paths, imu=imu, seed=seed)
+    src = {**fc.model.source, "log": f"study {spec.name}, unit {task.unit}, parked starts"}
+    summary = {
+        "fallback": dict(fc.fallback),
+        "chosen": dict(zip(fc.table["channel"], fc.table["model"].astype(str), strict=True)),
+        "runs": c.field_runs,
+    }
+    return replace(fc.model, source=src), summary
 
 
 def soak_design(log: pd.DataFrame) -> dict[str, float]:
