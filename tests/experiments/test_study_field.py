@@ -24,6 +24,7 @@ from rinscal.experiments.study.compare import (
 )
 from rinscal.experiments.study.spec import FIELD_AMBIENTS_C, load_spec, spec_from_dict
 from rinscal.experiments.study.tasks import CalTask, calibrate_unit, task_seed, unit_config
+from rinscal.report.study_words import field_lines
 
 BASE = {
     "study": {"name": "f", "seed": 5, "units": 5, "coefficient_spread": 0.1,
@@ -149,6 +150,12 @@ def test_mean_ratio_and_the_field_claims() -> None:
     )
     assert r["verdict"] == "reversed"  # field has more error than method 2 in every run
     assert c.loc["none"]["mean ratio"] == pytest.approx((unit / 2).mean())
+    # the report's words carry the same figures
+    lo, hi = stats.t.interval(0.95, 5, loc=unit.mean(), scale=stats.sem(unit))
+    (line,) = field_lines(c.reset_index())
+    assert line.startswith("p, qs (6 units, 12 starts): mean ratio field / method 2 ")
+    assert f"{unit.mean():.2f} [{lo:.2f}, {hi:.2f}]" in line
+    assert "field better than method 2: reversed" in line
     claims = study_claims(res).set_index(["method", "reference"])
     assert claims.loc[(FIELD_VARIANT, "regression"), "verdict"] == "reversed"
     assert claims.loc[(FIELD_VARIANT, "none"), "verdict"] == "holds"

@@ -371,7 +371,17 @@ def _what_ran(rep: Report, spec: StudySpec, t: StudyTables, run: RunSummary | No
         f"{len(spec.plants)} plant variant(s), {spec.units} unit(s) each (unit-to-unit spread "
         f"of the thermal coefficients {spec.coefficient_spread:.0%}, 1σ), each unit calibrated "
         f"on its own soak runs ({spec.calibration.hours:g} h per run at "
-        f"{spec.calibration.rate_hz:g} Hz) and navigated in "
+        f"{spec.calibration.rate_hz:g} Hz)"
+        + (
+            f" and, for the field variant, from {spec.calibration.field_runs} of its own "
+            f"parked cold starts ({spec.calibration.field_hours:g} h at "
+            f"{spec.calibration.field_rate_hz:g} Hz, ambients "
+            + ", ".join(f"{a:g}" for a in spec.calibration.field_ambient_c)
+            + " °C)"
+            if FIELD_VARIANT in spec.methods
+            else ""
+        )
+        + " and navigated in "
         + ", ".join(
             f"{sc.name} ({len(sc.ambient_c)} start(s), {sc.hours:g} h at {sc.rate_hz:g} Hz, "
             f"alignment {sc.align_s:g} s from {sc.align_start_s:g} s)"
