@@ -2,7 +2,8 @@
 
 Run from the repository root (about 2 minutes per plant on one core)::
 
-    python docs/scripts/field_heldout.py [--imu paper] [--rate 10] [--out docs/results/field-heldout-paper.csv]
+    python docs/scripts/field_heldout.py [--imu paper] [--rate 10] \
+        [--out docs/results/field-heldout-paper.csv]
 
 For one plant: the chamber calibration (Table 3's soak, 7 × 3 h at 10 Hz, ``fit --method
 regression``: the paper's method 2) and the field calibration (7 parked starts at Table 3's
