@@ -10,7 +10,8 @@ terms of a quadratic regression in centred inputs::
 
     y = c + a₁ (T − T̄) + a₂ ((T − T̄)² − mean) + b₁ (Ṫ − mean) + d₁ (ΔT − mean) + e
 
-Two standard deviations of each coefficient are computed and the larger is used:
+Two standard deviations of each coefficient are computed; the jackknife's is used when
+there are three runs or more, least squares' otherwise:
 
 * ``sd_model``: least squares with the residual variance inflated for correlated residuals
   (each run's effective sample size ``n (1 − ρ)/(1 + ρ)``, ``ρ`` its lag-one
@@ -18,7 +19,9 @@ Two standard deviations of each coefficient are computed and the larger is used:
 * ``sd_runs``: the jackknife over runs (each run left out in turn,
   ``√((k − 1)/k · Σ (θ₍ᵢ₎ − θ̄)²)``), which sees what the runs disagree on — turn-on offsets
   loading on the level of ``T`` across ambients, a warm-up shape that differs from run to
-  run — and which the least-squares figure does not.
+  run — and which the least-squares figure does not; and a smoothed bias series is so
+  autocorrelated (lag-one correlation near 1 at 10 s rows) that its effective sample size,
+  and with it the least-squares sd, is ill determined.
 
 A term's **effect sd** is that sd times the term's reach: for ``T`` the half-width of the
 temperature range the model must cover (``span_c``, default the data's own), for ``T²`` its
@@ -26,9 +29,11 @@ square, for ``Ṫ`` and ``ΔT`` twice their sd in the data. A term is **determin
 effect sd is at most :data:`EFFECT_FRACTION` of the channel's thermal swing (half the
 5-95 % range of the output over the runs) and its variance inflation factor is at most
 :data:`MAX_VIF` (beyond it the term cannot be told from the others). A term that is not
-determined is left out of the fit (:func:`fallback_options`): the ``ΔT`` terms by fitting
-without the gradient, the ``Ṫ`` terms by fitting polynomials in ``T`` alone, the curvature
-in ``T`` by a model linear in ``T``.
+determined is left out of the fit (:mod:`rinscal.nav.fieldcal`): the ``ΔT`` terms by
+fitting without the gradient, the ``Ṫ`` terms by fitting polynomials in ``T`` alone. The
+level and the curvature in ``T`` are reported only: a model needs ``T``, and outside the
+temperatures seen it is held at its edge (policy ``clamp``); the held-out choice of ``fit``
+decides the degree.
 """
 
 from __future__ import annotations
@@ -79,7 +84,7 @@ class TermObservability:
     reach : float [the term's unit]
         How far the term's input reaches (see the module docstring).
     effect_sd : float [log units]
-        ``max(sd_model, sd_runs) · reach``.
+        ``sd_runs · reach`` (``sd_model · reach`` with fewer than three runs).
     swing : float [log units]
         The channel's thermal swing: half the 5-95 % range of the output.
     vif : float
@@ -196,7 +201,9 @@ def observability(
         swing = 0.5 * float(q95 - q5)
         vif = _vif(X[:, 1:])
         for k, term in enumerate(terms):
-            sd = float(np.nanmax([sd_model[k], sd_runs[k]]))
+            # the jackknife over runs when there are three or more: the series are smooth and
+            # strongly autocorrelated, so least squares' own sd is a poor guide to them
+            sd = float(sd_runs[k] if np.isfinite(sd_runs[k]) else sd_model[k])
             effect = sd * reach[term]
             why = []
             if vif[k] > MAX_VIF:

@@ -15,7 +15,8 @@ Before the fit, :func:`rinscal.calibration.observability.observability` measures
 starts determine of each channel's terms (``T``, its curvature, ``Ṫ``, ``ΔT``) and with
 what sd; a term they do not determine is left out of that channel's model (the fallback):
 the ``ΔT`` terms by fitting it without the gradient, the ``Ṫ`` terms by polynomials in
-``T`` alone, the curvature by a model linear in ``T``.
+``T`` alone (the level and curvature in ``T`` are reported; the held-out choice decides the
+degree).
 """
 
 from __future__ import annotations
