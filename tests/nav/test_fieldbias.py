@@ -13,7 +13,12 @@ from rinscal import earth
 from rinscal.errors import ConfigError
 from rinscal.nav.aiding import GYRO, N_STATES, BodyHeadingHeld, NavState
 from rinscal.nav.attitude import C_nb_from_euler
-from rinscal.nav.fieldbias import estimate_bias_series, field_noise, first_period_end
+from rinscal.nav.fieldbias import (
+    estimate_bias_series,
+    field_noise,
+    first_period_end,
+    first_reversal_end,
+)
 from rinscal.nav.rotation import C_br, RotationSchedule
 from rinscal.nav.strapdown import skew
 
@@ -65,6 +70,13 @@ def test_first_period_is_the_four_position_cycle() -> None:
     assert first_period_end(t, np.zeros_like(t)) == math.inf
     c = RotationSchedule.continuous(6.0)
     assert first_period_end(t, c.angle(t)) == pytest.approx(60.0, abs=0.15)
+    # half a turn from the first position, and stopped there: the end of the first move
+    # (−135° to 45°), which starts after the first dwell
+    r = first_reversal_end(t, s.angle(t))
+    k = np.searchsorted(t, r)
+    assert 60.0 < r < 90.0  # the 60 s dwell, then 180° at 10 °/s
+    assert abs(abs(math.remainder(s.angle(t)[k] - s.angle(t)[0], 2 * math.pi)) - math.pi) < 1e-6
+    assert first_reversal_end(t, np.zeros_like(t)) == math.inf
 
 
 def test_bias_series_of_a_parked_cold_start_covers_the_truth() -> None:
@@ -109,7 +121,7 @@ def test_a_recording_without_encoder_or_too_short_is_refused() -> None:
     noise = field_noise(P.GYRO_DENSITY, P.ACCEL_DENSITY, 0.003 * P.DPH, 15 * P.UG)
     pieces = list(P.recording(p, 60.0, 10.0, 1))
     with pytest.raises(ConfigError, match="shorter than the alignment"):
-        estimate_bias_series(pieces, site=SITE, noise=noise)
+        estimate_bias_series(pieces, site=SITE, noise=noise, align_s=120.0)
     from dataclasses import replace
 
     with pytest.raises(ConfigError, match="no encoder angle"):

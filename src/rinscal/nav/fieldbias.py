@@ -78,6 +78,13 @@ RATE_ERROR_RW = 3e-6
 #: Unmodelled specific-force error while the table turns [m/s²] (the lever arms' size
 #: effect: 5 cm at 10 °/s is 1.5 mm/s²).
 MOVE_ACCEL_SD = 2e-3
+#: How far a bias may move per °C of its sensor's temperature, 1σ (gyro [rad/s/°C], accel
+#: [m/s²/°C]): 0.01 °/h and 50 µg per °C, a navigation-grade unit's order (paper Table 6).
+THERMAL_SD: tuple[float, float] = (0.01 * math.pi / 180 / 3600, 50 * 9.80665e-6)
+#: And per °C/min of change of its temperature rate (0.1 °/h and 500 µg per °C/min).
+THERMAL_RATE_SD: tuple[float, float] = (0.1 * math.pi / 180 / 3600, 500 * 9.80665e-6)
+#: Window of the temperature and its rate that drive the bias process noise [s].
+THERMAL_WINDOW_S = 60.0
 #: Time over which a cold start's warm-up may move a bias by one turn-on repeatability [s]:
 #: sets the default bias random walk (:func:`field_noise`). Measured on 4 h parked starts
 #: (tests/nav/_parked.py: a 0.02 °/h, 50 µg exponential warm-up of 30 min against 0.003 °/h,
@@ -156,6 +163,10 @@ class BiasSeries:
         Its standard deviation.
     table_rate : ndarray, shape (m,) [rad/s], optional
         Mean table rate over each step.
+    separable_s : float [s], optional
+        When the table has first stood at two positions half a turn apart: from then on the
+        horizontal biases are told from heading and tilt (:func:`first_reversal_end`; the
+        vertical ones are from the start). None: as ``first_period_s``.
     first_period_s : float [s]
         End of the table's first full rotation period (it has stood in, or passed, all
         four quarter turns and come back to its starting angle); ``inf`` if it never did.
@@ -172,6 +183,7 @@ class BiasSeries:
     rate_error: NDArray[np.float64] | None = None
     rate_error_sd: NDArray[np.float64] | None = None
     table_rate: NDArray[np.float64] | None = None
+    separable_s: float | None = None
 
     def total_error(self) -> NDArray[np.float64]:
         """The total error over each step (m, 6) [rad/s, m/s²]: the bias plus the gyros'
@@ -229,13 +241,28 @@ def first_period_end(t: ArrayLike, angle: ArrayLike, tol: float = math.radians(0
     return float(tt[first_all + back[0]]) if back.size else math.inf
 
 
+def first_reversal_end(t: ArrayLike, angle: ArrayLike, tol: float = math.radians(5.0)) -> float:
+    """The first time [s] the table stands at an angle half a turn from its first one
+    (within ``tol`` [rad]) and has stopped there: between two opposite positions every
+    horizontal projection of gravity and of the Earth rate changes sign while the biases do
+    not. ``inf`` if it never does."""
+    a = np.asarray(angle, dtype=float)
+    tt = np.asarray(t, dtype=float)
+    if a.size < 2:
+        return math.inf
+    rel = np.abs(np.angle(np.exp(1j * (a - a[0]))))
+    still = np.abs(np.diff(a, prepend=a[0])) < 1e-9
+    hit = np.flatnonzero((rel >= math.pi - tol) & still)
+    return float(tt[hit[0]]) if hit.size else math.inf
+
+
 def estimate_bias_series(
     pieces: Iterable[NavSamples],
     *,
     site: tuple[float, float, float],
     noise: ImuNoise,
     step_s: float = 1.0,
-    align_s: float = 120.0,
+    align_s: float = 30.0,
     velocity_sd: float = 0.005,
     position_sd: float = 0.05,
     encoder_sd: float = 0.0,
@@ -244,6 +271,8 @@ def estimate_bias_series(
     rate_error_sd: float = RATE_ERROR_SD,
     rate_error_rw: float = RATE_ERROR_RW,
     move_accel_sd: float = MOVE_ACCEL_SD,
+    thermal_sd: tuple[float, float] = THERMAL_SD,
+    thermal_rate_sd: tuple[float, float] = THERMAL_RATE_SD,
 ) -> BiasSeries:
     """Smoothed bias series of a parked cold start (module docstring).
 
@@ -260,7 +289,9 @@ def estimate_bias_series(
     step_s : float [s]
         Filter step and epoch spacing.
     align_s : float [s]
-        Length of the coarse alignment at the start (the epochs start after it).
+        Length of the coarse alignment at the start (the epochs start after it): short,
+        since the biases move fastest right after power-on and the filter, not the coarse
+        stage, should see that.
     velocity_sd : float [m/s]
         Zero-velocity measurement noise (each ENU component).
     position_sd : float [m]
@@ -273,6 +304,12 @@ def estimate_bias_series(
         Prior sd of each gyro's error per unit of table rate.
     rate_error_rw : float [1/√s]
         Their random walk (they drift with temperature).
+    thermal_sd : (float, float) [rad/s/°C, m/s²/°C]
+        How far a gyro's and an accelerometer's bias may move per °C of its own
+        temperature (1σ): the bias process noise grows with the temperature's change.
+    thermal_rate_sd : (float, float) [rad/s per °C/min, m/s² per °C/min]
+        And per change of the temperature rate: after power-on the biases move fastest,
+        following the rate of the warm-up as much as the temperature.
     move_accel_sd : float [m/s²]
         Specific-force error while the table turns that no state holds (the
         accelerometers' size effect, ``ω² ρ`` and ``ω̇ × ρ`` of their lever arms): the
@@ -311,6 +348,7 @@ def estimate_bias_series(
     starts = np.concatenate([[n_align], ends[:-1]])
     dphi = enc[ends - 1] - enc[starts - 1]
     dur = (ends - starts) * dt
+    drive = _thermal_drive(d["temps"], dt, ends, thermal_sd, thermal_rate_sd)
     zv = ZeroVelocity(t_ep, velocity_sd, horizontal=False)
     kp = KnownPosition(t_ep, lat, lon, alt, position_sd)
     held = BodyHeadingHeld(t_ep, dphi, dur, noise.gyro_noise_density, encoder_sd)
@@ -352,6 +390,7 @@ def estimate_bias_series(
         P = A @ P @ A.T
         P[:N_STATES, :N_STATES] += Q15
         P[kk, kk] += rate_error_rw**2 * float(dur[k]) * np.eye(3)
+        P[9:15, 9:15] += np.diag(drive[k])  # the biases move with the temperatures
         if rate != 0.0:  # the accelerometers' lever arms while the table turns, unmodelled
             P[VEL, VEL] += (move_accel_sd * float(dur[k])) ** 2 * np.eye(3)
         Phi[k] = A
@@ -405,11 +444,24 @@ def estimate_bias_series(
     temps = _step_means(d["temps"], starts, ends)
     temp_out = _step_means(d["temp_out"][:, None], starts, ends)[:, 0]
     t0 = t_all[0] - dt
-    first = first_period_end(np.concatenate([[t0], t_all]), np.concatenate([[enc[0]], enc]))
+    t_full, a_full = np.concatenate([[t0], t_all]), np.concatenate([[enc[0]], enc])
+    first = first_period_end(t_full, a_full)
+    separable = min(first_reversal_end(t_full, a_full), first)
     rate_error = k_ep + es[:, kk]
     rate_error_sd_s = np.sqrt(np.maximum(var[:, kk], 0.0))
     return BiasSeries(
-        t_ep, bias, sd, temps, temp_out, att, att_sd, first, rate_error, rate_error_sd_s, dphi / dur
+        t_ep,
+        bias,
+        sd,
+        temps,
+        temp_out,
+        att,
+        att_sd,
+        first,
+        rate_error,
+        rate_error_sd_s,
+        dphi / dur,
+        separable,
     )
 
 
@@ -418,6 +470,34 @@ def _skew_rows(v: NDArray[np.float64]) -> NDArray[np.float64]:
     out[:, 0, 1], out[:, 0, 2] = -v[:, 2], v[:, 1]
     out[:, 1, 0], out[:, 1, 2] = v[:, 2], -v[:, 0]
     out[:, 2, 0], out[:, 2, 1] = -v[:, 1], v[:, 0]
+    return out
+
+
+def _thermal_drive(
+    temps: NDArray[np.float64],
+    dt: float,
+    ends: NDArray[np.intp],
+    thermal_sd: tuple[float, float],
+    thermal_rate_sd: tuple[float, float],
+) -> NDArray[np.float64]:
+    """Bias process noise each step adds for the change of its sensor's temperature and
+    temperature rate, (m, 6) [variance]: ``(σ_T ΔT)² + (σ_Ṫ ΔṪ)²`` with ``T`` the
+    temperature averaged over :data:`THERMAL_WINDOW_S` and ``Ṫ`` [°C/min] its change over
+    that window; zero where the recording has no temperature."""
+    w = max(1, round(THERMAL_WINDOW_S / dt))
+    c = np.concatenate([np.zeros((1, 6)), np.cumsum(np.nan_to_num(temps), axis=0)])
+    k = np.arange(temps.shape[0])
+    lo = np.maximum(k + 1 - w, 0)
+    smooth = (c[k + 1] - c[lo]) / (k + 1 - lo)[:, None]
+    at = smooth[ends - 1]
+    prev = smooth[np.maximum(ends - 1 - w, 0)]
+    rate = (at - prev) / (THERMAL_WINDOW_S / 60.0)  # [°C/min]
+    d_t = np.diff(at, axis=0, prepend=at[:1])
+    d_rate = np.diff(rate, axis=0, prepend=rate[:1])
+    sd_t = np.repeat(thermal_sd, 3)
+    sd_r = np.repeat(thermal_rate_sd, 3)
+    out = (sd_t * d_t) ** 2 + (sd_r * d_rate) ** 2
+    out[:, ~np.all(np.isfinite(temps), axis=0)] = 0.0
     return out
 
 
@@ -444,4 +524,11 @@ def _rts(
     return es, Ps
 
 
-__all__ = ["WARM_UP_S", "BiasSeries", "estimate_bias_series", "field_noise", "first_period_end"]
+__all__ = [
+    "WARM_UP_S",
+    "BiasSeries",
+    "estimate_bias_series",
+    "field_noise",
+    "first_period_end",
+    "first_reversal_end",
+]

@@ -65,6 +65,8 @@ _TO_SI = {"deg/h": units.DPH_TO_RPS, "ug": units.UG_TO_MPS2}
 #: Turn-on repeatability assumed when neither the recording nor ``imu=`` gives it, 1σ
 #: (gyros [deg/h], accelerometers [µg]): broad, so the level comes from the data.
 DEFAULT_TURN_ON: tuple[float, float] = (0.05, 50.0)
+#: The horizontal channels: told from heading and tilt only once the table has turned.
+HORIZONTAL = ("gyro_x", "gyro_y", "accel_x", "accel_y")
 #: Spacing of the calibration log's rows [s] (the series vary on thermal time scales).
 LOG_STEP_S = 10.0
 
@@ -74,10 +76,14 @@ def series_log(
 ) -> tuple[pd.DataFrame, dict[str, Any]]:
     """The calibration log of a set of bias series, and its metadata.
 
-    Each start is a run (its name the key); its rows every ``step_s`` from the end of the
-    table's first rotation period: ``time_s`` [s since power-on], ``run``, the six channels'
-    bias in deg/h and µg, ``temp_<channel>`` and ``temp_out`` [°C] (left out where the
-    recording has no outer temperature).
+    Each start is a run (its name the key); its rows every ``step_s`` from the series' start
+    (power-on plus the coarse alignment): ``time_s`` [s since power-on], ``run``, the six
+    channels' bias in deg/h and µg, ``temp_<channel>`` and ``temp_out`` [°C] (left out where
+    the recording has no outer temperature). The horizontal channels are empty (NaN: not
+    fitted) until the table has stood at two opposite positions (``separable_s``): before,
+    their biases are not told from heading and tilt. The vertical ones are seen against
+    gravity, the Earth rate and the encoder from the start, and the fastest part of the
+    warm-up, right after power-on, is what a thermal model most needs to see.
 
     Returns
     -------
@@ -88,18 +94,22 @@ def series_log(
     for name, s in series.items():
         if s.t.size < 2:
             raise ConfigError(f"start {name!r}: too short to estimate its biases")
+        if not math.isfinite(s.first_period_s):
+            raise ConfigError(
+                f"start {name!r}: the table never completed a rotation period (the recording "
+                f"is {float(s.t[-1]):g} s long): its biases cannot be told from heading and tilt"
+            )
         epoch = float(np.median(np.diff(s.t)))
         k = max(1, round(step_s / epoch))
-        keep = np.flatnonzero(s.t >= s.first_period_s)[::k]
-        if keep.size < 3:
-            raise ConfigError(
-                f"start {name!r}: the table never completed a rotation period "
-                f"(first period ends at {s.first_period_s:g} s of {float(s.t[-1]):g} s): its "
-                "biases cannot be told from heading and tilt"
-            )
+        keep = np.arange(0, s.t.size, k)
+        sep = s.first_period_s if s.separable_s is None else s.separable_s
         df = pd.DataFrame({"time_s": s.t[keep], "run": name})
+        early = s.t[keep] < sep
         for j, c in enumerate(CHANNELS):
-            df[c] = s.bias[keep, j] / _TO_SI[FIELD_UNITS[c]]
+            v = s.bias[keep, j] / _TO_SI[FIELD_UNITS[c]]
+            if c in HORIZONTAL:
+                v = np.where(early, np.nan, v)
+            df[c] = v
         for j, c in enumerate(CHANNELS):
             df[f"temp_{c}"] = s.temps[keep, j]
         if np.all(np.isfinite(s.temp_out[keep])):
