@@ -166,7 +166,8 @@ class BiasSeries:
     separable_s : float [s], optional
         When the table has first stood at two positions half a turn apart: from then on the
         horizontal biases are told from heading and tilt (:func:`first_reversal_end`; the
-        vertical ones are from the start). None: as ``first_period_s``.
+        vertical ones are from the start), if less well than after the first period. None:
+        as ``first_period_s``.
     first_period_s : float [s]
         End of the table's first full rotation period (it has stood in, or passed, all
         four quarter turns and come back to its starting angle); ``inf`` if it never did.
