@@ -93,7 +93,10 @@ def main() -> None:
                     rows.append({"start": p.stem, "channel": c, "variant": name,
                                  "rms": float(np.sqrt(np.mean(e[:, j] ** 2)))})  # fmt: skip
     df = pd.DataFrame(rows)
-    scale = {c: (1 / units.DPH_TO_RPS if c.startswith("gyro") else 1 / units.UG_TO_MPS2) for c in CHANNELS}  # noqa: E501
+    scale = {
+        c: (1 / units.DPH_TO_RPS if c.startswith("gyro") else 1 / units.UG_TO_MPS2)
+        for c in CHANNELS
+    }
     out = []
     for (c, v), g in df.groupby(["channel", "variant"], sort=False):
         x = g["rms"].to_numpy() * scale[c]
