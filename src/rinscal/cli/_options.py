@@ -221,6 +221,17 @@ def cluster_options(
     return tls
 
 
+def input_file(src: Path) -> None:
+    """Exit naming ``src`` when it is not a file to read: missing, or a folder."""
+    # deferred: loaded when the command runs, so that `rinscal --help` starts fast
+    from rinscal.cli._app import fail
+
+    if src.is_dir():
+        raise fail(f"{src}: is a folder, not a file")
+    if not src.is_file():
+        raise fail(f"{src}: file not found")
+
+
 def is_same_file(a: Path, b: Path) -> bool:
     """Whether two paths name the same file (also through links and relative paths)."""
     if a.resolve() == b.resolve():

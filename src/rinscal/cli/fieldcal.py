@@ -74,7 +74,7 @@ def calibrate_field_cmd(
     from rich.table import Table
 
     from rinscal.cli._app import console, err_console, styled
-    from rinscal.cli._options import refuse_inputs
+    from rinscal.cli._options import input_file, refuse_inputs
     from rinscal.errors import RinscalError
     from rinscal.io.atomic import write_atomic
     from rinscal.io.mapping import read_mapping
@@ -89,8 +89,7 @@ def calibrate_field_cmd(
     if rep.resolve() == out.resolve():
         raise fail(f"--report {rep}: that is --out; name another")
     for r in runs:
-        if not r.is_file():
-            raise fail(f"{r}: file not found" if not r.exists() else f"{r}: is a folder")
+        input_file(r)
     inputs = [*runs, *([mapping] if mapping is not None else [])]
     refuse_inputs(out, inputs, also=[rep])
     lo_hi = None

@@ -8,8 +8,14 @@ from typing import Annotated, Any
 
 import typer
 
-from rinscal.cli._app import app, fail
-from rinscal.cli._options import DailyCycleOpt, PolicyOpt, is_same_file, prepare_outputs
+from rinscal.cli._app import app
+from rinscal.cli._options import (
+    DailyCycleOpt,
+    PolicyOpt,
+    input_file,
+    is_same_file,
+    prepare_outputs,
+)
 from rinscal.presets import DEFAULT_PRESET, PRESETS
 
 #: The plant ``rinscal navigate`` runs unless ``--imu`` names another (as simulate and
@@ -24,14 +30,6 @@ _OUTPUTS = (
     "trajectory.png",
     "temperatures.png",
 )
-
-
-def _input_file(src: Path) -> None:
-    """Exit naming ``src`` when it is not a file to read: missing, or a folder."""
-    if src.is_dir():
-        raise fail(f"{src}: is a folder, not a file")
-    if not src.is_file():
-        raise fail(f"{src}: file not found")
 
 
 @app.command("navigate")
@@ -305,7 +303,7 @@ def navigate(
     models = list(model or [])
     inputs = [*models, *([imu_file] if imu_file is not None else [])]
     for src in inputs:
-        _input_file(src)
+        input_file(src)
     out_paths = [out / name for name in _OUTPUTS]
     from rinscal.io.metadata import meta_path
 
@@ -442,7 +440,7 @@ def _navigate_log(log: Path, out: Path, models: list[Path], policy: str, **kw: o
     inputs = [log, *models, *([kw["mapping"]] if kw["mapping"] else []),
               *([kw["track"]] if kw["track"] else [])]  # fmt: skip
     for src in inputs:
-        _input_file(Path(src))  # type: ignore[arg-type]
+        input_file(Path(src))  # type: ignore[arg-type]
     for name in _OUTPUTS:
         for src in inputs:
             if is_same_file(out / name, Path(src)):  # type: ignore[arg-type]

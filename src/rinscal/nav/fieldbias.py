@@ -186,15 +186,6 @@ class BiasSeries:
     table_rate: NDArray[np.float64] | None = None
     separable_s: float | None = None
 
-    def total_error(self) -> NDArray[np.float64]:
-        """The total error over each step (m, 6) [rad/s, m/s²]: the bias plus the gyros'
-        table-rate part ``k φ̇`` (zero in the dwells)."""
-        if self.rate_error is None or self.table_rate is None:
-            return self.bias
-        out = self.bias.copy()
-        out[:, :3] += self.rate_error * self.table_rate[:, None]
-        return out
-
 
 def _concat(pieces: Iterable[NavSamples]) -> dict[str, NDArray[np.float64]]:
     parts: dict[str, list[NDArray[np.float64]]] = {

@@ -259,19 +259,13 @@ def calibrate_field_series(
     fallback = {c: g for c, g in group.items() if g != "T, Tdot, dT"}
     fits: dict[str, FitResult] = {}
     for name, opts in _GROUPS:
-        chans = [c for c in CHANNELS if group[c] == name]
-        if not chans:
+        if name not in group.values():
             continue
-        if opts["gradient"] and not feats.has_gradient:
-            continue
-        kw: dict[str, Any] = {"gradient": opts["gradient"], "seed": seed}
-        if "candidates" in opts:
-            m = method if method in ("poly-t", "none") else "auto"
-            kw["candidates"] = opts["candidates"] if m == "auto" else None
-        else:
-            m = method
+        m, kw = method, {"gradient": opts["gradient"], "seed": seed}
+        if "candidates" in opts and method not in ("poly-t", "none"):  # T alone: auto's
+            m, kw["candidates"] = "auto", opts["candidates"]
         # every channel is fitted (the fit is over 10 s rows: seconds); the group's kept
-        fits[name] = fit(log, m, meta=meta, **{k: v for k, v in kw.items() if v is not None})
+        fits[name] = fit(log, m, meta=meta, **kw)
     model = _merge(fits, group, source)
     notes = _notes(obs, fallback, series)
     rows = []

@@ -294,9 +294,10 @@ def _truth_rows(
     site's gravity [m/s²], ``w_up`` the vertical Earth rate there [rad/s]."""
     t_mid = ch.t - 0.5 * dt
     thermal = plant.oracle(t_mid, ch.dtheta / dt, ch.dv / dt)[sel]
-    err = thermal + plant.offsets
+    not_thermal = plant.offsets  # turn-on offsets and the bias random walk
     if plant.noise is not None and plant.noise.last_walk is not None:
-        err = err + plant.noise.last_walk[sel]
+        not_thermal = not_thermal + plant.noise.last_walk[sel]
+    err = thermal + not_thermal
     if plant.last_size_effect is not None:
         err[:, 3:] += plant.last_size_effect[sel]
     table = (np.rad2deg(ch.encoder[sel]) + 180.0) % 360.0 - 180.0
@@ -316,9 +317,7 @@ def _truth_rows(
     level_w[:, 2] = w_up
     level_f = np.zeros((n, 3))
     level_f[:, 2] = g
-    static = plant.thermal_errors(t_sel, level_w, level_f) + plant.offsets
-    if plant.noise is not None and plant.noise.last_walk is not None:
-        static = static + plant.noise.last_walk[sel]
+    static = plant.thermal_errors(t_sel, level_w, level_f) + not_thermal
     static[:, 3:5] -= g * k[:, :2]  # the tilt each move leaves, an accelerometer bias
     return np.column_stack([ch.t[sel], err, thermal, np.rad2deg(ch.euler[sel]), table, static, k])
 
