@@ -95,6 +95,19 @@ WorkersOpt = Annotated[
         help="Local worker processes, 1-1024 (default: one per core).",
     ),
 ]
+#: ``--jobs``: the threads a command spreads its independent work over (channels, runs,
+#: navigation variants); every command that spreads work takes it under this name.
+JobsOpt = Annotated[
+    int | None,
+    typer.Option(
+        "--jobs",
+        "-j",
+        min=1,
+        max=1024,
+        help="Threads for the command's independent work, 1-1024 (default: every core); "
+        "the output does not depend on it.",
+    ),
+]
 PolicyOpt = Annotated[
     str,
     typer.Option(

@@ -1,0 +1,58 @@
+"""In-process parallelism of one command: independent pieces of work (channels, runs,
+navigation variants) spread over the machine's cores on threads.
+
+The work that runs on the threads releases the GIL (numpy's linear algebra, numba kernels
+compiled ``nogil``, pyarrow's readers), so threads share one copy of the data and cost no
+pickling. Fan-outs across processes or machines (studies, fleets) use Dask instead
+(:mod:`rinscal.cluster`); this module is for the pieces of one command.
+
+Results come back in the order of the inputs whatever the number of threads, so a command's
+output does not depend on ``n_jobs``.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Iterable
+from concurrent.futures import ThreadPoolExecutor
+from typing import TypeVar
+
+from rinscal.errors import ConfigError
+
+T = TypeVar("T")
+R = TypeVar("R")
+
+
+def available_cores() -> int:
+    """Cores this process may run on (its CPU affinity; ``os.cpu_count()`` where the platform
+    has none)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - macOS, Windows
+        return os.cpu_count() or 1
+
+
+def resolve_jobs(n_jobs: int | None) -> int:
+    """Threads to use for ``n_jobs``: None or 0 means every available core; a positive
+    number is taken as given. A negative number is refused (ConfigError naming ``n_jobs``)."""
+    if n_jobs is None or n_jobs == 0:
+        return available_cores()
+    if not isinstance(n_jobs, int) or isinstance(n_jobs, bool) or n_jobs < 0:
+        raise ConfigError(
+            f"n_jobs={n_jobs!r}: give a positive number of threads, or None/0 for every core"
+        )
+    return n_jobs
+
+
+def map_jobs(fn: Callable[[T], R], items: Iterable[T], n_jobs: int | None = None) -> list[R]:
+    """``[fn(x) for x in items]``, on up to ``n_jobs`` threads (None/0: every core).
+
+    The list is in the order of ``items``; an exception in any call is raised here (the first
+    in input order). One thread, or a single item, runs inline with no pool.
+    """
+    seq = list(items)
+    n = min(resolve_jobs(n_jobs), len(seq))
+    if n <= 1:
+        return [fn(x) for x in seq]
+    with ThreadPoolExecutor(max_workers=n, thread_name_prefix="rinscal") as pool:
+        return list(pool.map(fn, seq))
