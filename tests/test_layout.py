@@ -47,6 +47,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
         "rinscal.firmware",
         "rinscal._resources",
         "rinscal.cluster",
+        "rinscal.parallel",
         "rinscal.sensormodel",
         "rinscal.turntable",
         "rinscal.presets",
