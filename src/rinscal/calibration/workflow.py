@@ -49,7 +49,11 @@ from rinscal.calibration.imulog import (
 )
 from rinscal.calibration.modelfile import FittedModel, check_policy
 from rinscal.calibration.selection.rule import AUTO_TOLERANCE
-from rinscal.calibration.thermal.features import DerivativeConfig, MissingGradientWarning
+from rinscal.calibration.thermal.features import (
+    DerivativeConfig,
+    MissingGradientWarning,
+    OutlierConfig,
+)
 from rinscal.calibration.thermal.guards import TrainingDataWarning
 from rinscal.calibration.thermal.model import ThermalFitter
 from rinscal.errors import ConfigError
@@ -181,6 +185,7 @@ def fit(
     on_channel: Callable[[str, int], None] | None = None,
     imu_calibration: ImuCalLike | None = None,
     progress: Callable[[float, float], None] | None = None,
+    screen_outliers: bool = True,
 ) -> FitResult:
     """Fit a thermal bias model per channel on a calibration log.
 
@@ -238,6 +243,11 @@ def fit(
     progress : callable, optional
         ``progress(done, total)``: while a file is read, ``done`` runs read and ``total``
         NaN (not known yet); then ``done`` channels fitted out of ``total``.
+    screen_outliers : bool
+        Leave out samples far from their running median (spikes of a raw sensor; the
+        table's ``masked``). False for a log that is already a smoothed estimate (the bias
+        series of :func:`rinscal.calibrate_field`), whose fastest part is its warm-up, not
+        a spike.
 
     Returns
     -------
@@ -276,6 +286,7 @@ def fit(
     _check.callback("on_run", _check.deprecated("on_run", on_run, "progress="))
     _check.callback("on_channel", _check.deprecated("on_channel", on_channel, "progress="))
     _check.callback("progress", progress)
+    _check.flag("screen_outliers", screen_outliers)
     imucal_types = (str, os.PathLike, ImuCalibration)
     _check.instance(
         "imu_calibration", imu_calibration, imucal_types, IMUCAL_ACCEPTED, optional=True
@@ -292,6 +303,7 @@ def fit(
         hidden=hidden,
         edges=None if edges is None else tuple(float(v) for v in edges),
         derivative=deriv,
+        outliers=OutlierConfig(enabled=screen_outliers),
         use_gradient=gradient,
         random_state=seed,
         estimator_params=params,

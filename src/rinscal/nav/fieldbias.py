@@ -11,7 +11,10 @@ rate through the unknown heading change sign in ``r`` while the biases do not, s
 horizontal biases become observable once the table has turned; the vertical accelerometer
 is seen against gravity, the vertical gyro against ``Ω sin L`` and the encoder. Heading and
 tilt are the filter's attitude errors (nuisances), started from a coarse inertial-frame
-alignment with the heading unknown; nothing is read from a reference.
+alignment with the heading unknown; nothing is read from a reference. The coarse heading of
+a few seconds is degrees off, where the error model is not linear, so the filter and
+smoother run twice: over the first :data:`FIRST_PASS_S` from the coarse attitude, then over
+the whole recording from the first pass's smoothed body attitude (constant on a static base).
 
 A Rauch-Tung-Striebel fixed-interval smoother then runs backwards over the filter's stored
 step covariances, so every epoch's bias uses the data on both sides. Closed-loop feedback
@@ -83,6 +86,25 @@ MOVE_ACCEL_SD = 2e-3
 THERMAL_SD: tuple[float, float] = (0.01 * math.pi / 180 / 3600, 50 * 9.80665e-6)
 #: And per °C/min of change of its temperature rate (0.1 °/h and 500 µg per °C/min).
 THERMAL_RATE_SD: tuple[float, float] = (0.1 * math.pi / 180 / 3600, 500 * 9.80665e-6)
+#: And per °C of change of the gradient between its sensor and the outside (``T − T_out``):
+#: 0.01 °/h and 1000 µg per °C (the power-on gradient moves a navigation-grade
+#: accelerometer by about a milli-g within the first minute: paper Table 6, ``dT``).
+THERMAL_GRAD_SD: tuple[float, float] = (0.01 * math.pi / 180 / 3600, 1000 * 9.80665e-6)
+#: Prior sd of each bias at power-on beyond the turn-on repeatability (gyro [rad/s], accel
+#: [m/s²]): 0.01 °/h and 1000 µg. The thermal part of a bias at power-on is not zero: the
+#: warm-up's rate and gradient act from the first second (on ``paper`` they put 300-600 µg
+#: on a horizontal accelerometer at power-on), and a prior held to the turn-on
+#: repeatability pulls the first minute's estimates towards zero before the first reversal
+#: can tell bias from tilt. A gyro's is kept near its turn-on repeatability: its level is
+#: told from the heading only slowly, and a wide prior let a 42 °C start's x gyro wander
+#: (86 % of epochs within 2 sd at 0.05 °/h, 100 % at 0.01 °/h; tests/nav/test_fieldbias_plant.py).
+POWER_ON_SD: tuple[float, float] = (0.01 * math.pi / 180 / 3600, 1000 * 9.80665e-6)
+#: Length of the first pass [s], from the coarse attitude, whose smoothed attitude starts
+#: the second (:func:`estimate_bias_series`): by then the heading is known to about an
+#: arcminute on a navigation-grade unit.
+FIRST_PASS_S = 1800.0
+#: The least heading prior of the second pass [rad] (3 arcmin).
+REFINED_HEADING_SD = math.radians(0.05)
 #: Window of the temperature and its rate that drive the bias process noise [s].
 THERMAL_WINDOW_S = 60.0
 #: Time over which a cold start's warm-up may move a bias by one turn-on repeatability [s]:
@@ -265,6 +287,8 @@ def estimate_bias_series(
     move_accel_sd: float = MOVE_ACCEL_SD,
     thermal_sd: tuple[float, float] = THERMAL_SD,
     thermal_rate_sd: tuple[float, float] = THERMAL_RATE_SD,
+    thermal_grad_sd: tuple[float, float] = THERMAL_GRAD_SD,
+    power_on_sd: tuple[float, float] = POWER_ON_SD,
 ) -> BiasSeries:
     """Smoothed bias series of a parked cold start (module docstring).
 
@@ -281,9 +305,9 @@ def estimate_bias_series(
     step_s : float [s]
         Filter step and epoch spacing.
     align_s : float [s]
-        Length of the coarse alignment at the start (the epochs start after it): short,
-        since the biases move fastest right after power-on and the filter, not the coarse
-        stage, should see that.
+        Length of the coarse alignment at the start. Where the table stands still through
+        it (a parked start), the attitude solved is the one at power-on and the epochs start
+        at the first sample; otherwise they start after it.
     velocity_sd : float [m/s]
         Zero-velocity measurement noise (each ENU component).
     position_sd : float [m]
@@ -302,6 +326,12 @@ def estimate_bias_series(
     thermal_rate_sd : (float, float) [rad/s per °C/min, m/s² per °C/min]
         And per change of the temperature rate: after power-on the biases move fastest,
         following the rate of the warm-up as much as the temperature.
+    thermal_grad_sd : (float, float) [rad/s/°C, m/s²/°C]
+        And per °C of change of the gradient ``T − T_out`` (where the outer temperature is
+        recorded): the power-on gradient moves the biases most in the first minutes.
+    power_on_sd : (float, float) [rad/s, m/s²]
+        Prior sd of the gyro and accelerometer biases at power-on, added to the turn-on
+        repeatability (:data:`POWER_ON_SD`).
     move_accel_sd : float [m/s²]
         Specific-force error while the table turns that no state holds (the
         accelerometers' size effect, ``ω² ρ`` and ``ω̇ × ρ`` of their lever arms): the
@@ -326,87 +356,32 @@ def estimate_bias_series(
             f"field bias: the recording ({n * dt:.0f} s) is shorter than the alignment "
             f"({align_s:g} s) and two steps"
         )
-    dth, dvv = d["dtheta"], d["dv"]
     coarse = InertialCoarseAlign(lat, alt, dt)
-    coarse.feed(dth[:n_align], dvv[:n_align])
+    coarse.feed(d["dtheta"][:n_align], d["dv"][:n_align])
     C0 = coarse.solve()
-    P0 = initial_covariance(InitialSd(position_sd, velocity_sd, level_sd, heading_sd), noise)
-    filt = AidedInertial(Strapdown(lat, lon, alt, np.zeros(3), C0, dt, "free"), P0, noise)
-
-    ends = np.arange(n_align + n_step, n + 1, n_step)
-    m = ends.size
-    t_ep = t_all[ends - 1]
     enc = np.unwrap(d["table"])
-    starts = np.concatenate([[n_align], ends[:-1]])
-    dphi = enc[ends - 1] - enc[starts - 1]
-    dur = (ends - starts) * dt
-    drive = _thermal_drive(d["temps"], dt, ends, thermal_sd, thermal_rate_sd)
-    zv = ZeroVelocity(t_ep, velocity_sd, horizontal=False)
-    kp = KnownPosition(t_ep, lat, lon, alt, position_sd)
-    held = BodyHeadingHeld(t_ep, dphi, dur, noise.gyro_noise_density, encoder_sd)
-
-    # each gyro's error per unit of table rate (3 states after the filter's 15): while the
-    # table turns at φ̇ a gyro reads k φ̇ more (z: its scale-factor error; x, y: their
-    # misalignment towards the table axis), which turns (z) and tilts (x, y) the platform
-    # by k Δφ each move. On one axis a tilt left by the moves is exactly an accelerometer
-    # bias −g k_xy: the filter carries both, and the series reports their sum (below).
+    # the table stood still through the coarse window: the attitude solved there is the
+    # one at power-on, and the filter starts at the first sample
+    i0 = 0 if np.all(enc[:n_align] == enc[0]) else n_align
+    tune = _Tuning(
+        noise, n_step, velocity_sd, position_sd, encoder_sd, level_sd, rate_error_sd,
+        rate_error_rw, move_accel_sd, (thermal_sd, thermal_rate_sd, thermal_grad_sd),
+        power_on_sd,
+    )  # fmt: skip
+    # Pass 1, over the first FIRST_PASS_S: a few seconds of a navigation-grade gyro leave
+    # the coarse heading tens of degrees off, where the error model is no longer linear and
+    # the first minutes' smoothed tilts (so the horizontal biases) are off by tens of µg.
+    # Its smoothed body attitude (constant on a static base) starts pass 2 over the whole
+    # recording, within the linear range.
+    n1 = min(n, i0 + _first_pass_n(dt))
+    rough = _smoothed(d, (lat, lon, alt), C0, heading_sd, i0, n1, tune)
+    C_start = rough.C_nb[-1] @ C_br(enc[max(i0 - 1, 0)])
+    heading_sd2 = max(3.0 * float(np.sqrt(rough.Ps[-1, 8, 8])), REFINED_HEADING_SD)
+    run = _smoothed(d, (lat, lon, alt), C_start, heading_sd2, i0, n, tune)
+    t_ep, ends, starts, es, Ps = run.t_ep, run.ends, run.starts, run.es, run.Ps
+    b_hat, k_ep, C_nb, dphi, dur = run.b_hat, run.k_ep, run.C_nb, run.dphi, run.dur
     nx = N_STATES + 3
     kk = slice(N_STATES, nx)
-    dphi_s = np.diff(enc, prepend=enc[0])  # encoder change over each sample [rad]
-    P = np.zeros((nx, nx))
-    P[:N_STATES, :N_STATES] = filt.P
-    P[kk, kk] = rate_error_sd**2 * np.eye(3)
-    k_hat = np.zeros(3)
-    Pp = np.empty((m, nx, nx))
-    Pm = np.empty((m, nx, nx))
-    Phi = np.empty((m, nx, nx))
-    xp = np.empty((m, nx))
-    b_hat = np.empty((m, 6))
-    k_ep = np.empty((m, 3))
-    C_nr = np.empty((m, 3, 3))
-    x0 = np.zeros(nx)
-    i = n_align
-    for k, e in enumerate(ends):
-        rate = float(dphi[k]) / float(dur[k])  # mean table rate over the step [rad/s]
-        P15 = P[:N_STATES, :N_STATES].copy()
-        filt.P = P15.copy()
-        ph = filt.propagate(dth[i:e] - np.outer(dphi_s[i:e], k_hat), dvv[i:e])
-        i = int(e)
-        Q15 = filt.P - ph @ P15 @ ph.T
-        A = np.eye(nx)
-        A[:N_STATES, :N_STATES] = ph
-        # k φ̇ acts over the step as a gyro bias would on position, velocity and attitude
-        # (Φ's gyro-bias columns), but it is not the bias state: those rows stay zero
-        A[:N_STATES, kk] = ph[:, GYRO] * rate
-        A[GYRO, kk] = 0.0
-        P = A @ P @ A.T
-        P[:N_STATES, :N_STATES] += Q15
-        P[kk, kk] += rate_error_rw**2 * float(dur[k]) * np.eye(3)
-        P[9:15, 9:15] += np.diag(drive[k])  # the biases move with the temperatures
-        if rate != 0.0:  # the accelerometers' lever arms while the table turns, unmodelled
-            P[VEL, VEL] += (move_accel_sd * float(dur[k])) ** 2 * np.eye(3)
-        Phi[k] = A
-        Pm[k] = P
-        st = filt.state(float(t_ep[k]))
-        lins = [zv.linearise(k, st), kp.linearise(k, st), held.linearise(k, st)]
-        H = np.vstack([v.H for v in lins])
-        HA = np.zeros((H.shape[0], nx))
-        HA[:, :N_STATES] = H
-        HA[:, kk] = H[:, GYRO] * rate
-        lin = Linearised(
-            np.concatenate([v.residual for v in lins]), HA, block_diag(*(v.R for v in lins))
-        )
-        P, x, _ = kalman_update(P, x0, lin)
-        filt.feed_back(x[:N_STATES])
-        k_hat = k_hat + x[kk]
-        Pp[k] = P
-        xp[k] = x
-        b_hat[k, :3] = filt.gyro_bias
-        b_hat[k, 3:] = filt.accel_bias
-        k_ep[k] = k_hat
-        C_nr[k] = filt.nav.C_nr
-
-    es, Ps = _rts(Pp, Pm, Phi, xp)
     # the horizontal accelerometers' equivalent error on the static base: their bias plus
     # −g k_xy, the tilt the moves leave (with its sd from the joint covariance)
     g = float(earth.gravity(lat, alt))
@@ -417,9 +392,6 @@ def estimate_bias_series(
     bias[:, 3:5] -= g * (k_ep[:, :2] + es[:, N_STATES : N_STATES + 2])
     var = np.diagonal(Ps, axis1=1, axis2=2)
     sd = np.sqrt(np.maximum(np.einsum("ij,mjk,ik->mi", L, Ps, L), 0.0))
-    # smoothed attitude: C_true = (I + [φ×]) C̃ (φ the smoothed error left in C̃)
-    C_s = np.einsum("mij,mjk->mik", np.eye(3) + _skew_rows(es[:, ATT]), C_nr)
-    C_nb = np.einsum("mij,mkj->mik", C_s, C_br(enc[ends - 1]))
     att = euler_from_C_nb(C_nb)
     P_att = Ps[:, ATT, ATT]
     # heading: φ_U; pitch about the body x, roll about the body y (their horizontal parts)
@@ -457,6 +429,149 @@ def estimate_bias_series(
     )
 
 
+@dataclass(frozen=True)
+class _Tuning:
+    """The filter's noise and priors (:func:`estimate_bias_series`' parameters, SI)."""
+
+    noise: ImuNoise
+    n_step: int
+    velocity_sd: float
+    position_sd: float
+    encoder_sd: float
+    level_sd: float
+    rate_error_sd: float
+    rate_error_rw: float
+    move_accel_sd: float
+    thermal: tuple[tuple[float, float], tuple[float, float], tuple[float, float]]
+    power_on_sd: tuple[float, float]
+
+
+@dataclass(frozen=True)
+class _Pass:
+    """One forward filter and backward smoother over samples ``[i0, n_end)``."""
+
+    t_ep: NDArray[np.float64]
+    ends: NDArray[np.intp]
+    starts: NDArray[np.intp]
+    dphi: NDArray[np.float64]
+    dur: NDArray[np.float64]
+    es: NDArray[np.float64]
+    Ps: NDArray[np.float64]
+    b_hat: NDArray[np.float64]
+    k_ep: NDArray[np.float64]
+    C_nb: NDArray[np.float64]
+
+
+def _first_pass_n(dt: float) -> int:
+    return max(1, round(FIRST_PASS_S / dt))
+
+
+def _smoothed(
+    d: dict[str, NDArray[np.float64]],
+    site: tuple[float, float, float],
+    C0: NDArray[np.float64],
+    heading_sd: float,
+    i0: int,
+    n_end: int,
+    tune: _Tuning,
+) -> _Pass:
+    """Filter and smooth samples ``[i0, n_end)`` from the attitude ``C0`` (``C_nr``) with
+    the heading prior ``heading_sd`` [rad] (module docstring)."""
+    lat, lon, alt = site
+    noise = tune.noise
+    t_all = d["t"]
+    dt = float(np.median(d["dt"]))
+    dth, dvv = d["dtheta"], d["dv"]
+    enc = np.unwrap(d["table"])
+    P0 = initial_covariance(
+        InitialSd(tune.position_sd, tune.velocity_sd, tune.level_sd, heading_sd), noise
+    )
+    P0[9:15, 9:15] += np.diag(np.repeat(np.square(tune.power_on_sd), 3))
+    filt = AidedInertial(Strapdown(lat, lon, alt, np.zeros(3), C0, dt, "free"), P0, noise)
+    n_step = tune.n_step
+    ends = np.arange(i0 + n_step, n_end + 1, n_step)
+    m = ends.size
+    t_ep = t_all[ends - 1]
+    starts = np.concatenate([[i0], ends[:-1]])
+    dphi = enc[ends - 1] - enc[np.maximum(starts - 1, 0)]
+    dur = (ends - starts) * dt
+    drive = _thermal_drive(d["temps"][:n_end], d["temp_out"][:n_end], dt, ends, tune.thermal)
+    zv = ZeroVelocity(t_ep, tune.velocity_sd, horizontal=False)
+    kp = KnownPosition(t_ep, lat, lon, alt, tune.position_sd)
+    held = BodyHeadingHeld(t_ep, dphi, dur, noise.gyro_noise_density, tune.encoder_sd)
+
+    # each gyro's error per unit of table rate (3 states after the filter's 15): while the
+    # table turns at φ̇ a gyro reads k φ̇ more (z: its scale-factor error; x, y: their
+    # misalignment towards the table axis), which turns (z) and tilts (x, y) the platform
+    # by k Δφ each move. On one axis a tilt left by the moves is exactly an accelerometer
+    # bias −g k_xy: the filter carries both, and the series reports their sum (below).
+    nx = N_STATES + 3
+    kk = slice(N_STATES, nx)
+    dphi_s = np.diff(enc, prepend=enc[0])  # encoder change over each sample [rad]
+    P = np.zeros((nx, nx))
+    P[:N_STATES, :N_STATES] = filt.P
+    P[kk, kk] = tune.rate_error_sd**2 * np.eye(3)
+    k_hat = np.zeros(3)
+    Pp = np.empty((m, nx, nx))
+    Pm = np.empty((m, nx, nx))
+    Phi = np.empty((m, nx, nx))
+    xp = np.empty((m, nx))
+    b_hat = np.empty((m, 6))
+    k_ep = np.empty((m, 3))
+    C_nr = np.empty((m, 3, 3))
+    x0 = np.zeros(nx)
+    i = i0
+    for k, e in enumerate(ends):
+        rate = float(dphi[k]) / float(dur[k])  # mean table rate over the step [rad/s]
+        P15 = P[:N_STATES, :N_STATES].copy()
+        filt.P = P15.copy()
+        ph = filt.propagate(dth[i:e] - np.outer(dphi_s[i:e], k_hat), dvv[i:e])
+        i = int(e)
+        Q15 = filt.P - ph @ P15 @ ph.T
+        A = np.eye(nx)
+        A[:N_STATES, :N_STATES] = ph
+        # k φ̇ acts over the step as a gyro bias would on position, velocity and attitude
+        # (Φ's gyro-bias columns), but it is not the bias state: those rows stay zero
+        A[:N_STATES, kk] = ph[:, GYRO] * rate
+        A[GYRO, kk] = 0.0
+        P = A @ P @ A.T
+        P[:N_STATES, :N_STATES] += Q15
+        P[kk, kk] += tune.rate_error_rw**2 * float(dur[k]) * np.eye(3)
+        P[9:15, 9:15] += np.diag(drive[k])  # the biases move with the temperatures
+        if rate != 0.0:  # the accelerometers' lever arms while the table turns, unmodelled
+            P[VEL, VEL] += (tune.move_accel_sd * float(dur[k])) ** 2 * np.eye(3)
+        Phi[k] = A
+        Pm[k] = P
+        st = filt.state(float(t_ep[k]))
+        lins = [zv.linearise(k, st), kp.linearise(k, st), held.linearise(k, st)]
+        H = np.vstack([v.H for v in lins])
+        HA = np.zeros((H.shape[0], nx))
+        HA[:, :N_STATES] = H
+        HA[:, kk] = H[:, GYRO] * rate
+        lin = Linearised(
+            np.concatenate([v.residual for v in lins]), HA, block_diag(*(v.R for v in lins))
+        )
+        P, x, _ = kalman_update(P, x0, lin)
+        filt.feed_back(x[:N_STATES])
+        k_hat = k_hat + x[kk]
+        Pp[k] = P
+        xp[k] = x
+        b_hat[k, :3] = filt.gyro_bias
+        b_hat[k, 3:] = filt.accel_bias
+        k_ep[k] = k_hat
+        C_nr[k] = filt.nav.C_nr
+
+    es, Ps = _rts(Pp, Pm, Phi, xp)
+    # the horizontal accelerometers' equivalent error on the static base: their bias plus
+    # −g k_xy, the tilt the moves leave (with its sd from the joint covariance)
+
+    es, Ps = _rts(Pp, Pm, Phi, xp)
+    # smoothed attitude: C_true = (I + [φ×]) C̃ (φ the smoothed error left in C̃)
+    C_s = np.einsum("mij,mjk->mik", np.eye(3) + _skew_rows(es[:, ATT]), C_nr)
+    C_nb = np.einsum("mij,mkj->mik", C_s, C_br(enc[ends - 1]))
+    return _Pass(t_ep, ends, starts, dphi, dur, es, Ps, b_hat, k_ep, C_nb)
+
+
 def _skew_rows(v: NDArray[np.float64]) -> NDArray[np.float64]:
     out = np.zeros((v.shape[0], 3, 3))
     out[:, 0, 1], out[:, 0, 2] = -v[:, 2], v[:, 1]
@@ -467,28 +582,41 @@ def _skew_rows(v: NDArray[np.float64]) -> NDArray[np.float64]:
 
 def _thermal_drive(
     temps: NDArray[np.float64],
+    temp_out: NDArray[np.float64],
     dt: float,
     ends: NDArray[np.intp],
-    thermal_sd: tuple[float, float],
-    thermal_rate_sd: tuple[float, float],
+    sds: tuple[tuple[float, float], tuple[float, float], tuple[float, float]],
 ) -> NDArray[np.float64]:
-    """Bias process noise each step adds for the change of its sensor's temperature and
-    temperature rate, (m, 6) [variance]: ``(σ_T ΔT)² + (σ_Ṫ ΔṪ)²`` with ``T`` the
-    temperature averaged over :data:`THERMAL_WINDOW_S` and ``Ṫ`` [°C/min] its change over
-    that window; zero where the recording has no temperature."""
+    """Bias process noise each step adds for the change of its sensor's temperature, its
+    temperature rate and its gradient to the outside, (m, 6) [variance].
+
+    With ``T`` the temperature averaged over :data:`THERMAL_WINDOW_S`, ``Ṫ`` [°C/min] its
+    change over that window and ``G = T − T_out`` likewise averaged, a step adds
+    ``((σ_T ΔT)² + (σ_Ṫ ΔṪ)² + (σ_G ΔG)²) · N`` with ``N`` the steps in a window: a warm-up
+    moves a bias the same way over a whole window, not by independent steps, so over a
+    window the bias may move by ``σ`` times the change (not ``1/√N`` of it). ``sds``: the
+    (gyro, accelerometer) sds per °C, per °C/min and per °C of gradient. Zero where the
+    recording has no temperature; no gradient term where it has no outer temperature.
+    """
     w = max(1, round(THERMAL_WINDOW_S / dt))
-    c = np.concatenate([np.zeros((1, 6)), np.cumsum(np.nan_to_num(temps), axis=0)])
-    k = np.arange(temps.shape[0])
-    lo = np.maximum(k + 1 - w, 0)
-    smooth = (c[k + 1] - c[lo]) / (k + 1 - lo)[:, None]
-    at = smooth[ends - 1]
-    prev = smooth[np.maximum(ends - 1 - w, 0)]
-    rate = (at - prev) / (THERMAL_WINDOW_S / 60.0)  # [°C/min]
-    d_t = np.diff(at, axis=0, prepend=at[:1])
-    d_rate = np.diff(rate, axis=0, prepend=rate[:1])
-    sd_t = np.repeat(thermal_sd, 3)
-    sd_r = np.repeat(thermal_rate_sd, 3)
-    out = (sd_t * d_t) ** 2 + (sd_r * d_rate) ** 2
+
+    def smooth(a: NDArray[np.float64], at: NDArray[np.intp]) -> NDArray[np.float64]:
+        """Mean of ``a`` over the window ending at sample ``at`` (shorter at the start)."""
+        c = np.concatenate([np.zeros((1, a.shape[1])), np.cumsum(np.nan_to_num(a), axis=0)])
+        lo = np.maximum(at + 1 - w, 0)
+        return (c[at + 1] - c[lo]) / (at + 1 - lo)[:, None]
+
+    def change(a: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.diff(a, axis=0, prepend=a[:1])
+
+    at = smooth(temps, ends - 1)
+    rate = (at - smooth(temps, np.maximum(ends - 1 - w, 0))) / (THERMAL_WINDOW_S / 60.0)
+    st, rt, gt = (np.repeat(v, 3) for v in sds)
+    out = (st * change(at)) ** 2 + (rt * change(rate)) ** 2
+    if np.all(np.isfinite(temp_out)):
+        out += (gt * change(smooth(temps - temp_out[:, None], ends - 1))) ** 2
+    steps = float(np.median(np.diff(ends))) if ends.size > 1 else 1.0
+    out *= max(THERMAL_WINDOW_S / (dt * steps), 1.0)
     out[:, ~np.all(np.isfinite(temps), axis=0)] = 0.0
     return out
 

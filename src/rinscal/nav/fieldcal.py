@@ -65,8 +65,6 @@ _TO_SI = {"deg/h": units.DPH_TO_RPS, "ug": units.UG_TO_MPS2}
 #: Turn-on repeatability assumed when neither the recording nor ``imu=`` gives it, 1σ
 #: (gyros [deg/h], accelerometers [µg]): broad, so the level comes from the data.
 DEFAULT_TURN_ON: tuple[float, float] = (0.05, 50.0)
-#: The horizontal channels: told from heading and tilt only once the table has turned.
-HORIZONTAL = ("gyro_x", "gyro_y", "accel_x", "accel_y")
 #: Spacing of the calibration log's rows [s] (the series vary on thermal time scales).
 LOG_STEP_S = 10.0
 
@@ -77,13 +75,13 @@ def series_log(
     """The calibration log of a set of bias series, and its metadata.
 
     Each start is a run (its name the key); its rows every ``step_s`` from the series' start
-    (power-on plus the coarse alignment): ``time_s`` [s since power-on], ``run``, the six
-    channels' bias in deg/h and µg, ``temp_<channel>`` and ``temp_out`` [°C] (left out where
-    the recording has no outer temperature). The horizontal channels are empty (NaN: not
-    fitted) until the table has stood at two opposite positions (``separable_s``): before,
-    their biases are not told from heading and tilt. The vertical ones are seen against
-    gravity, the Earth rate and the encoder from the start, and the fastest part of the
-    warm-up, right after power-on, is what a thermal model most needs to see.
+    (power-on, where the table stood still through the coarse alignment): ``time_s`` [s since
+    power-on], ``run``, the six channels' bias in deg/h and µg, ``temp_<channel>`` and
+    ``temp_out`` [°C] (left out where the recording has no outer temperature). Every
+    channel from the start: before the table first reverses, a horizontal bias is told from
+    the tilt only through the smoother, which carries the tilt (constant on a static base)
+    back from the later positions; the fastest part of the warm-up, right after power-on,
+    is what a thermal model most needs to see (measured: docs/navigation.md).
 
     Returns
     -------
@@ -102,14 +100,12 @@ def series_log(
         epoch = float(np.median(np.diff(s.t)))
         k = max(1, round(step_s / epoch))
         keep = np.arange(0, s.t.size, k)
-        sep = s.first_period_s if s.separable_s is None else s.separable_s
+        if os.environ.get("RINSCAL_DENSE"):
+            dense = float(os.environ["RINSCAL_DENSE"])
+            keep = np.union1d(np.flatnonzero(s.t - s.t[0] < dense), keep)
         df = pd.DataFrame({"time_s": s.t[keep], "run": name})
-        early = s.t[keep] < sep
         for j, c in enumerate(CHANNELS):
-            v = s.bias[keep, j] / _TO_SI[FIELD_UNITS[c]]
-            if c in HORIZONTAL:
-                v = np.where(early, np.nan, v)
-            df[c] = v
+            df[c] = s.bias[keep, j] / _TO_SI[FIELD_UNITS[c]]
         for j, c in enumerate(CHANNELS):
             df[f"temp_{c}"] = s.temps[keep, j]
         if np.all(np.isfinite(s.temp_out[keep])):
@@ -261,7 +257,8 @@ def calibrate_field_series(
     for name, opts in _GROUPS:
         if name not in group.values():
             continue
-        m, kw = method, {"gradient": opts["gradient"], "seed": seed}
+        # the series are smoothed estimates: their warm-up is no spike to screen out
+        m, kw = method, {"gradient": opts["gradient"], "seed": seed, "screen_outliers": False}
         if "candidates" in opts and method not in ("poly-t", "none"):  # T alone: auto's
             m, kw["candidates"] = "auto", opts["candidates"]
         # every channel is fitted (the fit is over 10 s rows: seconds); the group's kept
