@@ -67,17 +67,19 @@ def _figures(row: Mapping[str, str]) -> tuple[str, str, str]:
 
 def _where(row: Mapping[str, str]) -> str:
     """Runs, pinning, load; machine; commit, date; the row's note."""
+    peak = f" (max {row['load_max']})" if row["load_max"] else ""
     where = (
         f"{row['runs']} runs, pinned {row['pinned']}, load {row['load_before']}→"
-        f"{row['load_after']}; {_machine(row)}; {_commit(row)}, {row['date_utc'][:16]}Z"
+        f"{row['load_after']}{peak}; {_machine(row)}; {_commit(row)}, {row['date_utc'][:16]}Z"
     )
     return where + (f"; {cell(row['note'])}" if row["note"] else "")
 
 
-def command_row(row: Mapping[str, str]) -> str:
+def command_row(row: Mapping[str, str], label: str = "") -> str:
+    """A whole command's row; ``label`` names its yardstick (else the yardstick in full)."""
     wall, cpu, rss = _figures(row)
     if row["ratio_median"]:
-        floor = f"{secs(row['yardstick_wall_median_s'])}: {code(row['yardstick'])}"
+        floor = f"{secs(row['yardstick_wall_median_s'])} {label or code(row['yardstick'])}"
         ratio = (
             f"**{float(row['ratio_median']):.2f}** "
             f"({float(row['ratio_min']):.2f}–{float(row['ratio_max']):.2f})"
@@ -106,15 +108,26 @@ def render_block(rows: Sequence[Mapping[str, str]]) -> str:
     lines = [BEGIN, ""]
     if not last:
         lines += ["No figures recorded yet: run `python benchmarks/run.py`.", ""]
+    labels = {
+        y: f"(y{k})"
+        for k, y in enumerate(
+            dict.fromkeys(r["yardstick"] for r in commands if r["ratio_median"]), start=1
+        )
+    }
     if commands:
         lines += [
             "| benchmark | command | wall [s], median (min–max) | cpu [s], median | "
             "peak RSS, median | yardstick [s], median | ratio to the yardstick, pair by pair: "
-            "median (min–max) | runs, pinned CPUs, 1-min load before→after; machine; commit, "
-            "date |",
+            "median (min–max) | runs, pinned CPUs, 1-min load before→after (largest between runs); "
+            "machine; commit, date |",
             "|---|---|---|---|---|---|---|---|",
-            *(command_row(r) for r in commands),
+            *(command_row(r, labels.get(r["yardstick"], "")) for r in commands),
             "",
+            *(
+                ["Yardsticks: " + "; ".join(f"{lb} {code(y)}" for y, lb in labels.items()), ""]
+                if labels
+                else []
+            ),
         ]
     if kernels:
         lines += [

@@ -11,10 +11,11 @@ while slows both sides of the pairs it touches), then summarised by its median a
 
 One row per figure: benchmark name, command, commit (``git rev-parse HEAD``, ``-dirty`` when
 tracked files differ from it), date (UTC), machine (CPU model, cores, memory), 1-minute load
-average before and after, pinned cores, runs, wall median/min/max, CPU median, peak RSS
-median, the yardstick's median and the paired ratio's median/min/max. In-process kernel
-timings of the ``bench_*.py`` scripts go in the same file through :func:`kernel_row` (no
-yardstick, CPU time of the process).
+average before and after and the largest read before, between and after the runs (empty in
+the first rows, taken before it was read), pinned cores, runs, wall median/min/max, CPU
+median, peak RSS median, the yardstick's median and the paired ratio's median/min/max.
+In-process kernel timings of the ``bench_*.py`` scripts go in the same file through
+:func:`kernel_row` (no yardstick, CPU time of the process).
 
 The file is only ever appended to: the old content is copied verbatim into a temporary file
 beside it, the new rows written after it, and the temporary file moved over the old one with
@@ -59,6 +60,7 @@ COLUMNS: tuple[str, ...] = (
     "python",
     "load_before",
     "load_after",
+    "load_max",
     "pinned",
     "runs",
     "wall_median_s",
@@ -79,6 +81,7 @@ NUMERIC = ("cores", "mem_gib", "load_before", "load_after", "runs", "wall_median
            "wall_min_s", "wall_max_s")  # fmt: skip
 #: Columns that hold a number or nothing.
 OPTIONAL_NUMERIC = (
+    "load_max",
     "cpu_median_s",
     "rss_median_mib",
     "yardstick_wall_median_s",
@@ -173,10 +176,12 @@ def run_command(
 @dataclass(frozen=True)
 class Paired:
     """The timed runs of a command and of its yardstick (None: unpaired), in the order run:
-    ``command[i]`` and ``yardstick[i]`` are the i-th pair."""
+    ``command[i]`` and ``yardstick[i]`` are the i-th pair; ``loads``: the 1-minute load
+    average read after each run (warm-ups included)."""
 
     command: tuple[Run, ...]
     yardstick: tuple[Run, ...] | None
+    loads: tuple[float, ...] = ()
 
     def ratios(self) -> list[float]:
         """Command wall over yardstick wall, pair by pair (empty when unpaired)."""
@@ -192,24 +197,34 @@ def run_pairs(
     *,
     runs: int,
     warmup: int = 1,
+    load_reader: Callable[[], float] | None = None,
 ) -> Paired:
     """``warmup`` untimed runs of each, then ``runs`` pairs ``A B A B ...`` (A the command,
-    B the yardstick; A alone when there is no yardstick), each through ``runner``."""
+    B the yardstick; A alone when there is no yardstick), each through ``runner``; the load
+    (``load_reader``, default :func:`load`) is read after each run."""
     if runs < 1:
         raise RecordError(f"runs={runs}: give at least one run")
     if warmup < 0:
         raise RecordError(f"warmup={warmup}: give zero or more warm-up runs")
+    read_load = load_reader or load
+    loads: list[float] = []
+
+    def one(argv: Sequence[str]) -> Run:
+        r = runner(argv)
+        loads.append(read_load())
+        return r
+
     for _ in range(warmup):
-        runner(command)
+        one(command)
         if yardstick is not None:
-            runner(yardstick)
+            one(yardstick)
     a: list[Run] = []
     b: list[Run] = []
     for _ in range(runs):
-        a.append(runner(command))
+        a.append(one(command))
         if yardstick is not None:
-            b.append(runner(yardstick))
-    return Paired(tuple(a), None if yardstick is None else tuple(b))
+            b.append(one(yardstick))
+    return Paired(tuple(a), None if yardstick is None else tuple(b), tuple(loads))
 
 
 # ----------------------------------------------------------------------------- context
@@ -281,13 +296,17 @@ def _f(x: float | None, digits: int) -> str:
     return "" if x is None else f"{x:.{digits}f}"
 
 
-def _context(load_before: float, load_after: float, pinned: str) -> dict[str, str]:
+def _context(
+    load_before: float, load_after: float, pinned: str, loads: Sequence[float] = ()
+) -> dict[str, str]:
+    readings = [x for x in (load_before, *loads, load_after) if x == x]  # NaN: not read
     return {
         "commit": commit(),
         "date_utc": _utc_now(),
         **machine(),
         "load_before": _f(load_before, 2),
         "load_after": _f(load_after, 2),
+        "load_max": _f(max(readings), 2) if readings else "",
         "pinned": pinned,
     }
 
@@ -311,7 +330,7 @@ def paired_row(
         "kind": "command",
         "command": command,
         "yardstick": yardstick if paired.yardstick is not None else "",
-        **_context(load_before, load_after, pinned),
+        **_context(load_before, load_after, pinned, paired.loads),
         "runs": str(len(walls)),
         "wall_median_s": _f(statistics.median(walls), 3),
         "wall_min_s": _f(min(walls), 3),

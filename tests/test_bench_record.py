@@ -60,7 +60,10 @@ def test_pairs_run_in_turn_after_a_warm_up_and_the_ratio_is_taken_pair_by_pair()
         w = next(walls[argv[0]])
         return record.Run(w, w / 2, 10 * w)
 
-    paired = record.run_pairs(["A"], ["B"], runner, runs=3, warmup=1)
+    loads = iter([0.1, 0.2, 0.3, 7.5, 0.5, 0.6, 0.7, 0.8])
+    paired = record.run_pairs(
+        ["A"], ["B"], runner, runs=3, warmup=1, load_reader=lambda: next(loads)
+    )
     assert calls == ["A", "B", "A", "B", "A", "B", "A", "B"]
     # the warm-up (99 s) is not among the timed runs
     assert [r.wall_s for r in paired.command] == [2.0, 4.0, 9.0]
@@ -76,6 +79,7 @@ def test_pairs_run_in_turn_after_a_warm_up_and_the_ratio_is_taken_pair_by_pair()
     assert row["yardstick_wall_median_s"] == "3.000" and row["cpu_median_s"] == "2.000"
     assert row["rss_median_mib"] == "40.0" and row["yardstick_rss_median_mib"] == "30.0"
     assert (row["runs"], row["load_before"], row["load_after"]) == ("3", "0.50", "1.25")
+    assert row["load_max"] == "7.50"  # read after each run, the warm-ups too
     assert row["kind"] == "command" and row["pinned"] == "none"
 
 
@@ -180,7 +184,7 @@ def _text(rows: list[list[str]]) -> str:
     [
         ("time,value\n1,2\n", r"line 1 is not the results header"),
         ("", None),  # an empty file is a new record
-        (_text([list(record.COLUMNS), ["b", "command"]]), r"line 2 has 2 fields, the header 26"),
+        (_text([list(record.COLUMNS), ["b", "command"]]), r"line 2 has 2 fields, the header 27"),
         ("WALL", r"line 2: column 'wall_median_s' holds 'slow', not a number"),
         ("KIND", r"line 2: column 'kind' holds 'bench'"),
     ],
@@ -358,6 +362,7 @@ def test_the_table_says_the_rows_figures(tmp_path: Path, capsys) -> None:
     assert "| **22.0** (21.0–23.5) |" in block and "a \\| b" in block
     assert "| **7.83** (2.75–21.00) |" in block  # 21 / 1, 22 / 8, 23.5 / 3 pair by pair
     assert "| k | `python b.py` | **0.500** (0.500–0.500) |" in block
+    assert "| 3.0 (y1) |" in block and "Yardsticks: (y1) `read X`\n" in block
     readme = tmp_path / "README.md"
     readme.write_text(f"# x\n{perf_table.BEGIN}\nold\n{perf_table.END}\nafter\n")
     results = tmp_path / "results.csv"
