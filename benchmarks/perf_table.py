@@ -2,6 +2,7 @@
 
     python benchmarks/perf_table.py            # rewrite README.md's block from the record
     python benchmarks/perf_table.py --check    # exit 1 if README.md differs from the record
+    python benchmarks/perf_table.py --history fit-auto   # every row of one benchmark
 
 The block between the markers below holds one row per benchmark: its latest row in the
 results file (the file is in the order written). Nothing is measured here; the figures come
@@ -156,12 +157,50 @@ def replace_block(readme: str, block: str, where: str) -> str:
     return readme[:i] + block + readme[j + len(END) :]
 
 
+def history(rows: Sequence[Mapping[str, str]], name: str) -> list[str]:
+    """Every row of benchmark ``name``, oldest first, one line each: what a change to a hot
+    path quotes as before and after."""
+    out = []
+    for r in rows:
+        if r["benchmark"] != name:
+            continue
+        line = (
+            f"{r['date_utc']} {_commit(r)}: wall {secs(r['wall_median_s'])} s "
+            f"({secs(r['wall_min_s'])}-{secs(r['wall_max_s'])}, {r['runs']} runs)"
+        )
+        if r["cpu_median_s"]:
+            line += f", cpu {secs(r['cpu_median_s'])} s"
+        if r["rss_median_mib"]:
+            line += f", {float(r['rss_median_mib']):.0f} MiB"
+        if r["ratio_median"]:
+            line += (
+                f", ratio {float(r['ratio_median']):.2f} ({float(r['ratio_min']):.2f}-"
+                f"{float(r['ratio_max']):.2f}) to {secs(r['yardstick_wall_median_s'])} s"
+            )
+        peak = f", max {r['load_max']}" if r["load_max"] else ""
+        out.append(f"{line}; load {r['load_before']}->{r['load_after']}{peak}, "
+                   f"pinned {r['pinned']}, {r['cores']} cores")  # fmt: skip
+    return out
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--readme", type=Path, default=README)
     ap.add_argument("--results", type=Path, default=record.RESULTS)
     ap.add_argument("--check", action="store_true", help="compare only; exit 1 on drift")
+    ap.add_argument("--history", metavar="NAME", help="print every row of one benchmark")
     args = ap.parse_args(argv)
+    if args.history:
+        try:
+            lines = history(record.read_rows(args.results), args.history)
+        except record.RecordError as e:
+            print(f"error: {e}", file=sys.stderr)
+            return 2
+        if not lines:
+            print(f"{args.results}: no rows of {args.history!r}", file=sys.stderr)
+            return 1
+        print("\n".join(lines))
+        return 0
     try:
         block = render_block(record.read_rows(args.results))
         text = args.readme.read_text(encoding="utf-8")

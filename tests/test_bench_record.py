@@ -373,6 +373,11 @@ def test_the_table_says_the_rows_figures(tmp_path: Path, capsys) -> None:
     assert perf_table.main(args) == 0
     assert perf_table.main([*args, "--check"]) == 0
     assert readme.read_text().endswith(f"{perf_table.END}\nafter\n")
+    assert perf_table.main(["--results", str(results), "--history", "fit-x"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert len(lines) == 2 and "wall 30.0 s (20.0-40.0, 3 runs)" in lines[0]
+    assert "ratio 7.83 (2.75-21.00) to 3.0 s" in lines[1]
+    assert perf_table.main(["--results", str(results), "--history", "nothing"]) == 1
     readme.write_text("no markers\n")
     assert perf_table.main(args) == 2
     assert "the markers" in capsys.readouterr().err
