@@ -14,14 +14,25 @@ row of the 70 % training blocks, i.e. about 1 sample per 1.5 s of each 100 Hz ru
 the slow thermal features do not miss); compensation >= 20 M samples/s (regression) and
 >= 5 M samples/s (neural). "samples" are channel-samples (one value of one channel); the
 figures per row of six channels are printed too.
+
+Every figure is also appended to ``benchmarks/results.csv`` (:mod:`record`: each repetition's
+wall and process CPU time, the process's peak memory, the load, the machine, the commit);
+``--results FILE`` writes elsewhere.
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
+
+import record
+
+#: Where the figures go (``--results``).
+RESULTS: Path = record.RESULTS
 
 N_RUNS, RATE_HZ, HOURS = 7, 100.0, 3.0
 N = int(N_RUNS * RATE_HZ * HOURS * 3600)  # 7.56 M
@@ -56,13 +67,17 @@ def dataset(seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarr
     return x, y, np.concatenate(codes), np.tile(t, N_RUNS)
 
 
-def timed(fn, repeat: int = 1):
-    best, out = np.inf, None
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t0)
-    return best, out
+def timed(fn, repeat: int = 1, name: str = "", note: str = ""):
+    """Best wall time [s] of ``repeat`` calls of ``fn`` and its last result; with ``name``,
+    every repetition is appended to the record as the kernel figure ``name``."""
+    out = None
+    with record.kernel_timer(
+        name, record.script_command(sys.argv), results=RESULTS if name else None, note=note
+    ) as laps:
+        for _ in range(repeat):
+            with record.lap(laps):
+                out = fn()
+    return min(w for w, _ in laps), out
 
 
 def bench_features(t: np.ndarray, x: np.ndarray) -> None:
@@ -74,7 +89,9 @@ def bench_features(t: np.ndarray, x: np.ndarray) -> None:
     centred_slope_run(t[:1000], temp[:1000], 60.0)
     for name, fn in (("centred", centred_slope_run), ("causal", causal_slope)):
         dt, _ = timed(
-            lambda fn=fn: [fn(t[:per], temp[k * per : (k + 1) * per], 60.0) for k in range(N_RUNS)]
+            lambda fn=fn: [fn(t[:per], temp[k * per : (k + 1) * per], 60.0) for k in range(N_RUNS)],
+            name=f"kernel: temperature rate ({name}, 60 s window)",
+            note=f"{N / 1e6:.2f} M samples",
         )
         print(
             f"temperature rate ({name}, 60 s window): {N / 1e6:.2f} M samples in {dt:.3f} s "
@@ -85,7 +102,11 @@ def bench_features(t: np.ndarray, x: np.ndarray) -> None:
 def bench_regression(x: np.ndarray, y: np.ndarray):
     from rinscal.calibration.thermal.estimators import Regression
 
-    dt, m = timed(lambda: Regression(3, 3, 3).fit(x, y))
+    dt, m = timed(
+        lambda: Regression(3, 3, 3).fit(x, y),
+        name="kernel: regression fit p=q=s=3",
+        note=f"{N / 1e6:.2f} M samples, one channel",
+    )
     ok = "OK" if dt < 5.0 else "MISSED"
     print(
         f"regression fit (p=q=s=3, blocked QR) on {N / 1e6:.2f} M samples: {dt:.2f} s "
@@ -98,7 +119,11 @@ def bench_neural(x: np.ndarray, y: np.ndarray, codes: np.ndarray):
     from rinscal.calibration.thermal.estimators import Neural
 
     est = Neural(hidden=6)
-    dt, m = timed(lambda: est.fit(x, y, groups=codes))
+    dt, m = timed(
+        lambda: est.fit(x, y, groups=codes),
+        name="kernel: neural fit n=6",
+        note=f"{N / 1e6:.2f} M samples, one channel, max_samples={est.max_samples}",
+    )
     ok = "OK" if dt < 60.0 else "MISSED"
     print(
         f"neural fit (n=6, 3 L-BFGS starts + LM polish, max_samples={est.max_samples}) on "
@@ -123,7 +148,12 @@ def bench_compensate(x: np.ndarray, y: np.ndarray, models: dict) -> None:
             np.subtract(y, out, out=out)  # N' = N - f (Eq. 10)
             return out
 
-        dt, _ = timed(run, repeat=3)
+        dt, _ = timed(
+            run,
+            repeat=3,
+            name=f"kernel: compensation {name}",
+            note=f"{N / 1e6:.2f} M channel-samples",
+        )
         rate = N / dt / 1e6
         ok = "OK" if rate >= target else "MISSED"
         print(
@@ -143,7 +173,12 @@ def bench_pipeline() -> None:
     n = len(log)
     for method in ("regression", "neural"):
         mf = ThermalModel(method).fit(log.iloc[::50], meta).to_file()
-        dt, _ = timed(lambda mf=mf: compensate(log, mf), repeat=2)
+        dt, _ = timed(
+            lambda mf=mf: compensate(log, mf),
+            repeat=2,
+            name=f"kernel: compensate() end to end, {method}",
+            note=f"{n / 1e6:.2f} M rows x 6 channels",
+        )
         print(
             f"compensate() end to end, {method}: {n / 1e6:.2f} M rows x 6 channels in "
             f"{dt:.2f} s = {n / dt / 1e6:.2f} M rows/s = {6 * n / dt / 1e6:.1f} M "
@@ -158,7 +193,12 @@ def main() -> None:
         default="all",
         choices=["all", "features", "regression", "neural", "compensate", "pipeline"],
     )
-    part = ap.parse_args().part
+    ap.add_argument("--results", type=Path, default=record.RESULTS, help="results file")
+    args = ap.parse_args()
+    part = args.part
+    global RESULTS
+    RESULTS = args.results
+    record.read_rows(RESULTS)  # refuse a bad file before the timing
     if part == "pipeline":
         bench_pipeline()
         return

@@ -19,15 +19,23 @@ pass (reading, compensation, alignment and navigation of every variant)::
                      --record /tmp/run8h.parquet
     taskset -c 0 python benchmarks/bench_navlog.py --navigate /tmp/run8h.parquet \
                      --model reg.json --model polyt.json
+
+The figures of ``--read`` and ``--navigate`` are also appended to ``benchmarks/results.csv``
+(:mod:`record`; ``--results FILE`` writes elsewhere): the reading, and each stage of the
+navigation, as one kernel row each.
 """
 
 from __future__ import annotations
 
 import argparse
 import resource
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
+
+import record
 
 RATE_HZ = 200.0
 HOURS = 8.0
@@ -62,9 +70,32 @@ def make(path: str, rows: int) -> None:
     writer.close()
 
 
-def read(path: str) -> None:
+def _record(
+    results: Path | None, figures: list[tuple[str, float, float]], note: str, load_before: float
+) -> None:
+    """Append each (name, wall [s], process CPU [s]) as a kernel row, ``note`` on each."""
+    if results is None:
+        return
+    rows = [
+        record.kernel_row(
+            name,
+            record.script_command(sys.argv),
+            [wall],
+            cpus=[cpu],
+            rss_mib=record.process_rss_mib(),
+            load_before=load_before,
+            load_after=record.load(),
+            note=note,
+        )
+        for name, wall, cpu in figures
+    ]
+    record.append_rows(rows, results)
+
+
+def read(path: str, results: Path | None = None) -> None:
     from rinscal.io.navopen import open_nav_log
 
+    load0, c0 = record.load(), time.process_time()
     t0 = time.perf_counter()
     log = open_nav_log(path)
     n = 0
@@ -73,14 +104,16 @@ def read(path: str) -> None:
         n += piece.n
         acc += piece.dtheta.sum(axis=0)
     wall = time.perf_counter() - t0
+    cpu = time.process_time() - c0
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024**2
     print(
         f"read {n} samples ({log.kind}, table {log.has_table}, temps {log.has_temps}) in "
         f"{wall:.2f} s; peak RSS {peak:.2f} GB; gaps {len(log.gaps)}; sum dtheta {acc}"
     )
+    _record(results, [("kernel: navlog read (pieces)", wall, cpu)], f"{n} samples", load0)
 
 
-def navigate(path: str, models: list[str]) -> None:
+def navigate(path: str, models: list[str], results: Path | None = None) -> None:
     from rinscal.calibration.modelfile import ThermalModelFile
     from rinscal.io.navopen import open_nav_log
     from rinscal.nav.recorded.blocks import BlockStats
@@ -88,13 +121,14 @@ def navigate(path: str, models: list[str]) -> None:
     from rinscal.nav.recorded.navigate import Reference, navigate_recording
     from rinscal.nav.recorded.window import Noise, align_config, find_window
 
-    t0 = time.perf_counter()
+    load0 = record.load()
+    c0, t0 = time.process_time(), time.perf_counter()
     log = open_nav_log(path)
     st = BlockStats()
     for piece in log.pieces():
         st.add(piece)
     blocks = st.finish()
-    t1 = time.perf_counter()
+    c1, t1 = time.process_time(), time.perf_counter()
     win = find_window(blocks, 600.0)
     nz = log.noise or {}
     noise = Noise(nz["gyro_noise_density"], nz["accel_noise_density"])
@@ -102,7 +136,7 @@ def navigate(path: str, models: list[str]) -> None:
     comps = {"none": None}
     for m in models:
         comps[m] = CausalModelCompensator(ThermalModelFile.load(m))  # type: ignore[assignment]
-    t2 = time.perf_counter()
+    c2, t2 = time.process_time(), time.perf_counter()
     res = navigate_recording(
         log.pieces(),
         Reference(lat, lon, h),
@@ -111,7 +145,7 @@ def navigate(path: str, models: list[str]) -> None:
         1.0 / (log.rate_hz or 1.0),
         comps,
     )
-    t3 = time.perf_counter()
+    c3, t3 = time.process_time(), time.perf_counter()
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024**2
     worst = {k: round(float(v["horizontal_m"].max()) / 1852.0, 3) for k, v in res.errors.items()}
     print(
@@ -119,6 +153,12 @@ def navigate(path: str, models: list[str]) -> None:
         f"{t3 - t2:.2f} s ({len(comps)} variants, {blocks.n.sum():.0f} samples); peak RSS "
         f"{peak:.2f} GB; max error [nmi] {worst}; window {win.start_s:g} s"
     )
+    stages = [
+        ("kernel: navlog first pass", t1 - t0, c1 - c0),
+        ("kernel: navlog window + models", t2 - t1, c2 - c1),
+        ("kernel: navlog second pass", t3 - t2, c3 - c2),
+    ]
+    _record(results, stages, f"{len(comps)} variants, {blocks.n.sum():.0f} samples", load0)
 
 
 def main() -> None:
@@ -128,13 +168,16 @@ def main() -> None:
     ap.add_argument("--rows", type=int, default=int(HOURS * 3600 * RATE_HZ))
     ap.add_argument("--navigate", metavar="FILE")
     ap.add_argument("--model", action="append", default=[])
+    ap.add_argument("--results", type=Path, default=record.RESULTS, help="results file")
     args = ap.parse_args()
+    if args.read or args.navigate:
+        record.read_rows(args.results)  # refuse a bad file before the timing
     if args.make:
         make(args.make, args.rows)
     if args.read:
-        read(args.read)
+        read(args.read, args.results)
     if args.navigate:
-        navigate(args.navigate, args.model)
+        navigate(args.navigate, args.model, args.results)
 
 
 if __name__ == "__main__":

@@ -4,7 +4,9 @@ Target (issue: foundation): under 10 s wall time and under 2 GB peak memory on o
 
 Runs the real command, ``rinscal simulate soak --rate 100 --out DIR/soak.parquet``, in a
 child process pinned to one core, several times; prints the median and the range of the
-wall time and the peak resident memory of the child.
+wall time and the peak resident memory of the child, and appends them to
+``benchmarks/results.csv`` as the row ``simulate-soak`` (:mod:`record`; ``--results FILE``
+writes elsewhere).
 
     python benchmarks/bench_simulate.py [--repeat 3]
 """
@@ -13,44 +15,48 @@ from __future__ import annotations
 
 import argparse
 import os
-import resource
 import statistics
-import subprocess
 import sys
 import tempfile
-import time
+from pathlib import Path
+
+import record
 
 TARGET_S = 10.0
 TARGET_RSS_GB = 2.0
 
 
-def one_run(folder: str) -> tuple[float, float]:
-    """Wall time [s] and peak RSS [GB] of one simulate command."""
-    code = (
-        "import os, sys; os.sched_setaffinity(0, {min(os.sched_getaffinity(0))}); "
-        "from rinscal.cli import main; sys.argv = ['rinscal'] + sys.argv[1:]; main()"
-    )
-    cmd = [sys.executable, "-c", code, "simulate", "soak", "--rate", "100", "--hours", "3"]
-    cmd += ["--out", os.path.join(folder, "soak.parquet")]
-    t0 = time.perf_counter()
-    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
-    wall = time.perf_counter() - t0
-    # ru_maxrss of children is the largest child so far [kB on Linux]
-    rss = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024**2
-    return wall, rss
+ARGS = ["simulate", "soak", "--rate", "100", "--hours", "3", "--out", "OUT/soak.parquet"]
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--results", type=Path, default=record.RESULTS, help="results file")
     args = parser.parse_args()
-    walls, rss = [], 0.0
+    record.read_rows(args.results)  # refuse a bad file before the timing
+    pin = [min(os.sched_getaffinity(0))]
+    before = record.load()
     with tempfile.TemporaryDirectory() as folder:
-        for _ in range(args.repeat):
-            w, r = one_run(folder)
-            walls.append(w)
-            rss = max(rss, r)
+        cmd = [sys.executable, "-c", "from rinscal.cli import main; main()"]
+        cmd += [a.replace("OUT", folder) for a in ARGS]
+        paired = record.run_pairs(
+            cmd, None, lambda argv: record.run_command(argv, pin=pin), runs=args.repeat, warmup=0
+        )
         size = sum(os.path.getsize(os.path.join(folder, f)) for f in os.listdir(folder))
+    walls = [r.wall_s for r in paired.command]
+    rss = max(r.rss_mib for r in paired.command) / 1024
+    row = record.paired_row(
+        "simulate-soak",
+        "rinscal " + " ".join(ARGS),
+        "",
+        paired,
+        load_before=before,
+        load_after=record.load(),
+        pinned=record.pinned_text(pin),
+        note="benchmarks/bench_simulate.py",
+    )
+    record.append_rows([row], args.results)
     med = statistics.median(walls)
     print("simulate soak: 7 runs x 3 h x 100 Hz = 7,560,000 samples, Parquet log + truth")
     spread = f"(min {min(walls):.2f}, max {max(walls):.2f}, n={len(walls)})"
