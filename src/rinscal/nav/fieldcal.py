@@ -100,9 +100,6 @@ def series_log(
         epoch = float(np.median(np.diff(s.t)))
         k = max(1, round(step_s / epoch))
         keep = np.arange(0, s.t.size, k)
-        if os.environ.get("RINSCAL_DENSE"):
-            dense = float(os.environ["RINSCAL_DENSE"])
-            keep = np.union1d(np.flatnonzero(s.t - s.t[0] < dense), keep)
         df = pd.DataFrame({"time_s": s.t[keep], "run": name})
         for j, c in enumerate(CHANNELS):
             df[c] = s.bias[keep, j] / _TO_SI[FIELD_UNITS[c]]

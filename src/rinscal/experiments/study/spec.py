@@ -39,6 +39,7 @@ from typing import Any
 import pandas as pd
 
 from rinscal import units
+from rinscal.calibration.thermal.model import FIT_METHODS
 from rinscal.errors import ConfigError
 from rinscal.experiments.paper.config import METHODS, ReproConfig, load_plant
 from rinscal.experiments.paper.imucal import IMU_VARIANT
@@ -133,7 +134,9 @@ class CalibrationSpec:
     The ``field`` variant instead learns from ``field_runs`` parked cold starts of the unit
     (:func:`rinscal.sim.fieldstarts.simulate_field_starts`), each ``field_hours`` [h] long
     at ``field_rate_hz`` [Hz] (a whole number), run ``k`` at ``field_ambient_c[k % len]``
-    [°C]."""
+    [°C], fitted with ``field_method`` (default ``regression``, method 2's form: the
+    comparison with the chamber's method 2 then differs only in where the data come
+    from)."""
 
     hours: float = 3.0
     rate_hz: float = 10.0
@@ -142,6 +145,7 @@ class CalibrationSpec:
     field_hours: float = 4.0
     field_rate_hz: float = 10.0
     field_ambient_c: tuple[float, ...] = FIELD_AMBIENTS_C
+    field_method: str = "regression"
 
 
 @dataclass(frozen=True)
@@ -261,6 +265,7 @@ _CAL = {
     "field_hours",
     "field_rate_hz",
     "field_ambient_c",
+    "field_method",
 }
 _PLANT = {"imu", "sweep"}
 _SCEN = {"name", "kind", "hours", "rate_hz", "ambient_c", "align_s", "align_start_s"}
@@ -504,6 +509,12 @@ def _field_calibration(cal: Mapping[str, Any], source: str) -> dict[str, Any]:
     amb = _list(cal.get("field_ambient_c", list(d.field_ambient_c)))
     if not amb:
         raise ConfigError(f"{source}: calibration.field_ambient_c must list at least one ambient")
+    method = cal.get("field_method", d.field_method)
+    if method not in FIT_METHODS:
+        raise ConfigError(
+            f"{source}: calibration.field_method must be one of {', '.join(FIT_METHODS)}, "
+            f"got {method!r}"
+        )
     return {
         "field_runs": _count(
             "calibration.field_runs", cal.get("field_runs", d.field_runs), source, 3
@@ -513,6 +524,7 @@ def _field_calibration(cal: Mapping[str, Any], source: str) -> dict[str, Any]:
         ),
         "field_rate_hz": float(rate),
         "field_ambient_c": tuple(_celsius("calibration.field_ambient_c", a, source) for a in amb),
+        "field_method": str(method),
     }
 
 

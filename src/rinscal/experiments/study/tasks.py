@@ -263,7 +263,7 @@ def field_model(
     ``field_*`` sizes, the unit's own plant ``imu`` and seed ``task_seed(seed, unit, 3)``)
     simulated into a temporary folder, then calibrated by
     :func:`rinscal.nav.fieldcal.calibrate_field` with the unit's datasheet (``imu=``: its
-    noise and turn-on repeatability, as its user knows them).
+    noise and turn-on repeatability, as its user knows them) and ``field_method``.
 
     Returns
     -------
@@ -284,7 +284,7 @@ def field_model(
             imu=imu,
             seed=seed,
         )
-        fc = calibrate_field(paths, imu=imu, seed=seed)
+        fc = calibrate_field(paths, imu=imu, method=c.field_method, seed=seed)
     src = {**fc.model.source, "log": f"study {spec.name}, unit {task.unit}, parked starts"}
     summary = {
         "fallback": dict(fc.fallback),
