@@ -57,6 +57,12 @@ def test_field_keys_parse_with_defaults_and_quick_overrides() -> None:
     c = spec_from_dict(d, "s").calibration  # defaults: Table 3's seven ambients, 4 h at 10 Hz
     assert (c.field_runs, c.field_hours, c.field_rate_hz) == (7, 4.0, 10.0)
     assert c.field_ambient_c == FIELD_AMBIENTS_C == (0.0, 7.0, 14.0, 21.0, 28.0, 35.0, 42.0)
+    assert c.field_method == "regression"  # method 2's form, like for like with method 2
+    assert spec_from_dict(_with("field_method", "auto"), "s").calibration.field_method == "auto"
+    assert (
+        spec_from_dict(_with("field_method", "auto"), "s").fingerprint()
+        != spec_from_dict(BASE, "s").fingerprint()
+    )
 
 
 @pytest.mark.parametrize(
@@ -70,6 +76,7 @@ def test_field_keys_parse_with_defaults_and_quick_overrides() -> None:
         ("field_ambient_c", [], "calibration.field_ambient_c must list at least one"),
         ("field_ambient_c", [20.0, 90.0], r"calibration.field_ambient_c = 90.0 °C is outside"),
         ("field_seed", 1, r"\[calibration\]: unknown key\(s\) field_seed"),
+        ("field_method", "cubic", "calibration.field_method must be one of auto, poly-t"),
     ],
 )
 def test_bad_field_keys_are_named(key: str, value: object, message: str) -> None:
@@ -115,7 +122,9 @@ def test_a_units_field_model_is_the_field_calibration_of_its_own_starts(tmp_path
     paths = rinscal.simulate_field_starts(
         tmp_path, runs=3, ambient_c=(0.0, 20.0, 40.0), hours=0.3, rate_hz=10.0, imu=imu, seed=seed
     )
-    ref = rinscal.calibrate_field(paths, imu=imu, seed=seed).model.to_dict()["payload"]
+    ref = rinscal.calibrate_field(
+        paths, imu=imu, method=spec.calibration.field_method, seed=seed
+    ).model.to_dict()["payload"]
     got = model.to_dict()["payload"]
     assert got.pop("source")["log"] == "study f, unit 2, parked starts"
     ref.pop("source")
