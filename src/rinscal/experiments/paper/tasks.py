@@ -45,20 +45,19 @@ def run_tasks(
     """Run ``tasks``: here one after the other (``note`` before each), or submitted to the
     Dask ``client`` in their order (the data scattered once; a task waits on the workers for
     those it needs). Returns ``get(key)``, the result of a key (waiting for it)."""
-    results = (
-        dict(data)
-        if client is None
-        else {k: client.scatter(v, hash=False) for k, v in data.items()}
-    )
-    for t in tasks:
+    results = dict(data)
+    if client is not None:  # on every worker: a task runs wherever a core is free
+        results = {k: client.scatter(v, broadcast=True, hash=False) for k, v in data.items()}
+    for i, t in enumerate(tasks):
         args = tuple(results[a.key] if isinstance(a, Needs) else a for a in t.args)
         if client is None:
             note(t.words)
             results[t.key] = quiet(t.fn, *args, **t.kw)
-        else:
+        else:  # handed out in the order given (Dask runs a higher priority first)
             results[t.key] = client.submit(
-                quiet, t.fn, *args, **t.kw, key=f"cal-{t.key}", pure=False
-            )
+                quiet, t.fn, *args, **t.kw, key=f"cal-{t.key}", pure=False,
+                priority=len(tasks) - i,
+            )  # fmt: skip
     words = {t.key: t.words for t in tasks}
     fetched: dict[str, Any] = {}
 
