@@ -358,7 +358,7 @@ def navigate(
     except RinscalError as exc:
         raise fail(str(exc)) from None
     cfg, summary = nav.config, nav.summary
-    _save(nav, out)
+    _save(nav, out, jobs)
     console.print(
         f"navigation from {cfg.nav_start_s:g} s after power-on "
         f"(alignment from {cfg.align_start_s:g} s, {align_s:g} s long)",
@@ -386,12 +386,13 @@ def navigate(
     _print_variants(summary)
 
 
-def _save(nav: object, out: Path) -> None:
-    """errors.csv, truth.csv, summary.json and the figures, each written atomically."""
+def _save(nav: object, out: Path, jobs: int | None) -> None:
+    """errors.csv, truth.csv, summary.json and the figures, each written atomically (the
+    figures drawn while the CSV files are formatted, on ``jobs`` threads)."""
     # deferred: loaded when the command runs, so that `rinscal --help` starts fast
     from rinscal.report.nav_plots import save_navigation
 
-    save_navigation(nav, out)  # type: ignore[arg-type]
+    save_navigation(nav, out, n_jobs=jobs)  # type: ignore[arg-type]
 
 
 def _print_variants(summary: dict) -> None:
@@ -477,7 +478,7 @@ def _navigate_log(log: Path, out: Path, models: list[Path], policy: str, **kw: o
     except RinscalError as exc:
         raise fail(str(exc)) from None
     summary = nav.summary
-    _save(nav, out)
+    _save(nav, out, kw["jobs"])  # type: ignore[arg-type]
     console.print(nav.report["recording_kind"]["text"], highlight=False, soft_wrap=True)
     console.print(heading_text(nav.report), highlight=False, soft_wrap=True)
     rot = nav.report["rotation"]
