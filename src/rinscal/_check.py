@@ -243,6 +243,20 @@ def renamed(new: str, value: Any, old: str, old_value: Any, default: Any = None)
     return old_value
 
 
+def alias(new: str, value: Any, old: str, old_value: Any) -> Any:
+    """A keyword and its other name, kept without a warning (``n_jobs=`` and ``workers=``):
+    the one given (None if neither); both given with different values is a
+    :class:`ConfigError` naming both."""
+    if old_value is None:
+        return value
+    if value is not None and value != old_value:
+        raise ConfigError(
+            f"{new}={value!r} and {old}={old_value!r}: {old}= is another name of {new}=; "
+            "give one of them"
+        )
+    return old_value
+
+
 def flag(name: str, value: Any, *, optional: bool = False) -> bool | None:
     """A bool (``True`` or ``False``; numpy's too): ``"no"`` or ``0`` are not."""
     if value is None and optional:

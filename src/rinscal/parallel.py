@@ -13,7 +13,7 @@ output does not depend on ``n_jobs``.
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ThreadPoolExecutor
 from typing import TypeVar
 
@@ -56,3 +56,30 @@ def map_jobs(fn: Callable[[T], R], items: Iterable[T], n_jobs: int | None = None
         return [fn(x) for x in seq]
     with ThreadPoolExecutor(max_workers=n, thread_name_prefix="rinscal") as pool:
         return list(pool.map(fn, seq))
+
+
+_END = object()
+
+
+def read_ahead(items: Iterable[T], n_jobs: int | None = None) -> Iterator[T]:
+    """``items`` in order, the next one made on a thread while the caller works on this one.
+
+    For a stream read piece by piece (a file's reader: pyarrow's decoding and numpy release
+    the GIL) whose consumer's work does not touch the reader's state: reading piece k + 1
+    overlaps the work on piece k, and at most two pieces are held at once. An exception of
+    the stream is raised where the caller asks for that item, as without the thread. With
+    ``n_jobs`` 1 (``resolve_jobs``: None/0 every core) the stream is iterated as it is, on
+    the caller's thread.
+    """
+    it = iter(items)
+    if resolve_jobs(n_jobs) <= 1:
+        yield from it
+        return
+    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="rinscal-read") as pool:
+        pending = pool.submit(next, it, _END)
+        while True:
+            item = pending.result()
+            if item is _END:
+                return
+            pending = pool.submit(next, it, _END)
+            yield item  # type: ignore[misc]

@@ -135,11 +135,13 @@ def test_one_name_per_idea_across_commands() -> None:
             cmd = cmd.commands[p]  # type: ignore[attr-defined]
         return {o: p for p in cmd.params if p.param_type_name == "option" for o in p.opts}
 
-    # workers: one option, one meaning, one default (one per core) wherever work fans out
-    for path in (("reproduce",), ("study",), ("fleet", "fit")):
+    # cores: one option, one meaning, one default (every core) wherever work fans out, threads
+    # or Dask worker processes (--workers: the old name on the latter, hidden)
+    for path in (("reproduce",), ("study",), ("fleet", "fit"), ("navigate",), ("calibrate-field",)):
         o = opts(*path)
-        assert "--workers" in o and "-w" in o and o["--workers"].default is None, path
-        assert not any(not p.hidden for k, p in o.items() if k in ("--jobs", "-j")), path
+        assert "--jobs" in o and "-j" in o and o["--jobs"].default is None, path
+        assert not o["--jobs"].hidden and "every core" in o["--jobs"].help, path
+        assert all(p.hidden for k, p in o.items() if k in ("--workers", "-w")), path
     # --imu is a simulated IMU preset everywhere; the export's IMU is --instance, as the readers
     for path in (("simulate",), ("navigate",), ("reproduce",), ("study",)):
         assert "preset" in opts(*path)["--imu"].help, path

@@ -45,7 +45,7 @@ IMU = DEFAULT_PRESET  # the paper's claims, asserted on the paper's own IMU
 @pytest.fixture(scope="module")
 def quick(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("reproduce") / "quick"
-    res = CliRunner().invoke(app, ["reproduce", "--quick", "--workers", "2", "--seed", "0",
+    res = CliRunner().invoke(app, ["reproduce", "--quick", "--jobs", "2", "--seed", "0",
                                    "--imu", IMU, "--out", str(out)])  # fmt: skip
     assert res.exit_code == 0, res.output
     return out

@@ -85,6 +85,21 @@ DailyCycleOpt = Annotated[
         "--ambient; simulate field-starts).",
     ),
 ]
+#: ``--jobs`` of the commands that fan out over Dask worker processes (reproduce, study,
+#: fleet fit): the cores, one single-threaded worker process each; the same name and meaning
+#: (how many cores) as :data:`JobsOpt`, the threads of the other commands.
+WorkerJobsOpt = Annotated[
+    int | None,
+    typer.Option(
+        "--jobs",
+        "-j",
+        min=1,
+        max=1024,
+        help="Cores, 1-1024: one local worker process each (default: every core); the output "
+        "does not depend on it. --workers/-w is its old name.",
+    ),
+]
+#: ``--workers``: the old name of :data:`WorkerJobsOpt`'s ``--jobs``, still taken (hidden).
 WorkersOpt = Annotated[
     int | None,
     typer.Option(
@@ -92,7 +107,8 @@ WorkersOpt = Annotated[
         "-w",
         min=1,
         max=1024,
-        help="Local worker processes, 1-1024 (default: one per core).",
+        hidden=True,
+        help="Old name of --jobs (local worker processes).",
     ),
 ]
 #: ``--jobs``: the threads a command spreads its independent work over (channels, runs,
@@ -201,6 +217,24 @@ def read_options(
     )
 
 
+def worker_jobs(jobs: int | None, workers: int | None) -> int | None:
+    """The local worker processes of ``--jobs`` or ``--workers`` (its old name; the same
+    number given twice is taken); None: every core. Exits naming both when they differ, or
+    when the number is below 1 (a call from code, past typer's bounds)."""
+    # deferred: loaded when the command runs, so that `rinscal --help` starts fast
+    from rinscal.cli._app import fail
+
+    for flag, n in (("--jobs", jobs), ("--workers", workers)):
+        if n is not None and n < 1:
+            raise fail(f"{flag} must be >= 1, got {n}")
+    if jobs is not None and workers is not None and jobs != workers:
+        raise fail(
+            f"--jobs {jobs} and --workers {workers}: --workers is the old name of --jobs; "
+            "give one of them"
+        )
+    return jobs if jobs is not None else workers
+
+
 def cluster_options(
     workers: int | None,
     scheduler: str | None,
@@ -208,7 +242,8 @@ def cluster_options(
     tls_cert: Path | None,
     tls_key: Path | None,
 ) -> TLSFiles | None:
-    """Check ``--workers``, ``--scheduler`` and the ``--tls-*`` files together, before any work.
+    """Check ``--jobs`` (``workers``: its number, :func:`worker_jobs`), ``--scheduler`` and the
+    ``--tls-*`` files together, before any work.
 
     Returns the certificate files given (None if none); exits with a message naming the option
     for a missing file, a certificate without a ``tls://`` scheduler, or a ``tls://``
@@ -220,7 +255,7 @@ def cluster_options(
     from rinscal.errors import ConfigError
 
     if workers is not None and scheduler:
-        raise fail("--workers and --scheduler exclude each other (the cluster has its own)")
+        raise fail("--jobs and --scheduler exclude each other (the cluster has its own workers)")
     files = {"--tls-ca-file": tls_ca_file, "--tls-cert": tls_cert, "--tls-key": tls_key}
     for flag, path in files.items():
         if path is not None and not path.is_file():

@@ -9,6 +9,7 @@ from typing import Annotated
 import typer
 
 from rinscal.cli._app import app, fail
+from rinscal.cli._options import JobsOpt
 
 _METHODS = ("auto", "regression", "poly-t", "sectional", "neural")
 
@@ -62,6 +63,7 @@ def calibrate_field_cmd(
             "fallbacks) as JSON here (default: beside --out, <name>.field.json).",
         ),
     ] = None,
+    jobs: JobsOpt = None,
 ) -> None:
     """Calibrate the thermal model of a RINS from its own parked cold starts.
 
@@ -111,7 +113,7 @@ def calibrate_field_cmd(
 
             result = calibrate_field(
                 [str(r) for r in runs], site=where, mapping=mp, method=method, imu=imu,
-                span_c=lo_hi, progress=tick,
+                span_c=lo_hi, progress=tick, n_jobs=jobs,
             )  # fmt: skip
         result.save(out)
         text = json.dumps(result.report(), indent=2) + "\n"

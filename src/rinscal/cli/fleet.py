@@ -13,6 +13,7 @@ from rinscal.cli._options import (
     TLSCAOpt,
     TLSCertOpt,
     TLSKeyOpt,
+    WorkerJobsOpt,
     WorkersOpt,
     cluster_options,
     prepare_outputs,
@@ -53,6 +54,7 @@ def fleet_fit(
             "with max_thermal_span, max_heldout_rms, max_noise_density in the log's units).",
         ),
     ] = None,
+    jobs: WorkerJobsOpt = None,
     workers: WorkersOpt = None,
     scheduler: SchedulerOpt = None,
     tls_ca_file: TLSCAOpt = None,
@@ -76,6 +78,7 @@ def fleet_fit(
 
     from rinscal.calibration.thermal.model import FIT_METHODS
     from rinscal.cli._app import console, fail
+    from rinscal.cli._options import worker_jobs
     from rinscal.errors import RinscalError
     from rinscal.production.fleet import (
         EXPORTS,
@@ -92,6 +95,7 @@ def fleet_fit(
         raise fail(f"--method must be one of {', '.join(FIT_METHODS)}, got {method!r}")
     if export not in EXPORTS:
         raise fail(f"--export must be one of {', '.join(EXPORTS)}, got {export!r}")
+    workers = worker_jobs(jobs, workers)
     tls = cluster_options(workers, scheduler, tls_ca_file, tls_cert, tls_key)
     missing = [str(p) for p in logs if not p.is_file()]
     if missing:

@@ -11,6 +11,7 @@ import typer
 from rinscal.cli._app import app
 from rinscal.cli._options import (
     DailyCycleOpt,
+    JobsOpt,
     PolicyOpt,
     input_file,
     is_same_file,
@@ -235,6 +236,7 @@ def navigate(
             "(default 0.1).",
         ),
     ] = None,
+    jobs: JobsOpt = None,
 ) -> None:
     """Navigate a single-axis RINS, simulated (--scenario) or recorded (--log), and report
     its position error.
@@ -274,7 +276,7 @@ def navigate(
         _navigate_log(
             log, out, list(model or []), policy, mapping=mapping, run=run, site=site,
             heading=heading, track=track, track_utc_start=track_utc_start, align_s=align_s,
-            align_start_s=align_start_s, imu=imu, allow_gaps=allow_gaps,
+            align_start_s=align_start_s, imu=imu, allow_gaps=allow_gaps, jobs=jobs,
             aiding=({} if aiding is None else {"aiding": aiding})
             | ({} if gnss_sd is None else {"gnss_sd_m": gnss_sd})
             | ({} if track_velocity_sd is None else {"track_velocity_sd": track_velocity_sd}),
@@ -351,12 +353,12 @@ def navigate(
                 rotation=rotation, align_s=align_s, align_start_s=align_start_s, oracle=oracle,
                 policy=policy, record=record, increments=increments, quantise=counts,
                 disturbed_start_min=disturbed_start, ambient_c=ambient,
-                daily_cycle_c=daily_cycle or 0.0, progress=tick,
+                daily_cycle_c=daily_cycle or 0.0, progress=tick, n_jobs=jobs,
             )  # fmt: skip
     except RinscalError as exc:
         raise fail(str(exc)) from None
     cfg, summary = nav.config, nav.summary
-    _save(nav, out)
+    _save(nav, out, jobs)
     console.print(
         f"navigation from {cfg.nav_start_s:g} s after power-on "
         f"(alignment from {cfg.align_start_s:g} s, {align_s:g} s long)",
@@ -384,12 +386,13 @@ def navigate(
     _print_variants(summary)
 
 
-def _save(nav: object, out: Path) -> None:
-    """errors.csv, truth.csv, summary.json and the figures, each written atomically."""
+def _save(nav: object, out: Path, jobs: int | None) -> None:
+    """errors.csv, truth.csv, summary.json and the figures, each written atomically (the
+    figures drawn while the CSV files are formatted, on ``jobs`` threads)."""
     # deferred: loaded when the command runs, so that `rinscal --help` starts fast
     from rinscal.report.nav_plots import save_navigation
 
-    save_navigation(nav, out)  # type: ignore[arg-type]
+    save_navigation(nav, out, n_jobs=jobs)  # type: ignore[arg-type]
 
 
 def _print_variants(summary: dict) -> None:
@@ -470,12 +473,12 @@ def _navigate_log(log: Path, out: Path, models: list[Path], policy: str, **kw: o
                 policy=policy, site=site, heading_deg=kw["heading"], track=kw["track"],
                 track_utc_start=kw["track_utc_start"], align_s=kw["align_s"],
                 align_start_s=kw["align_start_s"], imu=kw["imu"], allow_gaps=kw["allow_gaps"],
-                progress=tick, **kw["aiding"],  # type: ignore[arg-type]
+                progress=tick, n_jobs=kw["jobs"], **kw["aiding"],  # type: ignore[arg-type]
             )  # type: ignore[arg-type]  # fmt: skip
     except RinscalError as exc:
         raise fail(str(exc)) from None
     summary = nav.summary
-    _save(nav, out)
+    _save(nav, out, kw["jobs"])  # type: ignore[arg-type]
     console.print(nav.report["recording_kind"]["text"], highlight=False, soft_wrap=True)
     console.print(heading_text(nav.report), highlight=False, soft_wrap=True)
     rot = nav.report["rotation"]

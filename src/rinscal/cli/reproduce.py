@@ -10,7 +10,13 @@ from rich.table import Table
 from rich.text import Text
 
 from rinscal.cli._app import app, print_table
-from rinscal.cli._options import AlignLengthOpt, AlignStartOpt, ImuOpt, WorkersOpt
+from rinscal.cli._options import (
+    AlignLengthOpt,
+    AlignStartOpt,
+    ImuOpt,
+    WorkerJobsOpt,
+    WorkersOpt,
+)
 from rinscal.cli._timings import format_duration, timing, timing_phrase
 from rinscal.presets import DEFAULT_PRESET
 
@@ -58,11 +64,8 @@ def reproduce(
             "also compiles numba's kernels into its cache).",
         ),
     ] = False,
+    jobs: WorkerJobsOpt = None,
     workers: WorkersOpt = None,
-    jobs: Annotated[
-        int | None,
-        typer.Option("--jobs", "-j", min=1, max=1024, hidden=True, help="Old name of --workers."),
-    ] = None,
     seed: Annotated[int, typer.Option("--seed", min=0, help="Seed of every random number.")] = 0,
     imu: ImuOpt = DEFAULT_PRESET,
     align_s: AlignLengthOpt = 600.0,
@@ -75,7 +78,7 @@ def reproduce(
             min=0,
             max=100000,
             help="Also run the navigation part as a study over N units (OUT/study, on Dask "
-            "with --workers; resumable): the claims with 95 % intervals.",
+            "with --jobs; resumable): the claims with 95 % intervals.",
         ),
     ] = 0,
 ) -> None:
@@ -91,22 +94,17 @@ def reproduce(
     # deferred: loaded when the command runs, so that `rinscal --help` starts fast
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from rinscal.cli._app import console, err_console, fail, styled
-    from rinscal.cli._options import prepare_outputs
+    from rinscal.cli._app import console, fail, styled
+    from rinscal.cli._options import prepare_outputs, worker_jobs
     from rinscal.errors import RinscalError
     from rinscal.experiments.paper.claims import PAPER_PAIRS
     from rinscal.experiments.paper.run import plan_reproduction
     from rinscal.report.runs import reproduce as run_and_report
     from rinscal.report.verdict_view import claims_lines
 
-    if jobs is not None:
-        if workers is not None:
-            raise fail("--jobs is the old name of --workers: give one of them")
-        err_console.print(styled("note:", "cyan", " --jobs is now --workers (-w)"))
-        workers = jobs
     options = {
         "quick": quick, "seed": seed, "imu": imu, "align_s": align_s,
-        "align_start_s": align_start_s, "units": units, "workers": workers,
+        "align_start_s": align_start_s, "units": units, "n_jobs": worker_jobs(jobs, workers),
     }  # fmt: skip
     try:
         plan = plan_reproduction(**options)
@@ -123,7 +121,7 @@ def reproduce(
         console.print(f"quick reproduction, seed {seed}: {expected_time(True)}", highlight=False)
     else:
         console.print(
-            f"full reproduction, seed {seed}, {plan.config.jobs} worker(s): "
+            f"full reproduction, seed {seed}, {plan.config.jobs} worker(s) (--jobs): "
             f"{expected_time(False)}; --quick: {timing_phrase('quick_reproduction')}",
             highlight=False,
         )

@@ -13,6 +13,7 @@ from rinscal.cli._options import (
     TLSCAOpt,
     TLSCertOpt,
     TLSKeyOpt,
+    WorkerJobsOpt,
     WorkersOpt,
     cluster_options,
     prepare_outputs,
@@ -51,9 +52,10 @@ def study(
             help="The spec's [quick] sizes: lower rates, shorter runs ("
             + timing_phrase("quick_study", sized=True)
             + "; docs/scripts/timings.py measures it; the wall time grows with units × "
-            "plants / workers).",
+            "plants / --jobs).",
         ),
     ] = False,
+    jobs: WorkerJobsOpt = None,
     workers: WorkersOpt = None,
     scheduler: SchedulerOpt = None,
     tls_ca_file: TLSCAOpt = None,
@@ -91,13 +93,13 @@ def study(
     )
 
     from rinscal.cli._app import console, fail, styled
+    from rinscal.cli._options import worker_jobs
     from rinscal.errors import RinscalError
     from rinscal.experiments.study.spec import load_spec
     from rinscal.experiments.study.tasks import study_tasks
     from rinscal.report.runs import study as run_and_report
 
-    if workers is not None and workers < 1:
-        raise fail(f"--workers must be >= 1, got {workers}")
+    workers = worker_jobs(jobs, workers)
     tls = cluster_options(workers, scheduler, tls_ca_file, tls_cert, tls_key)
     try:
         s = load_spec(spec, quick=quick, units_override=units, imu_override=imu)
@@ -131,7 +133,7 @@ def study(
             result = run_and_report(
                 s,
                 out,
-                workers=workers,
+                n_jobs=workers,
                 scheduler=scheduler,
                 tls=tls,
                 retry_failed=retry_failed,

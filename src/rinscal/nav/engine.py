@@ -45,6 +45,8 @@ from rinscal.nav.align import Aligner, AlignResult, feed_and_hand_over
 from rinscal.nav.gnss_ins import AidedInertial, run_aided
 from rinscal.nav.result import NavResult, error_frame
 from rinscal.nav.strapdown import Strapdown
+from rinscal.parallel import map_jobs, resolve_jobs
+from rinscal.parallel import read_ahead as _read_ahead
 from rinscal.schema import GAP_FACTOR, NavSamples
 
 __all__ = [
@@ -152,6 +154,8 @@ def navigate_pieces(
     aiding: Sequence[Measurement] = (),
     aided_filter: AidedFilter | None = None,
     progress: Callable[[float], None] | None = None,
+    n_jobs: int | None = 1,
+    read_ahead: bool = False,
 ) -> EngineRun:
     """Navigate every variant side by side on the same pieces (the one navigation loop).
 
@@ -189,6 +193,16 @@ def navigate_pieces(
         handed to when its alignment ends (or at the start, without an aligner).
     progress : callable, optional
         ``progress(t_s)`` after each piece, with the end of its last interval [s].
+    n_jobs : int or None
+        Threads the variants of a piece are spread over (:func:`rinscal.parallel.map_jobs`;
+        None or 0: every core). Each variant's state is its own, so the result is the same,
+        bit for bit, whatever the number; default 1 (a caller that runs beside others, e.g.
+        on a Dask worker, keeps to its core).
+    read_ahead : bool
+        With ``n_jobs`` other than 1, read the next piece on a thread while the variants
+        navigate this one (:func:`rinscal.parallel.read_ahead`). Only for a stream that
+        shares no state with the corrections (a file's reader); not for the simulator's,
+        whose oracle reads the chunk just drawn.
 
     Returns
     -------
@@ -208,7 +222,9 @@ def navigate_pieces(
     consumed = 0
     t_origin: float | None = None
     t_last = t_align = t_nav = math.nan
-    for s in pieces:  # a piece and its truth are freed as the next is read (peak memory)
+    jobs = resolve_jobs(n_jobs)
+    stream = _read_ahead(pieces, jobs) if read_ahead else pieces
+    for s in stream:  # a piece and its truth are freed as the next is read (peak memory)
         if s.n == 0:
             continue
         truth = truth_of(s)
@@ -236,10 +252,9 @@ def navigate_pieces(
         if n_nav is not None and gidx[0] <= n_nav <= gidx[-1]:
             t_nav = float(s.t[n_nav - gidx[0]])
         if n_start is None or gidx[-1] <= n_start:  # warming up: nobody navigates
-            if correct_warm_up:
-                for corr in corrections.values():
-                    if corr is not None:  # a compensator's history runs from power-on
-                        corr(s)
+            if correct_warm_up:  # a compensator's history runs from power-on
+                active = [c for c in corrections.values() if c is not None]
+                map_jobs(lambda c, s=s: c(s), active, jobs)  # type: ignore[misc]
             if progress is not None:
                 progress(t_last)
             continue
@@ -247,38 +262,12 @@ def navigate_pieces(
         sel = (gidx % out_every == 0) & (gidx > n_nav)
         if sel.any():
             truth_rows.append(truth.rows(sel))
-        i_first = max(0, n_start - (gidx[0] - 1))
-        for v in variants.values():
-            d_th, d_v = s.dtheta, s.dv
-            if v.correction is not None:
-                c = np.asarray(v.correction(s), dtype=float)
-                if c.shape != (s.n, 6):
-                    raise ConfigError(f"a correction returned shape {c.shape}, not ({s.n}, 6)")
-                d_th = d_th - c[:, :3] * s.dt[:, None]
-                d_v = d_v - c[:, 3:] * s.dt[:, None]
-            i0 = i_first
-            if v.aligner is not None and not v.aligner.done:
-                i0 += feed_and_hand_over(v, d_th[i_first:], d_v[i_first:])
-            if i0 < s.n and aiding:
-                assert v.nav is not None and aided_filter is not None
-                if v.filt is None:
-                    res = v.aligner.result() if v.aligner is not None else None
-                    v.filt = aided_filter(v.nav, res, v.gyro_bias, v.accel_bias)
-                out = _run_aided(
-                    v.filt, d_th[i0:], d_v[i0:], s.t[i0:] - s.dt[i0:],
-                    int(gidx[i0]) - 1, out_every, aiding,
-                )  # fmt: skip
-                if out.shape[0]:
-                    v.rows.append(out)
-            elif i0 < s.n:
-                assert v.nav is not None
-                step = s.dt[i0:, None]  # the estimates are rates: over each sample's own interval
-                out = _run_nav(
-                    v.nav, d_th[i0:] - v.gyro_bias * step, d_v[i0:] - v.accel_bias * step,
-                    s.dt[i0:], dt, truth.alt[i0:], truth.vu[i0:], out_every,
-                )  # fmt: skip
-                if out.shape[0]:
-                    v.rows.append(out)
+        piece = _Piece(s, truth, gidx, max(0, n_start - (gidx[0] - 1)))
+        map_jobs(
+            lambda v, p=piece: _advance(v, p, dt, out_every, aiding, aided_filter),  # type: ignore[misc]
+            list(variants.values()),
+            jobs,
+        )
         if progress is not None:
             progress(t_last)
     aligned = all(v.aligner is None or v.aligner.done for v in variants.values())
@@ -303,6 +292,61 @@ def navigate_pieces(
         t_align=t_align,
         t_nav=t_nav,
     )
+
+
+@dataclass(frozen=True)
+class _Piece:
+    """One piece as every variant takes it: the samples, their truth, their sample counts
+    from the first (1-based) and the first sample of the alignment in it."""
+
+    s: NavSamples
+    truth: PieceTruth
+    gidx: NDArray[np.int64]
+    i_first: int
+
+
+def _advance(
+    v: _Variant,
+    p: _Piece,
+    dt: float,
+    out_every: int,
+    aiding: Sequence[Measurement],
+    aided_filter: AidedFilter | None,
+) -> None:
+    """One variant over one piece: its correction, its alignment, then its navigation (its
+    rows appended to ``v.rows``). Touches nothing but ``v``: the variants of a piece may run
+    on threads side by side."""
+    s, truth, i_first = p.s, p.truth, p.i_first
+    d_th, d_v = s.dtheta, s.dv
+    if v.correction is not None:
+        c = np.asarray(v.correction(s), dtype=float)
+        if c.shape != (s.n, 6):
+            raise ConfigError(f"a correction returned shape {c.shape}, not ({s.n}, 6)")
+        d_th = d_th - c[:, :3] * s.dt[:, None]
+        d_v = d_v - c[:, 3:] * s.dt[:, None]
+    i0 = i_first
+    if v.aligner is not None and not v.aligner.done:
+        i0 += feed_and_hand_over(v, d_th[i_first:], d_v[i_first:])
+    if i0 < s.n and aiding:
+        assert v.nav is not None and aided_filter is not None
+        if v.filt is None:
+            res = v.aligner.result() if v.aligner is not None else None
+            v.filt = aided_filter(v.nav, res, v.gyro_bias, v.accel_bias)
+        out = _run_aided(
+            v.filt, d_th[i0:], d_v[i0:], s.t[i0:] - s.dt[i0:],
+            int(p.gidx[i0]) - 1, out_every, aiding,
+        )  # fmt: skip
+        if out.shape[0]:
+            v.rows.append(out)
+    elif i0 < s.n:
+        assert v.nav is not None
+        step = s.dt[i0:, None]  # the estimates are rates: over each sample's own interval
+        out = _run_nav(
+            v.nav, d_th[i0:] - v.gyro_bias * step, d_v[i0:] - v.accel_bias * step,
+            s.dt[i0:], dt, truth.alt[i0:], truth.vu[i0:], out_every,
+        )  # fmt: skip
+        if out.shape[0]:
+            v.rows.append(out)
 
 
 def _run_aided(
@@ -437,7 +481,12 @@ class Navigation:
         """Maximum horizontal position error of a variant [m]."""
         return self.result.max_error_m(variant)
 
-    def save(self, folder: str | os.PathLike[str], figures: FigureMaker | None = None) -> Path:
+    def save(
+        self,
+        folder: str | os.PathLike[str],
+        figures: FigureMaker | None = None,
+        n_jobs: int | None = 1,
+    ) -> Path:
         """Write the navigation's folder: ``errors.csv`` (every variant's error rows, a
         ``variant`` column first), ``truth.csv``, ``summary.json`` and the figures.
 
@@ -453,6 +502,9 @@ class Navigation:
             :func:`rinscal.report.nav_plots.navigation_figures` draws the command's three
             (:func:`rinscal.report.nav_plots.save_navigation` saves with them). None: no
             figures (navigation sits below the report layer and draws none itself).
+        n_jobs : int or None
+            Threads: with more than one, the figures are drawn while the CSV files are
+            formatted (None or 0: every core). The files are the same.
 
         Returns
         -------
@@ -474,20 +526,29 @@ class Navigation:
             frames.append(d)
         errors = pd.concat(frames, ignore_index=True)
         text = json.dumps(self.summary, indent=2, allow_nan=False, default=float) + "\n"
-        png = {}
-        for fname, fig in (figures(self) if figures is not None else {}).items():
-            buf = io.BytesIO()
-            fig.savefig(buf, format="png", dpi=110)
-            png[fname] = buf.getvalue()
-        # Arrow's CSV writer: every float to round-trip precision, 10× faster than pandas'
-        # formatting (which was a third of an 8 h run's whole command)
-        tables = {
-            name: pa.Table.from_pandas(frame, preserve_index=False)
-            for name, frame in (("errors.csv", errors), ("truth.csv", self.result.truth))
-        }
-        for name, table in tables.items():
+
+        def draw() -> dict[str, bytes]:
+            png = {}
+            for fname, fig in (figures(self) if figures is not None else {}).items():
+                buf = io.BytesIO()
+                fig.savefig(buf, format="png", dpi=110)
+                png[fname] = buf.getvalue()
+            return png
+
+        def csv() -> dict[str, Any]:
+            # Arrow's CSV writer: every float to round-trip precision, 10× faster than
+            # pandas' formatting (which was a third of an 8 h run's whole command)
+            out_csv = {}
+            for name, frame in (("errors.csv", errors), ("truth.csv", self.result.truth)):
+                buf = pa.BufferOutputStream()
+                pacsv.write_csv(pa.Table.from_pandas(frame, preserve_index=False), buf)
+                out_csv[name] = buf.getvalue()
+            return out_csv
+
+        png, tables = map_jobs(lambda make: make(), [draw, csv], n_jobs)
+        for name, data in tables.items():
             with atomic_path(out / name) as tmp:
-                pacsv.write_csv(table, tmp)
+                tmp.write_bytes(data)
         with atomic_path(out / "summary.json") as tmp:
             tmp.write_text(text)
         for fname, data in png.items():

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 import os
+import threading
 import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
@@ -47,6 +48,7 @@ from rinscal.imunoise import NoiseSource, load_noise
 from rinscal.io.navopen import nav_log_header, open_nav_log
 from rinscal.nav.fieldbias import BiasSeries, estimate_bias_series, field_noise
 from rinscal.nav.gnss_ins import ImuNoise
+from rinscal.parallel import map_jobs
 from rinscal.schema import CHANNELS
 
 __all__ = [
@@ -322,6 +324,7 @@ def calibrate_field(
     step_s: float = 1.0,
     seed: int = 0,
     progress: Callable[[float, float], None] | None = None,
+    n_jobs: int | None = None,
 ) -> FieldCalibration:
     """Calibrate the thermal model of a RINS from recordings of its parked cold starts.
 
@@ -346,7 +349,11 @@ def calibrate_field(
     seed : int
         Seed of a neural fit.
     progress : callable, optional
-        ``progress(done, total)``: recordings estimated.
+        ``progress(done, total)``: recordings estimated (from the threads that estimate them,
+        one call at a time).
+    n_jobs : int or None
+        Threads the recordings' bias series are estimated on, side by side (None or 0: every
+        core; :func:`rinscal.parallel.map_jobs`). The result is the same whatever the number.
 
     Returns
     -------
@@ -358,12 +365,13 @@ def calibrate_field(
     _check.numbers_of("site", site, length=3, optional=True)
     _check.number("step_s", step_s, above=0.0, unit="s")
     _check.callback("progress", progress)
+    _check.number("n_jobs", n_jobs, min=0, integer=True, optional=True)
     names = [Path(p).stem for p in runs]
     if len(set(names)) != len(names):
         raise ConfigError(f"calibrate_field: two recordings share a name: {names}")
-    series: dict[str, BiasSeries] = {}
+    todo = []  # every recording checked before any is estimated
     turn_on = None
-    for k, path in enumerate(runs):
+    for path in runs:
         header = nav_log_header(path, mapping)
         if header.runs and len(header.runs) > 1:
             raise LogError(f"{path}: holds several runs ({', '.join(header.runs)}); give one each")
@@ -377,11 +385,20 @@ def calibrate_field(
         if not log.has_temps:
             raise ConfigError(f"{path}: a parked start needs the sensor temperatures (temp_*)")
         noise, turn_on = _field_noise(path, log.noise, imu)
-        series[names[k]] = estimate_bias_series(
-            log.pieces(), site=tuple(float(v) for v in where), noise=noise, step_s=step_s
-        )
+        lat, lon, h = (float(v) for v in where)
+        todo.append((log, (lat, lon, h), noise))
+    lock, done = threading.Lock(), [0]
+
+    def estimate(job: tuple[Any, tuple[float, float, float], ImuNoise]) -> BiasSeries:
+        log, where, noise = job
+        out = estimate_bias_series(log.pieces(), site=where, noise=noise, step_s=step_s)
         if progress is not None:
-            progress(k + 1, len(runs))
+            with lock:
+                done[0] += 1
+                progress(done[0], len(runs))
+        return out
+
+    series = dict(zip(names, map_jobs(estimate, todo, n_jobs), strict=True))
     to_log = None
     if turn_on is not None:
         to_log = [turn_on[0] / units.DPH_TO_RPS] * 3 + [turn_on[1] / units.UG_TO_MPS2] * 3

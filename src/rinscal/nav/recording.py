@@ -4,6 +4,11 @@ The library side of ``rinscal navigate --log``: it reads the recording (twice, p
 piece, through :mod:`rinscal.io.navopen`), the model files and a reference track, and returns
 the results; it prints nothing and writes nothing (the command writes the outputs).
 
+Why one module: about 700 lines, one idea: :func:`navigate_log`, whose checks run in the
+order a user's mistakes are to be named (what the recording is before its units, everything
+that can be refused before the data are read); the helpers below serve it and the
+command's words on its result.
+
 >>> from rinscal.nav.recording import navigate_log                  # doctest: +SKIP
 >>> nav = navigate_log("run.parquet", models=["regression.json"])  # doctest: +SKIP
 >>> nav.summary["variants"]["regression"]["max_error_nmi"]  # doctest: +SKIP
@@ -67,6 +72,7 @@ from rinscal.nav.recorded.window import (
     find_window,
     seen_schedule,
 )
+from rinscal.parallel import read_ahead, resolve_jobs
 from rinscal.schema import CHANNELS
 
 #: Seconds between the temperature samples kept for the figure.
@@ -121,6 +127,7 @@ def navigate_log(
     gnss_sd_m: float = 2.0,
     track_velocity_sd: float = 0.1,
     progress: Callable[[float, float], None] | None = None,
+    n_jobs: int | None = None,
 ) -> RecordedNavigation:
     """Navigate a recording with and without each thermal model.
 
@@ -179,6 +186,8 @@ def navigate_log(
         ``progress(done_s, total_s)`` [s of the recording]: ``total_s`` is NaN while the
         first pass reads the log (its length not known yet), then the log's length while it
         is navigated.
+    n_jobs : int or None
+        Threads (None/0: every core) for the variants and reading ahead; same result on 1.
 
     Returns
     -------
@@ -233,6 +242,7 @@ def navigate_log(
     if not track_velocity_sd > 0:
         raise ConfigError(f"track_velocity_sd must be > 0 m/s, got {track_velocity_sd}")
     _check.flag("allow_gaps", allow_gaps)
+    n_jobs = resolve_jobs(_check.number("n_jobs", n_jobs, min=0, integer=True, optional=True))
     _check.instance(
         "imu",
         imu,
@@ -316,7 +326,7 @@ def navigate_log(
     refs: list[np.ndarray] = []  # the log's own track, a point a second (its speed)
     next_t = next_ref = -math.inf
     t_first = math.nan  # the start of the first sample's interval [s]
-    for s in pieces():
+    for s in read_ahead(pieces(), n_jobs):
         stats.add(s)
         if s.n and math.isnan(t_first):
             t_first = float(s.t[0] - s.dt[0])
@@ -467,6 +477,7 @@ def navigate_log(
         use_heading_column=heading_source != "--heading",
         progress=tick,
         aligner=aligner,
+        n_jobs=n_jobs,
         **aided,
     )
     warnings += list(result.config.notes)

@@ -139,11 +139,14 @@ def navigation_figures(nav: Navigation) -> dict[str, Figure]:
     }
 
 
-def save_navigation(nav: Navigation, folder: str | os.PathLike[str]) -> Path:
+def save_navigation(
+    nav: Navigation, folder: str | os.PathLike[str], n_jobs: int | None = 1
+) -> Path:
     """Write a navigation's folder as ``rinscal navigate`` does: ``errors.csv``,
     ``truth.csv``, ``summary.json`` and the figures of :func:`navigation_figures`
-    (:meth:`rinscal.nav.engine.Navigation.save`). Returns the folder."""
-    return nav.save(folder, figures=navigation_figures)
+    (:meth:`rinscal.nav.engine.Navigation.save`; ``n_jobs`` threads, the figures drawn
+    while the CSV files are formatted). Returns the folder."""
+    return nav.save(folder, figures=navigation_figures, n_jobs=n_jobs)
 
 
 __all__ = [

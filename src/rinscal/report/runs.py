@@ -64,11 +64,12 @@ def study(
     units: int | None = None,
     quick: bool = False,
     imu: str | Sequence[str] | None = None,
-    workers: int | None = None,
+    n_jobs: int | None = None,
     scheduler: str | None = None,
     tls: TLSFiles | None = None,
     retry_failed: bool = False,
     progress: Progress | None = None,
+    workers: int | None = None,
 ) -> Study:
     """Run a Monte Carlo study into ``out`` and write its report (resumable).
 
@@ -85,8 +86,9 @@ def study(
     imu : str or sequence of str, optional
         Replace the spec's plants with these presets or IMU TOML files (default: the spec's;
         the built-in studies' default plant is ``"paper"``).
-    workers : int, optional
-        Local worker processes (default one per core); ignored with ``scheduler``.
+    n_jobs : int, optional
+        Cores: local worker processes, one each (default every core); ignored with
+        ``scheduler``. ``workers=`` is its other name (still taken).
     scheduler : str, optional
         Address of a Dask scheduler to run on.
     tls : TLSFiles, optional
@@ -108,7 +110,9 @@ def study(
     _check.path_like("out", out)
     _check.number("units", units, min=1, integer=True, optional=True)
     _check.flag("quick", quick)
-    _check.number("workers", workers, min=1, integer=True, optional=True)
+    workers = _check.alias("n_jobs", n_jobs, "workers", workers)
+    _check.number("n_jobs" if n_jobs is not None else "workers", workers, min=1, integer=True,
+                  optional=True)  # fmt: skip
     _check.flag("retry_failed", retry_failed)
     _check.callback("progress", progress)
     if not isinstance(spec, StudySpec):
@@ -136,8 +140,9 @@ def reproduce(
     align_s: float = 600.0,
     align_start_s: float = 0.0,
     units: int = 0,
-    workers: int | None = None,
+    n_jobs: int | None = None,
     progress: Progress | None = None,
+    workers: int | None = None,
 ) -> Reproduction:
     """Re-run every experiment of the paper's Section 5 on one simulated plant into ``out``.
 
@@ -161,8 +166,10 @@ def reproduce(
         Start of the alignment after power-on.
     units : int
         Also run the navigation part as a study over this many units (0: none).
-    workers : int, optional
-        Worker processes (default one per core).
+    n_jobs : int, optional
+        Cores (default every core): the calibration's tasks and the navigation runs on as
+        many local worker processes; 1: all in this process. ``workers=`` is its other name
+        (still taken). The results are the same whatever the number.
     progress : callable, optional
         ``progress(done, total)`` [steps]: calibration, navigation runs, study tasks, report.
 
@@ -179,7 +186,7 @@ def reproduce(
     _check.callback("progress", progress)
     plan = plan_reproduction(
         quick=quick, seed=seed, imu=imu, align_s=align_s, align_start_s=align_start_s,
-        units=units, workers=workers,
+        units=units, n_jobs=n_jobs, workers=workers,
     )  # fmt: skip
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)

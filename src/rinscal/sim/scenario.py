@@ -320,6 +320,7 @@ def run_scenario(
     compensators: Mapping[str, Compensator | None] | None = None,
     progress: Callable[[float, float], None] | None = None,
     recorder: Callable[[ImuChunk, NDArray, NDArray], None] | None = None,
+    n_jobs: int | None = 1,
 ) -> NavResult:
     """Run a navigation scenario (the simulator's chunks through
     :func:`rinscal.nav.engine.navigate_pieces`).
@@ -345,6 +346,11 @@ def run_scenario(
         ``recorder(chunk, dtheta, dv)`` with every chunk from power-on on: the truth and
         the raw increments the IMU put out [rad, m/s] (see
         :func:`rinscal.nav.recorded.frame.recording_frame`).
+    n_jobs : int or None
+        Threads the variants of each chunk are navigated on (None or 0: every core; the
+        chunks themselves are simulated in order on the caller's thread). The compensators
+        must not share state that a call changes (the plant's oracle and model compensators
+        only read it); the result does not depend on it.
 
     Returns
     -------
@@ -386,6 +392,7 @@ def run_scenario(
         initial=None if aligner is not None else (lambda: _true_initial_nav(config)),
         correct_warm_up=False,
         progress=None if progress is None else (lambda t: progress(t, config.duration_s)),
+        n_jobs=n_jobs,
     )
     truth = run.truth
     truth_df = pd.DataFrame(

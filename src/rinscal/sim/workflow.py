@@ -120,6 +120,7 @@ def navigate_scenario(
     ambient_c: float | None = None,
     daily_cycle_c: float = 0.0,
     progress: Callable[[float, float], None] | None = None,
+    n_jobs: int | None = None,
 ) -> Navigation:
     """Navigate a single-axis RINS through a simulated cold start, per compensation variant.
 
@@ -176,6 +177,10 @@ def navigate_scenario(
         from ``ambient_c`` at power-on; :func:`rinscal.sim.scenario.daily_ambient`).
     progress : callable, optional
         Called with (simulated seconds done, total seconds).
+    n_jobs : int or None
+        Threads the variants are navigated on, side by side (None or 0: every core; the
+        simulation runs on the caller's). The result is the same, bit for bit, whatever
+        the number.
 
     Returns
     -------
@@ -205,6 +210,7 @@ def navigate_scenario(
     ambient_c = _check.number("ambient_c", ambient_c, min=-60.0, max=100.0, optional=True,
                               unit="°C")  # fmt: skip
     daily_cycle_c = _check.number("daily_cycle_c", daily_cycle_c, min=0.0, max=40.0, unit="°C")
+    n_jobs = _check.number("n_jobs", n_jobs, min=0, integer=True, optional=True)
     if daily_cycle_c and ambient_c is None:
         raise ConfigError("daily_cycle_c: give ambient_c too (the cycle is about it)")
     check_models(models)
@@ -237,9 +243,9 @@ def navigate_scenario(
     for name, m in named.items():
         comps[name] = model_compensator(m, plant, policy=policy)
     if record is None:
-        result = run_scenario(cfg, plant, comps, progress=progress)
+        result = run_scenario(cfg, plant, comps, progress=progress, n_jobs=n_jobs)
     else:
-        result = _record(cfg, plant, comps, progress, Path(record), increments, seed)
+        result = _record(cfg, plant, comps, progress, Path(record), increments, seed, n_jobs)
     info: dict[str, Any] = {
         "seed": seed,
         "imu": plant_cfg.name,
@@ -266,11 +272,12 @@ def _record(
     record: Path,
     increments: bool,
     seed: int,
+    n_jobs: int | None = 1,
 ) -> NavResult:
     """Run the scenario and stream the raw IMU output it navigated into ``record``."""
     moving = cfg.name == "vehicle"
     with recording(record, plant, increments=increments, track=moving) as rec:
-        result = run_scenario(cfg, plant, comps, progress=tick, recorder=rec)
+        result = run_scenario(cfg, plant, comps, progress=tick, recorder=rec, n_jobs=n_jobs)
     meta = recording_meta(
         cfg, plant, f"rinscal navigate --scenario {cfg.name} --seed {seed}", increments
     )

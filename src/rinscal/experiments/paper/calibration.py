@@ -22,11 +22,13 @@ from __future__ import annotations
 import os
 import warnings
 from collections.abc import Callable, Mapping, Sequence
+from contextlib import nullcontext
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 import pandas as pd
+from threadpoolctl import threadpool_limits
 
 from rinscal.calibration.compensate import model_features, predict_log
 from rinscal.calibration.evaluate import StepConfig, allan_table, edge_steps, evaluate
@@ -49,6 +51,7 @@ from rinscal.experiments.paper.paper_tables import (
     table8_vs_paper,
     table9_vs_paper,
 )
+from rinscal.experiments.paper.tasks import Needs, Task, run_tasks
 from rinscal.io.mapping import ColumnMapping
 from rinscal.io.tables import read_log
 from rinscal.schema import CHANNELS, RUN
@@ -499,7 +502,9 @@ def selection_table(sel: SelectionResult, paper_key: str | None = None) -> pd.Da
     return df
 
 
-def paper_comparison_tables(res: CalibrationResult, cfg: ReproConfig) -> dict[str, pd.DataFrame]:
+def paper_comparison_tables(
+    res: CalibrationResult, cfg: ReproConfig, recovery: pd.DataFrame | None = None
+) -> dict[str, pd.DataFrame]:
     """Tables 4-9 beside the paper's values and the true plant's, in physical units
     (:mod:`rinscal.experiments.paper.paper_tables`), the coefficient recovery of method 2
     and the share of the ramp outside the training range.
@@ -529,8 +534,12 @@ def paper_comparison_tables(res: CalibrationResult, cfg: ReproConfig) -> dict[st
     for c, df in table8_vs_paper(res.models).items():
         out[f"table8_{c}"] = df
     out["table9"] = table9_vs_paper()
-    out["coefficient_recovery"] = regression_recovery(
-        res.logs["soak"], res.truths["soak"], res.models["regression"], imu, seed=cfg.seed
+    out["coefficient_recovery"] = (
+        recovery
+        if recovery is not None
+        else regression_recovery(
+            res.logs["soak"], res.truths["soak"], res.models["regression"], imu, seed=cfg.seed
+        )
     )
     frac = ramp_outside_training(res.logs["soak"], res.logs["ramp"], res.models["regression"])
     out["ramp_outside_training"] = pd.DataFrame([frac])
@@ -541,6 +550,7 @@ def calibration_stage(
     cfg: ReproConfig,
     imu: ImuConfig | None = None,
     step: Callable[[str], None] | None = None,
+    client: Any = None,
 ) -> CalibrationResult:
     """Simulate the calibration data, fit every method, build the calibration tables.
 
@@ -556,6 +566,12 @@ def calibration_stage(
     and everything of :func:`paper_comparison_tables` (Tables 4-9 beside the paper and the
     true plant, ``coefficient_recovery``, ``ramp_outside_training``), which replaces
     ``table4_*`` and ``table8_*`` with the side-by-side grids.
+
+    With a Dask ``client`` (:func:`rinscal.cluster.dask_client`) the fits, the order and
+    neuron tables, the IMU calibration and the coefficient recovery, each independent of the
+    others, run side by side on its workers (:func:`calibration_tasks`, the longest handed
+    out first) while the tables that need only the models are built here; without, one after
+    the other here. Every task is seeded and runs with one BLAS thread: the result is the same.
     """
     imu = imu or load_plant(cfg.imu)
     note = step or (lambda _msg: None)
@@ -565,35 +581,28 @@ def calibration_stage(
         logs[name], truths[name], metas[name] = simulate_protocol(
             name, hours=hours, rate_hz=cfg.cal_rate_hz, seed=cfg.seed, imu=imu
         )
-    models = {}
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        for m in METHODS:
-            note(f"fitting {m}")
-            models[m] = _fit(m, logs["soak"], metas["soak"], cfg)
-        note("order table (regression, leave-one-run-out)")
-        sel_reg = select_model(logs["soak"], "regression", seed=cfg.seed)
-        note("neuron table (neural, leave-one-run-out)")
-        sel_nn = select_model(
-            logs["soak"],
-            "neural",
-            seed=cfg.seed,
-            estimator_params=dict(cfg.selection_neural_params),
+    data = {"soak": logs["soak"], "soak_truth": truths["soak"]}
+    with threadpool_limits(limits=1) if client is not None else nullcontext():
+        done = run_tasks(calibration_tasks(cfg, imu, metas["soak"]), data, client, note)
+        models = {m: done(m) for m in METHODS}
+        res = CalibrationResult(logs, truths, metas, models, {}, imu=imu)
+        note("held-out residuals and steps")
+        res.tables.update(coefficient_tables(models))
+        residual, steps = heldout_tables(
+            models,
+            {"repeat": logs["repeat"], "ramp": logs["ramp"]},
+            {"repeat": truths["repeat"], "ramp": truths["ramp"]},
         )
-    res = CalibrationResult(
-        logs, truths, metas, models, {"regression": sel_reg, "neural": sel_nn}, imu=imu
-    )
-    note("held-out residuals and steps")
-    res.tables.update(coefficient_tables(models))
-    res.tables["table5"] = selection_table(sel_reg)
-    res.tables["table7"] = selection_table(sel_nn)
-    note("the paper's tables beside ours; coefficient recovery")
-    res.tables.update(paper_comparison_tables(res, cfg))
-    residual, steps = heldout_tables(
-        models,
-        {"repeat": logs["repeat"], "ramp": logs["ramp"]},
-        {"repeat": truths["repeat"], "ramp": truths["ramp"]},
-    )
+        res.repeat_curves = repeat_curves(models, logs["repeat"], truth=truths["repeat"])
+        note("Allan deviation of the repeat run")
+        allan, curves = allan_table(logs["repeat"], models["regression"], "clamp")
+        res.selection = {"regression": done("order"), "neural": done("neurons")}
+        res.tables["table5"] = selection_table(res.selection["regression"])
+        res.tables["table7"] = selection_table(res.selection["neural"])
+        note("the paper's tables beside ours; coefficient recovery")
+        res.tables.update(paper_comparison_tables(res, cfg, recovery=done("recovery")))
+        res.imu_cal = done("imu_cal")
+        res.extra_models[IMU_VARIANT] = done("imu_model")
     res.tables["heldout_residual"] = residual
     floor = noise_floor(imu, cfg.cal_rate_hz)
     window = StepConfig().window_s
@@ -608,19 +617,37 @@ def calibration_stage(
         for name in ("repeat_steps", "ramp_steps"):
             t = res.tables[name]
             res.tables[f"{name}_{sensor}"] = t[t["channel"].isin(chans)]
-    res.repeat_curves = repeat_curves(models, logs["repeat"], truth=truths["repeat"])
-    note("Allan deviation of the repeat run")
-    allan, curves = allan_table(logs["repeat"], models["regression"], "clamp")
     res.tables["allan_repeat"] = allan.drop(columns=["rate_hz"])
     for sensor, t in allan_by_sensor(res.tables["allan_repeat"]).items():
         res.tables[f"allan_repeat_{sensor}"] = t
     res.allan_curves = next(iter(curves.values()), None)
-    note("IMU calibration (19 positions and rate tests at 5 set points)")
-    res.imu_cal = imu_calibration_stage(cfg, imu)
     res.tables["imu_recovery"] = res.imu_cal.recovery
     res.tables["imu_laws"] = res.imu_cal.result.laws
-    res.extra_models[IMU_VARIANT] = imu_thermal_model(logs["soak"], metas["soak"], res.imu_cal, cfg)
     return res
+
+
+def calibration_tasks(cfg: ReproConfig, imu: ImuConfig, meta: Mapping[str, Any]) -> list[Task]:
+    """The calibration stage's fits, order and neuron tables, IMU calibration and coefficient
+    recovery (:class:`~rinscal.experiments.paper.tasks.Task`): independent of each other but
+    for the inputs they name, in the order they are handed out to workers, the longest first."""
+    soak = Needs("soak")
+    nn = {"seed": cfg.seed, "estimator_params": dict(cfg.selection_neural_params)}
+    return [
+        Task("neurons", "neuron table (neural, leave-one-run-out)", select_model,
+             (soak, "neural"), nn),
+        Task("neural", "fitting neural", _fit, ("neural", soak, meta, cfg)),
+        Task("order", "order table (regression, leave-one-run-out)", select_model,
+             (soak, "regression"), {"seed": cfg.seed}),
+        Task("regression", "fitting regression", _fit, ("regression", soak, meta, cfg)),
+        Task("sectional", "fitting sectional", _fit, ("sectional", soak, meta, cfg)),
+        Task("poly-t", "fitting poly-t", _fit, ("poly-t", soak, meta, cfg)),
+        Task("imu_cal", "IMU calibration (19 positions and rate tests at 5 set points)",
+             imu_calibration_stage, (cfg, imu)),
+        Task("imu_model", "method 2 behind the IMU calibration", imu_thermal_model,
+             (soak, meta, Needs("imu_cal"), cfg)),
+        Task("recovery", "coefficient recovery (bootstrap)", regression_recovery,
+             (soak, Needs("soak_truth"), Needs("regression"), imu), {"seed": cfg.seed}),
+    ]  # fmt: skip
 
 
 def repeat_curves(

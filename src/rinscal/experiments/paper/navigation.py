@@ -259,9 +259,11 @@ def navigation_stage(
     done: Callable[[NavRunResult], None] | None = None,
     imu: ImuConfig | None = None,
     extra: Mapping[str, FittedModel] | None = None,
+    client: Any = None,
 ) -> list[NavRunResult]:
-    """Run every navigation job; with ``cfg.jobs > 1`` on a Dask ``LocalCluster`` of that many
-    worker processes (:func:`rinscal.cluster.dask_client`), in job order.
+    """Run every navigation job; on the Dask ``client``'s workers, else with ``cfg.jobs > 1``
+    on a Dask ``LocalCluster`` of that many worker processes
+    (:func:`rinscal.cluster.dask_client`); the results in job order.
 
     ``imu`` is the plant (default: :func:`load_plant` of ``cfg.imu``); pass the one the
     calibration stage simulated so that both stages run the same IMU. ``extra`` models are
@@ -273,29 +275,40 @@ def navigation_stage(
     jobs = navigation_jobs(cfg)
     alignment_config(imu, cfg.align_s, cfg.align_start_s)  # refuse bad settings before forking
     args = (texts, imu, cfg.align_s, cfg.align_start_s, 10.0, True)
-    results: list[NavRunResult] = []
-    if cfg.jobs == 1:
+    if client is None and cfg.jobs == 1:
+        results: list[NavRunResult] = []
         for job in jobs:
             r = run_navigation_job(job, *args)
             results.append(r)
             if done:
                 done(r)
-    else:
-        from distributed import as_completed  # deferred: Dask only for parallel jobs
+        return results
+    if client is None:
+        with dask_client(workers=cfg.jobs) as own:
+            return _on_cluster(own, jobs, args, done)
+    return _on_cluster(client, jobs, args, done)
 
-        with dask_client(workers=cfg.jobs) as client:
-            futures = [
-                client.submit(run_navigation_job, j, *args, key=f"nav-{i:03d}", pure=False)
-                for i, j in enumerate(jobs)
-            ]
-            done_by_key = {}
-            for fut in as_completed(futures):
-                r = fut.result()
-                done_by_key[fut.key] = r
-                if done:
-                    done(r)
-            results = [done_by_key[f.key] for f in futures]
-    return results
+
+def _on_cluster(
+    client: Any,
+    jobs: Sequence[NavJob],
+    args: tuple[Any, ...],
+    done: Callable[[NavRunResult], None] | None,
+) -> list[NavRunResult]:
+    """The jobs on the client's workers; the results in job order."""
+    from distributed import as_completed  # deferred: Dask only for parallel jobs
+
+    futures = [
+        client.submit(run_navigation_job, j, *args, key=f"nav-{i:03d}", pure=False)
+        for i, j in enumerate(jobs)
+    ]
+    done_by_key = {}
+    for fut in as_completed(futures):
+        r = fut.result()
+        done_by_key[fut.key] = r
+        if done:
+            done(r)
+    return [done_by_key[f.key] for f in futures]
 
 
 def thermal_part_m(errors: pd.DataFrame, variant: str) -> np.ndarray:

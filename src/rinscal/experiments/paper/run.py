@@ -11,12 +11,13 @@ from __future__ import annotations
 import os
 import time
 from collections.abc import Callable
+from contextlib import nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from rinscal import _check
-from rinscal.cluster import local_workers
+from rinscal.cluster import dask_client, local_workers
 from rinscal.errors import ConfigError
 from rinscal.experiments.paper.calibration import CalibrationResult, calibration_stage
 from rinscal.experiments.paper.config import ReproConfig, load_plant, plant_info
@@ -83,12 +84,13 @@ def plan_reproduction(
     align_s: float = 600.0,
     align_start_s: float = 0.0,
     units: int = 0,
+    n_jobs: int | None = None,
     workers: int | None = None,
 ) -> ReproductionPlan:
     """Check the reproduction's settings and size it (cheap: nothing is simulated).
 
     Parameters are those of :func:`rinscal.reproduce`; ``align_s`` and ``align_start_s`` in
-    s, ``workers`` worker processes (default one per core).
+    s, ``n_jobs`` (or ``workers``, its other name) worker processes (default one per core).
 
     Raises
     ------
@@ -99,7 +101,9 @@ def plan_reproduction(
     _check.number("seed", seed, min=0, integer=True)
     _check.path_like("imu", imu)
     _check.number("units", units, min=0, integer=True)
-    _check.number("workers", workers, min=1, integer=True, optional=True)
+    workers = _check.alias("n_jobs", n_jobs, "workers", workers)
+    _check.number("n_jobs" if n_jobs is not None else "workers", workers, min=1, integer=True,
+                  optional=True)  # fmt: skip
     make = ReproConfig.quick_preset if quick else ReproConfig.full
     cfg = make(
         seed, local_workers(workers), imu=str(imu), align_s=align_s, align_start_s=align_start_s
@@ -133,31 +137,37 @@ def run_reproduction(
         if progress is not None:
             progress(done, total)
 
+    if plan.study is not None and study_folder is None:
+        raise ConfigError("study_folder: a reproduction with units needs one")
     timings: dict[str, float] = {}
-    t0 = time.perf_counter()
-    cal = calibration_stage(
-        cfg, imu=plan.plant, step=lambda _what: tick() if done < CALIBRATION_STEPS else None
-    )
-    tick(CALIBRATION_STEPS - done)
-    timings[CALIBRATION_TIMING] = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    nav = navigation_stage(
-        cfg, cal.models, done=lambda _r: tick(), imu=plan.plant, extra=cal.extra_models
-    )
-    timings[NAVIGATION_TIMING] = time.perf_counter() - t0
-    run = None
-    if plan.study is not None:
-        if study_folder is None:
-            raise ConfigError("study_folder: a reproduction with units needs one")
+    # one cluster for every stage (cfg.jobs worker processes, started once); none for one job
+    with dask_client(workers=cfg.jobs) if cfg.jobs > 1 else nullcontext() as client:
         t0 = time.perf_counter()
-        start = done
+        cal = calibration_stage(
+            cfg,
+            imu=plan.plant,
+            step=lambda _what: tick() if done < CALIBRATION_STEPS else None,
+            client=client,
+        )
+        tick(CALIBRATION_STEPS - done)
+        timings[CALIBRATION_TIMING] = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        nav = navigation_stage(
+            cfg, cal.models, done=lambda _r: tick(), imu=plan.plant, extra=cal.extra_models,
+            client=client,
+        )  # fmt: skip
+        timings[NAVIGATION_TIMING] = time.perf_counter() - t0
+        run = None
+        if plan.study is not None:
+            t0 = time.perf_counter()
+            start = done
 
-        def study_tick(done_tasks: float, _total: float) -> None:
-            tick(start + done_tasks - done)
+            def study_tick(done_tasks: float, _total: float) -> None:
+                tick(start + done_tasks - done)
 
-        store = StudyStore(Path(study_folder))
-        run = run_study(plan.study, store, workers=cfg.jobs, progress=study_tick)
-        timings[f"study ({plan.units} units)"] = time.perf_counter() - t0
+            store = StudyStore(Path(study_folder))  # type: ignore[arg-type]
+            run = run_study(plan.study, store, workers=cfg.jobs, progress=study_tick, client=client)
+            timings[f"study ({plan.units} units)"] = time.perf_counter() - t0
     return ReproductionRun(plan, cal, nav, run, timings)
 
 

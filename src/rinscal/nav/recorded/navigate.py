@@ -149,6 +149,7 @@ def navigate_recording(
     aided_filter: AidedFilter | None = None,
     aligner: Callable[[int], Any] | None = None,
     progress: Callable[[float], None] | None = None,
+    n_jobs: int | None = 1,
 ) -> NavResult:
     """Navigate a recording's variants side by side (the second pass; the pieces with their
     reference through :func:`rinscal.nav.engine.navigate_pieces`).
@@ -182,6 +183,10 @@ def navigate_recording(
         ``aligner(k0)``: the alignment from sample ``k0`` on (e.g.
         :class:`rinscal.nav.inmotion.InMotionAligner`); default the zero-velocity
         :class:`~rinscal.nav.align.Aligner` at the reference's site.
+    n_jobs : int or None
+        Threads for the variants of each piece, the next piece read on one more (None or 0:
+        every core; :func:`rinscal.nav.engine.navigate_pieces`). The result does not depend
+        on it.
 
     Returns
     -------
@@ -218,6 +223,8 @@ def navigate_recording(
         aiding=aiding,
         aided_filter=aided_filter,
         progress=progress,
+        n_jobs=n_jobs,
+        read_ahead=True,
     )
     t_last = run.t_last
     if run.n_start is None:
