@@ -284,7 +284,8 @@ def field_model(
             imu=imu,
             seed=seed,
         )
-        fc = calibrate_field(paths, imu=imu, method=c.field_method, seed=seed)
+        # one thread: the study already runs a task per core
+        fc = calibrate_field(paths, imu=imu, method=c.field_method, seed=seed, n_jobs=1)
     src = {**fc.model.source, "log": f"study {spec.name}, unit {task.unit}, parked starts"}
     summary = {
         "fallback": dict(fc.fallback),
