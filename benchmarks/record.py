@@ -131,7 +131,9 @@ def run_command(
 
     Its output goes to a temporary file; a non-zero exit raises :class:`RecordError` with the
     command, the exit status and the output's last lines. ``clock`` reads the wall time
-    (seconds, monotonic); a test may inject its own.
+    (seconds, monotonic); a test may inject its own. The peak memory is the child's as Linux
+    counts it, which includes the memory of this process when it started the child (``exec``
+    keeps the old image's high-water mark): measure from a small process (``run.py`` is).
     """
     if not argv:
         raise RecordError("an empty command")
