@@ -13,7 +13,7 @@ output does not depend on ``n_jobs``.
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ThreadPoolExecutor
 from typing import TypeVar
 
@@ -56,3 +56,26 @@ def map_jobs(fn: Callable[[T], R], items: Iterable[T], n_jobs: int | None = None
         return [fn(x) for x in seq]
     with ThreadPoolExecutor(max_workers=n, thread_name_prefix="rinscal") as pool:
         return list(pool.map(fn, seq))
+
+
+_END = object()
+
+
+def read_ahead(items: Iterable[T]) -> Iterator[T]:
+    """The items of ``items`` in order, the next one taken on a thread of its own while the
+    caller works on the current one (a file's next run read while this one is fitted).
+
+    Holds at most two items: the caller's and the next. ``items`` is never advanced by two
+    threads at once; an error taking an item is raised when the caller asks for that item.
+    Closing the iterator early waits for the item in flight, then drops it.
+    """
+    it = iter(items)
+    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="rinscal-read") as pool:
+        pending = pool.submit(next, it, _END)
+        while True:
+            item = pending.result()
+            if item is _END:
+                return
+            pending = pool.submit(next, it, _END)
+            yield item  # type: ignore[misc]
+            del item  # not held while the next is taken

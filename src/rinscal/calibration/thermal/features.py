@@ -15,12 +15,22 @@ vibration, Section 3 of the paper) are *masked*, never removed: a running median
 channel within each run, then the robust spread ``1.4826 · MAD`` of the residuals about it;
 a sample further than ``threshold`` spreads from the running median is an outlier. The
 count per run and channel is reported in an :class:`OutlierReport`.
+
+A window of many samples (10 s at 100 Hz: 1001) makes the running median the costliest step
+of the features (O(n log k)). Above :data:`DECIMATE_FROM` samples per window the screen
+(``OutlierConfig.kind = "decimated"``, the default) takes the running median of every
+``d``-th sample (``d = k // 64``: a median of about 64 samples, still spanning the window),
+interpolates it linearly between those samples, and raises each sample's threshold by the
+interpolation's own error (a quarter of the second difference of the medians about it: on a
+smooth drift without noise nothing is flagged, as the running median flags nothing). Below,
+it is the running median itself. ``docs/calibration.md`` ("The outlier screen") compares
+the two on the simulated soak and the real thermal-cycle log.
 """
 
 from __future__ import annotations
 
 import warnings
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Literal
 
@@ -35,10 +45,14 @@ __all__ = [
     "FEATURE_NAMES",
     "DerivativeConfig",
     "Features",
+    "LogColumns",
     "MissingGradientWarning",
     "OutlierConfig",
     "OutlierReport",
     "build_features",
+    "features_from_columns",
+    "gradient_choice",
+    "log_columns",
     "outlier_mask",
     "run_slices",
     "set_points",
@@ -82,28 +96,37 @@ class DerivativeConfig:
 
 @dataclass(frozen=True)
 class OutlierConfig:
-    """Outlier masking by running median and MAD.
+    """Outlier masking about a baseline (block or running median) and MAD.
 
     Parameters
     ----------
     window_s : float [s]
-        Length of the running-median window (converted to an odd number of samples with the
-        run's median sampling interval, at least 5).
+        Length of the median window (converted to an odd number of samples with the run's
+        median sampling interval, at least 5).
     threshold : float [-]
-        A sample is an outlier when ``|x − median| > threshold · 1.4826 · MAD``.
+        A sample is an outlier when ``|x − baseline| > threshold · 1.4826 · MAD``.
     enabled : bool
         False masks nothing (NaN samples stay masked).
+    kind : {"decimated", "running"}
+        ``"running"``: the running median of the window about each sample
+        (``scipy.ndimage.median_filter``, ends extended by their edge values: the screen
+        before issue 39). ``"decimated"`` (default): the same below :data:`DECIMATE_FROM`
+        samples per window; above, the running median of every ``d``-th sample,
+        interpolated (see the module docstring), about four times cheaper at 100 Hz.
     """
 
     window_s: float = 10.0
     threshold: float = 6.0
     enabled: bool = True
+    kind: Literal["decimated", "running"] = "decimated"
 
     def __post_init__(self) -> None:
         if not (np.isfinite(self.window_s) and self.window_s > 0):
             raise ConfigError(f"outlier window_s must be positive, got {self.window_s!r}")
         if not (np.isfinite(self.threshold) and self.threshold > 0):
             raise ConfigError(f"outlier threshold must be positive, got {self.threshold!r}")
+        if self.kind not in ("decimated", "running"):
+            raise ConfigError(f"outlier kind must be 'decimated' or 'running', got {self.kind!r}")
 
 
 @dataclass(frozen=True)
@@ -336,8 +359,57 @@ def _median_filter(y: np.ndarray, size: int) -> np.ndarray:
     return median_filter(y, size=size, mode="nearest")
 
 
+#: Samples per window from which the ``decimated`` screen decimates (below: the running
+#: median itself).
+DECIMATE_FROM = 128
+#: Samples of the decimated series per window (about; odd).
+_DECIMATED_WINDOW = 64
+
+
+def _decimated_median(y: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray | float]:
+    """Baseline of a series and each sample's allowance for its interpolation error.
+
+    Below :data:`DECIMATE_FROM` samples per window: the running median over ``size``
+    samples (:func:`_median_filter`) and no allowance (0). Above: the running median, over
+    about :data:`_DECIMATED_WINDOW` samples spanning the same window, of every ``d``-th sample
+    (``d = size // 64``, the last sample included), linearly interpolated between them; the
+    allowance of a sample between two of them is the largest step of those medians over its
+    interval and the two beside it: more than the error of the interpolation (``h² |y''| /
+    8`` over ``h`` samples), and than the shift of a median by one sample of the window (an
+    outlier in it), which on a noiseless drift would otherwise exceed the spread.
+    """
+    n = y.size
+    d = size // _DECIMATED_WINDOW if size >= DECIMATE_FROM else 1
+    if d <= 1 or n < 3 * d:
+        return _median_filter(y, size), 0.0
+    k = round(size / d)
+    k += 1 - k % 2  # odd
+    nodes = np.arange(0, n, d)
+    if nodes[-1] != n - 1:
+        nodes = np.append(nodes, n - 1)
+    m = _median_filter(np.ascontiguousarray(y[nodes]), min(k, nodes.size - (1 - nodes.size % 2)))
+    # each segment [nodes[j], nodes[j+1]): its start value, slope per sample, and allowance:
+    # the largest step of the medians over it and its neighbours
+    step_m = np.diff(m)
+    big = np.abs(step_m)
+    allow_seg = big.copy()
+    allow_seg[1:] = np.maximum(allow_seg[1:], big[:-1])
+    allow_seg[:-1] = np.maximum(allow_seg[:-1], big[1:])
+    slope = step_m / np.diff(nodes)
+    full = (nodes.size - 2) * d  # rows in whole segments of d samples; the last is shorter
+    base = np.empty(n)
+    allow = np.empty(n)
+    ramp = np.arange(d, dtype=np.float64)
+    base[:full].reshape(-1, d)[:] = m[:-2, None] + slope[:-1, None] * ramp
+    allow[:full].reshape(-1, d)[:] = allow_seg[:-1, None]
+    base[full:] = m[-2] + slope[-1] * np.arange(n - full, dtype=np.float64)
+    allow[full:] = allow_seg[-1]
+    return base, allow
+
+
 def outlier_mask(t: np.ndarray, y: np.ndarray, config: OutlierConfig) -> np.ndarray:
-    """Outliers of one run of one or more channels, by running median and MAD.
+    """Outliers of one run of one or more channels, by running median (decimated above
+    :data:`DECIMATE_FROM` samples per window) and MAD.
 
     Parameters
     ----------
@@ -370,15 +442,18 @@ def outlier_mask(t: np.ndarray, y: np.ndarray, config: OutlierConfig) -> np.ndar
             idx = np.flatnonzero(ok)
             near = idx[np.clip(np.searchsorted(idx, np.arange(col.size)), 0, idx.size - 1)]
             filled = col[near]
-        med = _median_filter(filled, k)
+        if config.kind == "running":
+            med, allow = _median_filter(filled, k), 0.0
+        else:
+            med, allow = _decimated_median(filled, k)
         resid = np.abs(col - med)
         mad = float(np.median(resid[ok]))
         if mad > 0:
-            out[:, j] = ok & (resid > config.threshold * 1.4826 * mad)
+            out[:, j] = ok & (resid > config.threshold * 1.4826 * mad + allow)
         else:  # quantised output: at least half the samples equal their running median
             spread = float(np.std(resid[ok]))
             if spread > 0:
-                out[:, j] = ok & (resid > config.threshold * spread)
+                out[:, j] = ok & (resid > config.threshold * spread + allow)
     return out.reshape(y.shape)
 
 
@@ -409,11 +484,118 @@ def distinct_points(medians: np.ndarray, decimals: int = 1) -> np.ndarray:
     return np.unique(np.round(med[np.isfinite(med)], decimals))
 
 
-def _columns(log: pd.DataFrame, names: Sequence[str]) -> np.ndarray:
-    """Columns of a log as a column-major (n, len(names)) float64 array."""
-    out = np.empty((len(log), len(names)), order="F")
+@dataclass(frozen=True)
+class LogColumns:
+    """The columns of a validated log that features are built from, as float64 arrays.
+
+    Read once from the table (:func:`log_columns`; a float64 column is a view, not a copy)
+    and then shared: the features of each channel are built from these arrays alone, so
+    several threads can build them at once (:func:`features_from_columns`).
+
+    Attributes
+    ----------
+    time_s : ndarray, shape (n,) [s]
+        Time since each run's power-on.
+    codes, runs, rows
+        The runs, as :func:`run_slices` gives them.
+    values : mapping of str to ndarray, shape (n,)
+        The channels [log units], their temperature columns [°C] and ``temp_out`` [°C] where
+        the log has it, by column name.
+    temp_column : mapping of str to str
+        Each channel's temperature column.
+    """
+
+    time_s: np.ndarray
+    codes: np.ndarray
+    runs: tuple[str, ...]
+    rows: list[np.ndarray]
+    values: Mapping[str, np.ndarray]
+    temp_column: Mapping[str, str]
+
+    @property
+    def has_temp_out(self) -> bool:
+        """Whether the log has the outer temperature ``temp_out``."""
+        return TEMP_OUT in self.values
+
+
+def _require(log: pd.DataFrame, channels: Sequence[str]) -> None:
+    for c in (TIME, RUN, *channels):
+        if c not in log.columns:
+            raise LogError(f"log has no column {c!r}")
+
+
+def gradient_choice(log: pd.DataFrame, use_gradient: bool | None, warn: bool = True) -> bool:
+    """Whether features of ``log`` hold the gradient ΔT: as asked, or (None) where the log has
+    ``temp_out`` (``warn``: say so when it has not).
+
+    Raises
+    ------
+    LogError
+        ``use_gradient`` True and no ``temp_out`` column.
+
+    Warns
+    -----
+    MissingGradientWarning
+        ``use_gradient`` None and no ``temp_out`` column.
+    """
+    has_out = TEMP_OUT in log.columns
+    if use_gradient is True and not has_out:
+        raise LogError(f"log has no {TEMP_OUT!r} column, needed for the gradient feature ΔT")
+    if use_gradient is None:
+        if warn and not has_out:
+            warnings.warn(
+                f"log has no {TEMP_OUT!r} column: the gradient feature ΔT drops out; models use "
+                "T and dT/dt only",
+                MissingGradientWarning,
+                stacklevel=3,
+            )
+        return has_out
+    return bool(use_gradient)
+
+
+def log_columns(
+    log: pd.DataFrame,
+    channels: Sequence[str] = CHANNELS,
+    *,
+    slices: tuple[np.ndarray, tuple[str, ...], list[np.ndarray]] | None = None,
+) -> LogColumns:
+    """The columns features of ``channels`` are built from (see :class:`LogColumns`).
+
+    Parameters
+    ----------
+    log : DataFrame
+        A validated calibration log.
+    channels : sequence of str
+        Channels.
+    slices : tuple, optional
+        :func:`run_slices` of the log's ``run`` column, when the caller has it already.
+
+    Raises
+    ------
+    LogError
+        A missing column (time, run, a channel or its temperature), named.
+    """
+    _require(log, channels)
+    tcol = {c: temperature_column(log, c) for c in channels}
+    names = dict.fromkeys([*channels, *tcol.values()])
+    if TEMP_OUT in log.columns:
+        names[TEMP_OUT] = None
+    codes, runs, rows = run_slices(log[RUN]) if slices is None else slices
+    return LogColumns(
+        time_s=log[TIME].to_numpy(dtype=np.float64),
+        codes=codes,
+        runs=runs,
+        rows=rows,
+        values={c: log[c].to_numpy(dtype=np.float64) for c in names},
+        temp_column=tcol,
+    )
+
+
+def _columns(values: Mapping[str, np.ndarray], names: Sequence[str], n: int) -> np.ndarray:
+    """Columns as a column-major (n, len(names)) float64 array."""
+    out = np.empty((n, len(names)), order="F")
     for j, c in enumerate(names):
-        out[:, j] = log[c].to_numpy(dtype=np.float64)
+        out[:, j] = values[c]
     return out
 
 
@@ -425,6 +607,7 @@ def build_features(
     *,
     use_gradient: bool | None = None,
     with_rate: bool = True,
+    n_jobs: int | None = 1,
 ) -> Features:
     """Build the model inputs of every channel, run by run.
 
@@ -435,7 +618,8 @@ def build_features(
     derivative : DerivativeConfig, optional
         Temperature-rate estimator (default: centred, 60 s).
     outliers : OutlierConfig, optional
-        Outlier masking (default: 10 s running median, 6 robust spreads).
+        Outlier masking (default: 10 s running median, decimated at high rates, 6 robust
+        spreads).
     channels : sequence of str
         Channels to build, default all of :data:`rinscal.schema.CHANNELS`.
     use_gradient : bool, optional
@@ -444,6 +628,8 @@ def build_features(
     with_rate : bool
         Compute the rate ``Ṫ`` (False: zeros, for models of ``T`` alone; the compiled rate
         kernel is then not even loaded).
+    n_jobs : int, optional
+        Threads over the runs (None or 0: every core); the features do not depend on it.
 
     Returns
     -------
@@ -459,27 +645,48 @@ def build_features(
     MissingGradientWarning
         When ``use_gradient`` is None and the log has no ``temp_out``.
     """
+    channels = tuple(channels)
+    _require(log, channels)
+    grad = gradient_choice(log, use_gradient)
+    return features_from_columns(
+        log_columns(log, channels),
+        derivative,
+        outliers,
+        channels,
+        use_gradient=grad,
+        with_rate=with_rate,
+        n_jobs=n_jobs,
+    )
+
+
+def features_from_columns(
+    cols: LogColumns,
+    derivative: DerivativeConfig | None = None,
+    outliers: OutlierConfig | None = None,
+    channels: Sequence[str] = CHANNELS,
+    *,
+    use_gradient: bool,
+    with_rate: bool = True,
+    n_jobs: int | None = 1,
+) -> Features:
+    """:func:`build_features` from a log's columns read already (:func:`log_columns`).
+
+    Reads nothing but ``cols``, so that threads can build the features of several channels
+    at once. ``use_gradient`` is decided (:func:`gradient_choice`); the rest as for
+    :func:`build_features`.
+    """
+    # deferred: the thread fan-out is needed only where features are built
+    from rinscal.parallel import map_jobs
+
     derivative = derivative or DerivativeConfig()
     outliers = outliers or OutlierConfig()
     channels = tuple(channels)
-    for c in (TIME, RUN, *channels):
-        if c not in log.columns:
-            raise LogError(f"log has no column {c!r}")
-    has_out = TEMP_OUT in log.columns
-    if use_gradient is True and not has_out:
+    if use_gradient and not cols.has_temp_out:
         raise LogError(f"log has no {TEMP_OUT!r} column, needed for the gradient feature ΔT")
-    if use_gradient is None:
-        use_gradient = has_out
-        if not has_out:
-            warnings.warn(
-                f"log has no {TEMP_OUT!r} column: the gradient feature ΔT drops out; models use "
-                "T and dT/dt only",
-                MissingGradientWarning,
-                stacklevel=2,
-            )
-    n, m = len(log), len(channels)
-    t = log[TIME].to_numpy(dtype=np.float64)
-    tcols = [temperature_column(log, c) for c in channels]
+    values = cols.values
+    n, m = cols.time_s.size, len(channels)
+    t = cols.time_s
+    tcols = [cols.temp_column[c] for c in channels]
     uniq = list(dict.fromkeys(tcols))
     col_of = np.array([uniq.index(c) for c in tcols])
     single = m == 1  # one channel (a fit builds them one at a time): no copies between steps
@@ -488,20 +695,23 @@ def build_features(
         # matrix as it is (:meth:`Features.matrix` returns it, not a copy)
         block = np.empty((n, 3 if use_gradient else 2), order="F")
         temp, rate = block[:, 0:1], block[:, 1:2]
-        temp[:, 0] = log[tcols[0]].to_numpy(dtype=np.float64)
+        temp[:, 0] = values[tcols[0]]
         tmat_u, rate_u = temp, rate  # (n, 1): row-major and column-major alike
     else:
         # the rate kernel runs along rows (row-major); the (n, m) features are column-major,
         # one contiguous column per channel, as every later step reads them
-        tmat_u = np.column_stack([log[c].to_numpy(dtype=np.float64) for c in uniq])
-        temp = _columns(log, tcols)
+        tmat_u = np.column_stack([values[c] for c in uniq])
+        temp = _columns(values, tcols, n)
         rate_u = np.empty_like(tmat_u)
-    output = _columns(log, channels)
-    codes, runs, rows = run_slices(log[RUN])
+    output = _columns(values, channels, n)
+    codes, runs, rows = cols.codes, cols.runs, cols.rows
     outl = np.zeros((n, m), dtype=bool, order="F")
     removed = np.zeros((len(runs), m), dtype=np.int64)
     missing = np.zeros((len(runs), m), dtype=np.int64)
-    for k, idx in enumerate(rows):
+
+    def one_run(k: int) -> None:
+        # each run writes its own rows (and row k of the counts): runs run on any thread
+        idx = rows[k]
         # a run stored as one block (the usual case) is handled through views, not copies
         r: slice | np.ndarray = idx
         if idx.size and idx[-1] - idx[0] + 1 == idx.size:
@@ -513,6 +723,8 @@ def build_features(
             outl[r] = o
             removed[k] = o.sum(axis=0)
         missing[k] = (~np.isfinite(output[r])).sum(axis=0)
+
+    map_jobs(one_run, range(len(rows)), n_jobs)
     if not single:
         rate = np.empty((n, m), order="F")
         for j, u in enumerate(col_of):
@@ -520,7 +732,7 @@ def build_features(
         del rate_u
     grad = None
     if use_gradient:
-        tout = log[TEMP_OUT].to_numpy(dtype=np.float64)
+        tout = values[TEMP_OUT]
         if single:
             grad = np.subtract(temp, tout[:, None], out=block[:, 2:3])
         else:

@@ -28,6 +28,7 @@ from __future__ import annotations
 import dataclasses
 import warnings
 from collections.abc import Callable, Iterable, Mapping, Sequence
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -51,14 +52,18 @@ from rinscal.calibration.thermal.dispatch import fit_params
 from rinscal.calibration.thermal.features import (
     DerivativeConfig,
     Features,
-    MissingGradientWarning,
+    LogColumns,
     OutlierConfig,
     build_features,
     distinct_points,
+    features_from_columns,
+    gradient_choice,
+    log_columns,
     run_slices,
 )
 from rinscal.calibration.thermal.fitting import NEURAL_MAX_SAMPLES, rms_about_run_mean
 from rinscal.calibration.thermal.guards import (
+    MIN_TEMP_SPAN_C,
     PLAUSIBLE_TEMP_C,
     DesignError,
     check_temperature_span,
@@ -68,6 +73,7 @@ from rinscal.calibration.thermal.guards import (
 from rinscal.calibration.thermal.runs import FACTOR_METHODS, FALLBACK_DEGREE, RowSample, RunFits
 from rinscal.earth import static_outputs_r
 from rinscal.errors import ConfigError, LogError
+from rinscal.parallel import map_jobs, resolve_jobs
 from rinscal.schema import (
     CHAMBER,
     CHANNELS,
@@ -135,6 +141,16 @@ def site_reference(
     return out
 
 
+def _one_blas_thread() -> Any:
+    """BLAS on one thread while a model is fitted: the fit's factorisations are of tall
+    blocks a few columns wide, where BLAS threads only wait on each other (tens of times
+    slower on a loaded or pinned machine); the parallelism is the channels' threads."""
+    # deferred: threadpoolctl is needed only while fitting
+    from threadpoolctl import threadpool_limits
+
+    return threadpool_limits(limits=1, user_api="blas")
+
+
 def _edges_from(points: np.ndarray | None) -> np.ndarray | None:
     if points is None or points.size < 2:
         return None
@@ -178,6 +194,10 @@ class ThermalFitter:
         (:mod:`rinscal.calibration.selection.rule`).
     temp_range : (float, float) [°C]
         Plausible temperature readings; a training log outside it is refused.
+    n_jobs : int, optional
+        Threads for the independent work: the features and per-run factors of the channels
+        (of the runs, for :meth:`fit`), and ``auto``'s held-out choice of each channel. None
+        or 0: every core. The model does not depend on it, to the last bit.
 
     Attributes
     ----------
@@ -208,6 +228,7 @@ class ThermalFitter:
         candidates: Sequence[str] = DEFAULT_FAMILIES,
         tolerance: float = DEFAULT_TOLERANCE,
         temp_range: tuple[float, float] = PLAUSIBLE_TEMP_C,
+        n_jobs: int | None = None,
     ) -> None:
         if method not in FIT_METHODS:
             raise ConfigError(f"method must be one of {', '.join(FIT_METHODS)}, got {method!r}")
@@ -222,6 +243,9 @@ class ThermalFitter:
         _check.number("random_state", random_state, min=0, integer=True)
         _check.mapping("estimator_params", estimator_params, optional=True)
         _check.flag("use_gradient", use_gradient, optional=True)
+        self.n_jobs = resolve_jobs(
+            _check.number("n_jobs", n_jobs, optional=True, integer=True, min=0)
+        )
         self.candidates = tuple(candidates)
         self.tolerance = float(tolerance)
         self.temp_range = (float(temp_range[0]), float(temp_range[1]))
@@ -404,18 +428,20 @@ class ThermalFitter:
         where = f"{source}: " if source else ""
         _, _, rows = run_slices(log[RUN])
         res = self._check_temperatures(log, rows, 0, where)  # before any feature is built
-        feats = features or build_features(
-            log,
-            self.derivative,
-            self.outliers,
-            self.channels,
-            use_gradient=self.use_gradient,
-            with_rate=self.needs_rate,
-        )
-        self.features_ = feats
-        fitting = _Fitting(self, feats.has_gradient, where)
-        fitting.add_features(fitting.add_runs(log, feats.runs, rows, res), feats, rows)
-        return fitting.finish(meta, on_channel)
+        with _one_blas_thread():
+            feats = features or build_features(
+                log,
+                self.derivative,
+                self.outliers,
+                self.channels,
+                use_gradient=self.use_gradient,
+                with_rate=self.needs_rate,
+                n_jobs=self.n_jobs,
+            )
+            self.features_ = feats
+            fitting = _Fitting(self, feats.has_gradient, where)
+            fitting.add_features(fitting.add_runs(log, feats.runs, rows, res), feats, rows)
+            return fitting.finish(meta, on_channel)
 
     def fit_runs(
         self,
@@ -443,36 +469,28 @@ class ThermalFitter:
         """
         where = f"{source}: " if source else ""
         fitting: _Fitting | None = None
-        for log, first_row in runs:
-            names, rows = run_slices(log[RUN])[1:]  # not the codes: a row each
-            res = self._check_temperatures(log, rows, first_row, where)
-            codes: list[int] | None = None
-            for c in self.channels:  # a channel at a time: memory of one channel's features
-                with warnings.catch_warnings(record=True) as caught:
-                    warnings.simplefilter("always", MissingGradientWarning)
-                    feats = build_features(
-                        log,
-                        self.derivative,
-                        self.outliers,
-                        (c,),
-                        use_gradient=self.use_gradient,
-                        with_rate=self.needs_rate,
-                    )
-                if fitting is None:  # the missing-gradient warning once, not once per run
-                    for w in caught:
-                        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
-                    fitting = _Fitting(self, feats.has_gradient, where)
-                elif feats.has_gradient != fitting.has_gradient:
+        with _one_blas_thread():
+            for log, first_row in runs:
+                slices = run_slices(log[RUN])  # once for every channel
+                names, rows = slices[1:]
+                res = self._check_temperatures(log, rows, first_row, where)
+                cols = log_columns(log, self.channels, slices=slices)
+                # the missing-gradient warning once, not once per run
+                grad = gradient_choice(log, self.use_gradient, warn=fitting is None)
+                if fitting is None:
+                    fitting = _Fitting(self, grad, where)
+                elif grad != fitting.has_gradient:
                     raise ConfigError(f"{where}{TEMP_OUT!r} is in some runs and not in others")
-                if codes is None:
-                    codes = fitting.add_runs(log, names, rows, res)
-                fitting.add_features(codes, feats, rows)
-                del feats
-            del log, rows  # not held while the next run is read, nor while fitting
-        if fitting is None:
-            raise ConfigError(f"{where}no runs to fit")
-        self.features_ = None
-        return fitting.finish(meta, on_channel)
+                codes = fitting.add_runs(log, names, rows, res)
+                del log  # its columns are in cols
+                # the channels on threads, each building its features alone: memory of
+                # n_jobs channels' features, not of the run's
+                map_jobs(partial(fitting.add_columns, codes, cols), self.channels, self.n_jobs)
+                del cols, rows, slices  # not held while the next run is read, nor while fitting
+            if fitting is None:
+                raise ConfigError(f"{where}no runs to fit")
+            self.features_ = None
+            return fitting.finish(meta, on_channel)
 
     def _check_temperatures(
         self, log: pd.DataFrame, rows: list[np.ndarray], first_row: int, where: str
@@ -631,12 +649,32 @@ class _Fitting:
                 self.resolution[c] = min(v, self.resolution.get(c, np.inf))
         return codes
 
+    def add_columns(self, codes: list[int], cols: LogColumns, channel: str) -> None:
+        """Take in one channel of runs ``codes``, its features built from their columns
+        (reads nothing else: one thread per channel)."""
+        m = self.model
+        feats = features_from_columns(
+            cols,
+            m.derivative,
+            m.outliers,
+            (channel,),
+            use_gradient=self.has_gradient,
+            with_rate=m.needs_rate,
+        )
+        self.add_features(codes, feats, cols.rows)
+
     def add_features(self, codes: list[int], feats: Features, rows: list[np.ndarray]) -> None:
-        """Take in the features of some channels (``feats.channels``) of runs ``codes``."""
-        for k, (code, idx) in enumerate(zip(codes, rows, strict=True)):
-            f = _run_features(feats, k, idx)
-            for jj, c in enumerate(f.channels):
-                j = self.model.channels.index(c)
+        """Take in the features of some channels (``feats.channels``) of runs ``codes``.
+
+        The channels go to threads (``n_jobs`` of the model); each keeps its own fits, runs
+        in order.
+        """
+        parts = [_run_features(feats, k, idx) for k, idx in enumerate(rows)]
+
+        def channel(jj: int) -> None:
+            c = feats.channels[jj]
+            j = self.model.channels.index(c)
+            for code, f in zip(codes, parts, strict=True):
                 if not self.chamber:  # set points from the runs' temperatures instead
                     self.median_temp[code][j] = np.median(f.temp[:, jj])
                 self.outliers[j] += f.report.removed[0, jj]
@@ -646,6 +684,8 @@ class _Fitting:
                     self.fits[c].add(code, x, f.output[:, jj], f.time_s)
                 else:
                     self.fits[c].add(code, x[ok], f.output[ok, jj], f.time_s[ok])
+
+        map_jobs(channel, range(len(feats.channels)), self.model.n_jobs)
 
     def set_points(self, j: int) -> np.ndarray | None:
         """Soak set points: the runs' chamber medians, else their median ``T`` of channel j."""
@@ -673,6 +713,7 @@ class _Fitting:
         m.fallbacks_ = {}
         m.selections_ = {}
         m.train_mean_ = {}
+        chosen = self._selections() if m.method == AUTO else {}
         for j, c in enumerate(m.channels):
             fits = self.fits[c]
             if fits.n < 2:
@@ -686,7 +727,7 @@ class _Fitting:
             except ValueError as exc:
                 raise ConfigError(str(exc)) from None
             try:
-                params, fb, selection = self._fit_channel(c, fits, sp)
+                params, fb, selection = self._fit_channel(c, fits, sp, chosen.get(c))
             except (DesignError, ValueError, TypeError) as exc:
                 raise ConfigError(f"{what}: {m.method} fit failed: {exc}") from None
             m.params_[c] = params
@@ -706,19 +747,55 @@ class _Fitting:
                 on_channel(c)
         return m
 
-    def _fit_channel(
-        self, c: str, fits: RunFits, sp: np.ndarray | None
-    ) -> tuple[dict[str, Any], dict[str, Any] | None, dict[str, Any] | None]:
-        """A channel's parameters, its T-only fallback and ``auto``'s selection record."""
+    def _selections(self) -> dict[str, Selection | Exception | None]:
+        """``auto``: each channel's held-out choice (most of the time of :meth:`finish`), the
+        channels on threads (``n_jobs``).
+
+        None for a channel that :meth:`finish` refuses before choosing (too few samples, too
+        little temperature range: it says so, in channel order); the error of a choice that
+        failed, raised by :meth:`finish` in channel order as it was before the threads.
+        """
         m = self.model
-        if m.method == AUTO:
+
+        def one(c: str) -> Selection | Exception | None:
+            fits = self.fits[c]
+            if fits.n < 2 or not np.ptp(fits.range(1)[0]) >= MIN_TEMP_SPAN_C:
+                return None
             assert fits.screen is not None
             x, y, codes, rows, t, tools = fits.screen.arrays()
             cands = candidates(sensor_type(c), x.shape[1], m.candidates)
-            sel = select_thinned(
-                x, y, codes, rows, t, fits.screen.spans, tuple(self.runs), tools, cands,
-                m.tolerance, m.random_state,
-            )  # fmt: skip
+            try:
+                return select_thinned(
+                    x, y, codes, rows, t, fits.screen.spans, tuple(self.runs), tools, cands,
+                    m.tolerance, m.random_state,
+                )  # fmt: skip
+            except (DesignError, ValueError, TypeError) as exc:
+                return exc
+
+        # the choice silences the fits it screens; warnings.catch_warnings is not
+        # thread-safe (each thread's would restore another's filters), so one here holds
+        # them all silent: the choice itself warns of nothing (its TrainingDataWarning-free
+        # factor solves), and what the chosen fits say is said below, in channel order
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            done = map_jobs(one, m.channels, m.n_jobs)
+        return dict(zip(m.channels, done, strict=True))
+
+    def _fit_channel(
+        self,
+        c: str,
+        fits: RunFits,
+        sp: np.ndarray | None,
+        sel: Selection | Exception | None = None,
+    ) -> tuple[dict[str, Any], dict[str, Any] | None, dict[str, Any] | None]:
+        """A channel's parameters, its T-only fallback and ``auto``'s selection record
+        (``sel``: its held-out choice, :meth:`_selections`)."""
+        m = self.model
+        if m.method == AUTO:
+            if isinstance(sel, Exception):
+                raise sel
+            assert isinstance(sel, Selection) and fits.screen is not None
+            cands = candidates(sensor_type(c), len(fits.powers), m.candidates)
             params = self._fit_chosen(fits, sel, sel.chosen)
             # a chosen model of T alone is its own fallback: fit it once
             fb = params if sel.fallback == sel.chosen else self._fit_chosen(fits, sel, sel.fallback)
