@@ -77,7 +77,9 @@ def _flat_cells(cols: np.ndarray, lo: np.ndarray, hi: np.ndarray, bins: np.ndarr
 FINE = 8
 
 
-def occupied_boxes(x: np.ndarray, cells: int) -> tuple[np.ndarray, np.ndarray]:
+def occupied_boxes(
+    x: np.ndarray, cells: int, bounds: tuple[np.ndarray, np.ndarray] | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """The boxes of a fine grid over ``x``'s own range that hold a sample.
 
     The summary of one piece of training data (a run) from which :func:`domain_from_boxes`
@@ -89,6 +91,8 @@ def occupied_boxes(x: np.ndarray, cells: int) -> tuple[np.ndarray, np.ndarray]:
         Inputs, finite.
     cells : int
         Fine cells per input over ``[min, max]`` of that input in ``x``.
+    bounds : (ndarray, ndarray), optional
+        :func:`column_range` of ``x``, when the caller has it already.
 
     Returns
     -------
@@ -97,7 +101,7 @@ def occupied_boxes(x: np.ndarray, cells: int) -> tuple[np.ndarray, np.ndarray]:
     """
     x = np.asarray(x, dtype=np.float64)
     k = x.shape[1]
-    lo, hi = column_range(x)
+    lo, hi = column_range(x) if bounds is None else bounds
     nb = np.full(k, int(cells), dtype=np.int64)
     nb[hi <= lo] = 1
     size = int(np.prod(nb))

@@ -178,7 +178,9 @@ def _decimated_median(y: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray 
     base = np.empty(n)
     allow = np.empty(n)
     ramp = np.arange(d, dtype=np.float64)
-    base[:full].reshape(-1, d)[:] = m[:-2, None] + slope[:-1, None] * ramp
+    body = base[:full].reshape(-1, d)  # m + slope · ramp, written in place
+    np.multiply(slope[:-1, None], ramp, out=body)
+    body += m[:-2, None]
     allow[:full].reshape(-1, d)[:] = allow_seg[:-1, None]
     base[full:] = m[-2] + slope[-1] * np.arange(n - full, dtype=np.float64)
     allow[full:] = allow_seg[-1]
