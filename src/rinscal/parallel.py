@@ -15,7 +15,7 @@ from __future__ import annotations
 import os
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ThreadPoolExecutor
-from typing import TypeVar
+from typing import Any, TypeVar
 
 from rinscal.errors import ConfigError
 
@@ -65,17 +65,24 @@ def read_ahead(items: Iterable[T]) -> Iterator[T]:
     """The items of ``items`` in order, the next one taken on a thread of its own while the
     caller works on the current one (a file's next run read while this one is fitted).
 
-    Holds at most two items: the caller's and the next. ``items`` is never advanced by two
-    threads at once; an error taking an item is raised when the caller asks for that item.
-    Closing the iterator early waits for the item in flight, then drops it.
+    The first item is taken at once, before the caller asks for it (it can prepare in the
+    meantime). Holds at most two items: the caller's and the next. ``items`` is never
+    advanced by two threads at once; an error taking an item is raised when the caller asks
+    for that item. Closing the iterator early waits for the item in flight, then drops it.
     """
     it = iter(items)
-    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="rinscal-read") as pool:
-        pending = pool.submit(next, it, _END)
+    pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="rinscal-read")
+    return _ahead(pool, pool.submit(next, it, _END), it)
+
+
+def _ahead(pool: ThreadPoolExecutor, pending: Any, it: Iterator[T]) -> Iterator[T]:
+    try:
         while True:
             item = pending.result()
             if item is _END:
                 return
             pending = pool.submit(next, it, _END)
-            yield item  # type: ignore[misc]
+            yield item
             del item  # not held while the next is taken
+    finally:
+        pool.shutdown(wait=True)

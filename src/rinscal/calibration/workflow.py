@@ -695,8 +695,13 @@ def _write_runs(
     the rows flagged out of range and the rows."""
     shares: dict[str, tuple[int, int]] = {}
     writer: LogStreamWriter | None = None
+    # deferred: rate loads numba's kernels; only a command that computes a rate needs them
+    from rinscal.calibration.thermal.rate import load_kernel
+
+    runs = read_ahead(sources)  # the next run read while this one is compensated
+    load_kernel(kind or mf.derivative_kind)  # meanwhile, as the first run is read
     with contextlib.ExitStack() as stack:
-        for src in read_ahead(sources):  # the next run read while this one is compensated
+        for src in runs:
             if writer is None:
                 same_kind = format_of(out) != "parquet" and src.sep is not None
                 writer = stack.enter_context(

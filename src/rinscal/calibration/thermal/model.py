@@ -469,6 +469,11 @@ class ThermalFitter:
         """
         where = f"{source}: " if source else ""
         fitting: _Fitting | None = None
+        if self.needs_rate:  # now, while a caller reading ahead reads the first run
+            # deferred: rate loads numba's kernels (as building the features does)
+            from rinscal.calibration.thermal.rate import load_kernel
+
+            load_kernel(self.derivative.kind)
         with _one_blas_thread():
             for log, first_row in runs:
                 slices = run_slices(log[RUN])  # once for every channel

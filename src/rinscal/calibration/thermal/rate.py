@@ -361,3 +361,18 @@ def centred_slope_run(t: np.ndarray, x: np.ndarray, window_s: float) -> np.ndarr
     out = np.empty_like(x)
     centred_slope(t, x, 0.5 * float(window_s), out)
     return out
+
+
+def load_kernel(kind: str = "centred") -> None:
+    """Load the compiled kernel of a ``kind`` (``"centred"`` or ``"causal"``) rate now.
+
+    The first call of a kernel in a process loads it from numba's cache (about a second:
+    numba's own machinery comes with it); a command calls this while its first run is read
+    on another thread, so that the two overlap.
+    """
+    t = np.arange(3, dtype=np.float64)
+    x = np.zeros((3, 1))
+    if kind == "causal":
+        causal_slope(t, x, 1.0)
+    else:
+        centred_slope_run(t, x, 1.0)
