@@ -64,9 +64,14 @@ def _flat_cells(cols: np.ndarray, lo: np.ndarray, hi: np.ndarray, bins: np.ndarr
     range falls in the edge cell; the box test catches the rest).
     """
     flat = np.zeros(cols.shape[1], dtype=np.int64)
+    z = np.empty(cols.shape[1])  # floor((x − lo) / width), one buffer for every input
+    idx = np.empty(cols.shape[1], dtype=np.int64)
     for v in range(lo.size):
         width = (hi[v] - lo[v]) / bins[v] if hi[v] > lo[v] else 1.0
-        idx = np.floor((cols[v] - lo[v]) / width).astype(np.int64)
+        np.subtract(cols[v], lo[v], out=z)
+        z /= width
+        np.floor(z, out=z)
+        idx[:] = z  # as astype(int64): truncation of whole numbers
         np.clip(idx, 0, bins[v] - 1, out=idx)
         flat *= bins[v]
         flat += idx
