@@ -270,9 +270,8 @@ def temperature_resolution(values: np.ndarray) -> float:
     if not np.isfinite(np.sum(v)):  # some NaN or inf (a finite sum: none, no copy)
         v = v[np.isfinite(v)]
     d = np.diff(v)
-    np.abs(d, out=d)
-    d[d == 0] = np.inf  # the smallest nonzero change (in place: a run is millions of rows)
-    return float(d.min()) if d.size else float("inf")
+    d = d[d != 0]  # the changes: few, a quantised reading mostly repeats
+    return float(np.abs(d).min()) if d.size else float("inf")
 
 
 def check_temperatures(
