@@ -197,7 +197,9 @@ class ThermalFitter:
     n_jobs : int, optional
         Threads for the independent work: the features and per-run factors of the channels
         (of the runs, for :meth:`fit`), and ``auto``'s held-out choice of each channel. None
-        or 0: every core. The model does not depend on it, to the last bit.
+        or 0: every core; default 1, so that a fitter inside a study's or a fleet's own
+        fan-out adds no threads (:func:`rinscal.fit` and ``rinscal fit`` take every core).
+        The model does not depend on it, to the last bit.
 
     Attributes
     ----------
@@ -228,7 +230,7 @@ class ThermalFitter:
         candidates: Sequence[str] = DEFAULT_FAMILIES,
         tolerance: float = DEFAULT_TOLERANCE,
         temp_range: tuple[float, float] = PLAUSIBLE_TEMP_C,
-        n_jobs: int | None = None,
+        n_jobs: int | None = 1,
     ) -> None:
         if method not in FIT_METHODS:
             raise ConfigError(f"method must be one of {', '.join(FIT_METHODS)}, got {method!r}")
