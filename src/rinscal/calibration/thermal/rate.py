@@ -371,6 +371,7 @@ def load_kernel(kind: str = "centred") -> None:
     on another thread, so that the two overlap.
     """
     t = np.arange(3, dtype=np.float64)
+    t.flags.writeable = False  # as a log's time column comes (a read-only view): that kernel
     x = np.zeros((3, 1))
     if kind == "causal":
         causal_slope(t, x, 1.0)
