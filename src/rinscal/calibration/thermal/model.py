@@ -759,8 +759,8 @@ class _Fitting:
         channels on threads (``n_jobs``).
 
         None for a channel that :meth:`finish` refuses before choosing (too few samples, too
-        little temperature range: it says so, in channel order); the error of a choice that
-        failed, raised by :meth:`finish` in channel order as it was before the threads.
+        little temperature range); the error of a choice that failed, which :meth:`finish`
+        raises in channel order.
         """
         m = self.model
 
@@ -779,10 +779,9 @@ class _Fitting:
             except (DesignError, ValueError, TypeError) as exc:
                 return exc
 
-        # the choice silences the fits it screens; warnings.catch_warnings is not
-        # thread-safe (each thread's would restore another's filters), so one here holds
-        # them all silent: the choice itself warns of nothing (its TrainingDataWarning-free
-        # factor solves), and what the chosen fits say is said below, in channel order
+        # the choice silences the fits it screens; catch_warnings is not thread-safe, so one
+        # here, around the threads (the choice itself warns of nothing; what the chosen
+        # fits say is said below, in channel order)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             done = map_jobs(one, m.channels, m.n_jobs)
