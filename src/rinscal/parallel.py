@@ -15,6 +15,7 @@ from __future__ import annotations
 import os
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ThreadPoolExecutor
+from contextlib import contextmanager
 from typing import Any, TypeVar
 
 from rinscal.errors import ConfigError
@@ -84,5 +85,31 @@ def _ahead(pool: ThreadPoolExecutor, pending: Any, it: Iterator[T]) -> Iterator[
             pending = pool.submit(next, it, _END)
             yield item
             del item  # not held while the next is taken
+    finally:
+        pool.shutdown(wait=True)
+
+
+@contextmanager
+def one_behind(fn: Callable[[T], object]) -> Iterator[Callable[[T], None]]:
+    """``put(item)`` calls ``fn(item)`` on a thread of its own while the caller goes on (a
+    run written while the next is compensated), one call at a time, in order.
+
+    At most one call in flight: ``put`` waits for the previous call first, and raises its
+    error. Leaving the context waits for the last call (and raises its error); leaving it
+    on an error waits for the call in flight and drops what it returns.
+    """
+    pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="rinscal-write")
+    pending: Any = None
+
+    def put(item: T) -> None:
+        nonlocal pending
+        if pending is not None:
+            pending.result()
+        pending = pool.submit(fn, item)
+
+    try:
+        yield put
+        if pending is not None:
+            pending.result()
     finally:
         pool.shutdown(wait=True)

@@ -59,7 +59,7 @@ from rinscal.io.mapping import ColumnMapping
 from rinscal.io.metadata import meta_path
 from rinscal.io.streaming import LogStreamWriter, by_runs
 from rinscal.io.tables import SourceLog, check_mapping, format_of
-from rinscal.parallel import read_ahead
+from rinscal.parallel import one_behind, read_ahead
 from rinscal.sensormodel import ImuCalibration
 
 __all__ = [
@@ -577,7 +577,8 @@ def compensate_file(
     """Compensate a log file run by run into ``out`` (the same table back, its sensor channels
     compensated, the ``out_of_range`` column added, nothing else touched).
 
-    Memory stays bounded by two runs (the next is read while one is compensated). The
+    Memory stays bounded by three runs (the next is read and the last written while one
+    is compensated). The
     output is written as it is computed, in the input's format where ``out`` has the same
     kind (CSV/TSV), else Parquet by suffix; the caller writes the metadata sidecar
     (``summary.meta``) if it wants one. Behind an IMU
@@ -631,7 +632,7 @@ def compensate_file(
         check_units(mf, meta, str(log_path))
     notes = _stage_notes(mf, meta, str(log_path), ignore_units)
     kind = "causal" if causal else None
-    rows, flagged = by_runs(  # run by run: memory bounded by two runs
+    rows, flagged = by_runs(  # run by run: memory bounded by three runs
         log_path, mapping, lambda s: _write_runs(s, mf, policy, kind, out_path, n_jobs)
     )
     if mf.imu_stage is not None:  # the output is in deg/h and µg whatever the input's unit
@@ -707,10 +708,13 @@ def _write_runs(
                 writer = stack.enter_context(
                     LogStreamWriter(out, validate=False, sep=src.sep if same_kind else None)
                 )
+                # each run written while the next is compensated (left before the writer
+                # closes: the last write is waited for)
+                write = stack.enter_context(one_behind(writer.write))
             values, flagged = Compensator(mf, policy).batch(  # type: ignore[arg-type]
                 src.log, kind, first_row=src.first_row, n_jobs=n_jobs
             )
-            writer.write(src.write_back(values, {FLAG_COLUMN: flagged}))
+            write(src.write_back(values, {FLAG_COLUMN: flagged}))
             for run, k, n in zip(*run_counts(src.log["run"], flagged), strict=True):
                 k0, n0 = shares.get(run, (0, 0))
                 shares[run] = (k0 + k, n0 + n)

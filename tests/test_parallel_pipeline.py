@@ -1,5 +1,6 @@
-"""``rinscal.parallel.read_ahead``: a file's next run read on a thread while this one is
-worked on (issue 39): the items in order, one ahead at most, errors where they belong."""
+"""``rinscal.parallel.read_ahead`` and ``one_behind``: a file's next run read, and the last
+written, on threads of their own while this one is worked on (issue 39): in order, one
+ahead (behind) at most, errors where they belong."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ import time
 
 import pytest
 
-from rinscal.parallel import read_ahead
+from rinscal.parallel import one_behind, read_ahead
 
 
 def test_items_come_in_order_taken_on_another_thread_one_ahead() -> None:
@@ -57,3 +58,34 @@ def test_closing_early_stops_taking_items() -> None:
     it.close()  # type: ignore[attr-defined]
     time.sleep(0.05)
     assert taken == [0, 1]  # the one in flight, nothing after
+
+
+def test_one_behind_writes_in_order_on_another_thread_one_at_a_time() -> None:
+    written: list[tuple[int, int]] = []
+    busy = threading.Lock()
+
+    def write(k: int) -> None:
+        assert busy.acquire(blocking=False), "two writes at once"
+        time.sleep(0.01)
+        written.append((k, threading.get_ident()))
+        busy.release()
+
+    with one_behind(write) as put:
+        for k in range(6):
+            put(k)
+            assert len(written) >= k - 1  # at most the call just made is in flight
+    assert [k for k, _ in written] == list(range(6))  # the last one waited for on leaving
+    assert {th for _, th in written} != {threading.get_ident()}
+
+
+def test_one_behind_raises_a_write_s_error() -> None:
+    def write(k: int) -> None:
+        if k == 1:
+            raise OSError("disk full")
+
+    with pytest.raises(OSError, match="disk full"), one_behind(write) as put:
+        put(0)
+        put(1)
+        put(2)  # waits for the failed call: its error is raised here
+    with pytest.raises(OSError, match="disk full"), one_behind(write) as put:
+        put(1)  # the last call: its error is raised on leaving
