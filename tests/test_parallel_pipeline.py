@@ -89,3 +89,13 @@ def test_one_behind_raises_a_write_s_error() -> None:
         put(2)  # waits for the failed call: its error is raised here
     with pytest.raises(OSError, match="disk full"), one_behind(write) as put:
         put(1)  # the last call: its error is raised on leaving
+
+
+def test_threads_are_bounded_by_the_memory_of_the_items_in_flight() -> None:
+    from rinscal.parallel import MEMORY_BUDGET, available_cores, jobs_within
+
+    assert jobs_within(8, MEMORY_BUDGET / 4) == 4  # four such items fill the budget
+    assert jobs_within(2, MEMORY_BUDGET / 4) == 2  # fewer asked: as asked
+    assert jobs_within(8, 10 * MEMORY_BUDGET) == 1  # one at least, however large
+    assert jobs_within(None, 1.0) == available_cores()
+    assert jobs_within(8, 1e6, budget=3e6) == 3

@@ -45,6 +45,21 @@ def resolve_jobs(n_jobs: int | None) -> int:
     return n_jobs
 
 
+#: Memory the items in flight of one fan-out may hold together by default [bytes]
+#: (:func:`jobs_within`).
+MEMORY_BUDGET = 400 * 2**20
+
+
+def jobs_within(n_jobs: int | None, each_bytes: float, budget: float = MEMORY_BUDGET) -> int:
+    """Threads for work each item of which holds about ``each_bytes`` while it runs: ``n_jobs``
+    (None or 0: every core), but no more than ``budget`` holds, and at least one.
+
+    So that memory stays bounded however many cores the machine has (the result never
+    depends on the number of threads).
+    """
+    return max(1, min(resolve_jobs(n_jobs), int(budget // max(float(each_bytes), 1.0))))
+
+
 def map_jobs(fn: Callable[[T], R], items: Iterable[T], n_jobs: int | None = None) -> list[R]:
     """``[fn(x) for x in items]``, on up to ``n_jobs`` threads (None/0: every core).
 

@@ -338,9 +338,10 @@ class Compensator:
             return (f, flagged) if then is None else then(j, f, flagged)
 
         # deferred: the thread fan-out is needed only for a batch
-        from rinscal.parallel import map_jobs
+        from rinscal.parallel import jobs_within, map_jobs
 
-        return map_jobs(one, range(len(self.channels)), n_jobs)
+        # about 100 bytes a row for each channel in flight (features, inputs, output)
+        return map_jobs(one, range(len(self.channels)), jobs_within(n_jobs, 100 * len(log)))
 
     def predict(
         self,

@@ -27,6 +27,7 @@ __all__ = [
     "fit_regression",
     "fit_sectional",
     "lstsq_qr",
+    "one_blas_thread",
     "sectional_edges",
     "solve_r",
     "tsqr",
@@ -71,6 +72,19 @@ class PowerBasis:
                 col += 1
             col += 1
         return a
+
+
+def one_blas_thread() -> Any:
+    """A context in which BLAS runs on one thread (``threadpoolctl``), for fitting.
+
+    The factorisations here are of tall blocks a few columns wide, where BLAS threads only
+    wait on each other: tens of times slower on a loaded or pinned machine. A fit's
+    parallelism is its channels' threads (:mod:`rinscal.parallel`).
+    """
+    # deferred: threadpoolctl is needed only while fitting
+    from threadpoolctl import threadpool_limits
+
+    return threadpool_limits(limits=1, user_api="blas")
 
 
 def tsqr(

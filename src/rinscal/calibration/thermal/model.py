@@ -61,7 +61,11 @@ from rinscal.calibration.thermal.features import (
     log_columns,
     run_slices,
 )
-from rinscal.calibration.thermal.fitting import NEURAL_MAX_SAMPLES, rms_about_run_mean
+from rinscal.calibration.thermal.fitting import (
+    NEURAL_MAX_SAMPLES,
+    one_blas_thread,
+    rms_about_run_mean,
+)
 from rinscal.calibration.thermal.guards import (
     MIN_TEMP_SPAN_C,
     PLAUSIBLE_TEMP_C,
@@ -73,7 +77,7 @@ from rinscal.calibration.thermal.guards import (
 from rinscal.calibration.thermal.runs import FACTOR_METHODS, FALLBACK_DEGREE, RowSample, RunFits
 from rinscal.earth import static_outputs_r
 from rinscal.errors import ConfigError, LogError
-from rinscal.parallel import map_jobs, resolve_jobs
+from rinscal.parallel import jobs_within, map_jobs, resolve_jobs
 from rinscal.schema import (
     CHAMBER,
     CHANNELS,
@@ -141,14 +145,9 @@ def site_reference(
     return out
 
 
-def _one_blas_thread() -> Any:
-    """BLAS on one thread while a model is fitted: the fit's factorisations are of tall
-    blocks a few columns wide, where BLAS threads only wait on each other (tens of times
-    slower on a loaded or pinned machine); the parallelism is the channels' threads."""
-    # deferred: threadpoolctl is needed only while fitting
-    from threadpoolctl import threadpool_limits
-
-    return threadpool_limits(limits=1, user_api="blas")
+#: Memory one channel's features and factors of a run hold while they are built [bytes a
+#: row] (measured: about 100 at 100 Hz, ``auto`` and ``regression`` alike).
+_CHANNEL_BYTES_PER_ROW = 100
 
 
 def _edges_from(points: np.ndarray | None) -> np.ndarray | None:
@@ -195,11 +194,9 @@ class ThermalFitter:
     temp_range : (float, float) [°C]
         Plausible temperature readings; a training log outside it is refused.
     n_jobs : int, optional
-        Threads for the independent work: the features and per-run factors of the channels
-        (of the runs, for :meth:`fit`), and ``auto``'s held-out choice of each channel. None
-        or 0: every core; default 1, so that a fitter inside a study's or a fleet's own
-        fan-out adds no threads (:func:`rinscal.fit` and ``rinscal fit`` take every core).
-        The model does not depend on it, to the last bit.
+        Threads for the channels' features and run factors (the runs', in :meth:`fit`) and
+        ``auto``'s choices; None or 0: every core; default 1 (a fitter in a study's or a
+        fleet's fan-out adds none). The model does not depend on it, to the last bit.
 
     Attributes
     ----------
@@ -430,7 +427,7 @@ class ThermalFitter:
         where = f"{source}: " if source else ""
         _, _, rows = run_slices(log[RUN])
         res = self._check_temperatures(log, rows, 0, where)  # before any feature is built
-        with _one_blas_thread():
+        with one_blas_thread():
             feats = features or build_features(
                 log,
                 self.derivative,
@@ -476,7 +473,7 @@ class ThermalFitter:
             from rinscal.calibration.thermal.rate import load_kernel
 
             load_kernel(self.derivative.kind)
-        with _one_blas_thread():
+        with one_blas_thread():
             for log, first_row in runs:
                 slices = run_slices(log[RUN])  # once for every channel
                 names, rows = slices[1:]
@@ -490,9 +487,10 @@ class ThermalFitter:
                     raise ConfigError(f"{where}{TEMP_OUT!r} is in some runs and not in others")
                 codes = fitting.add_runs(log, names, rows, res)
                 del log  # its columns are in cols
-                # the channels on threads, each building its features alone: memory of
-                # n_jobs channels' features, not of the run's
-                map_jobs(partial(fitting.add_columns, codes, cols), self.channels, self.n_jobs)
+                # the channels on threads, each building its features alone (as many as
+                # 400 MB of their features hold)
+                jobs = jobs_within(self.n_jobs, _CHANNEL_BYTES_PER_ROW * cols.time_s.size)
+                map_jobs(partial(fitting.add_columns, codes, cols), self.channels, jobs)
                 del cols, rows, slices  # not held while the next run is read, nor while fitting
             if fitting is None:
                 raise ConfigError(f"{where}no runs to fit")

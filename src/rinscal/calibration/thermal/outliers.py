@@ -226,7 +226,8 @@ def outlier_mask(t: np.ndarray, y: np.ndarray, config: OutlierConfig) -> np.ndar
             med, allow = _median_filter(filled, k), 0.0
         else:
             med, allow = _decimated_median(filled, k)
-        resid = np.abs(col - med)
+        resid = np.subtract(col, med, out=med)  # the baseline's buffer: a run is long
+        np.abs(resid, out=resid)
         mad = float(np.median(resid[ok]))
         if mad > 0:
             out[:, j] = ok & (resid > config.threshold * 1.4826 * mad + allow)
