@@ -25,7 +25,7 @@ Dictionary form (in a channel's ``domain`` entry)::
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -56,16 +56,20 @@ def column_range(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return lo, hi
 
 
-def _flat_cells(cols: np.ndarray, lo: np.ndarray, hi: np.ndarray, bins: np.ndarray) -> np.ndarray:
+def _flat_cells(
+    cols: np.ndarray | Sequence[np.ndarray], lo: np.ndarray, hi: np.ndarray, bins: np.ndarray
+) -> np.ndarray:
     """Row-major flat cell number of each sample, shape (n,).
 
-    ``cols`` holds one input per row, shape (k, n) (contiguous arithmetic). Each input's cell
-    is ``floor((x − lo) / width)`` clipped into ``0 .. bins − 1`` (a value just outside the
+    ``cols`` holds one input per row, shape (k, n), or is a sequence of the k inputs (each
+    contiguous: the columns of a column-major block, no copy). Each input's cell is
+    ``floor((x − lo) / width)`` clipped into ``0 .. bins − 1`` (a value just outside the
     range falls in the edge cell; the box test catches the rest).
     """
-    flat = np.zeros(cols.shape[1], dtype=np.int64)
-    z = np.empty(cols.shape[1])  # floor((x − lo) / width), one buffer for every input
-    idx = np.empty(cols.shape[1], dtype=np.int64)
+    n = len(cols[0])
+    flat = np.zeros(n, dtype=np.int64)
+    z = np.empty(n)  # floor((x − lo) / width), one buffer for every input
+    idx = np.empty(n, dtype=np.int64)
     for v in range(lo.size):
         width = (hi[v] - lo[v]) / bins[v] if hi[v] > lo[v] else 1.0
         np.subtract(cols[v], lo[v], out=z)
@@ -111,7 +115,7 @@ def occupied_boxes(
     nb[hi <= lo] = 1
     size = int(np.prod(nb))
     blocks = [
-        _flat_cells(np.ascontiguousarray(x[s : s + (1 << 16)].T), lo, hi, nb)
+        _flat_cells([x[s : s + (1 << 16), v] for v in range(k)], lo, hi, nb)
         for s in range(0, x.shape[0], 1 << 16)
     ]
     if x.shape[0] < size // 16:  # few samples: sort their cells, no dense grid
