@@ -59,7 +59,7 @@ from rinscal.io.mapping import ColumnMapping
 from rinscal.io.metadata import meta_path
 from rinscal.io.streaming import LogStreamWriter, by_runs
 from rinscal.io.tables import SourceLog, check_mapping, format_of
-from rinscal.parallel import one_behind, read_ahead
+from rinscal.parallel import one_behind, read_ahead, resolve_jobs
 from rinscal.sensormodel import ImuCalibration
 
 __all__ = [
@@ -357,11 +357,11 @@ def fit(
                     yield calibrated(src.log), src.first_row  # next is read
                     del src
 
-            by_runs(  # run by run: memory bounded by two runs, this one and the next
+            by_runs(  # run by run: memory bounded by two runs (fit_runs reads one ahead)
                 path,
                 mapping,
-                lambda s: model.fit_runs(  # the next run read while this one is fitted
-                    _counted(read_ahead(runs(s)), read), meta, on_channel=step, source=str(path)
+                lambda s: model.fit_runs(
+                    runs(s), meta, on_channel=step, source=str(path), on_run=read
                 ),
             )
             source = {"log": path.name}
@@ -388,18 +388,6 @@ def fit(
             "(fit --latitude and --heading) or --static-ref mean|CHANNEL=VALUE to keep it"
         )
     return FitResult(mf, fit_table(mf), tuple(told), fit_note(mf, method))
-
-
-def _counted(
-    runs: Iterator[tuple[pd.DataFrame, int]], on_run: Callable[[int], None] | None
-) -> Iterator[tuple[pd.DataFrame, int]]:
-    k = 0
-    for item in runs:
-        k += 1
-        if on_run is not None:
-            on_run(k)
-        yield item
-        del item
 
 
 def fit_table(mf: FittedModel) -> pd.DataFrame:
@@ -699,7 +687,9 @@ def _write_runs(
     # deferred: rate loads numba's kernels; only a command that computes a rate needs them
     from rinscal.calibration.thermal.rate import load_kernel
 
-    runs = read_ahead(sources)  # the next run read while this one is compensated
+    several = resolve_jobs(n_jobs) > 1
+    # on several threads, the next run read while this one is compensated
+    runs = read_ahead(sources) if several else sources
     load_kernel(kind or mf.derivative_kind)  # meanwhile, as the first run is read
     with contextlib.ExitStack() as stack:
         for src in runs:
@@ -708,9 +698,8 @@ def _write_runs(
                 writer = stack.enter_context(
                     LogStreamWriter(out, validate=False, sep=src.sep if same_kind else None)
                 )
-                # each run written while the next is compensated (left before the writer
-                # closes: the last write is waited for)
-                write = stack.enter_context(one_behind(writer.write))
+                # and the last written (left before the writer closes: waited for)
+                write = stack.enter_context(one_behind(writer.write)) if several else writer.write
             values, flagged = Compensator(mf, policy).batch(  # type: ignore[arg-type]
                 src.log, kind, first_row=src.first_row, n_jobs=n_jobs
             )

@@ -18,6 +18,7 @@ an :class:`~rinscal.calibration.thermal.outliers.OutlierReport`.
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -44,6 +45,7 @@ __all__ = [
     "gradient_choice",
     "log_columns",
     "outlier_mask",
+    "run_features",
     "run_slices",
     "set_points",
     "temperature_rate",
@@ -213,6 +215,34 @@ def run_slices(run: pd.Series | np.ndarray) -> tuple[np.ndarray, tuple[str, ...]
         bounds = np.searchsorted(codes[order], np.arange(len(uniques) + 1))
         rows = [order[bounds[k] : bounds[k + 1]] for k in range(len(uniques))]
     return codes, tuple(str(u) for u in uniques), rows
+
+
+def run_features(feats: Features, k: int, idx: np.ndarray) -> Features:
+    """The features of run ``k`` (rows ``idx``) of a log's features."""
+    if idx.size == feats.run_codes.size:
+        return feats
+    r: slice | np.ndarray = idx
+    if idx.size and idx[-1] - idx[0] + 1 == idx.size:  # one block: views, not copies
+        r = slice(int(idx[0]), int(idx[-1]) + 1)
+    rep = feats.report
+    return dataclasses.replace(
+        feats,
+        temp=feats.temp[r],
+        rate=feats.rate[r],
+        grad=None if feats.grad is None else feats.grad[r],
+        output=feats.output[r],
+        inlier=feats.inlier[r],
+        run_codes=np.zeros(idx.size, dtype=np.int64),
+        runs=(feats.runs[k],),
+        time_s=feats.time_s[r],
+        report=dataclasses.replace(
+            rep,
+            runs=(rep.runs[k],),
+            removed=rep.removed[k : k + 1],
+            missing=rep.missing[k : k + 1],
+            samples=rep.samples[k : k + 1],
+        ),
+    )
 
 
 def temperature_rate(t: np.ndarray, temp: np.ndarray, derivative: DerivativeConfig) -> np.ndarray:

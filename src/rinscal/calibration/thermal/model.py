@@ -25,9 +25,8 @@ model file's side of that fit.
 
 from __future__ import annotations
 
-import dataclasses
 import warnings
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from functools import partial
 from typing import Any
 
@@ -59,6 +58,7 @@ from rinscal.calibration.thermal.features import (
     features_from_columns,
     gradient_choice,
     log_columns,
+    run_features,
     run_slices,
 )
 from rinscal.calibration.thermal.fitting import (
@@ -77,7 +77,7 @@ from rinscal.calibration.thermal.guards import (
 from rinscal.calibration.thermal.runs import FACTOR_METHODS, FALLBACK_DEGREE, RowSample, RunFits
 from rinscal.earth import static_outputs_r
 from rinscal.errors import ConfigError, LogError
-from rinscal.parallel import jobs_within, map_jobs, resolve_jobs
+from rinscal.parallel import jobs_within, map_jobs, read_ahead, resolve_jobs
 from rinscal.schema import (
     CHAMBER,
     CHANNELS,
@@ -449,6 +449,7 @@ class ThermalFitter:
         *,
         on_channel: Callable[[str], None] | None = None,
         source: str | None = None,
+        on_run: Callable[[int], None] | None = None,
     ) -> ThermalFitter:
         """Fit every channel on a log given a run at a time, never holding it whole.
 
@@ -460,6 +461,9 @@ class ThermalFitter:
             the data rows of the file before each (for messages).
         meta, on_channel, source
             As for :meth:`fit`.
+        on_run : callable, optional
+            Called with the number of runs taken so far, as each is (on the caller's thread;
+            with ``n_jobs`` above 1 the next run is read on another).
 
         Returns
         -------
@@ -468,17 +472,20 @@ class ThermalFitter:
         """
         where = f"{source}: " if source else ""
         fitting: _Fitting | None = None
-        if self.needs_rate:  # now, while a caller reading ahead reads the first run
+        items = self._checked(runs, where)
+        if self.n_jobs > 1:  # the next run read and checked on a thread while one is fitted
+            items = read_ahead(items)
+        if self.needs_rate:  # meanwhile (the first run is read)
             # deferred: rate loads numba's kernels (as building the features does)
             from rinscal.calibration.thermal.rate import load_kernel
 
             load_kernel(self.derivative.kind)
         with one_blas_thread():
-            for log, first_row in runs:
-                slices = run_slices(log[RUN])  # once for every channel
-                names, rows = slices[1:]
-                res = self._check_temperatures(log, rows, first_row, where)
-                cols = log_columns(log, self.channels, slices=slices)
+            taken = 0
+            for log, (run_codes, names, rows), res, cols in items:  # no enumerate: its tuple
+                taken += 1  # would hold this run while the next is taken
+                if on_run is not None:
+                    on_run(taken)
                 # the missing-gradient warning once, not once per run
                 grad = gradient_choice(log, self.use_gradient, warn=fitting is None)
                 if fitting is None:
@@ -491,11 +498,21 @@ class ThermalFitter:
                 # 400 MB of their features hold)
                 jobs = jobs_within(self.n_jobs, _CHANNEL_BYTES_PER_ROW * cols.time_s.size)
                 map_jobs(partial(fitting.add_columns, codes, cols), self.channels, jobs)
-                del cols, rows, slices  # not held while the next run is read, nor while fitting
+                del cols, rows, run_codes  # not held while the next run is taken
             if fitting is None:
                 raise ConfigError(f"{where}no runs to fit")
             self.features_ = None
             return fitting.finish(meta, on_channel)
+
+    def _checked(self, runs: Iterable[tuple[pd.DataFrame, int]], where: str) -> Iterator[Any]:
+        """Each run with its slices (:func:`run_slices`), its temperatures checked (their
+        resolutions) and its columns (:func:`log_columns`): what a run needs before its
+        channels, made where it is read."""
+        for log, first_row in runs:
+            slices = run_slices(log[RUN])  # once for every channel
+            res = self._check_temperatures(log, slices[2], first_row, where)
+            yield log, slices, res, log_columns(log, self.channels, slices=slices)
+            del log
 
     def _check_temperatures(
         self, log: pd.DataFrame, rows: list[np.ndarray], first_row: int, where: str
@@ -586,34 +603,6 @@ class ThermalFitter:
         )
 
 
-def _run_features(feats: Features, k: int, idx: np.ndarray) -> Features:
-    """The features of run ``k`` (rows ``idx``) of a log's features."""
-    if idx.size == feats.run_codes.size:
-        return feats
-    r: slice | np.ndarray = idx
-    if idx.size and idx[-1] - idx[0] + 1 == idx.size:  # one block: views, not copies
-        r = slice(int(idx[0]), int(idx[-1]) + 1)
-    rep = feats.report
-    return dataclasses.replace(
-        feats,
-        temp=feats.temp[r],
-        rate=feats.rate[r],
-        grad=None if feats.grad is None else feats.grad[r],
-        output=feats.output[r],
-        inlier=feats.inlier[r],
-        run_codes=np.zeros(idx.size, dtype=np.int64),
-        runs=(feats.runs[k],),
-        time_s=feats.time_s[r],
-        report=dataclasses.replace(
-            rep,
-            runs=(rep.runs[k],),
-            removed=rep.removed[k : k + 1],
-            missing=rep.missing[k : k + 1],
-            samples=rep.samples[k : k + 1],
-        ),
-    )
-
-
 class _Fitting:
     """A :class:`ThermalFitter`'s fit in progress: what it keeps of each run, then the models.
 
@@ -674,7 +663,7 @@ class _Fitting:
         The channels go to threads (``n_jobs`` of the model); each keeps its own fits, runs
         in order.
         """
-        parts = [_run_features(feats, k, idx) for k, idx in enumerate(rows)]
+        parts = [run_features(feats, k, idx) for k, idx in enumerate(rows)]
 
         def channel(jj: int) -> None:
             c = feats.channels[jj]
