@@ -27,7 +27,12 @@ from typing import Literal
 import numpy as np
 import pandas as pd
 
-from rinscal.calibration.thermal.outliers import OutlierConfig, OutlierReport, outlier_mask
+from rinscal.calibration.thermal.outliers import (
+    OutlierConfig,
+    OutlierReport,
+    median_interval,
+    outlier_mask,
+)
 from rinscal.errors import ConfigError, LogError
 from rinscal.schema import CHAMBER, CHANNELS, RUN, TEMP_OUT, TIME, temperature_column
 from rinscal.units import MIN_TO_S
@@ -327,6 +332,14 @@ class LogColumns:
     rows: list[np.ndarray]
     values: Mapping[str, np.ndarray]
     temp_column: Mapping[str, str]
+    _dt: dict[int, float] = dataclasses.field(default_factory=dict, repr=False, compare=False)
+
+    def interval(self, k: int, t: np.ndarray) -> float:
+        """Median sampling interval of run ``k`` (times ``t``) [s], found once for every
+        channel's outlier screen."""
+        if k not in self._dt:  # two threads may both compute it: the same number
+            self._dt[k] = median_interval(t)
+        return self._dt[k]
 
     @property
     def has_temp_out(self) -> bool:
@@ -535,7 +548,7 @@ def features_from_columns(
         tr = t[r]
         rate_u[r] = temperature_rate(tr, tmat_u[r], derivative) if with_rate else 0.0
         if outliers.enabled:
-            o = outlier_mask(tr, output[r], outliers)
+            o = outlier_mask(tr, output[r], outliers, cols.interval(k, tr))
             outl[r] = o
             removed[k] = o.sum(axis=0)
         missing[k] = (~np.isfinite(output[r])).sum(axis=0)

@@ -28,7 +28,7 @@ import pandas as pd
 
 from rinscal.errors import ConfigError
 
-__all__ = ["DECIMATE_FROM", "OutlierConfig", "OutlierReport", "outlier_mask"]
+__all__ = ["DECIMATE_FROM", "OutlierConfig", "OutlierReport", "median_interval", "outlier_mask"]
 
 
 @dataclass(frozen=True)
@@ -114,8 +114,13 @@ class OutlierReport:
 _NUMPY_MEDIAN_MAX = 2_000_000
 
 
-def _odd_window(t: np.ndarray, window_s: float) -> int:
-    dt = float(np.median(np.diff(t))) if t.size > 1 else 1.0
+def median_interval(t: np.ndarray) -> float:
+    """Median sampling interval of one run [s] (1 for a single sample)."""
+    return float(np.median(np.diff(t))) if t.size > 1 else 1.0
+
+
+def _odd_window(t: np.ndarray, window_s: float, dt: float | None = None) -> int:
+    dt = median_interval(t) if dt is None else dt
     k = round(window_s / dt) if dt > 0 else 5
     k = max(k, 5)
     return k if k % 2 else k + 1
@@ -187,7 +192,9 @@ def _decimated_median(y: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray 
     return base, allow
 
 
-def outlier_mask(t: np.ndarray, y: np.ndarray, config: OutlierConfig) -> np.ndarray:
+def outlier_mask(
+    t: np.ndarray, y: np.ndarray, config: OutlierConfig, dt: float | None = None
+) -> np.ndarray:
     """Outliers of one run of one or more channels, by running median (decimated above
     :data:`DECIMATE_FROM` samples per window) and MAD.
 
@@ -199,6 +206,8 @@ def outlier_mask(t: np.ndarray, y: np.ndarray, config: OutlierConfig) -> np.ndar
         Sensor output; NaN samples are never outliers (they are missing).
     config : OutlierConfig
         Window and threshold.
+    dt : float, optional [s]
+        :func:`median_interval` of ``t``, when the caller has it already.
 
     Returns
     -------
@@ -210,7 +219,7 @@ def outlier_mask(t: np.ndarray, y: np.ndarray, config: OutlierConfig) -> np.ndar
     out = np.zeros(y2.shape, dtype=bool)
     if not config.enabled or y2.shape[0] < 5:
         return out.reshape(y.shape)
-    k = min(_odd_window(t, config.window_s), y2.shape[0] - (1 - y2.shape[0] % 2))
+    k = min(_odd_window(t, config.window_s, dt), y2.shape[0] - (1 - y2.shape[0] % 2))
     for j in range(y2.shape[1]):
         col = y2[:, j]
         ok = np.isfinite(col)
