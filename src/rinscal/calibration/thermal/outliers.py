@@ -227,7 +227,8 @@ def outlier_mask(
             continue
         # fill missing samples by the nearest finite one so the running median is defined
         filled = col
-        if not ok.all():
+        all_ok = bool(ok.all())
+        if not all_ok:
             idx = np.flatnonzero(ok)
             near = idx[np.clip(np.searchsorted(idx, np.arange(col.size)), 0, idx.size - 1)]
             filled = col[near]
@@ -237,7 +238,8 @@ def outlier_mask(
             med, allow = _decimated_median(filled, k)
         resid = np.subtract(col, med, out=med)  # the baseline's buffer: a run is long
         np.abs(resid, out=resid)
-        mad = float(np.median(resid[ok]))
+        kept = resid[ok] if not all_ok else resid.copy()  # a copy: resid is used below
+        mad = float(np.median(kept, overwrite_input=True))
         if mad > 0:
             out[:, j] = ok & (resid > config.threshold * 1.4826 * mad + allow)
         else:  # quantised output: at least half the samples equal their running median
