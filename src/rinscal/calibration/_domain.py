@@ -241,7 +241,10 @@ def inside_domain(domain: Mapping[str, Any], x: np.ndarray) -> np.ndarray:
     out = np.empty(xs.shape[0], dtype=bool)
     for s in range(0, xs.shape[0], 1 << 16):  # a block of rows at a time, one input per row
         block = xs[s : s + (1 << 16)]
-        cols = np.ascontiguousarray(block.T)  # transposed once, for cells and box alike
+        if block.strides[0] == block.itemsize:  # column-major: each input contiguous as is
+            cols: np.ndarray | list[np.ndarray] = [block[:, v] for v in range(k)]
+        else:
+            cols = np.ascontiguousarray(block.T)  # transposed once, for cells and box alike
         ok = grid[_flat_cells(cols, lo, hi, nb)]
         for v in range(k):
             ok &= (cols[v] >= lo[v] - width[v]) & (cols[v] <= hi[v] + width[v])
