@@ -15,7 +15,8 @@ from __future__ import annotations
 import os
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ThreadPoolExecutor
-from typing import TypeVar
+from contextlib import contextmanager
+from typing import Any, TypeVar
 
 from rinscal.errors import ConfigError
 
@@ -44,6 +45,21 @@ def resolve_jobs(n_jobs: int | None) -> int:
     return n_jobs
 
 
+#: Memory the items in flight of one fan-out may hold together by default [bytes]
+#: (:func:`jobs_within`).
+MEMORY_BUDGET = 400 * 2**20
+
+
+def jobs_within(n_jobs: int | None, each_bytes: float, budget: float = MEMORY_BUDGET) -> int:
+    """Threads for work each item of which holds about ``each_bytes`` while it runs: ``n_jobs``
+    (None or 0: every core), but no more than ``budget`` holds, and at least one.
+
+    So that memory stays bounded however many cores the machine has (the result never
+    depends on the number of threads).
+    """
+    return max(1, min(resolve_jobs(n_jobs), int(budget // max(float(each_bytes), 1.0))))
+
+
 def map_jobs(fn: Callable[[T], R], items: Iterable[T], n_jobs: int | None = None) -> list[R]:
     """``[fn(x) for x in items]``, on up to ``n_jobs`` threads (None/0: every core).
 
@@ -62,24 +78,59 @@ _END = object()
 
 
 def read_ahead(items: Iterable[T], n_jobs: int | None = None) -> Iterator[T]:
-    """``items`` in order, the next one made on a thread while the caller works on this one.
+    """The items of ``items`` in order, the next one taken on a thread of its own while the
+    caller works on the current one (a file's next run read while this one is fitted, a
+    recording's next piece while this one is navigated: pyarrow's decoding and numpy release
+    the GIL).
 
-    For a stream read piece by piece (a file's reader: pyarrow's decoding and numpy release
-    the GIL) whose consumer's work does not touch the reader's state: reading piece k + 1
-    overlaps the work on piece k, and at most two pieces are held at once. An exception of
-    the stream is raised where the caller asks for that item, as without the thread. With
-    ``n_jobs`` 1 (``resolve_jobs``: None/0 every core) the stream is iterated as it is, on
-    the caller's thread.
+    The first item is taken at once, before the caller asks for it (it can prepare in the
+    meantime). Holds at most two items: the caller's and the next. ``items`` is never
+    advanced by two threads at once; an error taking an item is raised when the caller asks
+    for that item. Closing the iterator early waits for the item in flight, then drops it.
+    With ``n_jobs`` 1 (:func:`resolve_jobs`: None/0 every core) the items are taken on the
+    caller's thread, as without this function.
     """
     it = iter(items)
     if resolve_jobs(n_jobs) <= 1:
-        yield from it
-        return
-    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="rinscal-read") as pool:
-        pending = pool.submit(next, it, _END)
+        return it
+    pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="rinscal-read")
+    return _ahead(pool, pool.submit(next, it, _END), it)
+
+
+def _ahead(pool: ThreadPoolExecutor, pending: Any, it: Iterator[T]) -> Iterator[T]:
+    try:
         while True:
             item = pending.result()
             if item is _END:
                 return
             pending = pool.submit(next, it, _END)
-            yield item  # type: ignore[misc]
+            yield item
+            del item  # not held while the next is taken
+    finally:
+        pool.shutdown(wait=True)
+
+
+@contextmanager
+def one_behind(fn: Callable[[T], object]) -> Iterator[Callable[[T], None]]:
+    """``put(item)`` calls ``fn(item)`` on a thread of its own while the caller goes on (a
+    run written while the next is compensated), one call at a time, in order.
+
+    At most one call in flight: ``put`` waits for the previous call first, and raises its
+    error. Leaving the context waits for the last call (and raises its error); leaving it
+    on an error waits for the call in flight and drops what it returns.
+    """
+    pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="rinscal-write")
+    pending: Any = None
+
+    def put(item: T) -> None:
+        nonlocal pending
+        if pending is not None:
+            pending.result()
+        pending = pool.submit(fn, item)
+
+    try:
+        yield put
+        if pending is not None:
+            pending.result()
+    finally:
+        pool.shutdown(wait=True)

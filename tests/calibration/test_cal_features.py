@@ -220,7 +220,7 @@ def test_short_running_median_equals_scipys(n, k) -> None:
     # the numpy path (short logs: no scipy import) gives scipy's values exactly, ties included
     from scipy.ndimage import median_filter
 
-    from rinscal.calibration.thermal.features import _median_filter
+    from rinscal.calibration.thermal.outliers import _median_filter
 
     rng = np.random.default_rng(n)
     y = rng.normal(size=n)

@@ -25,7 +25,7 @@ Dictionary form (in a channel's ``domain`` entry)::
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -56,17 +56,26 @@ def column_range(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return lo, hi
 
 
-def _flat_cells(cols: np.ndarray, lo: np.ndarray, hi: np.ndarray, bins: np.ndarray) -> np.ndarray:
+def _flat_cells(
+    cols: np.ndarray | Sequence[np.ndarray], lo: np.ndarray, hi: np.ndarray, bins: np.ndarray
+) -> np.ndarray:
     """Row-major flat cell number of each sample, shape (n,).
 
-    ``cols`` holds one input per row, shape (k, n) (contiguous arithmetic). Each input's cell
-    is ``floor((x − lo) / width)`` clipped into ``0 .. bins − 1`` (a value just outside the
+    ``cols`` holds one input per row, shape (k, n), or is a sequence of the k inputs (each
+    contiguous: the columns of a column-major block, no copy). Each input's cell is
+    ``floor((x − lo) / width)`` clipped into ``0 .. bins − 1`` (a value just outside the
     range falls in the edge cell; the box test catches the rest).
     """
-    flat = np.zeros(cols.shape[1], dtype=np.int64)
+    n = len(cols[0])
+    flat = np.zeros(n, dtype=np.int64)
+    z = np.empty(n)  # floor((x − lo) / width), one buffer for every input
+    idx = np.empty(n, dtype=np.int64)
     for v in range(lo.size):
         width = (hi[v] - lo[v]) / bins[v] if hi[v] > lo[v] else 1.0
-        idx = np.floor((cols[v] - lo[v]) / width).astype(np.int64)
+        np.subtract(cols[v], lo[v], out=z)
+        z /= width
+        np.floor(z, out=z)
+        idx[:] = z  # as astype(int64): truncation of whole numbers
         np.clip(idx, 0, bins[v] - 1, out=idx)
         flat *= bins[v]
         flat += idx
@@ -77,7 +86,9 @@ def _flat_cells(cols: np.ndarray, lo: np.ndarray, hi: np.ndarray, bins: np.ndarr
 FINE = 8
 
 
-def occupied_boxes(x: np.ndarray, cells: int) -> tuple[np.ndarray, np.ndarray]:
+def occupied_boxes(
+    x: np.ndarray, cells: int, bounds: tuple[np.ndarray, np.ndarray] | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """The boxes of a fine grid over ``x``'s own range that hold a sample.
 
     The summary of one piece of training data (a run) from which :func:`domain_from_boxes`
@@ -89,6 +100,8 @@ def occupied_boxes(x: np.ndarray, cells: int) -> tuple[np.ndarray, np.ndarray]:
         Inputs, finite.
     cells : int
         Fine cells per input over ``[min, max]`` of that input in ``x``.
+    bounds : (ndarray, ndarray), optional
+        :func:`column_range` of ``x``, when the caller has it already.
 
     Returns
     -------
@@ -97,12 +110,12 @@ def occupied_boxes(x: np.ndarray, cells: int) -> tuple[np.ndarray, np.ndarray]:
     """
     x = np.asarray(x, dtype=np.float64)
     k = x.shape[1]
-    lo, hi = column_range(x)
+    lo, hi = column_range(x) if bounds is None else bounds
     nb = np.full(k, int(cells), dtype=np.int64)
     nb[hi <= lo] = 1
     size = int(np.prod(nb))
     blocks = [
-        _flat_cells(np.ascontiguousarray(x[s : s + (1 << 16)].T), lo, hi, nb)
+        _flat_cells([x[s : s + (1 << 16), v] for v in range(k)], lo, hi, nb)
         for s in range(0, x.shape[0], 1 << 16)
     ]
     if x.shape[0] < size // 16:  # few samples: sort their cells, no dense grid
@@ -228,7 +241,10 @@ def inside_domain(domain: Mapping[str, Any], x: np.ndarray) -> np.ndarray:
     out = np.empty(xs.shape[0], dtype=bool)
     for s in range(0, xs.shape[0], 1 << 16):  # a block of rows at a time, one input per row
         block = xs[s : s + (1 << 16)]
-        cols = np.ascontiguousarray(block.T)  # transposed once, for cells and box alike
+        if block.strides[0] == block.itemsize:  # column-major: each input contiguous as is
+            cols: np.ndarray | list[np.ndarray] = [block[:, v] for v in range(k)]
+        else:
+            cols = np.ascontiguousarray(block.T)  # transposed once, for cells and box alike
         ok = grid[_flat_cells(cols, lo, hi, nb)]
         for v in range(k):
             ok &= (cols[v] >= lo[v] - width[v]) & (cols[v] <= hi[v] + width[v])

@@ -114,6 +114,7 @@ def compensate(
     model: FittedModel,
     policy: Policy = "clamp",
     derivative_kind: str | None = None,
+    n_jobs: int | None = 1,
 ) -> pd.DataFrame:
     """Compensate a calibration log (Eq. 10).
 
@@ -127,6 +128,8 @@ def compensate(
         Handling of samples outside the training data (see the module docstring).
     derivative_kind : {"centred", "causal"}, optional
         Override the model's derivative kind.
+    n_jobs : int, optional
+        Threads over the channels (None or 0: every core); the output does not depend on it.
 
     Returns
     -------
@@ -140,7 +143,7 @@ def compensate(
     RangeError
         Under policy ``error``, naming the channel, row, run and input.
     """
-    values, flagged = Compensator(model, policy).batch(log, derivative_kind)
+    values, flagged = Compensator(model, policy).batch(log, derivative_kind, n_jobs=n_jobs)
     out = log.copy()
     for c, v in values.items():
         out[c] = v

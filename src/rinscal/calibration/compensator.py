@@ -26,7 +26,7 @@ bias.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -40,6 +40,9 @@ from rinscal.calibration.thermal.features import (
     Features,
     OutlierConfig,
     build_features,
+    features_from_columns,
+    gradient_choice,
+    log_columns,
     temperature_rate,
 )
 from rinscal.errors import ConfigError, LogError, RangeError
@@ -309,13 +312,36 @@ class Compensator:
         derivative_kind: str | None,
         features: Features | None,
         first_row: int,
-    ) -> Iterator[tuple[int, NDArray[np.float64], NDArray[np.bool_]]]:
-        """Each channel's index, modelled output [log units] and flags, one at a time."""
-        for j, c in enumerate(self.channels):
-            # without given features, a channel's at a time: memory of one channel's features
-            feats = features or model_features(log, self.model, derivative_kind, channels=(c,))
+        n_jobs: int | None,
+        then: Any = None,
+    ) -> list[Any]:
+        """Each channel's modelled output [log units] and flags, ``(f, flagged)`` in channel
+        order, or what ``then(j, f, flagged)`` makes of them.
+
+        Without given features, each channel's are built from the log's columns (read once)
+        on a thread of its own (``n_jobs``): memory of ``n_jobs`` channels' features. The
+        first error in channel order is raised, as one channel after another would.
+        """
+        if features is None:
+            deriv = DerivativeConfig(
+                window_s=self.model.derivative_window_s,
+                kind=derivative_kind or self.model.derivative_kind,  # type: ignore[arg-type]
+            )
+            grad = gradient_choice(log, self.model.use_gradient)
+            cols = log_columns(log, self.channels)
+        off = OutlierConfig(enabled=False)  # compensation keeps every sample
+
+        def one(j: int) -> Any:
+            c = self.channels[j]
+            feats = features or features_from_columns(cols, deriv, off, (c,), use_gradient=grad)
             f, flagged = self.output(j, feats.matrix(c), feats, first_row)
-            yield j, f, flagged
+            return (f, flagged) if then is None else then(j, f, flagged)
+
+        # deferred: the thread fan-out is needed only for a batch
+        from rinscal.parallel import jobs_within, map_jobs
+
+        # about 100 bytes a row for each channel in flight (features, inputs, output)
+        return map_jobs(one, range(len(self.channels)), jobs_within(n_jobs, 100 * len(log)))
 
     def predict(
         self,
@@ -323,6 +349,7 @@ class Compensator:
         derivative_kind: str | None = None,
         features: Features | None = None,
         first_row: int = 0,
+        n_jobs: int | None = 1,
     ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
         """Modelled output ``f`` of every channel of a log (batch).
 
@@ -336,6 +363,9 @@ class Compensator:
             Precomputed :func:`model_features` of ``log``.
         first_row : int
             Data rows of the file before ``log`` (a log read run by run), for messages.
+        n_jobs : int, optional
+            Threads over the channels (None or 0: every core); the output does not depend
+            on it.
 
         Returns
         -------
@@ -345,12 +375,19 @@ class Compensator:
         n, m = len(log), len(self.channels)
         f = np.empty((n, m), order="F")
         flags = np.zeros((n, m), dtype=bool, order="F")
-        for j, fj, flagged in self._outputs(log, derivative_kind, features, first_row):
-            f[:, j], flags[:, j] = fj, flagged
+
+        def put(j: int, fj: NDArray[np.float64], flagged: NDArray[np.bool_]) -> None:
+            f[:, j], flags[:, j] = fj, flagged  # each channel its own column
+
+        self._outputs(log, derivative_kind, features, first_row, n_jobs, put)
         return f, flags
 
     def batch(
-        self, log: pd.DataFrame, derivative_kind: str | None = None, first_row: int = 0
+        self,
+        log: pd.DataFrame,
+        derivative_kind: str | None = None,
+        first_row: int = 0,
+        n_jobs: int | None = 1,
     ) -> tuple[dict[str, NDArray[np.float64]], NDArray[np.bool_]]:
         """The compensated channels of a whole log, ``N − (f − r)``, without copying it.
 
@@ -362,6 +399,9 @@ class Compensator:
             Override the model's derivative kind.
         first_row : int
             Data rows of the file before ``log``, for messages.
+        n_jobs : int, optional
+            Threads over the channels (None or 0: every core); the output does not depend
+            on it.
 
         Returns
         -------
@@ -381,11 +421,18 @@ class Compensator:
                 kind=derivative_kind or self.model.derivative_kind,
             )
             values = imu_calibrated_channels(log, self.stage, deriv)
+        columns = {c: values[c] if c in values else log[c].to_numpy(dtype=np.float64)
+                   for c in self.channels}  # fmt: skip
+
+        def compensated(
+            j: int, fj: NDArray[np.float64], flagged: NDArray[np.bool_]
+        ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+            return columns[self.channels[j]] - (fj - self._ref[j]), flagged
+
         any_flag = np.zeros(len(log), dtype=bool)
-        for j, fj, flagged in self._outputs(log, derivative_kind, None, first_row):
-            c = self.channels[j]
-            y = values[c] if c in values else log[c].to_numpy(dtype=np.float64)
-            values[c] = y - (fj - self._ref[j])  # a channel at a time
+        done = self._outputs(log, derivative_kind, None, first_row, n_jobs, compensated)
+        for c, (y, flagged) in zip(self.channels, done, strict=True):
+            values[c] = y
             any_flag |= flagged
         return values, any_flag
 

@@ -1,7 +1,8 @@
 """Fit, compensate and evaluate a whole calibration log: the library side of the commands.
 
 Each function takes a log as a file (read run by run, so memory stays bounded by the longest
-run) or as a validated :class:`pandas.DataFrame`, and returns data: a fitted model with its
+runs: fit and compensate read the next run while they work on one) or as a validated
+:class:`pandas.DataFrame`, and returns data: a fitted model with its
 report (:class:`FitResult`), a compensated table or a compensation summary
 (:class:`CompensationSummary`), an evaluation (:class:`Evaluation`). They print nothing;
 only :func:`compensate_file` writes, because it streams a log too large to hold.
@@ -62,6 +63,7 @@ from rinscal.io.mapping import ColumnMapping
 from rinscal.io.metadata import meta_path
 from rinscal.io.streaming import LogStreamWriter, by_runs
 from rinscal.io.tables import SourceLog, check_mapping, format_of
+from rinscal.parallel import one_behind, read_ahead, resolve_jobs
 from rinscal.sensormodel import ImuCalibration
 
 __all__ = [
@@ -186,6 +188,7 @@ def fit(
     imu_calibration: ImuCalLike | None = None,
     progress: Callable[[float, float], None] | None = None,
     screen_outliers: bool = True,
+    n_jobs: int | None = None,
 ) -> FitResult:
     """Fit a thermal bias model per channel on a calibration log.
 
@@ -248,6 +251,9 @@ def fit(
         table's ``masked``). False for a log that is already a smoothed estimate (the bias
         series of :func:`rinscal.calibrate_field`), whose fastest part is its warm-up, not
         a spike.
+    n_jobs : int, optional
+        Threads for the channels' independent work (features, per-run factors, ``auto``'s
+        held-out choice); None or 0: every core. The model does not depend on it.
 
     Returns
     -------
@@ -283,6 +289,7 @@ def fit(
     _check.strings("candidates", candidates, optional=True)
     _check.number("seed", seed, min=0, integer=True)
     _check.number("max_samples", max_samples, optional=True, integer=True, min=1)
+    n_jobs = _check.number("n_jobs", n_jobs, optional=True, integer=True, min=0)
     _check.callback("on_run", _check.deprecated("on_run", on_run, "progress="))
     _check.callback("on_channel", _check.deprecated("on_channel", on_channel, "progress="))
     _check.callback("progress", progress)
@@ -309,6 +316,7 @@ def fit(
         estimator_params=params,
         tolerance=tolerance,
         temp_range=(lo, hi),
+        n_jobs=n_jobs,
         **({"candidates": tuple(candidates)} if candidates is not None else {}),
     )
 
@@ -357,15 +365,15 @@ def fit(
             path = Path(log)
 
             def runs(sources: Iterator[SourceLog]) -> Iterator[tuple[pd.DataFrame, int]]:
-                for src in sources:  # no enumerate: it would hold the last run while the
-                    yield calibrated(src.log), src.first_row  # next is read (two runs in memory)
+                for src in sources:  # no enumerate: it would hold one more run while the
+                    yield calibrated(src.log), src.first_row  # next is read
                     del src
 
-            by_runs(  # run by run: memory bounded by the longest run
+            by_runs(  # run by run: memory bounded by two runs (fit_runs reads one ahead)
                 path,
                 mapping,
                 lambda s: model.fit_runs(
-                    _counted(runs(s), read), meta, on_channel=step, source=str(path)
+                    runs(s), meta, on_channel=step, source=str(path), on_run=read
                 ),
             )
             source = {"log": path.name}
@@ -392,18 +400,6 @@ def fit(
             "(fit --latitude and --heading) or --static-ref mean|CHANNEL=VALUE to keep it"
         )
     return FitResult(mf, fit_table(mf), tuple(told), fit_note(mf, method))
-
-
-def _counted(
-    runs: Iterator[tuple[pd.DataFrame, int]], on_run: Callable[[int], None] | None
-) -> Iterator[tuple[pd.DataFrame, int]]:
-    k = 0
-    for item in runs:
-        k += 1
-        if on_run is not None:
-            on_run(k)
-        yield item
-        del item
 
 
 def fit_table(mf: FittedModel) -> pd.DataFrame:
@@ -480,6 +476,7 @@ def compensate(
     policy: str = "clamp",
     causal: bool = False,
     mapping: ColumnMapping | Any | None = None,
+    n_jobs: int | None = None,
 ) -> pd.DataFrame:
     """Subtract the modelled thermal bias from every sensor channel (Eq. 10), in memory.
 
@@ -496,6 +493,8 @@ def compensate(
         Use the causal temperature rate (as in real time).
     mapping : ColumnMapping, optional
         How to read a foreign file.
+    n_jobs : int, optional
+        Threads over the channels (None or 0: every core); the output does not depend on it.
 
     Returns
     -------
@@ -515,9 +514,11 @@ def compensate(
     _mapping_for(log, mapping)
     check_policy(policy)
     _check.flag("causal", causal)
+    n_jobs = _check.number("n_jobs", n_jobs, optional=True, integer=True, min=0)
     mf = _model(model)
     frame = log if isinstance(log, pd.DataFrame) else read_log(log, mapping)
-    return _compensate_frame(frame, mf, policy, "causal" if causal else None)  # type: ignore[arg-type]
+    kind = "causal" if causal else None
+    return _compensate_frame(frame, mf, policy, kind, n_jobs=n_jobs)  # type: ignore[arg-type]
 
 
 @dataclass(frozen=True)
@@ -571,13 +572,16 @@ def compensate_file(
     mapping: ColumnMapping | Any | None = None,
     meta: Mapping[str, Any] | None = None,
     ignore_units: bool = False,
+    n_jobs: int | None = None,
 ) -> CompensationSummary:
     """Compensate a log file run by run into ``out`` (the same table back, its sensor channels
     compensated, the ``out_of_range`` column added, nothing else touched).
 
-    Memory stays bounded by the longest run. The output is written as it is computed, in
-    the input's format where ``out`` has the same kind (CSV/TSV), else Parquet by suffix;
-    the caller writes the metadata sidecar (``summary.meta``) if it wants one. Behind an IMU
+    Memory stays bounded by three runs (the next is read and the last written while one
+    is compensated). The
+    output is written as it is computed, in the input's format where ``out`` has the same
+    kind (CSV/TSV), else Parquet by suffix; the caller writes the metadata sidecar
+    (``summary.meta``) if it wants one. Behind an IMU
     calibration all six channels are written in deg/h and µg, and ``summary.meta`` says so
     (``units``, ``unit_to_si``, ``compensated.output_units``).
 
@@ -594,6 +598,8 @@ def compensate_file(
         ``log`` (the file's name).
     ignore_units : bool
         Compensate even where the log's units differ from the model's.
+    n_jobs : int, optional
+        Threads over the channels (None or 0: every core); the output does not depend on it.
 
     Returns
     -------
@@ -613,6 +619,7 @@ def compensate_file(
     _check.flag("causal", causal)
     _check.mapping("meta", meta, optional=True)
     _check.flag("ignore_units", ignore_units)
+    n_jobs = _check.number("n_jobs", n_jobs, optional=True, integer=True, min=0)
     inputs = [log_path, meta_path(log_path)]
     if isinstance(model, str | os.PathLike):
         inputs.append(Path(model))
@@ -625,8 +632,8 @@ def compensate_file(
         check_units(mf, meta, str(log_path))
     notes = _stage_notes(mf, meta, str(log_path), ignore_units)
     kind = "causal" if causal else None
-    rows, flagged = by_runs(  # run by run: memory bounded by the longest run
-        log_path, mapping, lambda s: _write_runs(s, mf, policy, kind, out_path)
+    rows, flagged = by_runs(  # run by run: memory bounded by three runs
+        log_path, mapping, lambda s: _write_runs(s, mf, policy, kind, out_path, n_jobs)
     )
     if mf.imu_stage is not None:  # the output is in deg/h and µg whatever the input's unit
         meta = physical_meta(meta)
@@ -683,22 +690,32 @@ def _write_runs(
     policy: str,
     kind: str | None,
     out: Path,
+    n_jobs: int | None = None,
 ) -> tuple[int, dict[str, tuple[int, int]]]:
     """Compensate runs as they are read and write each at once; rows written, and per run
     the rows flagged out of range and the rows."""
     shares: dict[str, tuple[int, int]] = {}
     writer: LogStreamWriter | None = None
+    # deferred: rate loads numba's kernels; only a command that computes a rate needs them
+    from rinscal.calibration.thermal.rate import load_kernel
+
+    several = resolve_jobs(n_jobs) > 1
+    # on several threads, the next run read while this one is compensated
+    runs = read_ahead(sources, 2) if several else sources
+    load_kernel(kind or mf.derivative_kind)  # meanwhile, as the first run is read
     with contextlib.ExitStack() as stack:
-        for src in sources:
+        for src in runs:
             if writer is None:
                 same_kind = format_of(out) != "parquet" and src.sep is not None
                 writer = stack.enter_context(
                     LogStreamWriter(out, validate=False, sep=src.sep if same_kind else None)
                 )
+                # and the last written (left before the writer closes: waited for)
+                write = stack.enter_context(one_behind(writer.write)) if several else writer.write
             values, flagged = Compensator(mf, policy).batch(  # type: ignore[arg-type]
-                src.log, kind, first_row=src.first_row
+                src.log, kind, first_row=src.first_row, n_jobs=n_jobs
             )
-            writer.write(src.write_back(values, {FLAG_COLUMN: flagged}))
+            write(src.write_back(values, {FLAG_COLUMN: flagged}))
             for run, k, n in zip(*run_counts(src.log["run"], flagged), strict=True):
                 k0, n0 = shares.get(run, (0, 0))
                 shares[run] = (k0 + k, n0 + n)

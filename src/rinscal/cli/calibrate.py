@@ -20,6 +20,7 @@ from rinscal.cli._app import app, print_table
 from rinscal.cli._options import (
     ColOpt,
     InstanceOpt,
+    JobsOpt,
     LogArg,
     MapOpt,
     RelTimeOpt,
@@ -261,6 +262,7 @@ def fit(
             "is fitted; the model file holds it and every compensator applies it.",
         ),
     ] = None,
+    jobs: JobsOpt = None,
 ) -> None:
     """Fit a thermal model per channel and write it as a JSON model file.
 
@@ -330,6 +332,7 @@ def fit(
                 max_samples=max_samples,
                 progress=step,
                 imu_calibration=imu_cal,
+                n_jobs=jobs,
             )
             result.save(out)
     except RinscalError as exc:

@@ -18,6 +18,7 @@ from rinscal.cli._app import app, print_table
 from rinscal.cli._options import (
     ColOpt,
     InstanceOpt,
+    JobsOpt,
     LogArg,
     MapOpt,
     PolicyOpt,
@@ -53,6 +54,7 @@ def compensate_cmd(
     relative_time: RelTimeOpt = False,
     instance: InstanceOpt = None,
     ignore_units: IgnoreUnitsOpt = False,
+    jobs: JobsOpt = None,
 ) -> None:
     """Compensate every sensor channel (Eq. 10); add the out_of_range flag column."""
     # deferred: the library loads numpy, pandas and numba; `rinscal --help` must not
@@ -75,7 +77,7 @@ def compensate_cmd(
         mapping, meta = _mapping_meta(log, options)
         done = compensate_file(
             log, mf, out, policy=policy, causal=causal, mapping=mapping, meta=meta,
-            ignore_units=ignore_units,
+            ignore_units=ignore_units, n_jobs=jobs,
         )  # fmt: skip
         if done.meta:
             done.meta["compensated"]["model"] = model.name

@@ -11,22 +11,28 @@ For each sensor channel ``c`` and each sample of a calibration log the features 
 
 Features are computed run by run, never across a run boundary (the rate needs neighbouring
 samples of the *same* recording). Outliers of the sensor output (e.g. turntable-motor
-vibration, Section 3 of the paper) are *masked*, never removed: a running median of each
-channel within each run, then the robust spread ``1.4826 · MAD`` of the residuals about it;
-a sample further than ``threshold`` spreads from the running median is an outlier. The
-count per run and channel is reported in an :class:`OutlierReport`.
+vibration, Section 3 of the paper) are *masked*, never removed
+(:mod:`rinscal.calibration.thermal.outliers`); the count per run and channel is reported in
+an :class:`~rinscal.calibration.thermal.outliers.OutlierReport`.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
 import pandas as pd
 
+from rinscal.calibration.thermal.outliers import (
+    OutlierConfig,
+    OutlierReport,
+    median_interval,
+    outlier_mask,
+)
 from rinscal.errors import ConfigError, LogError
 from rinscal.schema import CHAMBER, CHANNELS, RUN, TEMP_OUT, TIME, temperature_column
 from rinscal.units import MIN_TO_S
@@ -35,11 +41,16 @@ __all__ = [
     "FEATURE_NAMES",
     "DerivativeConfig",
     "Features",
+    "LogColumns",
     "MissingGradientWarning",
     "OutlierConfig",
     "OutlierReport",
     "build_features",
+    "features_from_columns",
+    "gradient_choice",
+    "log_columns",
     "outlier_mask",
+    "run_features",
     "run_slices",
     "set_points",
     "temperature_rate",
@@ -78,76 +89,6 @@ class DerivativeConfig:
             )
         if self.kind not in ("centred", "causal"):
             raise ConfigError(f"derivative kind must be 'centred' or 'causal', got {self.kind!r}")
-
-
-@dataclass(frozen=True)
-class OutlierConfig:
-    """Outlier masking by running median and MAD.
-
-    Parameters
-    ----------
-    window_s : float [s]
-        Length of the running-median window (converted to an odd number of samples with the
-        run's median sampling interval, at least 5).
-    threshold : float [-]
-        A sample is an outlier when ``|x − median| > threshold · 1.4826 · MAD``.
-    enabled : bool
-        False masks nothing (NaN samples stay masked).
-    """
-
-    window_s: float = 10.0
-    threshold: float = 6.0
-    enabled: bool = True
-
-    def __post_init__(self) -> None:
-        if not (np.isfinite(self.window_s) and self.window_s > 0):
-            raise ConfigError(f"outlier window_s must be positive, got {self.window_s!r}")
-        if not (np.isfinite(self.threshold) and self.threshold > 0):
-            raise ConfigError(f"outlier threshold must be positive, got {self.threshold!r}")
-
-
-@dataclass(frozen=True)
-class OutlierReport:
-    """Samples masked per run and channel.
-
-    Attributes
-    ----------
-    runs : tuple of str
-        Run names, in order of first appearance in the log.
-    channels : tuple of str
-        Channel names.
-    removed : ndarray of int, shape (n_runs, n_channels)
-        Outliers masked (NaN samples not counted).
-    missing : ndarray of int, shape (n_runs, n_channels)
-        NaN (dropped) samples.
-    samples : ndarray of int, shape (n_runs,)
-        Samples per run.
-    """
-
-    runs: tuple[str, ...]
-    channels: tuple[str, ...]
-    removed: np.ndarray
-    missing: np.ndarray
-    samples: np.ndarray
-
-    def to_frame(self) -> pd.DataFrame:
-        """One row per run and channel: ``run, channel, samples, removed, missing``."""
-        rows = [
-            {
-                "run": r,
-                "channel": c,
-                "samples": int(self.samples[i]),
-                "removed": int(self.removed[i, j]),
-                "missing": int(self.missing[i, j]),
-            }
-            for i, r in enumerate(self.runs)
-            for j, c in enumerate(self.channels)
-        ]
-        return pd.DataFrame(rows, columns=["run", "channel", "samples", "removed", "missing"])
-
-    def total(self, channel: str) -> int:
-        """Outliers masked in ``channel`` over all runs."""
-        return int(self.removed[:, self.channels.index(channel)].sum())
 
 
 @dataclass(frozen=True)
@@ -281,6 +222,34 @@ def run_slices(run: pd.Series | np.ndarray) -> tuple[np.ndarray, tuple[str, ...]
     return codes, tuple(str(u) for u in uniques), rows
 
 
+def run_features(feats: Features, k: int, idx: np.ndarray) -> Features:
+    """The features of run ``k`` (rows ``idx``) of a log's features."""
+    if idx.size == feats.run_codes.size:
+        return feats
+    r: slice | np.ndarray = idx
+    if idx.size and idx[-1] - idx[0] + 1 == idx.size:  # one block: views, not copies
+        r = slice(int(idx[0]), int(idx[-1]) + 1)
+    rep = feats.report
+    return dataclasses.replace(
+        feats,
+        temp=feats.temp[r],
+        rate=feats.rate[r],
+        grad=None if feats.grad is None else feats.grad[r],
+        output=feats.output[r],
+        inlier=feats.inlier[r],
+        run_codes=np.zeros(idx.size, dtype=np.int64),
+        runs=(feats.runs[k],),
+        time_s=feats.time_s[r],
+        report=dataclasses.replace(
+            rep,
+            runs=(rep.runs[k],),
+            removed=rep.removed[k : k + 1],
+            missing=rep.missing[k : k + 1],
+            samples=rep.samples[k : k + 1],
+        ),
+    )
+
+
 def temperature_rate(t: np.ndarray, temp: np.ndarray, derivative: DerivativeConfig) -> np.ndarray:
     """Temperature rate of one run.
 
@@ -307,79 +276,6 @@ def temperature_rate(t: np.ndarray, temp: np.ndarray, derivative: DerivativeConf
     else:
         slope = centred_slope_run(t, x, derivative.window_s)
     return (slope * MIN_TO_S).reshape(temp.shape)
-
-
-#: Samples × window up to which the running median is computed with numpy.
-_NUMPY_MEDIAN_MAX = 2_000_000
-
-
-def _odd_window(t: np.ndarray, window_s: float) -> int:
-    dt = float(np.median(np.diff(t))) if t.size > 1 else 1.0
-    k = round(window_s / dt) if dt > 0 else 5
-    k = max(k, 5)
-    return k if k % 2 else k + 1
-
-
-def _median_filter(y: np.ndarray, size: int) -> np.ndarray:
-    """Running median over ``size`` samples, ends extended by their edge value.
-
-    ``scipy.ndimage.median_filter(y, size, mode="nearest")``; a short series is done with
-    numpy on the same padded windows (identical values), which spares a small command the
-    0.2 s of importing ``scipy.ndimage``.
-    """
-    if y.size * size <= _NUMPY_MEDIAN_MAX:
-        half = size // 2
-        padded = np.pad(y, (half, size - 1 - half), mode="edge")
-        return np.median(np.lib.stride_tricks.sliding_window_view(padded, size), axis=1)
-    from scipy.ndimage import median_filter  # deferred: 0.2 s to import, long series only
-
-    return median_filter(y, size=size, mode="nearest")
-
-
-def outlier_mask(t: np.ndarray, y: np.ndarray, config: OutlierConfig) -> np.ndarray:
-    """Outliers of one run of one or more channels, by running median and MAD.
-
-    Parameters
-    ----------
-    t : ndarray, shape (n,) [s]
-        Time of one run (sets the window length in samples).
-    y : ndarray, shape (n,) or (n, m)
-        Sensor output; NaN samples are never outliers (they are missing).
-    config : OutlierConfig
-        Window and threshold.
-
-    Returns
-    -------
-    ndarray of bool, same shape as ``y``
-        True at outliers.
-    """
-    y = np.asarray(y, dtype=np.float64)
-    y2 = y.reshape(y.shape[0], -1)
-    out = np.zeros(y2.shape, dtype=bool)
-    if not config.enabled or y2.shape[0] < 5:
-        return out.reshape(y.shape)
-    k = min(_odd_window(t, config.window_s), y2.shape[0] - (1 - y2.shape[0] % 2))
-    for j in range(y2.shape[1]):
-        col = y2[:, j]
-        ok = np.isfinite(col)
-        if ok.sum() < 5:
-            continue
-        # fill missing samples by the nearest finite one so the running median is defined
-        filled = col
-        if not ok.all():
-            idx = np.flatnonzero(ok)
-            near = idx[np.clip(np.searchsorted(idx, np.arange(col.size)), 0, idx.size - 1)]
-            filled = col[near]
-        med = _median_filter(filled, k)
-        resid = np.abs(col - med)
-        mad = float(np.median(resid[ok]))
-        if mad > 0:
-            out[:, j] = ok & (resid > config.threshold * 1.4826 * mad)
-        else:  # quantised output: at least half the samples equal their running median
-            spread = float(np.std(resid[ok]))
-            if spread > 0:
-                out[:, j] = ok & (resid > config.threshold * spread)
-    return out.reshape(y.shape)
 
 
 def set_points(log: pd.DataFrame, decimals: int = 1) -> np.ndarray | None:
@@ -409,11 +305,126 @@ def distinct_points(medians: np.ndarray, decimals: int = 1) -> np.ndarray:
     return np.unique(np.round(med[np.isfinite(med)], decimals))
 
 
-def _columns(log: pd.DataFrame, names: Sequence[str]) -> np.ndarray:
-    """Columns of a log as a column-major (n, len(names)) float64 array."""
-    out = np.empty((len(log), len(names)), order="F")
+@dataclass(frozen=True)
+class LogColumns:
+    """The columns of a validated log that features are built from, as float64 arrays.
+
+    Read once from the table (:func:`log_columns`; a float64 column is a view, not a copy)
+    and then shared: the features of each channel are built from these arrays alone, so
+    several threads can build them at once (:func:`features_from_columns`).
+
+    Attributes
+    ----------
+    time_s : ndarray, shape (n,) [s]
+        Time since each run's power-on.
+    codes, runs, rows
+        The runs, as :func:`run_slices` gives them.
+    values : mapping of str to ndarray, shape (n,)
+        The channels [log units], their temperature columns [°C] and ``temp_out`` [°C] where
+        the log has it, by column name.
+    temp_column : mapping of str to str
+        Each channel's temperature column.
+    """
+
+    time_s: np.ndarray
+    codes: np.ndarray
+    runs: tuple[str, ...]
+    rows: list[np.ndarray]
+    values: Mapping[str, np.ndarray]
+    temp_column: Mapping[str, str]
+    _dt: dict[int, float] = dataclasses.field(default_factory=dict, repr=False, compare=False)
+
+    def interval(self, k: int, t: np.ndarray) -> float:
+        """Median sampling interval of run ``k`` (times ``t``) [s], found once for every
+        channel's outlier screen."""
+        if k not in self._dt:  # two threads may both compute it: the same number
+            self._dt[k] = median_interval(t)
+        return self._dt[k]
+
+    @property
+    def has_temp_out(self) -> bool:
+        """Whether the log has the outer temperature ``temp_out``."""
+        return TEMP_OUT in self.values
+
+
+def _require(log: pd.DataFrame, channels: Sequence[str]) -> None:
+    for c in (TIME, RUN, *channels):
+        if c not in log.columns:
+            raise LogError(f"log has no column {c!r}")
+
+
+def gradient_choice(log: pd.DataFrame, use_gradient: bool | None, warn: bool = True) -> bool:
+    """Whether features of ``log`` hold the gradient ΔT: as asked, or (None) where the log has
+    ``temp_out`` (``warn``: say so when it has not).
+
+    Raises
+    ------
+    LogError
+        ``use_gradient`` True and no ``temp_out`` column.
+
+    Warns
+    -----
+    MissingGradientWarning
+        ``use_gradient`` None and no ``temp_out`` column.
+    """
+    has_out = TEMP_OUT in log.columns
+    if use_gradient is True and not has_out:
+        raise LogError(f"log has no {TEMP_OUT!r} column, needed for the gradient feature ΔT")
+    if use_gradient is None:
+        if warn and not has_out:
+            warnings.warn(
+                f"log has no {TEMP_OUT!r} column: the gradient feature ΔT drops out; models use "
+                "T and dT/dt only",
+                MissingGradientWarning,
+                stacklevel=3,
+            )
+        return has_out
+    return bool(use_gradient)
+
+
+def log_columns(
+    log: pd.DataFrame,
+    channels: Sequence[str] = CHANNELS,
+    *,
+    slices: tuple[np.ndarray, tuple[str, ...], list[np.ndarray]] | None = None,
+) -> LogColumns:
+    """The columns features of ``channels`` are built from (see :class:`LogColumns`).
+
+    Parameters
+    ----------
+    log : DataFrame
+        A validated calibration log.
+    channels : sequence of str
+        Channels.
+    slices : tuple, optional
+        :func:`run_slices` of the log's ``run`` column, when the caller has it already.
+
+    Raises
+    ------
+    LogError
+        A missing column (time, run, a channel or its temperature), named.
+    """
+    _require(log, channels)
+    tcol = {c: temperature_column(log, c) for c in channels}
+    names = dict.fromkeys([*channels, *tcol.values()])
+    if TEMP_OUT in log.columns:
+        names[TEMP_OUT] = None
+    codes, runs, rows = run_slices(log[RUN]) if slices is None else slices
+    return LogColumns(
+        time_s=log[TIME].to_numpy(dtype=np.float64),
+        codes=codes,
+        runs=runs,
+        rows=rows,
+        values={c: log[c].to_numpy(dtype=np.float64) for c in names},
+        temp_column=tcol,
+    )
+
+
+def _columns(values: Mapping[str, np.ndarray], names: Sequence[str], n: int) -> np.ndarray:
+    """Columns as a column-major (n, len(names)) float64 array."""
+    out = np.empty((n, len(names)), order="F")
     for j, c in enumerate(names):
-        out[:, j] = log[c].to_numpy(dtype=np.float64)
+        out[:, j] = values[c]
     return out
 
 
@@ -425,6 +436,7 @@ def build_features(
     *,
     use_gradient: bool | None = None,
     with_rate: bool = True,
+    n_jobs: int | None = 1,
 ) -> Features:
     """Build the model inputs of every channel, run by run.
 
@@ -435,7 +447,8 @@ def build_features(
     derivative : DerivativeConfig, optional
         Temperature-rate estimator (default: centred, 60 s).
     outliers : OutlierConfig, optional
-        Outlier masking (default: 10 s running median, 6 robust spreads).
+        Outlier masking (default: 10 s running median, decimated at high rates, 6 robust
+        spreads).
     channels : sequence of str
         Channels to build, default all of :data:`rinscal.schema.CHANNELS`.
     use_gradient : bool, optional
@@ -444,6 +457,8 @@ def build_features(
     with_rate : bool
         Compute the rate ``Ṫ`` (False: zeros, for models of ``T`` alone; the compiled rate
         kernel is then not even loaded).
+    n_jobs : int, optional
+        Threads over the runs (None or 0: every core); the features do not depend on it.
 
     Returns
     -------
@@ -459,27 +474,48 @@ def build_features(
     MissingGradientWarning
         When ``use_gradient`` is None and the log has no ``temp_out``.
     """
+    channels = tuple(channels)
+    _require(log, channels)
+    grad = gradient_choice(log, use_gradient)
+    return features_from_columns(
+        log_columns(log, channels),
+        derivative,
+        outliers,
+        channels,
+        use_gradient=grad,
+        with_rate=with_rate,
+        n_jobs=n_jobs,
+    )
+
+
+def features_from_columns(
+    cols: LogColumns,
+    derivative: DerivativeConfig | None = None,
+    outliers: OutlierConfig | None = None,
+    channels: Sequence[str] = CHANNELS,
+    *,
+    use_gradient: bool,
+    with_rate: bool = True,
+    n_jobs: int | None = 1,
+) -> Features:
+    """:func:`build_features` from a log's columns read already (:func:`log_columns`).
+
+    Reads nothing but ``cols``, so that threads can build the features of several channels
+    at once. ``use_gradient`` is decided (:func:`gradient_choice`); the rest as for
+    :func:`build_features`.
+    """
+    # deferred: the thread fan-out is needed only where features are built
+    from rinscal.parallel import map_jobs
+
     derivative = derivative or DerivativeConfig()
     outliers = outliers or OutlierConfig()
     channels = tuple(channels)
-    for c in (TIME, RUN, *channels):
-        if c not in log.columns:
-            raise LogError(f"log has no column {c!r}")
-    has_out = TEMP_OUT in log.columns
-    if use_gradient is True and not has_out:
+    if use_gradient and not cols.has_temp_out:
         raise LogError(f"log has no {TEMP_OUT!r} column, needed for the gradient feature ΔT")
-    if use_gradient is None:
-        use_gradient = has_out
-        if not has_out:
-            warnings.warn(
-                f"log has no {TEMP_OUT!r} column: the gradient feature ΔT drops out; models use "
-                "T and dT/dt only",
-                MissingGradientWarning,
-                stacklevel=2,
-            )
-    n, m = len(log), len(channels)
-    t = log[TIME].to_numpy(dtype=np.float64)
-    tcols = [temperature_column(log, c) for c in channels]
+    values = cols.values
+    n, m = cols.time_s.size, len(channels)
+    t = cols.time_s
+    tcols = [cols.temp_column[c] for c in channels]
     uniq = list(dict.fromkeys(tcols))
     col_of = np.array([uniq.index(c) for c in tcols])
     single = m == 1  # one channel (a fit builds them one at a time): no copies between steps
@@ -488,20 +524,23 @@ def build_features(
         # matrix as it is (:meth:`Features.matrix` returns it, not a copy)
         block = np.empty((n, 3 if use_gradient else 2), order="F")
         temp, rate = block[:, 0:1], block[:, 1:2]
-        temp[:, 0] = log[tcols[0]].to_numpy(dtype=np.float64)
+        temp[:, 0] = values[tcols[0]]
         tmat_u, rate_u = temp, rate  # (n, 1): row-major and column-major alike
     else:
         # the rate kernel runs along rows (row-major); the (n, m) features are column-major,
         # one contiguous column per channel, as every later step reads them
-        tmat_u = np.column_stack([log[c].to_numpy(dtype=np.float64) for c in uniq])
-        temp = _columns(log, tcols)
+        tmat_u = np.column_stack([values[c] for c in uniq])
+        temp = _columns(values, tcols, n)
         rate_u = np.empty_like(tmat_u)
-    output = _columns(log, channels)
-    codes, runs, rows = run_slices(log[RUN])
+    output = _columns(values, channels, n)
+    codes, runs, rows = cols.codes, cols.runs, cols.rows
     outl = np.zeros((n, m), dtype=bool, order="F")
     removed = np.zeros((len(runs), m), dtype=np.int64)
     missing = np.zeros((len(runs), m), dtype=np.int64)
-    for k, idx in enumerate(rows):
+
+    def one_run(k: int) -> None:
+        # each run writes its own rows (and row k of the counts): runs run on any thread
+        idx = rows[k]
         # a run stored as one block (the usual case) is handled through views, not copies
         r: slice | np.ndarray = idx
         if idx.size and idx[-1] - idx[0] + 1 == idx.size:
@@ -509,10 +548,12 @@ def build_features(
         tr = t[r]
         rate_u[r] = temperature_rate(tr, tmat_u[r], derivative) if with_rate else 0.0
         if outliers.enabled:
-            o = outlier_mask(tr, output[r], outliers)
+            o = outlier_mask(tr, output[r], outliers, cols.interval(k, tr))
             outl[r] = o
             removed[k] = o.sum(axis=0)
         missing[k] = (~np.isfinite(output[r])).sum(axis=0)
+
+    map_jobs(one_run, range(len(rows)), n_jobs)
     if not single:
         rate = np.empty((n, m), order="F")
         for j, u in enumerate(col_of):
@@ -520,7 +561,7 @@ def build_features(
         del rate_u
     grad = None
     if use_gradient:
-        tout = log[TEMP_OUT].to_numpy(dtype=np.float64)
+        tout = values[TEMP_OUT]
         if single:
             grad = np.subtract(temp, tout[:, None], out=block[:, 2:3])
         else:

@@ -27,6 +27,7 @@ __all__ = [
     "fit_regression",
     "fit_sectional",
     "lstsq_qr",
+    "one_blas_thread",
     "sectional_edges",
     "solve_r",
     "tsqr",
@@ -35,8 +36,55 @@ __all__ = [
 #: Rows a ``neural`` fit trains on at most by default (every k-th of the training blocks).
 NEURAL_MAX_SAMPLES = 50_000
 
-_BLOCK = 1 << 18
-_SUB_BLOCK = 1 << 14
+#: Rows of each block of a blocked QR: the block of ``[A | y]`` (1.5 MB at 12 columns)
+#: stays in cache while it is expanded and factored.
+_BLOCK = 1 << 14
+
+
+class PowerBasis:
+    """The basis ``[1, z_0 .. z_0^p, z_1 .. z_1^q, ...]`` with ``z_v = (x_v − c_v)/s_v``.
+
+    ``basis(x)`` is the (rows, n_terms) column-major design of the inputs ``x`` (rows, k);
+    ``basis(x, out)`` writes it into ``out`` (a column-major (rows, n_terms) array, e.g.
+    the first columns of a block of ``[A | y]``: no copy).
+    """
+
+    def __init__(
+        self, center: Sequence[float], scale: Sequence[float], orders: Sequence[int]
+    ) -> None:
+        self.center = [float(c) for c in center]
+        self.scale = [float(v) for v in scale]
+        self.orders = [int(o) for o in orders]
+        self.n_terms = 1 + sum(self.orders)
+
+    def __call__(self, x: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+        a = np.empty((x.shape[0], self.n_terms), order="F") if out is None else out
+        a[:, 0] = 1.0
+        col = 1
+        for v, order in enumerate(self.orders):
+            if order == 0:
+                continue
+            z = a[:, col]  # column by column: contiguous
+            np.subtract(x[:, v], self.center[v], out=z)
+            z /= self.scale[v]
+            for _ in range(1, order):
+                np.multiply(a[:, col], z, out=a[:, col + 1])
+                col += 1
+            col += 1
+        return a
+
+
+def one_blas_thread() -> Any:
+    """A context in which BLAS runs on one thread (``threadpoolctl``), for fitting.
+
+    The factorisations here are of tall blocks a few columns wide, where BLAS threads only
+    wait on each other: tens of times slower on a loaded or pinned machine. A fit's
+    parallelism is its channels' threads (:mod:`rinscal.parallel`).
+    """
+    # deferred: threadpoolctl is needed only while fitting
+    from threadpoolctl import threadpool_limits
+
+    return threadpool_limits(limits=1, user_api="blas")
 
 
 def tsqr(
@@ -56,7 +104,8 @@ def tsqr(
     Parameters
     ----------
     basis : callable
-        ``basis(x_block) -> ndarray, shape (rows, n_terms)``.
+        ``basis(x_block) -> ndarray, shape (rows, n_terms)``; a :class:`PowerBasis` writes
+        each block into one buffer, reused.
     x : ndarray, shape (n, k)
         Inputs.
     y : ndarray, shape (n,)
@@ -70,17 +119,21 @@ def tsqr(
     -------
     ndarray, shape (min(n, n_terms + 1), n_terms + 1)
     """
+    n = x.shape[0]
     rs = []
-    for s in range(0, x.shape[0], block):
-        a = basis(x[s : s + block])
-        # column-major, as LAPACK factors it: each column written and read contiguously
-        aug = np.empty((a.shape[0], n_terms + 1), order="F")
-        aug[:, :n_terms] = a
-        aug[:, n_terms] = y[s : s + block]
-        # Householder QR of a tall block is memory-bound: sub-blocks that stay in cache
-        # are ~4× faster than one long factorisation
-        for u in range(0, aug.shape[0], _SUB_BLOCK):
-            rs.append(np.linalg.qr(aug[u : u + _SUB_BLOCK], mode="r"))
+    # column-major, as LAPACK factors it: each column written and read contiguously; a
+    # Householder QR of a tall block is memory-bound, so blocks that stay in cache are
+    # several times faster than one long factorisation
+    buf = np.empty((min(block, n), n_terms + 1), order="F")
+    for s in range(0, n, block):
+        m = min(block, n - s)
+        aug = buf if m == buf.shape[0] else np.empty((m, n_terms + 1), order="F")
+        if isinstance(basis, PowerBasis):
+            basis(x[s : s + m], out=aug[:, :n_terms])
+        else:
+            aug[:, :n_terms] = basis(x[s : s + m])
+        aug[:, n_terms] = y[s : s + m]
+        rs.append(np.linalg.qr(aug, mode="r"))
     return rs[0] if len(rs) == 1 else np.linalg.qr(np.vstack(rs), mode="r")
 
 
@@ -222,26 +275,10 @@ def center_scale(x: np.ndarray) -> tuple[float, float]:
 
 def power_basis(
     center: Sequence[float], scale: Sequence[float], orders: Sequence[int]
-) -> Callable[[np.ndarray], np.ndarray]:
-    """Basis ``[1, z_0 .. z_0^p, z_1 .. z_1^q, ...]`` with ``z_v = (x_v − c_v)/s_v``."""
-    n_terms = 1 + int(sum(orders))
-
-    def basis(x: np.ndarray) -> np.ndarray:
-        a = np.empty((x.shape[0], n_terms), order="F")  # column by column: contiguous
-        a[:, 0] = 1.0
-        col = 1
-        for v, order in enumerate(orders):
-            if order == 0:
-                continue
-            z = (x[:, v] - center[v]) / scale[v]
-            a[:, col] = z
-            for _ in range(1, order):
-                a[:, col + 1] = a[:, col] * z
-                col += 1
-            col += 1
-        return a
-
-    return basis
+) -> PowerBasis:
+    """Basis ``[1, z_0 .. z_0^p, z_1 .. z_1^q, ...]`` with ``z_v = (x_v − c_v)/s_v``
+    (:class:`PowerBasis`)."""
+    return PowerBasis(center, scale, orders)
 
 
 def _split_coef(beta: np.ndarray, orders: Sequence[int]) -> tuple[float, list[list[float]]]:

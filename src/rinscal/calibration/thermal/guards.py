@@ -266,10 +266,12 @@ def temperature_resolution(values: np.ndarray) -> float:
     float [°C]
         The smallest nonzero ``|v[i+1] − v[i]|`` (``inf`` if the reading never changes).
     """
-    v = values[np.isfinite(values)]
-    d = np.abs(np.diff(v))
-    d = d[d > 0]
-    return float(d.min()) if d.size else float("inf")
+    v = values
+    if not np.isfinite(np.sum(v)):  # some NaN or inf (a finite sum: none, no copy)
+        v = v[np.isfinite(v)]
+    d = np.diff(v)
+    d = d[d != 0]  # the changes: few, a quantised reading mostly repeats
+    return float(np.abs(d).min()) if d.size else float("inf")
 
 
 def check_temperatures(
@@ -313,6 +315,9 @@ def check_temperatures(
         raise ValueError(f"plausible temperature range must have low < high, got {plausible}")
     out = {}
     for name, v in columns.items():
+        if v.size and lo <= np.min(v) and np.max(v) <= hi:  # all finite and plausible
+            out[name] = temperature_resolution(v)
+            continue
         bad = np.flatnonzero(np.isfinite(v) & ((v < lo) | (v > hi)))
         if bad.size:
             i = int(bad[0])

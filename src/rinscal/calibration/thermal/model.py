@@ -25,9 +25,9 @@ model file's side of that fit.
 
 from __future__ import annotations
 
-import dataclasses
 import warnings
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -51,14 +51,23 @@ from rinscal.calibration.thermal.dispatch import fit_params
 from rinscal.calibration.thermal.features import (
     DerivativeConfig,
     Features,
-    MissingGradientWarning,
+    LogColumns,
     OutlierConfig,
     build_features,
     distinct_points,
+    features_from_columns,
+    gradient_choice,
+    log_columns,
+    run_features,
     run_slices,
 )
-from rinscal.calibration.thermal.fitting import NEURAL_MAX_SAMPLES, rms_about_run_mean
+from rinscal.calibration.thermal.fitting import (
+    NEURAL_MAX_SAMPLES,
+    one_blas_thread,
+    rms_about_run_mean,
+)
 from rinscal.calibration.thermal.guards import (
+    MIN_TEMP_SPAN_C,
     PLAUSIBLE_TEMP_C,
     DesignError,
     check_temperature_span,
@@ -68,6 +77,7 @@ from rinscal.calibration.thermal.guards import (
 from rinscal.calibration.thermal.runs import FACTOR_METHODS, FALLBACK_DEGREE, RowSample, RunFits
 from rinscal.earth import static_outputs_r
 from rinscal.errors import ConfigError, LogError
+from rinscal.parallel import jobs_within, map_jobs, read_ahead, resolve_jobs
 from rinscal.schema import (
     CHAMBER,
     CHANNELS,
@@ -135,6 +145,11 @@ def site_reference(
     return out
 
 
+#: Memory one channel's features and factors of a run hold while they are built [bytes a
+#: row] (measured: about 100 at 100 Hz, ``auto`` and ``regression`` alike).
+_CHANNEL_BYTES_PER_ROW = 100
+
+
 def _edges_from(points: np.ndarray | None) -> np.ndarray | None:
     if points is None or points.size < 2:
         return None
@@ -178,6 +193,10 @@ class ThermalFitter:
         (:mod:`rinscal.calibration.selection.rule`).
     temp_range : (float, float) [°C]
         Plausible temperature readings; a training log outside it is refused.
+    n_jobs : int, optional
+        Threads for the channels' features and run factors (the runs', in :meth:`fit`) and
+        ``auto``'s choices; None or 0: every core; default 1 (a fitter in a study's or a
+        fleet's fan-out adds none). The model does not depend on it, to the last bit.
 
     Attributes
     ----------
@@ -208,6 +227,7 @@ class ThermalFitter:
         candidates: Sequence[str] = DEFAULT_FAMILIES,
         tolerance: float = DEFAULT_TOLERANCE,
         temp_range: tuple[float, float] = PLAUSIBLE_TEMP_C,
+        n_jobs: int | None = 1,
     ) -> None:
         if method not in FIT_METHODS:
             raise ConfigError(f"method must be one of {', '.join(FIT_METHODS)}, got {method!r}")
@@ -222,6 +242,9 @@ class ThermalFitter:
         _check.number("random_state", random_state, min=0, integer=True)
         _check.mapping("estimator_params", estimator_params, optional=True)
         _check.flag("use_gradient", use_gradient, optional=True)
+        self.n_jobs = resolve_jobs(
+            _check.number("n_jobs", n_jobs, optional=True, integer=True, min=0)
+        )
         self.candidates = tuple(candidates)
         self.tolerance = float(tolerance)
         self.temp_range = (float(temp_range[0]), float(temp_range[1]))
@@ -404,18 +427,20 @@ class ThermalFitter:
         where = f"{source}: " if source else ""
         _, _, rows = run_slices(log[RUN])
         res = self._check_temperatures(log, rows, 0, where)  # before any feature is built
-        feats = features or build_features(
-            log,
-            self.derivative,
-            self.outliers,
-            self.channels,
-            use_gradient=self.use_gradient,
-            with_rate=self.needs_rate,
-        )
-        self.features_ = feats
-        fitting = _Fitting(self, feats.has_gradient, where)
-        fitting.add_features(fitting.add_runs(log, feats.runs, rows, res), feats, rows)
-        return fitting.finish(meta, on_channel)
+        with one_blas_thread():
+            feats = features or build_features(
+                log,
+                self.derivative,
+                self.outliers,
+                self.channels,
+                use_gradient=self.use_gradient,
+                with_rate=self.needs_rate,
+                n_jobs=self.n_jobs,
+            )
+            self.features_ = feats
+            fitting = _Fitting(self, feats.has_gradient, where)
+            fitting.add_features(fitting.add_runs(log, feats.runs, rows, res), feats, rows)
+            return fitting.finish(meta, on_channel)
 
     def fit_runs(
         self,
@@ -424,6 +449,7 @@ class ThermalFitter:
         *,
         on_channel: Callable[[str], None] | None = None,
         source: str | None = None,
+        on_run: Callable[[int], None] | None = None,
     ) -> ThermalFitter:
         """Fit every channel on a log given a run at a time, never holding it whole.
 
@@ -435,6 +461,9 @@ class ThermalFitter:
             the data rows of the file before each (for messages).
         meta, on_channel, source
             As for :meth:`fit`.
+        on_run : callable, optional
+            Called with the number of runs taken so far, as each is (on the caller's thread;
+            with ``n_jobs`` above 1 the next run is read on another).
 
         Returns
         -------
@@ -443,36 +472,47 @@ class ThermalFitter:
         """
         where = f"{source}: " if source else ""
         fitting: _Fitting | None = None
-        for log, first_row in runs:
-            names, rows = run_slices(log[RUN])[1:]  # not the codes: a row each
-            res = self._check_temperatures(log, rows, first_row, where)
-            codes: list[int] | None = None
-            for c in self.channels:  # a channel at a time: memory of one channel's features
-                with warnings.catch_warnings(record=True) as caught:
-                    warnings.simplefilter("always", MissingGradientWarning)
-                    feats = build_features(
-                        log,
-                        self.derivative,
-                        self.outliers,
-                        (c,),
-                        use_gradient=self.use_gradient,
-                        with_rate=self.needs_rate,
-                    )
-                if fitting is None:  # the missing-gradient warning once, not once per run
-                    for w in caught:
-                        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
-                    fitting = _Fitting(self, feats.has_gradient, where)
-                elif feats.has_gradient != fitting.has_gradient:
+        items = self._checked(runs, where)
+        if self.n_jobs > 1:  # the next run read and checked on a thread while one is fitted
+            items = read_ahead(items, 2)
+        if self.needs_rate:  # meanwhile (the first run is read)
+            # deferred: rate loads numba's kernels (as building the features does)
+            from rinscal.calibration.thermal.rate import load_kernel
+
+            load_kernel(self.derivative.kind)
+        with one_blas_thread():
+            taken = 0
+            for log, (run_codes, names, rows), res, cols in items:  # no enumerate: its tuple
+                taken += 1  # would hold this run while the next is taken
+                if on_run is not None:
+                    on_run(taken)
+                # the missing-gradient warning once, not once per run
+                grad = gradient_choice(log, self.use_gradient, warn=fitting is None)
+                if fitting is None:
+                    fitting = _Fitting(self, grad, where)
+                elif grad != fitting.has_gradient:
                     raise ConfigError(f"{where}{TEMP_OUT!r} is in some runs and not in others")
-                if codes is None:
-                    codes = fitting.add_runs(log, names, rows, res)
-                fitting.add_features(codes, feats, rows)
-                del feats
-            del log, rows  # not held while the next run is read, nor while fitting
-        if fitting is None:
-            raise ConfigError(f"{where}no runs to fit")
-        self.features_ = None
-        return fitting.finish(meta, on_channel)
+                codes = fitting.add_runs(log, names, rows, res)
+                del log  # its columns are in cols
+                # the channels on threads, each building its features alone (as many as
+                # 400 MB of their features hold)
+                jobs = jobs_within(self.n_jobs, _CHANNEL_BYTES_PER_ROW * cols.time_s.size)
+                map_jobs(partial(fitting.add_columns, codes, cols), self.channels, jobs)
+                del cols, rows, run_codes  # not held while the next run is taken
+            if fitting is None:
+                raise ConfigError(f"{where}no runs to fit")
+            self.features_ = None
+            return fitting.finish(meta, on_channel)
+
+    def _checked(self, runs: Iterable[tuple[pd.DataFrame, int]], where: str) -> Iterator[Any]:
+        """Each run with its slices (:func:`run_slices`), its temperatures checked (their
+        resolutions) and its columns (:func:`log_columns`): what a run needs before its
+        channels, made where it is read."""
+        for log, first_row in runs:
+            slices = run_slices(log[RUN])  # once for every channel
+            res = self._check_temperatures(log, slices[2], first_row, where)
+            yield log, slices, res, log_columns(log, self.channels, slices=slices)
+            del log
 
     def _check_temperatures(
         self, log: pd.DataFrame, rows: list[np.ndarray], first_row: int, where: str
@@ -563,34 +603,6 @@ class ThermalFitter:
         )
 
 
-def _run_features(feats: Features, k: int, idx: np.ndarray) -> Features:
-    """The features of run ``k`` (rows ``idx``) of a log's features."""
-    if idx.size == feats.run_codes.size:
-        return feats
-    r: slice | np.ndarray = idx
-    if idx.size and idx[-1] - idx[0] + 1 == idx.size:  # one block: views, not copies
-        r = slice(int(idx[0]), int(idx[-1]) + 1)
-    rep = feats.report
-    return dataclasses.replace(
-        feats,
-        temp=feats.temp[r],
-        rate=feats.rate[r],
-        grad=None if feats.grad is None else feats.grad[r],
-        output=feats.output[r],
-        inlier=feats.inlier[r],
-        run_codes=np.zeros(idx.size, dtype=np.int64),
-        runs=(feats.runs[k],),
-        time_s=feats.time_s[r],
-        report=dataclasses.replace(
-            rep,
-            runs=(rep.runs[k],),
-            removed=rep.removed[k : k + 1],
-            missing=rep.missing[k : k + 1],
-            samples=rep.samples[k : k + 1],
-        ),
-    )
-
-
 class _Fitting:
     """A :class:`ThermalFitter`'s fit in progress: what it keeps of each run, then the models.
 
@@ -631,12 +643,32 @@ class _Fitting:
                 self.resolution[c] = min(v, self.resolution.get(c, np.inf))
         return codes
 
+    def add_columns(self, codes: list[int], cols: LogColumns, channel: str) -> None:
+        """Take in one channel of runs ``codes``, its features built from their columns
+        (reads nothing else: one thread per channel)."""
+        m = self.model
+        feats = features_from_columns(
+            cols,
+            m.derivative,
+            m.outliers,
+            (channel,),
+            use_gradient=self.has_gradient,
+            with_rate=m.needs_rate,
+        )
+        self.add_features(codes, feats, cols.rows)
+
     def add_features(self, codes: list[int], feats: Features, rows: list[np.ndarray]) -> None:
-        """Take in the features of some channels (``feats.channels``) of runs ``codes``."""
-        for k, (code, idx) in enumerate(zip(codes, rows, strict=True)):
-            f = _run_features(feats, k, idx)
-            for jj, c in enumerate(f.channels):
-                j = self.model.channels.index(c)
+        """Take in the features of some channels (``feats.channels``) of runs ``codes``.
+
+        The channels go to threads (``n_jobs`` of the model); each keeps its own fits, runs
+        in order.
+        """
+        parts = [run_features(feats, k, idx) for k, idx in enumerate(rows)]
+
+        def channel(jj: int) -> None:
+            c = feats.channels[jj]
+            j = self.model.channels.index(c)
+            for code, f in zip(codes, parts, strict=True):
                 if not self.chamber:  # set points from the runs' temperatures instead
                     self.median_temp[code][j] = np.median(f.temp[:, jj])
                 self.outliers[j] += f.report.removed[0, jj]
@@ -646,6 +678,8 @@ class _Fitting:
                     self.fits[c].add(code, x, f.output[:, jj], f.time_s)
                 else:
                     self.fits[c].add(code, x[ok], f.output[ok, jj], f.time_s[ok])
+
+        map_jobs(channel, range(len(feats.channels)), self.model.n_jobs)
 
     def set_points(self, j: int) -> np.ndarray | None:
         """Soak set points: the runs' chamber medians, else their median ``T`` of channel j."""
@@ -673,6 +707,7 @@ class _Fitting:
         m.fallbacks_ = {}
         m.selections_ = {}
         m.train_mean_ = {}
+        chosen = self._selections() if m.method == AUTO else {}
         for j, c in enumerate(m.channels):
             fits = self.fits[c]
             if fits.n < 2:
@@ -686,7 +721,7 @@ class _Fitting:
             except ValueError as exc:
                 raise ConfigError(str(exc)) from None
             try:
-                params, fb, selection = self._fit_channel(c, fits, sp)
+                params, fb, selection = self._fit_channel(c, fits, sp, chosen.get(c))
             except (DesignError, ValueError, TypeError) as exc:
                 raise ConfigError(f"{what}: {m.method} fit failed: {exc}") from None
             m.params_[c] = params
@@ -706,19 +741,56 @@ class _Fitting:
                 on_channel(c)
         return m
 
-    def _fit_channel(
-        self, c: str, fits: RunFits, sp: np.ndarray | None
-    ) -> tuple[dict[str, Any], dict[str, Any] | None, dict[str, Any] | None]:
-        """A channel's parameters, its T-only fallback and ``auto``'s selection record."""
+    def _selections(self) -> dict[str, Selection | Exception | None]:
+        """``auto``: each channel's held-out choice (most of the time of :meth:`finish`), the
+        channels on threads (``n_jobs``).
+
+        None for a channel that :meth:`finish` refuses before choosing (too few samples, too
+        little temperature range); the error of a choice that failed, which :meth:`finish`
+        raises in channel order.
+        """
         m = self.model
-        if m.method == AUTO:
+
+        def one(c: str) -> Selection | Exception | None:
+            fits = self.fits[c]
+            if fits.n < 2 or not np.ptp(fits.range(1)[0]) >= MIN_TEMP_SPAN_C:
+                return None
             assert fits.screen is not None
             x, y, codes, rows, t, tools = fits.screen.arrays()
             cands = candidates(sensor_type(c), x.shape[1], m.candidates)
-            sel = select_thinned(
-                x, y, codes, rows, t, fits.screen.spans, tuple(self.runs), tools, cands,
-                m.tolerance, m.random_state,
-            )  # fmt: skip
+            try:
+                return select_thinned(
+                    x, y, codes, rows, t, fits.screen.spans, tuple(self.runs), tools, cands,
+                    m.tolerance, m.random_state,
+                )  # fmt: skip
+            except (DesignError, ValueError, TypeError) as exc:
+                return exc
+
+        # a choice holds about 200 bytes a kept row (945 000 rows at most): 2 at once in 400 MB
+        kept = max((self.fits[c].screen.seen for c in m.channels), default=0)  # type: ignore[union-attr]
+        jobs = jobs_within(m.n_jobs, 200 * min(kept, auto.SCREEN_SAMPLES))
+        # the choice silences the fits it screens; catch_warnings is not thread-safe: one
+        # here (the choice warns of nothing; the chosen fits' warnings come below, in order)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            done = map_jobs(one, m.channels, jobs)
+        return dict(zip(m.channels, done, strict=True))
+
+    def _fit_channel(
+        self,
+        c: str,
+        fits: RunFits,
+        sp: np.ndarray | None,
+        sel: Selection | Exception | None = None,
+    ) -> tuple[dict[str, Any], dict[str, Any] | None, dict[str, Any] | None]:
+        """A channel's parameters, its T-only fallback and ``auto``'s selection record
+        (``sel``: its held-out choice, :meth:`_selections`)."""
+        m = self.model
+        if m.method == AUTO:
+            if isinstance(sel, Exception):
+                raise sel
+            assert isinstance(sel, Selection) and fits.screen is not None
+            cands = candidates(sensor_type(c), len(fits.powers), m.candidates)
             params = self._fit_chosen(fits, sel, sel.chosen)
             # a chosen model of T alone is its own fallback: fit it once
             fb = params if sel.fallback == sel.chosen else self._fit_chosen(fits, sel, sel.fallback)

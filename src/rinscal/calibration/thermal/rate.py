@@ -38,7 +38,7 @@ _TA, _S1, _S2 = 0, 1, 2
 _MIN_OPS = 16
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _rebuild(ring_t, ring_x, istate, tstate, xstate):  # pragma: no cover - numba
     """Recompute every running sum from the samples in the ring, about a new anchor."""
     cap = ring_t.shape[0]
@@ -67,7 +67,7 @@ def _rebuild(ring_t, ring_x, istate, tstate, xstate):  # pragma: no cover - numb
     istate[_OPS] = 0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _slope(cnt, tstate, xstate, out_row):  # pragma: no cover - numba
     m = xstate.shape[0]
     n = float(cnt)
@@ -80,7 +80,7 @@ def _slope(cnt, tstate, xstate, out_row):  # pragma: no cover - numba
         out_row[k] = (n * xstate[k, 2] - tstate[_S1] * xstate[k, 1]) / den
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def causal_update(t, x, window, ring_t, ring_x, istate, tstate, xstate, out):  # pragma: no cover
     """Advance the causal slope state machine over new samples.
 
@@ -155,7 +155,7 @@ def causal_update(t, x, window, ring_t, ring_x, istate, tstate, xstate, out):  #
     return t.shape[0]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def centred_slope(t, x, half_window, out):  # pragma: no cover - numba
     """Centred windowed least-squares slope over one run.
 
@@ -361,3 +361,19 @@ def centred_slope_run(t: np.ndarray, x: np.ndarray, window_s: float) -> np.ndarr
     out = np.empty_like(x)
     centred_slope(t, x, 0.5 * float(window_s), out)
     return out
+
+
+def load_kernel(kind: str = "centred") -> None:
+    """Load the compiled kernel of a ``kind`` (``"centred"`` or ``"causal"``) rate now.
+
+    The first call of a kernel in a process loads it from numba's cache (about a second:
+    numba's own machinery comes with it); a command calls this while its first run is read
+    on another thread, so that the two overlap.
+    """
+    t = np.arange(3, dtype=np.float64)
+    t.flags.writeable = False  # as a log's time column comes (a read-only view): that kernel
+    x = np.zeros((3, 1))
+    if kind == "causal":
+        causal_slope(t, x, 1.0)
+    else:
+        centred_slope_run(t, x, 1.0)

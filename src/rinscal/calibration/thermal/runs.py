@@ -319,14 +319,15 @@ class RunFits:
         lo, hi = column_range(x)
         self.lo = lo if self.lo is None else np.minimum(self.lo, lo)
         self.hi = hi if self.hi is None else np.maximum(self.hi, hi)
-        self.boxes.append(occupied_boxes(x, DEFAULT_BINS * FINE))
+        self.boxes.append(occupied_boxes(x, DEFAULT_BINS * FINE, (lo, hi)))
         self.sample.append(x[:: max(1, n // SAMPLE_ROWS)].copy())  # not a view of the run
         self.codes.append(int(code))
         self.counts.append(n)
         self.sum_y += float(np.sum(y))
         if self.powers:
             k = len(self.powers)
-            cs = [center_scale(x[:, v]) for v in range(k)]
+            # from the range found above: the same centre and scale, no second pass
+            cs = [center_scale(np.array([lo[v], hi[v]])) for v in range(k)]
             n_terms = _n_terms(self.powers)
             basis = power_basis([c for c, _ in cs], [s for _, s in cs], self.powers)
             r = tsqr(basis, x[:, :k], y, n_terms)

@@ -1,0 +1,101 @@
+"""``rinscal.parallel.read_ahead`` and ``one_behind``: a file's next run read, and the last
+written, on threads of their own while this one is worked on (issue 39): in order, one
+ahead (behind) at most, errors where they belong."""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import pytest
+
+from rinscal.parallel import one_behind, read_ahead
+
+
+def test_items_come_in_order_taken_on_another_thread_one_ahead() -> None:
+    taken: list[tuple[int, int]] = []  # (item, thread)
+
+    def source():
+        for k in range(5):
+            taken.append((k, threading.get_ident()))
+            yield k
+
+    it = read_ahead(source(), 2)
+    time.sleep(0.05)
+    assert [k for k, _ in taken] == [0]  # the first is taken at once, before it is asked for
+    got = []
+    for k in it:
+        time.sleep(0.02)  # the caller works on k: k + 1 is taken meanwhile, not k + 2
+        assert [v for v, _ in taken][-1] <= k + 1
+        got.append(k)
+    assert got == [0, 1, 2, 3, 4]
+    assert {th for _, th in taken} != {threading.get_ident()}
+
+
+def test_an_error_is_raised_when_its_item_is_asked_for() -> None:
+    def source():
+        yield 1
+        yield 2
+        raise ValueError("run 3 is unreadable")
+
+    it = read_ahead(source(), 2)
+    assert next(it) == 1
+    assert next(it) == 2
+    with pytest.raises(ValueError, match="run 3"):
+        next(it)
+
+
+def test_closing_early_stops_taking_items() -> None:
+    taken = []
+
+    def source():
+        for k in range(100):
+            taken.append(k)
+            yield k
+
+    it = read_ahead(source(), 2)
+    assert next(it) == 0
+    it.close()  # type: ignore[attr-defined]
+    time.sleep(0.05)
+    assert taken == [0, 1]  # the one in flight, nothing after
+
+
+def test_one_behind_writes_in_order_on_another_thread_one_at_a_time() -> None:
+    written: list[tuple[int, int]] = []
+    busy = threading.Lock()
+
+    def write(k: int) -> None:
+        assert busy.acquire(blocking=False), "two writes at once"
+        time.sleep(0.01)
+        written.append((k, threading.get_ident()))
+        busy.release()
+
+    with one_behind(write) as put:
+        for k in range(6):
+            put(k)
+            assert len(written) >= k - 1  # at most the call just made is in flight
+    assert [k for k, _ in written] == list(range(6))  # the last one waited for on leaving
+    assert {th for _, th in written} != {threading.get_ident()}
+
+
+def test_one_behind_raises_a_write_s_error() -> None:
+    def write(k: int) -> None:
+        if k == 1:
+            raise OSError("disk full")
+
+    with pytest.raises(OSError, match="disk full"), one_behind(write) as put:
+        put(0)
+        put(1)
+        put(2)  # waits for the failed call: its error is raised here
+    with pytest.raises(OSError, match="disk full"), one_behind(write) as put:
+        put(1)  # the last call: its error is raised on leaving
+
+
+def test_threads_are_bounded_by_the_memory_of_the_items_in_flight() -> None:
+    from rinscal.parallel import MEMORY_BUDGET, available_cores, jobs_within
+
+    assert jobs_within(8, MEMORY_BUDGET / 4) == 4  # four such items fill the budget
+    assert jobs_within(2, MEMORY_BUDGET / 4) == 2  # fewer asked: as asked
+    assert jobs_within(8, 10 * MEMORY_BUDGET) == 1  # one at least, however large
+    assert jobs_within(None, 1.0) == available_cores()
+    assert jobs_within(8, 1e6, budget=3e6) == 3
