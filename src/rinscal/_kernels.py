@@ -48,6 +48,30 @@ GL_W = np.array([0.3478548451374538, 0.6521451548625461, 0.6521451548625461, 0.3
 _jit = numba.njit(cache=True, fastmath=False, nogil=True)
 
 
+# --------------------------------------------------------------------------- corrections
+@_jit
+def less_rates(
+    dtheta: NDArray[np.float64],
+    dv: NDArray[np.float64],
+    rates: NDArray[np.float64],
+    dt: NDArray[np.float64],
+    out_theta: NDArray[np.float64],
+    out_v: NDArray[np.float64],
+) -> None:  # pragma: no cover - numba
+    """Increments less rates over each sample's interval, in one pass (no temporaries):
+    ``out_theta[i] = dtheta[i] − rates[r, :3] · dt[i]``, ``out_v[i] = dv[i] − rates[r, 3:] ·
+    dt[i]`` [rad, m/s], ``r = i`` (a rate per sample, ``rates`` (n, 6)) or 0 (one rate for
+    all, (1, 6)) [rad/s, m/s²]. The product, then the difference, each rounded as numpy's
+    ``dtheta - rates[:, :3] * dt[:, None]`` rounds them (no fused multiply-add)."""
+    one = rates.shape[0] == 1
+    for i in range(dtheta.shape[0]):
+        r = 0 if one else i
+        h = dt[i]
+        for j in range(3):
+            out_theta[i, j] = dtheta[i, j] - rates[r, j] * h
+            out_v[i, j] = dv[i, j] - rates[r, 3 + j] * h
+
+
 # --------------------------------------------------------------------------- alignment filter
 @_jit
 def kf_zero_velocity_update(

@@ -137,3 +137,33 @@ def test_jobs_is_checked(recording) -> None:  # type: ignore[no-untyped-def]
         rinscal.navigate_log(recording / "run.parquet", n_jobs=-1)
     with pytest.raises(ArgumentTypeError, match="n_jobs"):
         rinscal.navigate_scenario("quasi-static", hours=0.2, rate_hz=10.0, n_jobs="2")
+
+
+def test_a_drive_aligned_in_motion_and_aided_on_threads_is_bit_identical(
+    recording, tmp_path
+) -> None:  # type: ignore[no-untyped-def]
+    """The in-motion alignment (which keeps the increments it is fed) and the GNSS-aided
+    filter, three variants on three threads, the drive read ahead: the same errors as on
+    one thread."""
+    import rinscal
+    from tests.cli._vehicle import record_vehicle
+
+    rec = record_vehicle(tmp_path, 0.12)
+    full = pd.read_parquet(rec)
+    drive = tmp_path / "drive.parquet"
+    full[full["time_s"] > 61.0].to_parquet(drive, index=False)
+    (tmp_path / "drive.parquet.meta.json").write_text(
+        (tmp_path / "veh.parquet.meta.json").read_text()
+    )
+    track = full.iloc[::5][["time_s", "ref_lat_deg", "ref_lon_deg", "ref_h_m"]]
+    track.to_csv(tmp_path / "track.csv", index=False)
+    models = [str(recording / "reg.json"), str(recording / "polyt.json")]
+    for aiding in ("none", "gnss"):
+        kw = dict(models=models, track=tmp_path / "track.csv", align_s=300.0, aiding=aiding)
+        one = rinscal.navigate_log(drive, n_jobs=1, **kw)
+        many = rinscal.navigate_log(drive, n_jobs=3, **kw)
+        assert "in motion" in one.report["window"]["how"]
+        assert list(one.errors) == ["none", "reg", "polyt"]
+        for name in one.errors:
+            pd.testing.assert_frame_equal(one.errors[name], many.errors[name], check_exact=True)
+        assert one.summary == many.summary

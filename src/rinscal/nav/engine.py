@@ -39,6 +39,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from rinscal import _kernels
 from rinscal.errors import ConfigError
 from rinscal.nav.aiding import Measurement
 from rinscal.nav.align import Aligner, AlignResult, feed_and_hand_over
@@ -322,8 +323,7 @@ def _advance(
         c = np.asarray(v.correction(s), dtype=float)
         if c.shape != (s.n, 6):
             raise ConfigError(f"a correction returned shape {c.shape}, not ({s.n}, 6)")
-        d_th = d_th - c[:, :3] * s.dt[:, None]
-        d_v = d_v - c[:, 3:] * s.dt[:, None]
+        d_th, d_v = _less_rates(d_th, d_v, c, s.dt)
     i0 = i_first
     if v.aligner is not None and not v.aligner.done:
         i0 += feed_and_hand_over(v, d_th[i_first:], d_v[i_first:])
@@ -340,13 +340,31 @@ def _advance(
             v.rows.append(out)
     elif i0 < s.n:
         assert v.nav is not None
-        step = s.dt[i0:, None]  # the estimates are rates: over each sample's own interval
-        out = _run_nav(
-            v.nav, d_th[i0:] - v.gyro_bias * step, d_v[i0:] - v.accel_bias * step,
-            s.dt[i0:], dt, truth.alt[i0:], truth.vu[i0:], out_every,
-        )  # fmt: skip
+        # the estimates are rates: over each sample's own interval
+        bias = np.concatenate([v.gyro_bias, v.accel_bias])[None, :]
+        th, dv = _less_rates(d_th[i0:], d_v[i0:], bias, s.dt[i0:])
+        out = _run_nav(v.nav, th, dv, s.dt[i0:], dt, truth.alt[i0:], truth.vu[i0:], out_every)
         if out.shape[0]:
             v.rows.append(out)
+
+
+def _less_rates(
+    dtheta: NDArray, dv: NDArray, rates: NDArray, dt: NDArray
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``dtheta − rates[:, :3] · dt``, ``dv − rates[:, 3:] · dt`` per sample (``rates`` (n, 6)
+    or (1, 6) for all) [rad, m/s]: new arrays, numpy's rounding, one pass of a kernel
+    (numpy's broadcast over three columns walks them three values at a time)."""
+    out_th = np.empty((dtheta.shape[0], 3))
+    out_v = np.empty((dtheta.shape[0], 3))
+    _kernels.less_rates(
+        np.ascontiguousarray(dtheta, dtype=float),
+        np.ascontiguousarray(dv, dtype=float),
+        np.ascontiguousarray(rates, dtype=float),
+        np.ascontiguousarray(dt, dtype=float),
+        out_th,
+        out_v,
+    )
+    return out_th, out_v
 
 
 def _run_aided(
