@@ -114,7 +114,8 @@ def dask_client(
     :func:`cluster_security` of ``tls``), or on a new :class:`distributed.LocalCluster` of
     ``workers`` single-threaded worker processes (default: one per core available to this
     process; their heap settings :data:`WORKER_HEAP`), closed on exit."""
-    from distributed import Client, LocalCluster  # deferred: Dask is heavy
+    import dask  # deferred: Dask is heavy
+    from distributed import Client, LocalCluster
 
     security = cluster_security(scheduler, tls)
     if scheduler:
@@ -131,14 +132,18 @@ def dask_client(
             client.close()
         return
     n = local_workers(workers)
+    # set before each worker process starts (glibc reads them then): Dask's own pre-spawn
+    # settings (one BLAS thread ...) with the heap's
+    key = "distributed.nanny.pre-spawn-environ"
+    heap = {**dask.config.get(key, default={}), **WORKER_HEAP}
     with (
+        dask.config.set({key: heap}),
         LocalCluster(
             n_workers=n,
             threads_per_worker=1,
             processes=True,
             dashboard_address=":0",
             silence_logs=logging.ERROR,
-            env=WORKER_HEAP,
         ) as cluster,
         Client(cluster) as client,
     ):
