@@ -373,11 +373,12 @@ def estimate_bias_series(
     # the first minutes' smoothed tilts (so the horizontal biases) are off by tens of µg.
     # Its smoothed body attitude (constant on a static base) starts pass 2 over the whole
     # recording, within the linear range.
-    n1 = min(n, i0 + _first_pass_n(dt))
-    rough = _smoothed(d, (lat, lon, alt), C0, heading_sd, i0, n1, tune)
+    n1 = min(n, i0 + max(1, round(FIRST_PASS_S / dt)))
+    rough = _smoothed(d, enc, dt, (lat, lon, alt), C0, heading_sd, i0, n1, tune)
     C_start = rough.C_nb[-1] @ C_br(enc[max(i0 - 1, 0)])
-    heading_sd2 = max(3.0 * float(np.sqrt(rough.Ps[-1, 8, 8])), REFINED_HEADING_SD)
-    run = _smoothed(d, (lat, lon, alt), C_start, heading_sd2, i0, n, tune)
+    up = ATT.start + 2  # the heading error φ_U
+    heading_sd2 = max(3.0 * float(np.sqrt(rough.Ps[-1, up, up])), REFINED_HEADING_SD)
+    run = _smoothed(d, enc, dt, (lat, lon, alt), C_start, heading_sd2, i0, n, tune)
     t_ep, ends, starts, es, Ps = run.t_ep, run.ends, run.starts, run.es, run.Ps
     b_hat, k_ep, C_nb, dphi, dur = run.b_hat, run.k_ep, run.C_nb, run.dphi, run.dur
     nx = N_STATES + 3
@@ -462,12 +463,10 @@ class _Pass:
     C_nb: NDArray[np.float64]
 
 
-def _first_pass_n(dt: float) -> int:
-    return max(1, round(FIRST_PASS_S / dt))
-
-
 def _smoothed(
     d: dict[str, NDArray[np.float64]],
+    enc: NDArray[np.float64],
+    dt: float,
     site: tuple[float, float, float],
     C0: NDArray[np.float64],
     heading_sd: float,
@@ -475,14 +474,13 @@ def _smoothed(
     n_end: int,
     tune: _Tuning,
 ) -> _Pass:
-    """Filter and smooth samples ``[i0, n_end)`` from the attitude ``C0`` (``C_nr``) with
-    the heading prior ``heading_sd`` [rad] (module docstring)."""
+    """Filter and smooth samples ``[i0, n_end)`` of the recording ``d`` (its unwrapped
+    encoder angle ``enc`` [rad], sample interval ``dt`` [s]) from the attitude ``C0``
+    (``C_nr``) with the heading prior ``heading_sd`` [rad] (module docstring)."""
     lat, lon, alt = site
     noise = tune.noise
     t_all = d["t"]
-    dt = float(np.median(d["dt"]))
     dth, dvv = d["dtheta"], d["dv"]
-    enc = np.unwrap(d["table"])
     P0 = initial_covariance(
         InitialSd(tune.position_sd, tune.velocity_sd, tune.level_sd, heading_sd), noise
     )
@@ -600,21 +598,25 @@ def _thermal_drive(
     """
     w = max(1, round(THERMAL_WINDOW_S / dt))
 
-    def smooth(a: NDArray[np.float64], at: NDArray[np.intp]) -> NDArray[np.float64]:
-        """Mean of ``a`` over the window ending at sample ``at`` (shorter at the start)."""
-        c = np.concatenate([np.zeros((1, a.shape[1])), np.cumsum(np.nan_to_num(a), axis=0)])
+    def cumulative(a: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.concatenate([np.zeros((1, a.shape[1])), np.cumsum(np.nan_to_num(a), axis=0)])
+
+    def smooth(c: NDArray[np.float64], at: NDArray[np.intp]) -> NDArray[np.float64]:
+        """Mean over the window ending at sample ``at`` (shorter at the start), from the
+        cumulative sum ``c`` of the series."""
         lo = np.maximum(at + 1 - w, 0)
         return (c[at + 1] - c[lo]) / (at + 1 - lo)[:, None]
 
     def change(a: NDArray[np.float64]) -> NDArray[np.float64]:
         return np.diff(a, axis=0, prepend=a[:1])
 
-    at = smooth(temps, ends - 1)
-    rate = (at - smooth(temps, np.maximum(ends - 1 - w, 0))) / (THERMAL_WINDOW_S / 60.0)
+    c_temps = cumulative(temps)
+    at = smooth(c_temps, ends - 1)
+    rate = (at - smooth(c_temps, np.maximum(ends - 1 - w, 0))) / (THERMAL_WINDOW_S / 60.0)
     st, rt, gt = (np.repeat(v, 3) for v in sds)
     out = (st * change(at)) ** 2 + (rt * change(rate)) ** 2
     if np.all(np.isfinite(temp_out)):
-        out += (gt * change(smooth(temps - temp_out[:, None], ends - 1))) ** 2
+        out += (gt * change(smooth(cumulative(temps - temp_out[:, None]), ends - 1))) ** 2
     steps = float(np.median(np.diff(ends))) if ends.size > 1 else 1.0
     out *= max(THERMAL_WINDOW_S / (dt * steps), 1.0)
     out[:, ~np.all(np.isfinite(temps), axis=0)] = 0.0
