@@ -11,7 +11,7 @@ from rinscal.calibration.observability import undetermined
 from rinscal.calibration.thermal.features import build_features
 from rinscal.errors import ConfigError
 from rinscal.nav.fieldbias import BiasSeries
-from rinscal.nav.fieldcal import calibrate_field_series, series_log
+from rinscal.nav.fieldcal import calibrate_field_series, field_orders, series_log
 from rinscal.schema import CHANNELS
 from tests.nav._fieldseries import true_series
 
@@ -62,6 +62,24 @@ def test_a_held_out_start_is_predicted_from_the_others(wide) -> None:
         swing = np.ptp(truth[k, j])
         assert np.std(err) < 0.2 * swing, (c, np.std(err), swing)
         assert np.std(err) < 0.8 * np.std(truth[k, j]), (c, np.std(err), np.std(truth[k, j]))
+
+
+def test_the_field_form_is_method_2s_order_in_t_and_first_order_in_tdot_and_dt(wide) -> None:
+    """Every start warms the same way, so powers of Ṫ and ΔT are only more functions of the
+    time since power-on: the field model keeps method 2's order in T (gyros 1, accelerometers
+    3, as the chamber's) and fits Ṫ and ΔT to first order; auto chooses its own."""
+    assert field_orders("regression", "accel_y", True) == (3, 1, 1)
+    assert field_orders("regression", "gyro_x", True) == (1, 1, 1)
+    assert field_orders("regression", "accel_x", False) == (3, 1, 0)
+    assert field_orders("sectional", "accel_z", True) == (3, 1)
+    assert field_orders("auto", "accel_x", True) is None
+    fc = calibrate_field_series({k: s for k, (s, _) in wide.items()}, turn_on_sd=TURN_ON)
+    for c in CHANNELS:
+        row = fc.table[fc.table["channel"] == c].iloc[0]
+        if row["inputs"] == "T, Tdot, dT":
+            want = field_orders("regression", c, True)
+            assert row["model"] == "regression " + ",".join(map(str, want)), (c, row["model"])
+            assert fc.model.models[c].to_dict()["params"]["orders"] == list(want)
 
 
 def test_starts_spanning_10_c_name_what_they_cannot_determine_and_fall_back() -> None:

@@ -33,8 +33,13 @@ def calibrate_field_cmd(
         ),
     ] = None,
     method: Annotated[
-        str, typer.Option("--method", help=f"Thermal model: {', '.join(_METHODS)}.")
-    ] = "auto",
+        str,
+        typer.Option(
+            "--method",
+            help=f"Thermal model: {', '.join(_METHODS)}. Default regression: method 2's "
+            "order in T, first order in Tdot and dT (what parked starts determine).",
+        ),
+    ] = "regression",
     mapping: Annotated[
         Path | None,
         typer.Option("--map", help="Column mapping (TOML) of a foreign recording layout."),

@@ -42,6 +42,7 @@ from rinscal.calibration.observability import (
     undetermined,
 )
 from rinscal.calibration.thermal.features import build_features
+from rinscal.calibration.thermal.model import DEFAULTS
 from rinscal.calibration.workflow import FitResult, fit
 from rinscal.errors import ConfigError, LogError
 from rinscal.imunoise import NoiseSource, load_noise
@@ -49,15 +50,17 @@ from rinscal.io.navopen import nav_log_header, open_nav_log
 from rinscal.nav.fieldbias import BiasSeries, estimate_bias_series, field_noise
 from rinscal.nav.gnss_ins import ImuNoise
 from rinscal.parallel import map_jobs
-from rinscal.schema import CHANNELS
+from rinscal.schema import CHANNELS, sensor_type
 
 __all__ = [
     "DEFAULT_TURN_ON",
+    "FIELD_MAX_ORDER",
     "FIELD_UNITS",
     "FieldCalibration",
     "calibrate_field",
     "calibrate_field_series",
     "field_noise_of",
+    "field_orders",
     "series_log",
 ]
 
@@ -187,11 +190,39 @@ class FieldCalibration:
 
 
 #: Inputs a channel may keep, most to fewest, and how each is fitted.
+#: Highest order of ``Ṫ`` and of ``ΔT`` in a field model of fixed orders (``regression``,
+#: ``sectional``; ``T`` keeps the method's order for the sensor). Every parked start warms
+#: the unit the same way, so ``Ṫ`` and ``ΔT`` follow much the same curve in time in every
+#: start: their squares and cubes are further functions of the time since power-on, which
+#: fit the warm-up's shape in the series rather than a dependence on the inputs, and which
+#: the observability report does not examine (it judges first-order terms). Navigation
+#: compensates with the causal rate of the thermometers, which lags that shape by half its
+#: window in the first minutes; a cubic in ``Ṫ`` turns the lag into an error at alignment.
+#: Measured (docs/navigation.md): method 2's cubic form moved the alignment heading by
+#: +36″ (``paper``) and +106″ (``paper_mechanistic``) from the true bias's on three cold
+#: starts each; first order in ``Ṫ`` and ``ΔT`` by +6″ and −25″.
+FIELD_MAX_ORDER = 1
+
 _GROUPS: tuple[tuple[str, dict[str, Any]], ...] = (
     ("T, Tdot, dT", {"gradient": True}),
     ("T, Tdot", {"gradient": False}),
     ("T", {"gradient": False, "candidates": ("none", "poly-t")}),
 )
+
+
+def field_orders(method: str, channel: str, gradient: bool) -> tuple[int, ...] | None:
+    """The orders a field model of ``method`` fits for ``channel``: the method's own for
+    ``T``, at most :data:`FIELD_MAX_ORDER` for ``Ṫ`` and ``ΔT`` (``gradient``: with ``ΔT``);
+    None for a method without orders (``auto`` chooses its own, ``neural``, ``poly-t``)."""
+    if method not in ("regression", "sectional"):
+        return None
+    d = DEFAULTS[method][sensor_type(channel)]
+    orders = [d["t_order"], min(d["rate_order"], FIELD_MAX_ORDER)]
+    if method == "regression" and gradient:
+        orders.append(min(d["grad_order"], FIELD_MAX_ORDER))
+    elif method == "regression":
+        orders.append(0)
+    return tuple(orders)
 
 
 def _group_of(missing: set[str], has_gradient: bool) -> str:
@@ -206,7 +237,7 @@ def _group_of(missing: set[str], has_gradient: bool) -> str:
 def calibrate_field_series(
     series: Mapping[str, BiasSeries],
     *,
-    method: str = "auto",
+    method: str = "regression",
     turn_on_sd: Sequence[float] | None = None,
     span_c: tuple[float, float] | None = None,
     seed: int = 0,
@@ -220,8 +251,10 @@ def calibrate_field_series(
         Start name → its :class:`~rinscal.nav.fieldbias.BiasSeries` (at least three starts
         for the held-out choice and the jackknife over starts).
     method : str
-        As :func:`rinscal.fit`'s (``auto``, ``regression``, ``poly-t`` …); a channel whose
-        starts do not determine a term is fitted without it.
+        As :func:`rinscal.fit`'s (``regression``, ``auto``, ``poly-t`` …); ``regression``
+        and ``sectional`` at the orders of :func:`field_orders` (first order in ``Ṫ`` and
+        ``ΔT``); ``auto`` chooses among every order on the series. A channel whose starts do
+        not determine a term is fitted without it.
     turn_on_sd : sequence of 6 float, optional [deg/h ×3, µg ×3]
         The unit's turn-on repeatability: the floor below which a term's effect sd counts
         as determined (a thermal model cannot beat it). Default :data:`DEFAULT_TURN_ON`.
@@ -252,21 +285,24 @@ def calibrate_field_series(
     missing = {c: {o.term for o in obs if o.channel == c and not o.determined} for c in CHANNELS}
     group = {c: _group_of(missing[c], feats.has_gradient) for c in CHANNELS}
     fallback = {c: g for c, g in group.items() if g != "T, Tdot, dT"}
-    fits: dict[str, FitResult] = {}
+    fits: dict[tuple[str, tuple[int, ...] | None], FitResult] = {}
+    used: dict[str, tuple[str, tuple[int, ...] | None]] = {}
     for name, opts in _GROUPS:
-        if name not in group.values():
-            continue
         # the series are smoothed estimates: their warm-up is no spike to screen out
         m, kw = method, {"gradient": opts["gradient"], "seed": seed, "screen_outliers": False}
         if "candidates" in opts and method not in ("poly-t", "none"):  # T alone: auto's
             m, kw["candidates"] = "auto", opts["candidates"]
-        # every channel is fitted (the fit is over 10 s rows: seconds); the group's kept
-        fits[name] = fit(log, m, meta=meta, **kw)
-    model = _merge(fits, group, source)
+        for c in [c for c in CHANNELS if group[c] == name]:
+            used[c] = (name, field_orders(m, c, opts["gradient"]))
+            if used[c] not in fits:
+                # every channel is fitted (the fit is over 10 s rows: seconds); the
+                # channels of this group and orders are kept
+                fits[used[c]] = fit(log, m, meta=meta, orders=used[c][1], **kw)
+    model = _merge(fits, used, source)
     notes = _notes(obs, fallback, series)
     rows = []
     for c in CHANNELS:
-        tab = fits[group[c]].table
+        tab = fits[used[c]].table
         rows.append(tab[tab["channel"] == c].assign(inputs=group[c]))
     table = pd.concat(rows, ignore_index=True)
     said = tuple(dict.fromkeys(w for f in fits.values() for w in f.warnings))
@@ -282,13 +318,14 @@ def _with_floor(o: TermObservability, floor: float) -> TermObservability:
 
 
 def _merge(
-    fits: Mapping[str, FitResult], group: Mapping[str, str], source: Mapping[str, Any] | None
+    fits: Mapping[Any, FitResult], used: Mapping[str, Any], source: Mapping[str, Any] | None
 ) -> FittedModel:
-    """One model file from the fits of the input groups, each channel from its group's."""
-    first = next(iter(fits.values())).model
+    """One model file from the fits of the input groups and orders, each channel from the
+    fit it ``used``."""
     use_gradient = any(f.model.use_gradient for f in fits.values())
-    base = fits["T, Tdot, dT"].model if "T, Tdot, dT" in fits else first
-    models = {c: fits[group[c]].model.models[c] for c in CHANNELS}
+    base = next((f.model for f in fits.values() if f.model.use_gradient), None)
+    base = base or next(iter(fits.values())).model
+    models = {c: fits[used[c]].model.models[c] for c in CHANNELS}
     src = dict(base.source) | {"protocol": "field"} | dict(source or {})
     return replace(base, models=models, use_gradient=use_gradient, source=src)
 
@@ -318,7 +355,7 @@ def calibrate_field(
     *,
     site: tuple[float, float, float] | None = None,
     mapping: Any = None,
-    method: str = "auto",
+    method: str = "regression",
     imu: str | os.PathLike[str] | NoiseSource | None = None,
     span_c: tuple[float, float] | None = None,
     step_s: float = 1.0,
@@ -338,7 +375,8 @@ def calibrate_field(
     mapping : ColumnMapping, optional
         How to read a foreign file.
     method : str
-        The thermal model (``auto`` by default, as ``fit``).
+        The thermal model, as ``fit``'s; default ``regression``: method 2's order in ``T``
+        and first order in ``Ṫ`` and ``ΔT`` (:func:`field_orders`).
     imu : str, path-like or ImuConfig, optional
         The IMU whose noise and turn-on repeatability the filter assumes; default each
         recording's metadata ``noise``, with :data:`DEFAULT_TURN_ON` where it gives none.
