@@ -5,11 +5,13 @@ turntable indexes through its positions, and the IMU output, the encoder angle a
 temperatures are recorded. :func:`rinscal.nav.fieldbias.estimate_bias_series` turns each
 into the bias of every channel over time with its sd (the engine's static aiding and a
 smoother; heading and tilt estimated, nothing read from a reference). Those series, from
-the end of the table's first rotation period on, become a calibration log (one run per
-start, the channels in deg/h and µg, no static reference: the series *are* the errors), and
-the thermal models are fitted on it with the same fitters and held-out choice as ``fit``
-(leave one start out), into the same model file, so ``compensate``, ``navigate``, ``export``
-and the study use it unchanged.
+power-on, become a calibration log (one run per start, the channels in deg/h and µg, no
+static reference: the series *are* the errors), and the thermal models are fitted on it with
+the same fitters and held-out choice as ``fit`` (leave one start out), into the same model
+file, so ``compensate``, ``navigate``, ``export`` and the study use it unchanged. The default
+form is method 2's order in ``T`` with ``Ṫ`` and ``ΔT`` to first order
+(:data:`FIELD_MAX_ORDER`: every start warms the same way, so their powers would only fit the
+warm-up's shape in time).
 
 Before the fit, :func:`rinscal.calibration.observability.observability` measures what the
 starts determine of each channel's terms (``T``, its curvature, ``Ṫ``, ``ΔT``) and with
@@ -198,9 +200,10 @@ class FieldCalibration:
 #: the observability report does not examine (it judges first-order terms). Navigation
 #: compensates with the causal rate of the thermometers, which lags that shape by half its
 #: window in the first minutes; a cubic in ``Ṫ`` turns the lag into an error at alignment.
-#: Measured (docs/navigation.md): method 2's cubic form moved the alignment heading by
-#: +36″ (``paper``) and +106″ (``paper_mechanistic``) from the true bias's on three cold
-#: starts each; first order in ``Ṫ`` and ``ΔT`` by +6″ and −25″.
+#: Measured (docs/navigation.md), mean over three cold starts per plant: method 2's cubic
+#: form moved the alignment heading by +36″ (``paper``) and +107″ (``paper_mechanistic``)
+#: from the true bias's, first order in ``Ṫ`` and ``ΔT`` by +7″ and −24″ (the chamber's
+#: method 2: −28″ and +31″).
 FIELD_MAX_ORDER = 1
 
 _GROUPS: tuple[tuple[str, dict[str, Any]], ...] = (
