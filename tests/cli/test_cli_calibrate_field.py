@@ -56,6 +56,16 @@ def test_calibrate_field_refuses_what_it_cannot_use(starts, tmp_path) -> None:  
     res = runner.invoke(app, ["calibrate-field", *map(str, starts), "--span", "40,10",
                               "--out", str(tmp_path / "m.json")])  # fmt: skip
     assert res.exit_code != 0 and "LO < HI" in res.output
+    # a chamber soak is a calibration log, named as navigate names it, before it is read
+    soak = tmp_path / "soak.parquet"
+    made = runner.invoke(app, ["simulate", "soak", "--rate", "1", "--hours", "0.2",
+                               "--out", str(soak)])  # fmt: skip
+    assert made.exit_code == 0, made.output
+    res = runner.invoke(app, ["calibrate-field", *map(str, starts[:2]), str(soak),
+                              "--out", str(tmp_path / "m.json")])  # fmt: skip
+    assert res.exit_code != 0, res.output
+    assert "soak.parquet is a thermal calibration log" in res.output
+    assert "rinscal fit" in res.output and not (tmp_path / "m.json").exists()
 
 
 def test_the_command_is_registered_in_workflow_order() -> None:

@@ -51,6 +51,7 @@ from rinscal.imunoise import NoiseSource, load_noise
 from rinscal.io.navopen import nav_log_header, open_nav_log
 from rinscal.nav.fieldbias import BiasSeries, estimate_bias_series, field_noise
 from rinscal.nav.gnss_ins import ImuNoise
+from rinscal.nav.recorded.kind import calibration_log
 from rinscal.parallel import map_jobs
 from rinscal.schema import CHANNELS, sensor_type
 
@@ -414,6 +415,13 @@ def calibrate_field(
     turn_on = None
     for path in runs:
         header = nav_log_header(path, mapping)
+        cal, _ = calibration_log(path, header.columns, header.meta, header.runs)
+        if cal is not None:  # as navigate names it, before its units are read
+            raise LogError(
+                f"{cal.text}: calibrate-field learns from parked cold starts (the RINS at rest "
+                "from power-on, its table indexing, recorded as navigate --log reads). Fit a "
+                f"thermal calibration log with `rinscal fit {path} --out M.json`"
+            )
         if header.runs and len(header.runs) > 1:
             raise LogError(f"{path}: holds several runs ({', '.join(header.runs)}); give one each")
         log = open_nav_log(path, mapping)
