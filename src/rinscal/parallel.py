@@ -81,36 +81,40 @@ def map_jobs(fn: Callable[[T], R], items: Iterable[T], n_jobs: int | None = None
 _END = object()
 
 
-def read_ahead(items: Iterable[T], n_jobs: int | None = None) -> Iterator[T]:
-    """The items of ``items`` in order, the next one taken on a thread of its own while the
-    caller works on the current one (a file's next run read while this one is fitted, a
-    recording's next piece while this one is navigated: pyarrow's decoding and numpy release
+def read_ahead(items: Iterable[T], n_jobs: int | None = None, ahead: int = 1) -> Iterator[T]:
+    """The items of ``items`` in order, the next ``ahead`` taken on a thread of its own while
+    the caller works on the current one (a file's next run read while this one is fitted, a
+    recording's next pieces while this one is navigated: pyarrow's decoding and numpy release
     the GIL).
 
-    The first item is taken at once, before the caller asks for it (it can prepare in the
-    meantime). Holds at most two items: the caller's and the next. ``items`` is never
-    advanced by two threads at once; an error taking an item is raised when the caller asks
-    for that item. Closing the iterator early waits for the item in flight, then drops it.
-    With ``n_jobs`` 1 (:func:`resolve_jobs`: None/0 every core) the items are taken on the
-    caller's thread, as without this function.
+    The first items are taken at once, before the caller asks for them (it can prepare in the
+    meantime). Holds at most ``1 + ahead`` items: the caller's and those taken ahead.
+    ``items`` is never advanced by two threads at once; an error taking an item is raised
+    when the caller asks for that item. Closing the iterator early waits for the item in
+    flight, then drops it and those taken ahead. With ``n_jobs`` 1 (:func:`resolve_jobs`:
+    None/0 every core) the items are taken on the caller's thread, as without this function.
     """
     it = iter(items)
     if resolve_jobs(n_jobs) <= 1:
         return it
+    if ahead < 1:
+        raise ConfigError(f"read_ahead: ahead must be at least 1 item, got {ahead}")
     pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="rinscal-read")
-    return _ahead(pool, pool.submit(next, it, _END), it)
+    return _ahead(pool, deque(pool.submit(next, it, _END) for _ in range(ahead)), it)
 
 
-def _ahead(pool: ThreadPoolExecutor, pending: Any, it: Iterator[T]) -> Iterator[T]:
+def _ahead(pool: ThreadPoolExecutor, pending: deque[Any], it: Iterator[T]) -> Iterator[T]:
     try:
         while True:
-            item = pending.result()
+            item = pending.popleft().result()
             if item is _END:
                 return
-            pending = pool.submit(next, it, _END)
+            pending.append(pool.submit(next, it, _END))
             yield item
             del item  # not held while the next is taken
     finally:
+        for later in list(pending)[1:]:  # the item in flight is taken, those behind it not
+            later.cancel()
         pool.shutdown(wait=True)
 
 
