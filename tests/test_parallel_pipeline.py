@@ -9,6 +9,7 @@ import time
 
 import pytest
 
+from rinscal.errors import ConfigError
 from rinscal.parallel import one_behind, read_ahead
 
 
@@ -99,3 +100,27 @@ def test_threads_are_bounded_by_the_memory_of_the_items_in_flight() -> None:
     assert jobs_within(8, 10 * MEMORY_BUDGET) == 1  # one at least, however large
     assert jobs_within(None, 1.0) == available_cores()
     assert jobs_within(8, 1e6, budget=3e6) == 3
+
+
+def test_read_ahead_takes_as_many_items_ahead_as_asked() -> None:
+    taken: list[int] = []
+
+    def source():
+        for k in range(8):
+            taken.append(k)
+            yield k
+
+    it = read_ahead(source(), 2, ahead=3)
+    deadline = time.monotonic() + 10
+    while len(taken) < 3 and time.monotonic() < deadline:
+        time.sleep(0.01)
+    time.sleep(0.05)
+    assert taken == [0, 1, 2]  # three taken before the first is asked for, no more
+    got = []
+    for k in it:
+        time.sleep(0.02)  # the caller works on k: up to k + 3 is taken meanwhile, no more
+        assert taken[-1] <= k + 3
+        got.append(k)
+    assert got == list(range(8))
+    with pytest.raises(ConfigError, match="ahead"):
+        read_ahead(source(), 2, ahead=0)

@@ -72,6 +72,75 @@ def less_rates(
             out_v[i, j] = dv[i, j] - rates[r, 3 + j] * h
 
 
+# --------------------------------------------------------------------------- per-second sums
+#: Columns of :func:`second_sums`: samples, Σ|f|, Σ|f|², Σf (3), Σω (3), Σ(Δf)² (3),
+#: Σ(Δω)² (3), Σ encoder turn, Σ gap flags.
+SECOND_SUMS = 17
+#: Columns of :func:`sub_sums`: samples, Σf (3), Σω_x, Σω_y, Σω_z beyond the encoder, Σψ.
+SUB_SUMS = 8
+
+
+@_jit
+def second_sums(
+    k: NDArray[np.int64],
+    fm: NDArray[np.float64],
+    f: NDArray[np.float64],
+    w: NDArray[np.float64],
+    df: NDArray[np.float64],
+    dw: NDArray[np.float64],
+    turn: NDArray[np.float64],
+    gap: NDArray[np.float64],
+    out: NDArray[np.float64],
+) -> None:  # pragma: no cover - numba
+    """The first pass's sums per block, in one pass: row ``k[i]`` of ``out`` (m,
+    :data:`SECOND_SUMS`), zeros on entry, gets sample ``i``'s count (1), ``fm``, ``fm²``,
+    ``f`` and ``w`` (3 each), the squares of ``df`` and ``dw`` (3 each), ``turn`` and
+    ``gap``. Each sum adds the samples in their order, the square rounded first, as numpy's
+    ``bincount(k, weights=x)`` of the product does (the same bits)."""
+    m = out.shape[0]
+    for i in range(k.shape[0]):
+        b = k[i]
+        if b < 0 or b >= m:
+            raise ValueError("second_sums: a block index outside the output")
+        out[b, 0] += 1.0
+        out[b, 1] += fm[i]
+        out[b, 2] += fm[i] * fm[i]
+        for j in range(3):
+            out[b, 3 + j] += f[i, j]
+            out[b, 6 + j] += w[i, j]
+            out[b, 9 + j] += df[i, j] * df[i, j]
+            out[b, 12 + j] += dw[i, j] * dw[i, j]
+        out[b, 15] += turn[i]
+        out[b, 16] += gap[i]
+
+
+@_jit
+def sub_sums(
+    k: NDArray[np.int64],
+    f: NDArray[np.float64],
+    w: NDArray[np.float64],
+    wz: NDArray[np.float64],
+    psi: NDArray[np.float64],
+    out: NDArray[np.float64],
+) -> None:  # pragma: no cover - numba
+    """The short blocks' sums, in one pass: row ``k[i]`` of ``out`` (m, :data:`SUB_SUMS`),
+    zeros on entry, gets sample ``i``'s count (1), ``f`` (3), ``w[:, 0]``, ``w[:, 1]``,
+    ``wz`` and ``psi``, in the samples' order (as numpy's ``bincount``: the same bits)."""
+    m = out.shape[0]
+    for i in range(k.shape[0]):
+        b = k[i]
+        if b < 0 or b >= m:
+            raise ValueError("sub_sums: a block index outside the output")
+        out[b, 0] += 1.0
+        out[b, 1] += f[i, 0]
+        out[b, 2] += f[i, 1]
+        out[b, 3] += f[i, 2]
+        out[b, 4] += w[i, 0]
+        out[b, 5] += w[i, 1]
+        out[b, 6] += wz[i]
+        out[b, 7] += psi[i]
+
+
 # --------------------------------------------------------------------------- alignment filter
 @_jit
 def kf_zero_velocity_update(

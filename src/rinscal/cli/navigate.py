@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import contextlib
 import math
+import threading
+from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -395,6 +398,32 @@ def _save(nav: object, out: Path, jobs: int | None) -> None:
     save_navigation(nav, out, n_jobs=jobs)  # type: ignore[arg-type]
 
 
+def _figures_ahead(jobs: int | None) -> Callable[[], None]:
+    """``start()``: with more than one thread (``jobs``, None: every core), import the
+    figures' module (matplotlib, about 0.3 s of one core) on a thread of its own, once,
+    :func:`_save` then finding it imported; nothing with one thread. Called when the reading
+    has begun: its pyarrow, numpy and numba work leaves the interpreter free most of the
+    time (before it, the command's own start-up holds it). A failed import is left to
+    :func:`_save`, which imports it again and says why."""
+    # deferred: loaded when the command runs, so that `rinscal --help` starts fast
+    from rinscal.parallel import resolve_jobs
+
+    started = resolve_jobs(jobs) <= 1
+
+    def load() -> None:
+        # deferred: on its own thread, ahead of _save (a failure: _save's import says why)
+        with contextlib.suppress(Exception):
+            import rinscal.report.nav_plots  # noqa: F401
+
+    def start() -> None:
+        nonlocal started
+        if not started:
+            started = True
+            threading.Thread(target=load, name="rinscal-figures", daemon=True).start()
+
+    return start
+
+
 def _print_variants(summary: dict) -> None:
     # deferred: loaded when the command runs, so that `rinscal --help` starts fast
     from rinscal import units
@@ -457,6 +486,7 @@ def _navigate_log(log: Path, out: Path, models: list[Path], policy: str, **kw: o
         from rinscal.io.mapping import read_mapping
         from rinscal.nav.recording import heading_text, navigate_log, parse_site
 
+        figures_ahead = _figures_ahead(kw["jobs"])  # type: ignore[arg-type]
         mapping = read_mapping(kw["mapping"], "navigation") if kw["mapping"] else None
         site = parse_site(kw["site"]) if kw["site"] is not None else None  # type: ignore[arg-type]
         with _progress() as progress:  # type: ignore[attr-defined]
@@ -467,6 +497,7 @@ def _navigate_log(log: Path, out: Path, models: list[Path], policy: str, **kw: o
                 stage = "reading" if math.isnan(total) else "navigating"
                 known = max(done, 1.0) if math.isnan(total) else total
                 progress.update(task, description=stage, completed=done, total=known)
+                figures_ahead()  # the first piece has been read
 
             nav = navigate_log(
                 log, mapping=mapping, run=kw["run"], models=[str(m) for m in models],

@@ -46,7 +46,7 @@ from rinscal.nav.align import Aligner, AlignResult, feed_and_hand_over
 from rinscal.nav.gnss_ins import AidedInertial, run_aided
 from rinscal.nav.result import NavResult, error_frame
 from rinscal.nav.strapdown import Strapdown
-from rinscal.parallel import map_jobs, resolve_jobs
+from rinscal.parallel import Lanes, map_jobs, resolve_jobs
 from rinscal.parallel import read_ahead as _read_ahead
 from rinscal.schema import GAP_FACTOR, NavSamples
 
@@ -195,15 +195,18 @@ def navigate_pieces(
     progress : callable, optional
         ``progress(t_s)`` after each piece, with the end of its last interval [s].
     n_jobs : int or None
-        Threads the variants of a piece are spread over (:func:`rinscal.parallel.map_jobs`;
-        None or 0: every core). Each variant's state is its own, so the result is the same,
-        bit for bit, whatever the number; default 1 (a caller that runs beside others, e.g.
-        on a Dask worker, keeps to its core).
+        Threads the variants of a piece are spread over (:class:`rinscal.parallel.Lanes`: a
+        variant's pieces in order, the variants side by side; None or 0: every core). Each
+        variant's state is its own, so the result is the same, bit for bit, whatever the
+        number; default 1 (a caller that runs beside others, e.g. on a Dask worker, keeps to
+        its core).
     read_ahead : bool
-        With ``n_jobs`` other than 1, read the next piece on a thread while the variants
-        navigate this one (:func:`rinscal.parallel.read_ahead`). Only for a stream that
-        shares no state with the corrections (a file's reader); not for the simulator's,
-        whose oracle reads the chunk just drawn.
+        With ``n_jobs`` other than 1, read the next piece and take its truth on a thread
+        while the variants navigate (:func:`rinscal.parallel.read_ahead`), and let a thread
+        that has navigated its variant of a piece go on to another variant of the next one
+        (two pieces in the variants' hands at most) rather than wait for the slowest. Only
+        for a stream that shares no state with the corrections (a file's reader); not for
+        the simulator's, whose oracle reads the chunk just drawn.
 
     Returns
     -------
@@ -224,53 +227,71 @@ def navigate_pieces(
     t_origin: float | None = None
     t_last = t_align = t_nav = math.nan
     jobs = resolve_jobs(n_jobs)
-    stream = _read_ahead(pieces, jobs) if read_ahead else pieces
-    for s in stream:  # a piece and its truth are freed as the next is read (peak memory)
-        if s.n == 0:
-            continue
-        truth = truth_of(s)
-        if t_origin is None:
-            t_origin = float(s.t[0] - s.dt[0])
-        if n_start is None:
-            # the alignment starts at the first sample whose interval starts at start_s
-            n_before = int(np.searchsorted(s.t - s.dt, start_s - 0.25 * dt))
-            if n_before < s.n:
-                n_start = consumed + n_before
-                for name, corr in corrections.items():
-                    if aligner is not None:
-                        variants[name] = _Variant(corr, aligner(n_start), None)
-                    else:
-                        assert initial is not None
-                        variants[name] = _Variant(corr, None, initial())
-                first = next(iter(variants.values())).aligner
-                n_nav = n_start + (0 if first is None else first.n_total)
-        gidx = consumed + np.arange(1, s.n + 1)
-        consumed += s.n
-        t_last = float(s.t[-1])
-        if n_start is not None and gidx[0] <= n_start + 1 <= gidx[-1]:
-            i = n_start - (gidx[0] - 1)
-            t_align = float(s.t[i] - s.dt[i])
-        if n_nav is not None and gidx[0] <= n_nav <= gidx[-1]:
-            t_nav = float(s.t[n_nav - gidx[0]])
-        if n_start is None or gidx[-1] <= n_start:  # warming up: nobody navigates
-            if correct_warm_up:  # a compensator's history runs from power-on
-                active = [c for c in corrections.values() if c is not None]
-                map_jobs(lambda c, s=s: c(s), active, jobs)  # type: ignore[misc]
+    # each piece with its truth (taken on the reading thread when read ahead: truth_of keeps
+    # its own state, in the pieces' order); a piece and its truth are freed once every
+    # variant has navigated it (peak memory)
+    with_truth = ((s, truth_of(s)) for s in pieces if s.n)
+    stream = _read_ahead(with_truth, jobs) if read_ahead else with_truth
+    # pieces in the variants' hands at once: two of a file's on threads (a thread done with
+    # its variant of one takes another variant's of the next); one of a simulator's, whose
+    # oracle reads the chunk just drawn, or on one thread
+    depth = 2 if read_ahead and jobs > 1 else 1
+    ends: list[tuple[int, float]] = []  # (piece, end of its last interval) not yet reported
+
+    def settle(lanes: Lanes, k: float) -> None:
+        """Wait for the pieces up to ``k``; report them to ``progress``."""
+        lanes.wait(k)
+        while ends and ends[0][0] <= k:
+            t_end = ends.pop(0)[1]
             if progress is not None:
-                progress(t_last)
-            continue
-        assert n_nav is not None
-        sel = (gidx % out_every == 0) & (gidx > n_nav)
-        if sel.any():
-            truth_rows.append(truth.rows(sel))
-        piece = _Piece(s, truth, gidx, max(0, n_start - (gidx[0] - 1)))
-        map_jobs(
-            lambda v, p=piece: _advance(v, p, dt, out_every, aiding, aided_filter),  # type: ignore[misc]
-            list(variants.values()),
-            jobs,
-        )
-        if progress is not None:
-            progress(t_last)
+                progress(t_end)
+
+    with Lanes(jobs) as lanes:
+        for k, (s, truth) in enumerate(stream):
+            if t_origin is None:
+                t_origin = float(s.t[0] - s.dt[0])
+            if n_start is None:
+                # the alignment starts at the first sample whose interval starts at start_s
+                n_before = int(np.searchsorted(s.t - s.dt, start_s - 0.25 * dt))
+                if n_before < s.n:
+                    n_start = consumed + n_before
+                    for name, corr in corrections.items():
+                        if aligner is not None:
+                            variants[name] = _Variant(corr, aligner(n_start), None)
+                        else:
+                            assert initial is not None
+                            variants[name] = _Variant(corr, None, initial())
+                    first = next(iter(variants.values())).aligner
+                    n_nav = n_start + (0 if first is None else first.n_total)
+            gidx = consumed + np.arange(1, s.n + 1)
+            consumed += s.n
+            t_last = float(s.t[-1])
+            ends.append((k, t_last))
+            if n_start is not None and gidx[0] <= n_start + 1 <= gidx[-1]:
+                i = n_start - (gidx[0] - 1)
+                t_align = float(s.t[i] - s.dt[i])
+            if n_nav is not None and gidx[0] <= n_nav <= gidx[-1]:
+                t_nav = float(s.t[n_nav - gidx[0]])
+            if n_start is None or gidx[-1] <= n_start:  # warming up: nobody navigates
+                if correct_warm_up:  # a compensator's history runs from power-on
+                    for name, c in corrections.items():
+                        if c is not None:
+                            lanes.put(name, k, lambda c=c, s=s: c(s))  # type: ignore[misc]
+                settle(lanes, k - depth + 1)
+                continue
+            assert n_nav is not None
+            sel = (gidx % out_every == 0) & (gidx > n_nav)
+            if sel.any():
+                truth_rows.append(truth.rows(sel))
+            piece = _Piece(s, truth, gidx, max(0, n_start - (gidx[0] - 1)))
+            for name, v in variants.items():
+                lanes.put(
+                    name,
+                    k,
+                    lambda v=v, p=piece: _advance(v, p, dt, out_every, aiding, aided_filter),  # type: ignore[misc]
+                )
+            settle(lanes, k - depth + 1)
+        settle(lanes, math.inf)
     aligned = all(v.aligner is None or v.aligner.done for v in variants.values())
     truth_all = np.concatenate(truth_rows) if truth_rows else np.empty((0, len(TRUTH_COLUMNS)))
     keep = truth_all[:, 11] > 0

@@ -326,7 +326,9 @@ def navigate_log(
     refs: list[np.ndarray] = []  # the log's own track, a point a second (its speed)
     next_t = next_ref = -math.inf
     t_first = math.nan  # the start of the first sample's interval [s]
-    for s in read_ahead(pieces(), n_jobs):
+    # two pieces read ahead: the reading goes on while this thread is held by work that
+    # keeps the interpreter (numba's start at the first sums); the second pass holds more
+    for s in read_ahead(pieces(), n_jobs, ahead=2):
         stats.add(s)
         if s.n and math.isnan(t_first):
             t_first = float(s.t[0] - s.dt[0])

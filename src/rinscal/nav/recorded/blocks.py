@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from rinscal import units
+from rinscal import _kernels, units
 from rinscal.errors import LogError
 from rinscal.schema import GAP_FACTOR, NavSamples
 
@@ -194,12 +194,6 @@ class BlockStats:
         lo = int(ids[0])
         k = ids - lo
         m = int(k[-1]) + 1
-
-        def bsum(x: NDArray) -> NDArray:
-            if x.ndim == 1:
-                return np.bincount(k, weights=x, minlength=m)
-            return np.stack([np.bincount(k, weights=x[:, j], minlength=m) for j in range(3)], 1)
-
         pw = w[:1] if self._prev_w is None else self._prev_w
         pf = f[:1] if self._prev_f is None else self._prev_f
         dw = np.diff(w, axis=0, prepend=pw)
@@ -238,48 +232,20 @@ class BlockStats:
             psi = self._psi + np.cumsum(s.dtheta[:, 2])
             self._psi = float(psi[-1])
             wz = w[:, 2]
-        ms = m * SUBS
-        sn = np.bincount(ks, minlength=ms)
-        full = np.flatnonzero(sn)
-        self._subs.append(
-            {
-                "id": lo * SUBS + full,
-                "n": sn[full].astype(float),
-                **{
-                    key: np.bincount(ks, weights=v, minlength=ms)[full]
-                    for key, v in (
-                        ("fx", f[:, 0]),
-                        ("fy", f[:, 1]),
-                        ("fz", f[:, 2]),
-                        ("wx", w[:, 0]),
-                        ("wy", w[:, 1]),
-                        ("wz", wz),
-                        ("psi", psi),
-                    )
-                },
-            }
-        )
+        # every sum in one pass over the samples (a kernel that releases the GIL), not one
+        # bincount pass per sum (25 a piece): the same bits, each sum in the samples' order
+        sub = np.zeros((m * SUBS, _kernels.SUB_SUMS))
+        _kernels.sub_sums(ks, f, w, np.ascontiguousarray(wz), np.ascontiguousarray(psi), sub)
+        full = np.flatnonzero(sub[:, 0])
+        sub = sub[full]
+        keys = ("n", "fx", "fy", "fz", "wx", "wy", "wz", "psi")  # the kernel's columns
+        self._subs.append({"id": lo * SUBS + full} | {key: sub[:, j] for j, key in enumerate(keys)})
         # k is sorted (time increases): each block's first and last sample by bisection
         lo_i = np.searchsorted(k, np.arange(m), side="left")
         hi_i = np.searchsorted(k, np.arange(m), side="right") - 1
         empty = hi_i < lo_i
         first = np.where(empty, np.inf, (s.t - dt)[np.minimum(lo_i, s.n - 1)])
         last = np.where(empty, -np.inf, s.t[np.maximum(hi_i, 0)])
-        self._parts.append(
-            {
-                "id": np.arange(lo, lo + m),
-                "t0": first,
-                "t1": last,
-                "n": np.bincount(k, minlength=m).astype(float),
-                "fm": bsum(fm),
-                "fm2": bsum(fm * fm),
-                "f": bsum(f),
-                "w": bsum(w),
-                "df2": bsum(df * df),
-                "dw2": bsum(dw * dw),
-                "turn": bsum(turn),
-            }
-        )
         # the nominal step: the mean of the intervals that are not gaps (a clock in whole
         # ms gives 7 and 8 ms intervals for 128 Hz: the median would be 8 ms)
         med = float(np.median(dt))
@@ -287,7 +253,27 @@ class BlockStats:
         self._dt_sum += float(dt[ok].sum())
         self._dt_sq += float((dt[ok] ** 2).sum())
         self._dt_n += int(ok.sum())
-        self._parts[-1]["gap"] = np.bincount(k, weights=(~ok).astype(float), minlength=m)
+        sums = np.zeros((m, _kernels.SECOND_SUMS))
+        _kernels.second_sums(
+            k, fm, f, w, df, dw, np.ascontiguousarray(turn, dtype=float),
+            (~ok).astype(float), sums,
+        )  # fmt: skip
+        self._parts.append(
+            {
+                "id": np.arange(lo, lo + m),
+                "t0": first,
+                "t1": last,
+                "n": sums[:, 0],
+                "fm": sums[:, 1],
+                "fm2": sums[:, 2],
+                "f": sums[:, 3:6],
+                "w": sums[:, 6:9],
+                "df2": sums[:, 9:12],
+                "dw2": sums[:, 12:15],
+                "turn": sums[:, 15],
+                "gap": sums[:, 16],
+            }
+        )
 
     def finish(self) -> Blocks:
         """The per-second table (blocks split between pieces merged)."""
