@@ -225,7 +225,12 @@ def _moving_average_at(
 ) -> tuple[np.ndarray, np.ndarray]:
     """ArduPilot's smoothed ``T`` and output at rows ``keep`` of one run (window centred on
     the row, as :func:`rinscal.calibration.thermal.baselines.ardupilot_smoothed` places it);
-    NaN where no complete window is centred there."""
+    NaN where no complete window is centred there. The same numbers as its
+    :func:`rinscal.calibration.thermal.baselines.moving_average`, without the means of every
+    other window."""
+    # deferred: numba's kernel loads only when the field's fits are candidates (``auto``)
+    from rinscal.calibration.thermal._moving_average import window_means_at
+
     ts, ys = np.full(keep.size, np.nan), np.full(keep.size, np.nan)
     if temp.size < 2:
         return ts, ys
@@ -237,19 +242,8 @@ def _moving_average_at(
         return temp[keep], y[keep]
     i = keep - w // 2
     ok = (i >= 0) & (i <= temp.size - w)
-    ts[ok], ys[ok] = _window_means(temp, w, i[ok]), _window_means(y, w, i[ok])
+    ts[ok], ys[ok] = window_means_at(temp, w, i[ok]), window_means_at(y, w, i[ok])
     return ts, ys
-
-
-def _window_means(x: np.ndarray, w: int, i: np.ndarray) -> np.ndarray:
-    """:func:`rinscal.calibration.thermal.baselines.moving_average` of ``x`` at positions ``i`` only
-    (each ``0 ≤ i ≤ n − w``): the same numbers, the same cumulative sums, without the means
-    of every other window."""
-    x0 = x[0]
-    c = np.empty(x.size + 1)
-    c[0] = 0.0
-    np.cumsum(x - x0, out=c[1:])
-    return (c[i + w] - c[i]) / w + x0
 
 
 class RunFits:
