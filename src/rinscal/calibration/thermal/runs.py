@@ -213,10 +213,10 @@ def _median_at(y: np.ndarray, keep: np.ndarray) -> np.ndarray:
     padded = np.concatenate([np.zeros(h), y, np.zeros(h)])
     view = np.lib.stride_tricks.sliding_window_view(padded, PX4_MEDIAN_KERNEL)
     out = np.empty(keep.size)
-    for s in range(0, keep.size, 1 << 14):  # a few MB of windows at a time, in cache
-        w = view[keep[s : s + (1 << 14)]]  # a copy of the windows: partitioned in place
+    for s in range(0, keep.size, 1 << 12):  # 1 MB of windows at a time, in cache
+        w = view[keep[s : s + (1 << 12)]]  # a copy of the windows: partitioned in place
         w.partition(h, axis=1)
-        out[s : s + (1 << 14)] = w[:, h]
+        out[s : s + (1 << 12)] = w[:, h]
     return out
 
 
