@@ -285,13 +285,13 @@ def _polynomial_scores(
         counts.append(nb)
     start = np.cumsum([1, *max_orders[:-1]])
     out: dict[str, tuple[np.ndarray, np.ndarray]] = {}
-    refused = {
-        o: bool(collinear_inputs(x, o))
-        for o in {tuple(min(v, 1) for v in c.orders[:d]) for c in cands if c.orders}
-    }
+    # a candidate is refused when two of its inputs are collinear: each pair checked once
+    used = {c.name: [v for v, o in enumerate(c.orders[:d]) if o > 0] for c in cands if c.orders}
+    pairs = {p for u in used.values() for p in itertools.combinations(u, 2)}
+    collinear = {p: bool(collinear_inputs(x, [int(v in p) for v in range(d)])) for p in pairs}
     for cand in cands:
         assert cand.orders is not None
-        if refused[tuple(min(v, 1) for v in cand.orders[:d])]:
+        if any(collinear[p] for p in itertools.combinations(used[cand.name], 2)):
             out[cand.name] = (np.full(n_units, np.nan), np.full(n_units, np.nan))
             continue
         cols = [0]
