@@ -396,3 +396,18 @@ def test_the_moving_average_at_chosen_windows_is_the_whole_run_s_to_the_last_bit
             got = window_means_at(series, w, starts)
             assert got.tobytes() == want.tobytes(), (n, w, step, first)
     assert window_means_at(np.ones(5), 3, np.zeros(0, dtype=np.int64)).size == 0
+
+
+def test_the_median_at_kept_rows_is_the_whole_run_s_filter() -> None:
+    """``auto``'s PX4 median at every k-th row (whole-run filter or the rows' windows alone)
+    is :func:`rinscal.calibration.thermal.baselines.px4_median_filter` at those rows."""
+    from rinscal.calibration.thermal.baselines import px4_median_filter
+    from rinscal.calibration.thermal.runs import _median_at
+
+    rng = np.random.default_rng(4)
+    for n in (1, 7, 40, 5000):
+        y = rng.normal(3.0, 1.0, n).round(1)  # ties, as a quantised output has
+        for step in (1, 2, 3, 8):
+            for first in {0, min(step - 1, n - 1)}:
+                keep = np.arange(first, n, step)
+                assert np.array_equal(_median_at(y, keep), px4_median_filter(y)[keep])

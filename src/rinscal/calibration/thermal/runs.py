@@ -206,10 +206,9 @@ class RowSample:
 def _median_at(y: np.ndarray, keep: np.ndarray) -> np.ndarray:
     """PX4's running median of one run's output (:func:`rinscal.calibration.thermal.baselines.
     px4_median_filter`: 31 samples, zeros beyond the ends) at rows ``keep``, the same numbers:
-    the median of an odd window is one of its samples. Every row or nearly: the whole run
-    filtered; every second row or fewer: their windows alone, as fast at every second row and
-    in numpy's partition, which lets the other channels' threads run (scipy's filter holds
-    the GIL)."""
+    the median of an odd window is one of its samples. Every row kept: the whole run
+    filtered; every second row or fewer: their windows alone, partitioned by numpy (as fast at
+    every second row, and unlike scipy's filter it lets the other channels' threads run)."""
     if 2 * keep.size > y.size + 1:
         return px4_median_filter(y)[keep]
     h = PX4_MEDIAN_KERNEL // 2
