@@ -1,4 +1,4 @@
-"""The one linear least-squares solve of the calibration code.
+"""The one linear least-squares solve of the calibration code: numpy only.
 
 Every regression of :mod:`rinscal.calibration` ends here: the thermal models' blocked QR
 (:func:`rinscal.calibration.thermal.fitting.solve_r` solves its small triangular system with
@@ -7,15 +7,10 @@ IMU's weighted regressions and laws (:mod:`rinscal.calibration.imu`), the temper
 a ramp, the line under an edge step (:mod:`rinscal.calibration.evaluate`) and the Allan noise
 fit (:mod:`rinscal.calibration.allan`).
 
-It is LAPACK's SVD least squares (``gelsd``, what ``numpy.linalg.lstsq`` calls, with its
-cut-off): minimum-norm where the design is rank-deficient, singular values below machine
-precision × max(rows, columns) of the largest treated as zero. Callers that must refuse a
-rank-deficient design check it themselves (:mod:`rinscal.calibration.thermal.guards`).
-The routine is called through :mod:`scipy.linalg.lapack` on a column-major copy of the
-design: the same numbers as ``numpy.linalg.lstsq`` (the same routine and cut-off), but
-other threads run while it solves (``numpy.linalg`` holds the GIL: numpy issue 7179), which
-matters where channels are fitted on threads (``fit --method auto`` solves the field's
-cubics on hundreds of thousands of rows), and no second copy of a tall design is made.
+It is LAPACK's SVD least squares (``numpy.linalg.lstsq``, ``gelsd``): minimum-norm where the
+design is rank-deficient, singular values below machine precision × max(rows, columns) of
+the largest treated as zero. Callers that must refuse a rank-deficient design check it
+themselves (:mod:`rinscal.calibration.thermal.guards`).
 """
 
 from __future__ import annotations
@@ -59,34 +54,10 @@ def least_squares(
         a = a / w[:, None]
         y = y / (w if y.ndim == 1 else w[:, None])
     if not equilibrate:
-        return _gelsd(np.array(a, order="F"), y)
+        return np.asarray(np.linalg.lstsq(a, y, rcond=None)[0], dtype=np.float64)
     scale = np.sqrt((a * a).sum(axis=0))
-    coef = _gelsd(np.divide(a, scale, out=np.empty(a.shape, order="F")), y)
+    coef = np.linalg.lstsq(a / scale, y, rcond=None)[0]
     return np.asarray((coef.T / scale).T, dtype=np.float64)
-
-
-def _gelsd(a: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
-    """``numpy.linalg.lstsq(a, y, rcond=None)[0]``: LAPACK's ``gelsd`` with the same cut-off.
-
-    ``a`` is a column-major design the solve may overwrite; ``y`` is 1-D or 2-D.
-    """
-    # deferred: scipy.linalg loads in ~0.1 s where nothing else needs it
-    from scipy.linalg import lapack
-
-    if a.ndim != 2 or y.ndim not in (1, 2) or y.shape[0] != a.shape[0]:
-        raise np.linalg.LinAlgError(f"incompatible dimensions {a.shape} and {y.shape}")
-    m, n = a.shape
-    k = 1 if y.ndim == 1 else y.shape[1]
-    if m == 0 or n == 0 or k == 0:  # numpy's answer; LAPACK refuses these
-        return np.zeros((n, *y.shape[1:]))
-    b = np.zeros((max(m, n), k), order="F")  # room for the solution when m < n
-    b[:m] = y.reshape(m, k)
-    cut = np.finfo(np.float64).eps * max(m, n)
-    work, iwork, _ = lapack.dgelsd_lwork(m, n, k, cut)
-    x, _, _, info = lapack.dgelsd(a, b, work, iwork, cut, overwrite_a=True, overwrite_b=True)
-    if info > 0:
-        raise np.linalg.LinAlgError("SVD did not converge in Linear Least Squares")
-    return x[:n, 0] if y.ndim == 1 else x[:n]
 
 
 def polynomial_fit(x: ArrayLike, y: ArrayLike, degree: int) -> NDArray[np.float64]:
