@@ -373,3 +373,41 @@ def test_distinct_values_are_counted_as_numpy_unique_counts_them() -> None:
         x = rng.choice([0.0, -0.0, 1.0, 2.0, np.nan, np.inf, -np.inf, 3.5], size=rng.integers(12))
         for m in range(1, 6):
             assert _distinct_at_least(x, m) == (np.unique(x).size >= m)
+
+
+def test_the_moving_average_at_chosen_windows_is_the_whole_run_s_to_the_last_bit() -> None:
+    """``auto`` keeps ArduPilot's moving average at every k-th row only
+    (:func:`rinscal.calibration.thermal._moving_average.window_means_at`): the same numbers
+    as :func:`rinscal.calibration.thermal.baselines.moving_average` of the whole run, bit for
+    bit, on a column of a wider array (strided) too."""
+    from rinscal.calibration.thermal._moving_average import window_means_at
+    from rinscal.calibration.thermal.baselines import moving_average
+
+    rng = np.random.default_rng(3)
+    for _ in range(200):
+        n = int(rng.integers(1, 3000))
+        w = int(rng.integers(1, n + 1))
+        wide = 20 + np.cumsum(rng.normal(0, 0.05, (n, 3)), axis=0)  # a drifting temperature
+        x = wide[:, 1]  # strided
+        step, first = int(rng.integers(1, 12)), int(rng.integers(0, 12))
+        starts = np.arange(first, n - w + 1, step)
+        want = moving_average(x, w)[starts]
+        for series in (x, np.ascontiguousarray(x)):
+            got = window_means_at(series, w, starts)
+            assert got.tobytes() == want.tobytes(), (n, w, step, first)
+    assert window_means_at(np.ones(5), 3, np.zeros(0, dtype=np.int64)).size == 0
+
+
+def test_the_median_at_kept_rows_is_the_whole_run_s_filter() -> None:
+    """``auto``'s PX4 median at every k-th row (whole-run filter or the rows' windows alone)
+    is :func:`rinscal.calibration.thermal.baselines.px4_median_filter` at those rows."""
+    from rinscal.calibration.thermal.baselines import px4_median_filter
+    from rinscal.calibration.thermal.runs import _median_at
+
+    rng = np.random.default_rng(4)
+    for n in (1, 7, 40, 5000):
+        y = rng.normal(3.0, 1.0, n).round(1)  # ties, as a quantised output has
+        for step in (1, 2, 3, 8):
+            for first in {0, min(step - 1, n - 1)}:
+                keep = np.arange(first, n, step)
+                assert np.array_equal(_median_at(y, keep), px4_median_filter(y)[keep])

@@ -285,13 +285,13 @@ def _polynomial_scores(
         counts.append(nb)
     start = np.cumsum([1, *max_orders[:-1]])
     out: dict[str, tuple[np.ndarray, np.ndarray]] = {}
-    refused = {
-        o: bool(collinear_inputs(x, o))
-        for o in {tuple(min(v, 1) for v in c.orders[:d]) for c in cands if c.orders}
-    }
+    # a candidate is refused when two of its inputs are collinear: each pair checked once
+    used = {c.name: [v for v, o in enumerate(c.orders[:d]) if o > 0] for c in cands if c.orders}
+    pairs = {p for u in used.values() for p in itertools.combinations(u, 2)}
+    collinear = {p: bool(collinear_inputs(x, [int(v in p) for v in range(d)])) for p in pairs}
     for cand in cands:
         assert cand.orders is not None
-        if refused[tuple(min(v, 1) for v in cand.orders[:d])]:
+        if any(collinear[p] for p in itertools.combinations(used[cand.name], 2)):
             out[cand.name] = (np.full(n_units, np.nan), np.full(n_units, np.nan))
             continue
         cols = [0]
@@ -606,7 +606,19 @@ def _choose_scored(
             else {}
         )
         n_total = int(counts.sum())
-        scored_units = [(units == u) & scored for u in range(nu)]
+        # each unit's scored rows, taken once for every candidate scored by its predictions
+        # (the field's fits, a network) on the held-out folds and on all the data
+        parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        if any(c.name not in fast for c in cands):
+            for u in range(nu):
+                i = np.flatnonzero((units == u) & scored)
+                parts.append((x[i], y[i], blocks[i]))
+
+        def unit_ss(params: dict[str, Any], u: int) -> float:
+            """SS of unit ``u``'s block means of the residual of ``params``, about their mean."""
+            xu, yu, bu = parts[u]
+            return _ss_about_mean(_block_means(yu - predict_params(params, xu), bu))
+
         table, mse_rows = [], []
         fitted: dict[str, dict[str, Any]] = {}
         for cand in cands:
@@ -622,12 +634,9 @@ def _choose_scored(
                     except (ValueError, DesignError):
                         pass
                     else:
-                        for u, te in enumerate(scored_units):
-                            pred = predict_params(fitted[cand.name], x[te])
-                            train_ss[u] = _ss_about_mean(_block_means(y[te] - pred, blocks[te]))
+                        train_ss = np.array([unit_ss(fitted[cand.name], u) for u in range(nu)])
                 ss = np.empty(nu)
                 for k in range(nf):
-                    tr = codes != k
                     mine = np.flatnonzero(folds.unit_fold == k)
                     try:
                         with warnings.catch_warnings():
@@ -635,6 +644,7 @@ def _choose_scored(
                             if cand.method in ("px4", "ardupilot"):
                                 params = baseline_fold(cand.method, k)
                             else:
+                                tr = codes != k
                                 params = fit_candidate(
                                     cand, x[tr], y[tr], run_codes[tr], t[tr], random_state, True
                                 )
@@ -642,9 +652,7 @@ def _choose_scored(
                         ss[mine] = np.nan
                         continue
                     for u in mine:
-                        te = scored_units[u]
-                        pred = predict_params(params, x[te])
-                        ss[u] = _ss_about_mean(_block_means(y[te] - pred, blocks[te]))
+                        ss[u] = unit_ss(params, u)
             ss[counts == 0] = 0.0
             train_ss[counts == 0] = 0.0
             fold_rms = np.sqrt(ss / np.maximum(counts, 1))

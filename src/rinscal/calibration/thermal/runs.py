@@ -206,17 +206,19 @@ class RowSample:
 def _median_at(y: np.ndarray, keep: np.ndarray) -> np.ndarray:
     """PX4's running median of one run's output (:func:`rinscal.calibration.thermal.baselines.
     px4_median_filter`: 31 samples, zeros beyond the ends) at rows ``keep``, the same numbers:
-    the median of an odd window is one of its samples. Few rows: their windows alone."""
-    if 4 * keep.size > y.size:
+    the median of an odd window is one of its samples. Every row kept: the whole run
+    filtered; every second row or fewer: their windows alone, partitioned by numpy (as fast at
+    every second row, and unlike scipy's filter it lets the other channels' threads run)."""
+    if 2 * keep.size > y.size + 1:
         return px4_median_filter(y)[keep]
     h = PX4_MEDIAN_KERNEL // 2
     padded = np.concatenate([np.zeros(h), y, np.zeros(h)])
     view = np.lib.stride_tricks.sliding_window_view(padded, PX4_MEDIAN_KERNEL)
     out = np.empty(keep.size)
-    for s in range(0, keep.size, 1 << 14):  # a few MB of windows at a time, in cache
-        w = view[keep[s : s + (1 << 14)]]  # a copy of the windows: partitioned in place
+    for s in range(0, keep.size, 1 << 12):  # 1 MB of windows at a time, in cache
+        w = view[keep[s : s + (1 << 12)]]  # a copy of the windows: partitioned in place
         w.partition(h, axis=1)
-        out[s : s + (1 << 14)] = w[:, h]
+        out[s : s + (1 << 12)] = w[:, h]
     return out
 
 
@@ -225,7 +227,12 @@ def _moving_average_at(
 ) -> tuple[np.ndarray, np.ndarray]:
     """ArduPilot's smoothed ``T`` and output at rows ``keep`` of one run (window centred on
     the row, as :func:`rinscal.calibration.thermal.baselines.ardupilot_smoothed` places it);
-    NaN where no complete window is centred there."""
+    NaN where no complete window is centred there. The same numbers as its
+    :func:`rinscal.calibration.thermal.baselines.moving_average`, without the means of every
+    other window."""
+    # deferred: numba's kernel loads only when the field's fits are candidates (``auto``)
+    from rinscal.calibration.thermal._moving_average import window_means_at
+
     ts, ys = np.full(keep.size, np.nan), np.full(keep.size, np.nan)
     if temp.size < 2:
         return ts, ys
@@ -237,19 +244,8 @@ def _moving_average_at(
         return temp[keep], y[keep]
     i = keep - w // 2
     ok = (i >= 0) & (i <= temp.size - w)
-    ts[ok], ys[ok] = _window_means(temp, w, i[ok]), _window_means(y, w, i[ok])
+    ts[ok], ys[ok] = window_means_at(temp, w, i[ok]), window_means_at(y, w, i[ok])
     return ts, ys
-
-
-def _window_means(x: np.ndarray, w: int, i: np.ndarray) -> np.ndarray:
-    """:func:`rinscal.calibration.thermal.baselines.moving_average` of ``x`` at positions ``i`` only
-    (each ``0 ≤ i ≤ n − w``): the same numbers, the same cumulative sums, without the means
-    of every other window."""
-    x0 = x[0]
-    c = np.empty(x.size + 1)
-    c[0] = 0.0
-    np.cumsum(x - x0, out=c[1:])
-    return (c[i + w] - c[i]) / w + x0
 
 
 class RunFits:
