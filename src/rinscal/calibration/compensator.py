@@ -427,7 +427,8 @@ class Compensator:
         def compensated(
             j: int, fj: NDArray[np.float64], flagged: NDArray[np.bool_]
         ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
-            return columns[self.channels[j]] - (fj - self._ref[j]), flagged
+            d = np.subtract(fj, self._ref[j])  # N − (f − r), in one new array
+            return np.subtract(columns[self.channels[j]], d, out=d), flagged
 
         any_flag = np.zeros(len(log), dtype=bool)
         done = self._outputs(log, derivative_kind, None, first_row, n_jobs, compensated)

@@ -719,8 +719,8 @@ def _write_runs(
             for run, k, n in zip(*run_counts(src.log["run"], flagged), strict=True):
                 k0, n0 = shares.get(run, (0, 0))
                 shares[run] = (k0 + k, n0 + n)
-        rows = writer.rows if writer is not None else 0
-    return rows, shares
+    # counted once the last run is written (on several threads, after the stack waited for it)
+    return (writer.rows if writer is not None else 0), shares
 
 
 def run_counts(run: pd.Series, flagged: np.ndarray) -> tuple[list[str], list[int], list[int]]:
