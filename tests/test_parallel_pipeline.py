@@ -1,6 +1,6 @@
-"""``rinscal.parallel.read_ahead`` and ``one_behind``: a file's next run read, and the last
-written, on threads of their own while this one is worked on (issue 39): in order, one
-ahead (behind) at most, errors where they belong."""
+"""``rinscal.parallel.read_ahead``, ``one_behind`` and ``in_background``: a file's next run
+read, the last written, a compiled kernel loaded, on threads of their own while this one is
+worked on (issue 39): in order, one ahead (behind) at most, errors where they belong."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import time
 import pytest
 
 from rinscal.errors import ConfigError
-from rinscal.parallel import one_behind, read_ahead
+from rinscal.parallel import in_background, one_behind, read_ahead
 
 
 def test_items_come_in_order_taken_on_another_thread_one_ahead() -> None:
@@ -124,3 +124,41 @@ def test_read_ahead_takes_as_many_items_ahead_as_asked() -> None:
     assert got == list(range(8))
     with pytest.raises(ConfigError, match="ahead"):
         read_ahead(source(), 2, ahead=0)
+
+
+def test_in_background_starts_at_once_on_another_thread_and_gives_its_result() -> None:
+    started = threading.Event()
+    where: list[int] = []
+
+    def load() -> int:
+        where.append(threading.get_ident())
+        started.set()
+        return 42
+
+    wait = in_background(load, n_jobs=2)
+    assert started.wait(5.0)  # begun before anyone asks for it
+    assert wait() == 42
+    assert wait() == 42  # asked again: the same result, not run again
+    assert len(where) == 1 and where[0] != threading.get_ident()
+
+
+def test_in_background_raises_its_error_when_waited_for() -> None:
+    def boom() -> None:
+        raise ValueError("no kernel")
+
+    wait = in_background(boom, n_jobs=2)
+    with pytest.raises(ValueError, match="no kernel"):
+        wait()
+
+
+def test_in_background_on_one_thread_runs_when_first_asked_for() -> None:
+    calls: list[int] = []
+
+    def load() -> int:
+        calls.append(threading.get_ident())
+        return 7
+
+    wait = in_background(load, n_jobs=1)
+    assert calls == []
+    assert wait() == 7 and wait() == 7
+    assert calls == [threading.get_ident()]

@@ -182,6 +182,31 @@ def test_run_with_a_single_sample_is_refused():
     assert "'lonely'" in msg and "data row 11" in msg and "at least 2" in msg
 
 
+def test_categorical_runs_are_checked_as_their_text() -> None:
+    """A run column read from Parquet is a dictionary (categorical): its runs are found from
+    the codes, as they are from the text. Names no row uses (a row group's dictionary holds
+    the runs before and after) are no runs; categories alike as text are one run."""
+    df = make_log()
+    unused = df.assign(run=pd.Categorical(df["run"], categories=["z", "a", "b", "q"]))
+    out = validate_log(unused, "mem.parquet")
+    assert out["run"].tolist() == df["run"].tolist()
+    inter = unused.iloc[[0, 5, 1, 6, 2, 7, 3, 8, 4, 9]].reset_index(drop=True)
+    validate_log(inter, "mem.parquet")  # interleaved, each run increasing
+    inter.loc[6, "time_s"] = 0.5
+    with pytest.raises(LogError, match=r"data row 7: time not strictly increasing within run 'a'"):
+        validate_log(inter, "mem.parquet")
+    lone = unused.copy()
+    lone["run"] = pd.Categorical(["a"] * 5 + ["b"] * 4 + ["c"], categories=["z", "c", "b", "a"])
+    with pytest.raises(LogError, match=r"data row 10: run 'c' has 1 sample\(s\)"):
+        validate_log(lone, "mem.parquet")
+    alike = df.assign(run=pd.Categorical([1] * 5 + ["1"] * 5, categories=[1, "1"]))
+    alike.loc[5:, "time_s"] += 5.0  # one run "1", time increasing through it
+    assert validate_log(alike, "mem.parquet")["run"].tolist() == ["1"] * 10
+    alike.loc[5, "time_s"] = 4.0  # run "1": 4 after 4
+    with pytest.raises(LogError, match=r"data row 6: time not strictly increasing within run '1'"):
+        validate_log(alike, "mem.parquet")
+
+
 def test_empty_run_name_is_refused():
     df = make_log()
     df["run"] = df["run"].astype(object)

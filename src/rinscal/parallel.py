@@ -78,6 +78,29 @@ def map_jobs(fn: Callable[[T], R], items: Iterable[T], n_jobs: int | None = None
         return list(pool.map(fn, seq))
 
 
+def in_background(fn: Callable[[], T], n_jobs: int | None = None) -> Callable[[], T]:
+    """Start ``fn()`` on a thread of its own now (compiled kernels loaded while a file is
+    read); the function returned waits for it and returns its result, or raises its error,
+    each time it is called.
+
+    With ``n_jobs`` 1 (:func:`resolve_jobs`: None/0 every core) nothing starts: ``fn`` runs
+    on the caller's thread when its result is first asked for.
+    """
+    if resolve_jobs(n_jobs) <= 1:
+        done: list[T] = []
+
+        def inline() -> T:
+            if not done:
+                done.append(fn())
+            return done[0]
+
+        return inline
+    pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="rinscal-load")
+    future = pool.submit(fn)
+    pool.shutdown(wait=False)  # the thread ends with ``fn``
+    return future.result
+
+
 _END = object()
 
 

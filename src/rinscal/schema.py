@@ -323,9 +323,12 @@ def validate_log(
             f"{source}: {col_label(RUN, names)}, data row {first_row + pos + 1}: empty run name "
             f"({_ROWS})"
         )
+    coded = None
     if isinstance(run.dtype, pd.CategoricalDtype):  # Parquet's dictionary: names taken once
         names_ = pd.array(run.cat.categories.astype(str))
-        out[RUN] = pd.Series(names_.take(run.cat.codes.to_numpy()), index=run.index)
+        cat = run.cat.codes.to_numpy()
+        out[RUN] = pd.Series(names_.take(cat), index=run.index)
+        coded = _category_codes(cat, names_)  # the runs from the codes: no text hashed
     elif not pd.api.types.is_string_dtype(run.dtype) or run.dtype == object:
         out[RUN] = run.astype(str)
 
@@ -342,8 +345,19 @@ def validate_log(
         if out[col].dtype != np.float64:
             out[col] = x
 
-    _check_runs(out[TIME].to_numpy(), out[RUN], source, names, first_row)
+    _check_runs(out[TIME].to_numpy(), out[RUN], source, names, first_row, coded)
     return out
+
+
+def _category_codes(cat: np.ndarray, names: Any) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_run_codes` of a categorical run column from its codes ``cat`` (none missing)
+    and its categories as text ``names``: categories alike as text are one run, those no
+    row uses are left out (a Parquet dictionary may hold other runs' names)."""
+    same, uniques = pd.factorize(names, sort=False)
+    codes = same[cat]
+    present = np.bincount(codes, minlength=len(uniques)) > 0
+    number = np.cumsum(present) - 1  # the runs present, numbered from 0
+    return number[codes].astype(np.int64, copy=False), np.asarray(uniques, dtype=object)[present]
 
 
 def _check_runs(
@@ -352,9 +366,11 @@ def _check_runs(
     source: str,
     names: Mapping[str, str] | None,
     first_row: int = 0,
+    coded: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> None:
-    """At least two samples per run, time strictly increasing within each run."""
-    codes, uniques = _run_codes(run)
+    """At least two samples per run, time strictly increasing within each run (``coded``:
+    :func:`_run_codes` of ``run``, when found already)."""
+    codes, uniques = _run_codes(run) if coded is None else coded
     counts = np.bincount(codes, minlength=len(uniques))
     short = np.flatnonzero(counts < 2)
     if short.size:

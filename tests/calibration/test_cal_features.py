@@ -13,6 +13,9 @@ from rinscal.calibration.thermal.features import (
     MissingGradientWarning,
     OutlierConfig,
     build_features,
+    channel_matrix,
+    column_rates,
+    log_columns,
     outlier_mask,
     set_points,
     temperature_rate,
@@ -138,6 +141,37 @@ def test_one_channel_s_features_are_those_of_all_channels(gradient: bool) -> Non
             np.testing.assert_array_equal(one.output[:, 0], every.output[:, j])
             np.testing.assert_array_equal(one.inlier[:, 0], every.inlier[:, j])
             np.testing.assert_array_equal(one.usable(0), every.usable(j))
+
+
+@pytest.mark.parametrize("kind", ["centred", "causal"])
+@pytest.mark.parametrize("layout", ["runs", "interleaved", "temp_in", "no temp_out"])
+def test_channel_inputs_from_the_rates_of_every_column_are_the_feature_matrix(
+    kind: str, layout: str
+) -> None:
+    """Compensation finds the rate of every temperature column in one pass of the kernel
+    (column_rates) and builds each channel's inputs from it: bit for bit the matrix of that
+    channel's own features."""
+    rng = np.random.default_rng(9)
+    log = synthetic_log(rng, runs=3, n=300)
+    if layout == "interleaved":
+        order = np.argsort(np.r_[np.arange(600) * 2, np.arange(600, 900)], kind="stable")
+        log = log.iloc[order].reset_index(drop=True)
+    elif layout == "temp_in":
+        log = log.drop(columns=[f"temp_{c}" for c in CHANNELS]).assign(temp_in=log["temp_gyro_y"])
+    elif layout == "no temp_out":
+        log = log.drop(columns="temp_out")
+    grad = layout != "no temp_out"
+    deriv = DerivativeConfig(60.0, kind)  # type: ignore[arg-type]
+    cols = log_columns(log, CHANNELS)
+    names = list(dict.fromkeys(cols.temp_column[c] for c in CHANNELS))
+    rates = column_rates(cols, deriv, names)
+    assert rates.shape == (len(log), len(names))
+    off = OutlierConfig(enabled=False)
+    for c in CHANNELS:
+        x = channel_matrix(cols, c, rates[:, names.index(cols.temp_column[c])], grad)
+        own = build_features(log, deriv, off, (c,), use_gradient=grad).matrix(0)
+        assert x.shape == own.shape and x.flags.f_contiguous
+        assert x.tobytes(order="F") == own.tobytes(order="F")
 
 
 def test_shared_inner_temperature() -> None:

@@ -114,6 +114,92 @@ def test_interleaved_runs_are_read_whole(tmp_path, soak_small, fitted_models) ->
     np.testing.assert_allclose(got["accel_x"], values["accel_x"], rtol=1e-12)
 
 
+def _with_extras(log: pd.DataFrame) -> pd.DataFrame:
+    """The log with columns of other kinds the file keeps: text, integers, floats with gaps,
+    a second dictionary-encoded column."""
+    out = _with_text(log)
+    k = np.arange(len(log))
+    out["count"] = k.astype(np.int64)
+    out["spare"] = np.where(k % 11 == 0, np.nan, np.sin(k))  # NaN: a null in Parquet
+    out["bench"] = pd.Categorical(np.where(k % 3 == 0, "left", "right"))
+    return out
+
+
+def _parquet_groups(log: pd.DataFrame, path, rows: int | None) -> None:
+    """``log`` as Parquet in row groups of ``rows`` rows (None: one group)."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    pq.write_table(pa.Table.from_pandas(log, preserve_index=False), path, row_group_size=rows)
+
+
+@pytest.mark.parametrize(("group_rows", "aligned"), [(500, True), (None, False)])
+def test_parquet_runs_read_aligned_equal_the_pieces_and_the_whole(
+    tmp_path, soak_small, monkeypatch, group_rows, aligned
+) -> None:
+    """Runs of 1800 rows over row groups of 500: each run is decoded from its first row group
+    in one block (no joining of pieces); with one row group for all, the pieces are read."""
+    log, _, _ = soak_small
+    path = tmp_path / "soak.parquet"
+    _parquet_groups(_with_extras(log), path, group_rows)
+    whole = read_log_source(path)
+    pieces_read = []
+    real = io._table_pieces
+    monkeypatch.setattr(io, "_table_pieces", lambda *a: pieces_read.append(1) or real(*a))
+    parts = list(iter_log_source(path, piece_rows=777))
+    assert bool(pieces_read) is not aligned
+    monkeypatch.setattr(io, "ALIGNED_EXTRA", -1.0)  # never aligned: the pieces, joined
+    joined = list(iter_log_source(path, piece_rows=777))
+    assert (
+        [p.first_row for p in parts] == [p.first_row for p in joined] == list(range(0, 12600, 1800))
+    )
+    for got, want in zip(parts, joined, strict=True):
+        pd.testing.assert_frame_equal(got.log, want.log, check_exact=True)
+        pd.testing.assert_frame_equal(got.raw, want.raw, check_exact=True)
+    pd.testing.assert_frame_equal(
+        pd.concat([p.log for p in parts], ignore_index=True), whole.log, check_categorical=False
+    )
+    for c in ("note", "count", "spare"):
+        got = pd.concat([p.raw[c] for p in parts], ignore_index=True)
+        pd.testing.assert_series_equal(got, whole.raw[c], check_exact=True)
+
+
+def test_interleaved_parquet_runs_are_refused_before_any_is_read(tmp_path, soak_small) -> None:
+    log, _, _ = soak_small
+    a, b = log[log["run"] == log["run"].iloc[0]], log[log["run"] != log["run"].iloc[0]]
+    mixed = pd.concat([a.iloc[:900], b, a.iloc[900:]], ignore_index=True)
+    path = tmp_path / "mixed.parquet"
+    _parquet_groups(mixed, path, 500)
+    runs = iter_log_source(path)
+    with pytest.raises(InterleavedRunsError, match="data row 11701: run 'soak_"):
+        next(runs)
+
+
+def test_compensate_parquet_aligned_writes_what_the_pieces_give(
+    tmp_path, soak_small, fitted_models, monkeypatch
+) -> None:
+    """The file written from runs read in one block each is the file written from runs
+    joined from pieces, byte for byte; the message counts every row (on two threads the
+    last run is written after the loop)."""
+    log, _, _ = soak_small
+    path = tmp_path / "soak.parquet"
+    _parquet_groups(_with_extras(log), path, 500)
+    model = tmp_path / "m.json"
+    fitted_models["regression"].save(model)
+    outs = {}
+    for aligned in (True, False):
+        if not aligned:
+            monkeypatch.setattr(io, "ALIGNED_EXTRA", -1.0)
+        outs[aligned] = tmp_path / f"out_{aligned}.parquet"
+        res = runner.invoke(
+            app,
+            ["compensate", str(path), "-m", str(model), "--out", str(outs[aligned]), "--jobs", "2"],
+        )
+        assert res.exit_code == 0, res.output
+        assert f"{len(log):,} rows" in " ".join(res.output.split())
+    assert outs[True].read_bytes() == outs[False].read_bytes()
+
+
 def _leaves(obj, path=""):
     """Every number of a model file's JSON, by path."""
     if isinstance(obj, dict):

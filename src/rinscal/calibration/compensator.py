@@ -40,7 +40,8 @@ from rinscal.calibration.thermal.features import (
     Features,
     OutlierConfig,
     build_features,
-    features_from_columns,
+    channel_matrix,
+    column_rates,
     gradient_choice,
     log_columns,
     temperature_rate,
@@ -250,18 +251,30 @@ class Compensator:
         f : ndarray, shape (n,) [log units]
         flagged : ndarray of bool, shape (n,)
         """
+        rows = None if where is None else (where.runs, where.run_codes, where.time_s)
+        return self._output(j, x, rows, first_row)
+
+    def _output(
+        self,
+        j: int,
+        x: NDArray[np.float64],
+        rows: tuple[Sequence[str], NDArray[np.int64], NDArray[np.float64]] | None,
+        first_row: int,
+    ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+        """:meth:`output`, the rows of ``x`` given by their run names, run of each row and
+        time [s] (a :class:`~rinscal.errors.RangeError` names them)."""
         c = self.channels[j]
         try:
             return self.model.predict_channel(c, x, self.policy)
         except RangeError as exc:
             i = getattr(exc, "row", None)
-            if i is None or where is None:
+            if i is None or rows is None:
                 raise
-            run = where.runs[where.run_codes[i]]
+            runs, codes, time_s = rows
             what = getattr(exc, "what", str(exc))
             raise RangeError(
-                f"{c}: data row {first_row + i + 1} (run {run!r}, time {where.time_s[i]:.6g} s) "
-                f"has {what}"
+                f"{c}: data row {first_row + i + 1} (run {runs[codes[i]]!r}, time "
+                f"{time_s[i]:.6g} s) has {what}"
             ) from None
 
     def bias(
@@ -314,13 +327,17 @@ class Compensator:
         first_row: int,
         n_jobs: int | None,
         then: Any = None,
+        slices: Any = None,
     ) -> list[Any]:
         """Each channel's modelled output [log units] and flags, ``(f, flagged)`` in channel
         order, or what ``then(j, f, flagged)`` makes of them.
 
-        Without given features, each channel's are built from the log's columns (read once)
-        on a thread of its own (``n_jobs``): memory of ``n_jobs`` channels' features. The
-        first error in channel order is raised, as one channel after another would.
+        Without given features, the log's columns are read once, the temperature rate of
+        every channel found in one pass per run (:func:`column_rates`), and each channel's
+        inputs built and evaluated on a thread of its own (``n_jobs``): memory of the rates
+        and of ``n_jobs`` channels' inputs. ``slices``: :func:`run_slices` of the log's run
+        column, when the caller has it. The first error in channel order is raised, as one
+        channel after another would.
         """
         if features is None:
             deriv = DerivativeConfig(
@@ -328,19 +345,25 @@ class Compensator:
                 kind=derivative_kind or self.model.derivative_kind,  # type: ignore[arg-type]
             )
             grad = gradient_choice(log, self.model.use_gradient)
-            cols = log_columns(log, self.channels)
-        off = OutlierConfig(enabled=False)  # compensation keeps every sample
+            cols = log_columns(log, self.channels, slices=slices)
+            tcols = [cols.temp_column[c] for c in self.channels]
+            uniq = list(dict.fromkeys(tcols))
+            rates = column_rates(cols, deriv, uniq)
+            rows = (cols.runs, cols.codes, cols.time_s)
 
         def one(j: int) -> Any:
             c = self.channels[j]
-            feats = features or features_from_columns(cols, deriv, off, (c,), use_gradient=grad)
-            f, flagged = self.output(j, feats.matrix(c), feats, first_row)
+            if features is not None:
+                f, flagged = self.output(j, features.matrix(c), features, first_row)
+            else:
+                x = channel_matrix(cols, c, rates[:, uniq.index(tcols[j])], grad)
+                f, flagged = self._output(j, x, rows, first_row)
             return (f, flagged) if then is None else then(j, f, flagged)
 
         # deferred: the thread fan-out is needed only for a batch
         from rinscal.parallel import jobs_within, map_jobs
 
-        # about 100 bytes a row for each channel in flight (features, inputs, output)
+        # about 100 bytes a row for each channel in flight (inputs, output)
         return map_jobs(one, range(len(self.channels)), jobs_within(n_jobs, 100 * len(log)))
 
     def predict(
@@ -388,6 +411,7 @@ class Compensator:
         derivative_kind: str | None = None,
         first_row: int = 0,
         n_jobs: int | None = 1,
+        slices: tuple[NDArray[np.int64], tuple[str, ...], list[NDArray[np.int64]]] | None = None,
     ) -> tuple[dict[str, NDArray[np.float64]], NDArray[np.bool_]]:
         """The compensated channels of a whole log, ``N − (f − r)``, without copying it.
 
@@ -402,6 +426,9 @@ class Compensator:
         n_jobs : int, optional
             Threads over the channels (None or 0: every core); the output does not depend
             on it.
+        slices : tuple, optional
+            :func:`~rinscal.calibration.thermal.features.run_slices` of the log's ``run``
+            column, when the caller has it already.
 
         Returns
         -------
@@ -427,10 +454,13 @@ class Compensator:
         def compensated(
             j: int, fj: NDArray[np.float64], flagged: NDArray[np.bool_]
         ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
-            return columns[self.channels[j]] - (fj - self._ref[j]), flagged
+            d = np.subtract(fj, self._ref[j])  # N − (f − r), in one new array
+            return np.subtract(columns[self.channels[j]], d, out=d), flagged
 
         any_flag = np.zeros(len(log), dtype=bool)
-        done = self._outputs(log, derivative_kind, None, first_row, n_jobs, compensated)
+        done = self._outputs(
+            log, derivative_kind, None, first_row, n_jobs, compensated, slices=slices
+        )
         for c, (y, flagged) in zip(self.channels, done, strict=True):
             values[c] = y
             any_flag |= flagged

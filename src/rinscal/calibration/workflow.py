@@ -25,6 +25,7 @@ import os
 import warnings
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -54,6 +55,7 @@ from rinscal.calibration.thermal.features import (
     DerivativeConfig,
     MissingGradientWarning,
     OutlierConfig,
+    run_slices,
 )
 from rinscal.calibration.thermal.guards import TrainingDataWarning
 from rinscal.calibration.thermal.model import ThermalFitter
@@ -63,7 +65,7 @@ from rinscal.io.mapping import ColumnMapping
 from rinscal.io.metadata import meta_path
 from rinscal.io.streaming import LogStreamWriter, by_runs
 from rinscal.io.tables import SourceLog, check_mapping, format_of
-from rinscal.parallel import one_behind, read_ahead, resolve_jobs
+from rinscal.parallel import in_background, one_behind, read_ahead, resolve_jobs
 from rinscal.sensormodel import ImuCalibration
 
 __all__ = [
@@ -632,8 +634,11 @@ def compensate_file(
         check_units(mf, meta, str(log_path))
     notes = _stage_notes(mf, meta, str(log_path), ignore_units)
     kind = "causal" if causal else None
+    # the rate's compiled kernel (numba and its own machinery: about a second) loads on a
+    # thread of its own while the log's runs are found and the first is read
+    kernel = in_background(partial(_load_rate_kernel, kind or mf.derivative_kind), n_jobs)
     rows, flagged = by_runs(  # run by run: memory bounded by three runs
-        log_path, mapping, lambda s: _write_runs(s, mf, policy, kind, out_path, n_jobs)
+        log_path, mapping, lambda s: _write_runs(s, mf, policy, kind, out_path, n_jobs, kernel)
     )
     if mf.imu_stage is not None:  # the output is in deg/h and µg whatever the input's unit
         meta = physical_meta(meta)
@@ -684,6 +689,14 @@ def _stage_notes(
     )
 
 
+def _load_rate_kernel(kind: str) -> None:
+    """Load the compiled kernel of the ``kind`` of rate (numba with it)."""
+    # deferred: rate loads numba's kernels; only a command that computes a rate needs them
+    from rinscal.calibration.thermal.rate import load_kernel
+
+    load_kernel(kind)
+
+
 def _write_runs(
     sources: Iterator[SourceLog],
     mf: FittedModel,
@@ -691,18 +704,20 @@ def _write_runs(
     kind: str | None,
     out: Path,
     n_jobs: int | None = None,
+    kernel: Callable[[], None] | None = None,
 ) -> tuple[int, dict[str, tuple[int, int]]]:
     """Compensate runs as they are read and write each at once; rows written, and per run
-    the rows flagged out of range and the rows."""
+    the rows flagged out of range and the rows. ``kernel()`` waits for the rate's compiled
+    kernel (loaded here when not given)."""
     shares: dict[str, tuple[int, int]] = {}
     writer: LogStreamWriter | None = None
-    # deferred: rate loads numba's kernels; only a command that computes a rate needs them
-    from rinscal.calibration.thermal.rate import load_kernel
-
     several = resolve_jobs(n_jobs) > 1
     # on several threads, the next run read while this one is compensated
     runs = read_ahead(sources, 2) if several else sources
-    load_kernel(kind or mf.derivative_kind)  # meanwhile, as the first run is read
+    if kernel is None:
+        _load_rate_kernel(kind or mf.derivative_kind)  # meanwhile, as the first run is read
+    else:
+        kernel()
     with contextlib.ExitStack() as stack:
         for src in runs:
             if writer is None:
@@ -712,15 +727,16 @@ def _write_runs(
                 )
                 # and the last written (left before the writer closes: waited for)
                 write = stack.enter_context(one_behind(writer.write)) if several else writer.write
+            slices = run_slices(src.log["run"])  # once, for the channels and the counts
             values, flagged = Compensator(mf, policy).batch(  # type: ignore[arg-type]
-                src.log, kind, first_row=src.first_row, n_jobs=n_jobs
+                src.log, kind, first_row=src.first_row, n_jobs=n_jobs, slices=slices
             )
             write(src.write_back(values, {FLAG_COLUMN: flagged}))
-            for run, k, n in zip(*run_counts(src.log["run"], flagged), strict=True):
+            for run, k, n in zip(*_slice_counts(slices, flagged), strict=True):
                 k0, n0 = shares.get(run, (0, 0))
                 shares[run] = (k0 + k, n0 + n)
-        rows = writer.rows if writer is not None else 0
-    return rows, shares
+    # counted once the last run is written (on several threads, after the stack waited for it)
+    return (writer.rows if writer is not None else 0), shares
 
 
 def run_counts(run: pd.Series, flagged: np.ndarray) -> tuple[list[str], list[int], list[int]]:
@@ -729,6 +745,15 @@ def run_counts(run: pd.Series, flagged: np.ndarray) -> tuple[list[str], list[int
     k = np.bincount(codes, weights=flagged, minlength=len(names))
     n = np.bincount(codes, minlength=len(names))
     return [str(v) for v in names], [int(v) for v in k], [int(v) for v in n]
+
+
+def _slice_counts(
+    slices: tuple[np.ndarray, tuple[str, ...], list[np.ndarray]], flagged: np.ndarray
+) -> tuple[list[str], list[int], list[int]]:
+    """:func:`run_counts` from the :func:`run_slices` of the run column."""
+    codes, names, rows = slices
+    k = np.bincount(codes[flagged], minlength=len(names))
+    return list(names), [int(v) for v in k], [r.size for r in rows]
 
 
 @dataclass(frozen=True)

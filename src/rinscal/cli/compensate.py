@@ -60,7 +60,7 @@ def compensate_cmd(
     # deferred: the library loads numpy, pandas and numba; `rinscal --help` must not
     from rinscal.calibration.modelfile import POLICIES
     from rinscal.calibration.workflow import compensate_file, load_model
-    from rinscal.cli._app import console, err_console, fail
+    from rinscal.cli._app import console, err_console, fail, streaming_process
     from rinscal.errors import RangeError, RinscalError
     from rinscal.io.metadata import meta_path, write_meta
 
@@ -68,6 +68,7 @@ def compensate_cmd(
         raise fail(f"--policy must be one of {', '.join(POLICIES)}, got {policy!r}")
     inputs = [log, meta_path(log), model] + ([map_file] if map_file is not None else [])
     refuse_inputs(out, inputs, also=[meta_path(out)])
+    streaming_process()  # the log is read and written run by run
     try:
         mf = load_model(model)
         options = read_options(

@@ -27,12 +27,12 @@ from rinscal.firmware import (
     ardupilot_tcal_params,
     ardupilot_tcal_prefix,
 )
+from rinscal.io._gather import _gather
 from rinscal.io.flightinfo import (
     FlightLogInfo,
     ImuInstance,
     _check_magic,
     _frame,
-    _gather,
     _increasing,
     _open_buffer,
 )

@@ -2,9 +2,11 @@
 
 :class:`FlightLogOptions` (which IMU instance, how PX4's accelerometer is joined),
 :class:`ImuInstance`, :class:`FlightLogInfo` and :class:`FlightLog`, and the helpers both
-readers use: the memory-mapped file, its magic number, the compiled message copier, the
-increasing-time check and the canonical frame. The readers are :mod:`rinscal.io.ulog` and
-:mod:`rinscal.io.dataflash`; :mod:`rinscal.io.flightlog` picks one by suffix.
+readers use: the memory-mapped file, its magic number, the increasing-time check and the
+canonical frame (the compiled message copier is :mod:`rinscal.io._gather`, apart: numba is
+loaded by a reader, not by every command that names the options). The readers are
+:mod:`rinscal.io.ulog` and :mod:`rinscal.io.dataflash`; :mod:`rinscal.io.flightlog` picks one
+by suffix.
 """
 
 from __future__ import annotations
@@ -14,7 +16,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
-import numba
 import numpy as np
 import pandas as pd
 
@@ -165,29 +166,6 @@ def _check_magic(p: Path, magic: bytes, what: str, hint: str) -> None:
     if head != magic:
         found = "an empty file" if not head else f"starts with {head[:8]!r}"
         raise LogError(f"{p}: not a {what} ({found}; a {what} starts with {magic!r}){hint}")
-
-
-@numba.njit(cache=True)
-def _gather(
-    buf: np.ndarray, offsets: np.ndarray, skip: int, width: int, out: np.ndarray, sized: bool
-) -> int:
-    """Copy ``width`` bytes from ``offset + skip`` of each message into rows of ``out``.
-
-    With ``sized`` (ULog), a message whose size field (uint16 at ``offset``) says it is
-    shorter than ``skip - 3 + width`` is not copied; a message cut by the end of the file
-    never is. The rows copied are packed at the front; returns their number.
-    """
-    k = 0
-    for i in range(offsets.size):
-        o = offsets[i]
-        a = o + skip
-        if a + width > buf.size:
-            continue
-        if sized and (np.int64(buf[o]) | (np.int64(buf[o + 1]) << 8)) + 3 < skip + width:
-            continue
-        out[k, :] = buf[a : a + width]
-        k += 1
-    return k
 
 
 #: Share of samples whose time does not increase above which a stream is refused, not cut.

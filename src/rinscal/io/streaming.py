@@ -1,9 +1,11 @@
 """Read and write a log run by run: memory bounded by the longest run, not by the log.
 
 :func:`iter_log_source` reads a log in pieces of :data:`PIECE_ROWS` rows (Parquet record
-batches, CSV chunks) and yields its runs one at a time; :func:`by_runs` falls back to the
-whole log when runs are interleaved. :class:`LogStreamWriter` writes runs as they come,
-atomically.
+batches, CSV chunks) and yields its runs one at a time; a Parquet file whose runs lie along
+its row groups well enough is read a run at a time instead, each run's columns decoded into
+one block that the run's frame shares (no joining of pieces, no copy). :func:`by_runs` falls
+back to the whole log when runs are interleaved. :class:`LogStreamWriter` writes runs as they
+come, atomically.
 """
 
 from __future__ import annotations
@@ -72,15 +74,7 @@ def _table_pieces(
     pieces are DataFrames.
     """
     if fmt == "parquet":
-        # deferred on purpose: pyarrow is heavy and only Parquet needs it
-        import pyarrow.parquet as pq
-
-        _check_parquet(p)
-        try:  # buffered reads, no pre-buffering of whole row groups (memory: a piece)
-            pf = pq.ParquetFile(p, buffer_size=1 << 20, pre_buffer=False)
-        except Exception as exc:  # pyarrow raises many types for a damaged file
-            raise LogError(f"{p}: unreadable Parquet file: {exc}") from None
-        names = [n for n in pf.schema_arrow.names if not n.startswith("__index_level_")]
+        pf, names = _open_parquet(p)
 
         def parquet() -> Iterator[Any]:
             # deferred on purpose: pyarrow is heavy and only Parquet needs it
@@ -107,6 +101,159 @@ def _table_pieces(
             yield df
 
     return text(), options["sep"]
+
+
+def _open_parquet(p: Path) -> tuple[Any, list[str]]:
+    """The Parquet file, opened for buffered reads, and its columns (a stored pandas index
+    left out)."""
+    # deferred on purpose: pyarrow is heavy and only Parquet needs it
+    import pyarrow.parquet as pq
+
+    _check_parquet(p)
+    try:  # buffered reads, no pre-buffering of whole row groups (memory: a piece)
+        pf = pq.ParquetFile(p, buffer_size=1 << 20, pre_buffer=False)
+    except Exception as exc:  # pyarrow raises many types for a damaged file
+        raise LogError(f"{p}: unreadable Parquet file: {exc}") from None
+    return pf, [n for n in pf.schema_arrow.names if not n.startswith("__index_level_")]
+
+
+#: A Parquet file is read run-aligned (:func:`_aligned_parquet`) when that decodes at most
+#: this share of its rows twice.
+ALIGNED_EXTRA = 0.25
+
+
+def _aligned_parquet(
+    p: Path, run_col: str, piece_rows: int
+) -> tuple[Any, list[str], list[tuple[int, int, object]]] | None:
+    """The file, its columns and its runs' row ranges ``[a, b)`` with their names, when the
+    file can be read one run at a time, each run's columns decoded into one block.
+
+    A run's block is decoded from the first row group it touches: the rows of that group
+    before the run (the previous run's end) are decoded twice. None where that would be
+    more than :data:`ALIGNED_EXTRA` of the file (many short runs in long row groups): the
+    file is then read piece by piece. The run column alone is read first (a dictionary
+    column: a few bytes a row); a run that resumes after another run began raises
+    :class:`InterleavedRunsError` before anything else is read.
+    """
+    pf, names = _open_parquet(p)
+    meta = pf.metadata
+    stretches: list[tuple[int, int, object]] = []
+    try:
+        if run_col not in names:  # one run (named by the mapping or the file)
+            stretches = [(0, meta.num_rows, run_col)] if meta.num_rows else []
+        else:
+            row = 0
+            for piece in pf.iter_batches(batch_size=piece_rows, columns=[run_col]):
+                for a, b, v in zip(*_piece_runs(piece, run_col), strict=True):
+                    if stretches and stretches[-1][2] == v:  # the run goes on
+                        stretches[-1] = (stretches[-1][0], row + int(b), v)
+                    else:
+                        stretches.append((row + int(a), row + int(b), v))
+                row += len(piece)
+    except Exception as exc:  # pyarrow raises many types for a damaged file
+        raise LogError(f"{p}: unreadable Parquet file: {exc}") from None
+    if not stretches or stretches[-1][1] != meta.num_rows:  # no rows, or a damaged file
+        return None
+    finished: set[object] = set()
+    for a, _, v in stretches:
+        if v in finished:
+            raise InterleavedRunsError(
+                f"{p}: data row {a + 1}: run {v!r} resumes after other runs began; "
+                "the log is read whole instead"
+            )
+        finished.add(v)
+    starts = _group_starts(meta)
+    extra = sum(
+        a - int(starts[np.searchsorted(starts, a, side="right") - 1]) for a, _, _ in stretches
+    )
+    if extra > ALIGNED_EXTRA * meta.num_rows:
+        return None
+    return pf, names, stretches
+
+
+def _group_starts(meta: Any) -> np.ndarray:
+    """First row of each row group of a Parquet file, then its row count."""
+    rows = [meta.row_group(i).num_rows for i in range(meta.num_row_groups)]
+    return np.concatenate([[0], np.cumsum(rows, dtype=np.int64)])
+
+
+def _aligned_sources(
+    p: Path,
+    pf: Any,
+    names: list[str],
+    stretches: list[tuple[int, int, object]],
+    mapping: ColumnMapping | None,
+) -> Iterator[SourceLog]:
+    """Each run of a Parquet file (:func:`_aligned_parquet`), read, mapped and validated.
+
+    Every column but the dictionary-encoded ones (run names) is decoded into one block for
+    the run, which the frame then shares (no copy); the table is what reading the run's rows
+    in pieces and joining them gives.
+    """
+    # deferred on purpose: pyarrow is heavy and only Parquet needs it
+    import pyarrow as pa
+
+    schema = pf.schema_arrow
+    fields = [schema.field(n) for n in names]
+    dicts = [f.name for f in fields if pa.types.is_dictionary(f.type)]
+    block = [f.name for f in fields if not pa.types.is_dictionary(f.type)]
+    starts = _group_starts(pf.metadata)
+    for a, b, _ in stretches:
+        g0 = int(np.searchsorted(starts, a, side="right")) - 1
+        groups = list(range(g0, int(np.searchsorted(starts, b, side="left"))))
+        lead, n = a - int(starts[g0]), b - a
+        cols: dict[str, Any] = {}
+        try:
+            if block:  # one batch from the run's first row group to its last row
+                cols.update(_block(p, pf, groups, block, lead, n))
+            if dicts:  # a chunk per row group, each its own dictionary (as read in pieces)
+                t = pf.read_row_groups(groups, columns=dicts).slice(lead, n)
+                cols.update(zip(dicts, t.columns, strict=True))
+                del t
+        except LogError:
+            raise
+        except Exception as exc:  # pyarrow raises many types for a damaged file
+            raise LogError(f"{p}: unreadable Parquet file: {exc}") from None
+        table = pa.Table.from_arrays(
+            [cols.pop(c) for c in names], schema=pa.schema(fields, metadata=schema.metadata)
+        )
+        # the table holds the only reference: converted, the columns it could not share go
+        yield _source(p, _to_frame(table), mapping, None, a)
+
+
+def _block(
+    p: Path, pf: Any, groups: list[int], columns: list[str], lead: int, n: int
+) -> dict[str, Any]:
+    """Rows ``lead .. lead + n`` of the row groups ``groups`` of ``p``, each column one chunk.
+
+    Decoded as one batch of ``lead + n`` rows (a batch of columns without a dictionary runs
+    across row groups); a reader that gives several batches is joined in Arrow instead.
+    """
+    # deferred on purpose: pyarrow is heavy and only Parquet needs it
+    import pyarrow as pa
+
+    got, rows = [], 0
+    batches = pf.iter_batches(batch_size=lead + n, row_groups=groups, columns=columns)
+    try:
+        for batch in batches:
+            got.append(batch)
+            rows += len(batch)
+            if rows >= lead + n:
+                break
+    finally:
+        batches.close()
+    if rows < lead + n:
+        raise LogError(
+            f"{p}: unreadable Parquet file: row groups {groups[0]}-{groups[-1]} hold {rows} "
+            f"rows, not the {lead + n} their metadata gives"
+        )
+    return dict(zip(columns, pa.Table.from_batches(got).slice(lead, n).columns, strict=True))
+
+
+def _to_frame(table: Any) -> pd.DataFrame:
+    """A table as a DataFrame, one block per column: a column of one chunk without nulls is
+    shared (no copy), the others converted; Arrow memory freed column by column."""
+    return table.to_pandas(split_blocks=True, self_destruct=True)
 
 
 def by_runs(
@@ -152,7 +299,7 @@ def _piece_table(pieces: list[Any]) -> pd.DataFrame:
         table = pa.Table.from_batches(pieces)
         pieces.clear()  # the table holds the only reference: converted, its buffers go
         # one block per column (no 2-D consolidation copy), Arrow memory freed column by column
-        return table.to_pandas(split_blocks=True, self_destruct=True)
+        return _to_frame(table)
     if len(pieces) == 1:
         return pieces[0].reset_index(drop=True)
     return pd.concat(pieces, ignore_index=True)
@@ -170,6 +317,9 @@ def iter_log_source(
     The file is read in pieces of ``piece_rows`` rows (Parquet record batches, CSV chunks);
     the pieces of a run are joined, and each whole run is mapped, validated and yielded as a
     :class:`~rinscal.io.tables.SourceLog` (``first_row`` says where it starts in the file).
+    A Parquet file is read run by run where that decodes few rows twice (its run column
+    first, then each run in one block from the first row group it touches: the frame shares
+    the block); its interleaved runs are then found before any run is read.
     Every run's table is exactly what :func:`~rinscal.io.tables.read_log_source` gives for its rows.
 
     Parameters
@@ -201,10 +351,15 @@ def iter_log_source(
         yield from _flight_sources(path, mapping)
         return
     p, f = _log_path(path, fmt, mapping)
-    pieces, sep = _table_pieces(p, f, mapping, int(piece_rows))
     run_col = RUN
     if mapping is not None:
         run_col = next((k for k, c in mapping.columns.items() if c == RUN), RUN)
+    if f == "parquet":
+        aligned = _aligned_parquet(p, run_col, int(piece_rows))
+        if aligned is not None:  # each run decoded into one block that its frame shares
+            yield from _aligned_sources(p, *aligned, mapping)
+            return
+    pieces, sep = _table_pieces(p, f, mapping, int(piece_rows))
     heads: list[Any] = []
     stretches = _stretches(pieces, run_col, heads)
     held: list[Any] = []

@@ -351,7 +351,8 @@ class SourceLog:
         """
         out = self.raw.copy(deep=False)  # new columns replace, the file's table is untouched
         for c, v in values.items():
-            out[self.names.get(c, c)] = np.asarray(v, dtype=np.float64) / self.scale.get(c, 1.0)
+            x = np.asarray(v, dtype=np.float64)
+            out[self.names.get(c, c)] = x / self.scale[c] if c in self.scale else x
         for name, v in extra.items():
             out[name] = v
         return out

@@ -46,6 +46,8 @@ __all__ = [
     "OutlierConfig",
     "OutlierReport",
     "build_features",
+    "channel_matrix",
+    "column_rates",
     "features_from_columns",
     "gradient_choice",
     "log_columns",
@@ -275,7 +277,7 @@ def temperature_rate(t: np.ndarray, temp: np.ndarray, derivative: DerivativeConf
         slope = causal_slope(t, x, derivative.window_s)
     else:
         slope = centred_slope_run(t, x, derivative.window_s)
-    return (slope * MIN_TO_S).reshape(temp.shape)
+    return np.multiply(slope, MIN_TO_S, out=slope).reshape(temp.shape)
 
 
 def set_points(log: pd.DataFrame, decimals: int = 1) -> np.ndarray | None:
@@ -418,6 +420,66 @@ def log_columns(
         values={c: log[c].to_numpy(dtype=np.float64) for c in names},
         temp_column=tcol,
     )
+
+
+def column_rates(
+    cols: LogColumns, derivative: DerivativeConfig, names: Sequence[str]
+) -> np.ndarray:
+    """The temperature rate of the columns ``names`` of ``cols``, run by run [°C/min].
+
+    All of them in one pass of the rate kernel per run: the rate of a column does not depend
+    on the columns computed with it (bit for bit), so this is what each column's features
+    hold (:func:`features_from_columns`).
+
+    Returns
+    -------
+    ndarray, shape (n, len(names)), row-major [°C/min]
+    """
+    t = cols.time_s
+    x = np.column_stack([cols.values[c] for c in names])  # the kernel runs along rows
+    if len(cols.rows) == 1 and cols.rows[0].size == t.size:  # one run: no copy of the result
+        return temperature_rate(t, x, derivative)
+    out = np.empty_like(x)
+    for idx in cols.rows:
+        r: slice | np.ndarray = idx
+        if idx.size and idx[-1] - idx[0] + 1 == idx.size:  # a run stored as one block: views
+            r = slice(int(idx[0]), int(idx[-1]) + 1)
+        out[r] = temperature_rate(t[r], x[r], derivative)
+    return out
+
+
+def channel_matrix(
+    cols: LogColumns, channel: str, rate: np.ndarray, use_gradient: bool
+) -> np.ndarray:
+    """One channel's model inputs from the log's columns and its rate found already
+    (:func:`column_rates`): what :meth:`Features.matrix` of :func:`features_from_columns`
+    gives, without the fitting masks.
+
+    Parameters
+    ----------
+    cols : LogColumns
+        The log's columns.
+    channel : str
+        The channel.
+    rate : ndarray, shape (n,) [°C/min]
+        The rate of the channel's temperature column (a strided view is fine).
+    use_gradient : bool
+        Append ``ΔT = T − temp_out`` (decided: :func:`gradient_choice`).
+
+    Returns
+    -------
+    ndarray, shape (n, 2 or 3), column-major
+        ``T`` [°C], ``Ṫ`` [°C/min] and, with the gradient, ``ΔT`` [°C].
+    """
+    if use_gradient and not cols.has_temp_out:
+        raise LogError(f"log has no {TEMP_OUT!r} column, needed for the gradient feature ΔT")
+    temp = cols.values[cols.temp_column[channel]]
+    x = np.empty((temp.size, 3 if use_gradient else 2), order="F")
+    x[:, 0] = temp
+    x[:, 1] = rate
+    if use_gradient:
+        np.subtract(x[:, 0], cols.values[TEMP_OUT], out=x[:, 2])
+    return x
 
 
 def _columns(values: Mapping[str, np.ndarray], names: Sequence[str], n: int) -> np.ndarray:
