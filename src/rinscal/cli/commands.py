@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gc
 import os
 
 # Arrow's allocator (mimalloc) keeps freed pages for a while by default; a command that reads
@@ -61,7 +62,13 @@ app.registered_groups.sort(key=lambda g: _ORDER.index(g.name))
 
 def main() -> None:
     """Entry point of the ``rinscal`` console script."""
-    app()
+    try:
+        app()
+    finally:
+        # The process ends here. Its objects (numpy, pandas, numba and their modules) go
+        # with it: frozen, the collector's last full pass at exit does not walk them all
+        # (0.2 s of a 4 s compensate). Files are closed by the commands themselves.
+        gc.freeze()
 
 
 __all__ = ["SUMMARIES", "app", "main"]
