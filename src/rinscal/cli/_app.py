@@ -217,11 +217,13 @@ def guard_os_errors(command: Callable[..., Any] | None) -> Callable[..., Any] | 
 def streaming_process() -> None:
     """Let this command's process take Arrow's memory from jemalloc, where pyarrow has it.
 
-    For a command that streams a large log run by run (``compensate``): with Arrow's default
-    allocator (mimalloc) each run's new buffers are faulted in as transparent huge pages, each
-    zeroed whole by the system; with jemalloc about half of that zeroing goes (on a 7.6 M-row
-    log, about a second of system time: a quarter of the command's CPU was page zeroing).
-    Process-wide, so for a command's own process only; nothing read or written depends on it.
+    For a command that streams a large log run by run (``compensate``): Arrow's default
+    allocator (mimalloc, told by :mod:`rinscal.cli.commands` to give freed pages back at
+    once) has each run's new buffers faulted in again as transparent huge pages, each zeroed
+    whole by the system; with jemalloc about half of that zeroing goes (on a 7.6 M-row log,
+    about a second of system time: a quarter of the command's CPU was page zeroing; peak
+    memory about 0.1 GB more). Process-wide, so for a command's own process only; nothing read
+    or written depends on it.
     """
     # deferred: pyarrow is heavy and only a command that reads a log needs it
     import pyarrow as pa
