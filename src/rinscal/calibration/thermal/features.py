@@ -53,6 +53,7 @@ __all__ = [
     "log_columns",
     "outlier_mask",
     "run_features",
+    "run_index",
     "run_slices",
     "set_points",
     "temperature_rate",
@@ -224,13 +225,19 @@ def run_slices(run: pd.Series | np.ndarray) -> tuple[np.ndarray, tuple[str, ...]
     return codes, tuple(str(u) for u in uniques), rows
 
 
+def run_index(idx: np.ndarray) -> slice | np.ndarray:
+    """How to take the rows ``idx`` of a run (:func:`run_slices`) from a log's arrays: a
+    slice where they are one block, the usual case (views, not copies), else ``idx``."""
+    if idx.size and idx[-1] - idx[0] + 1 == idx.size:
+        return slice(int(idx[0]), int(idx[-1]) + 1)
+    return idx
+
+
 def run_features(feats: Features, k: int, idx: np.ndarray) -> Features:
     """The features of run ``k`` (rows ``idx``) of a log's features."""
     if idx.size == feats.run_codes.size:
         return feats
-    r: slice | np.ndarray = idx
-    if idx.size and idx[-1] - idx[0] + 1 == idx.size:  # one block: views, not copies
-        r = slice(int(idx[0]), int(idx[-1]) + 1)
+    r = run_index(idx)
     rep = feats.report
     return dataclasses.replace(
         feats,
@@ -441,9 +448,7 @@ def column_rates(
         return temperature_rate(t, x, derivative)
     out = np.empty_like(x)
     for idx in cols.rows:
-        r: slice | np.ndarray = idx
-        if idx.size and idx[-1] - idx[0] + 1 == idx.size:  # a run stored as one block: views
-            r = slice(int(idx[0]), int(idx[-1]) + 1)
+        r = run_index(idx)
         out[r] = temperature_rate(t[r], x[r], derivative)
     return out
 
@@ -602,11 +607,7 @@ def features_from_columns(
 
     def one_run(k: int) -> None:
         # each run writes its own rows (and row k of the counts): runs run on any thread
-        idx = rows[k]
-        # a run stored as one block (the usual case) is handled through views, not copies
-        r: slice | np.ndarray = idx
-        if idx.size and idx[-1] - idx[0] + 1 == idx.size:
-            r = slice(int(idx[0]), int(idx[-1]) + 1)
+        r = run_index(rows[k])
         tr = t[r]
         rate_u[r] = temperature_rate(tr, tmat_u[r], derivative) if with_rate else 0.0
         if outliers.enabled:

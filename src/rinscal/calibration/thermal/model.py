@@ -59,6 +59,7 @@ from rinscal.calibration.thermal.features import (
     gradient_choice,
     log_columns,
     run_features,
+    run_index,
     run_slices,
 )
 from rinscal.calibration.thermal.fitting import (
@@ -523,9 +524,7 @@ class ThermalFitter:
         temps = {c: log[c].to_numpy(dtype=np.float64) for c in cols}
         out = []
         for idx in rows:
-            r: slice | np.ndarray = idx
-            if idx.size and idx[-1] - idx[0] + 1 == idx.size:  # one block: views, not copies
-                r = slice(int(idx[0]), int(idx[-1]) + 1)
+            r = run_index(idx)
             try:
                 out.append(
                     check_temperatures(
