@@ -183,11 +183,10 @@ class Lanes:
     """
 
     def __init__(self, n_jobs: int | None = None) -> None:
-        self._inline = resolve_jobs(n_jobs) <= 1
+        jobs = resolve_jobs(n_jobs)
+        self._inline = jobs <= 1
         self._pool = (
-            None
-            if self._inline
-            else ThreadPoolExecutor(max_workers=resolve_jobs(n_jobs), thread_name_prefix="rinscal")
+            None if self._inline else ThreadPoolExecutor(jobs, thread_name_prefix="rinscal")
         )
         self._cond = threading.Condition()
         self._busy: set[Hashable] = set()  # lanes with a task running or submitted

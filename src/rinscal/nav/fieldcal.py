@@ -192,7 +192,6 @@ class FieldCalibration:
         }
 
 
-#: Inputs a channel may keep, most to fewest, and how each is fitted.
 #: Highest order of ``Ṫ`` and of ``ΔT`` in a field model of fixed orders (``regression``,
 #: ``sectional``; ``T`` keeps the method's order for the sensor). Every parked start warms
 #: the unit the same way, so ``Ṫ`` and ``ΔT`` follow much the same curve in time in every
@@ -207,6 +206,7 @@ class FieldCalibration:
 #: method 2: −28″ and +31″).
 FIELD_MAX_ORDER = 1
 
+#: Inputs a channel may keep, most to fewest, and how each is fitted.
 _GROUPS: tuple[tuple[str, dict[str, Any]], ...] = (
     ("T, Tdot, dT", {"gradient": True}),
     ("T, Tdot", {"gradient": False}),
@@ -222,10 +222,8 @@ def field_orders(method: str, channel: str, gradient: bool) -> tuple[int, ...] |
         return None
     d = DEFAULTS[method][sensor_type(channel)]
     orders = [d["t_order"], min(d["rate_order"], FIELD_MAX_ORDER)]
-    if method == "regression" and gradient:
-        orders.append(min(d["grad_order"], FIELD_MAX_ORDER))
-    elif method == "regression":
-        orders.append(0)
+    if method == "regression":
+        orders.append(min(d["grad_order"], FIELD_MAX_ORDER) if gradient else 0)
     return tuple(orders)
 
 
