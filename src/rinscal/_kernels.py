@@ -72,73 +72,168 @@ def less_rates(
             out_v[i, j] = dv[i, j] - rates[r, 3 + j] * h
 
 
+# --------------------------------------------------------------------------- encoder angle
+@_jit
+def unwrap_angle(
+    a: NDArray[np.float64],
+    prev_raw: float,
+    prev_unwrapped: float,
+    first: bool,
+    out: NDArray[np.float64],
+) -> None:  # pragma: no cover - numba
+    """A wrapped angle made continuous [rad], into ``out``: a step of more than half a turn
+    between two readings is taken as the wrap. ``first``: ``a`` is the start (as
+    ``numpy.unwrap(a)``); else it follows the reading ``prev_raw`` [rad], unwrapped to
+    ``prev_unwrapped`` [rad] (as ``unwrap([prev_raw, *a])[1:] − prev_raw + prev_unwrapped``).
+
+    Rounded as numpy's ``unwrap`` rounds it (the step taken modulo a turn as numpy's ``mod``
+    takes it, the corrections summed in order): the same bits, in one pass.
+    """
+    period = 2.0 * np.pi
+    high = period / 2.0
+    low = -high
+    prev = a[0] if first else prev_raw
+    c = 0.0
+    for i in range(a.shape[0]):
+        x = a[i]
+        if first and i == 0:
+            out[0] = x
+            continue
+        dd = x - prev
+        prev = x
+        if not abs(dd) < high:
+            r = np.fmod(dd - low, period)
+            if r != 0.0:
+                if (period < 0.0) != (r < 0.0):
+                    r += period
+            else:
+                r = math.copysign(0.0, period)
+            ddmod = r + low
+            if ddmod == low and dd > 0.0:
+                ddmod = high
+            c += ddmod - dd
+        else:
+            c += 0.0
+        out[i] = x + c if first else ((x + c) - prev_raw) + prev_unwrapped
+
+
 # --------------------------------------------------------------------------- per-second sums
-#: Columns of :func:`second_sums`: samples, Σ|f|, Σ|f|², Σf (3), Σω (3), Σ(Δf)² (3),
-#: Σ(Δω)² (3), Σ encoder turn, Σ gap flags.
+#: Columns of :func:`piece_sums`'s per-second sums: samples, Σ|f|, Σ|f|², Σf (3), Σω (3),
+#: Σ(Δf)² (3), Σ(Δω)² (3), Σ encoder turn, Σ gap flags.
 SECOND_SUMS = 17
-#: Columns of :func:`sub_sums`: samples, Σf (3), Σω_x, Σω_y, Σω_z beyond the encoder, Σψ.
+#: Columns of its short blocks' sums: samples, Σf (3), Σω_x, Σω_y, Σω_z beyond the encoder,
+#: Σψ.
 SUB_SUMS = 8
 
 
 @_jit
-def second_sums(
-    k: NDArray[np.int64],
-    fm: NDArray[np.float64],
-    f: NDArray[np.float64],
-    w: NDArray[np.float64],
-    df: NDArray[np.float64],
-    dw: NDArray[np.float64],
+def piece_sums(
+    t: NDArray[np.float64],
+    dt: NDArray[np.float64],
+    dtheta: NDArray[np.float64],
+    dv: NDArray[np.float64],
+    origin: float,
+    block_s: float,
+    lo: int,
+    subs: int,
+    prev_w: NDArray[np.float64],
+    prev_f: NDArray[np.float64],
     turn: NDArray[np.float64],
-    gap: NDArray[np.float64],
-    out: NDArray[np.float64],
-) -> None:  # pragma: no cover - numba
-    """The first pass's sums per block, in one pass: row ``k[i]`` of ``out`` (m,
-    :data:`SECOND_SUMS`), zeros on entry, gets sample ``i``'s count (1), ``fm``, ``fm²``,
-    ``f`` and ``w`` (3 each), the squares of ``df`` and ``dw`` (3 each), ``turn`` and
-    ``gap``. Each sum adds the samples in their order, the square rounded first, as numpy's
-    ``bincount(k, weights=x)`` of the product does (the same bits)."""
-    m = out.shape[0]
-    for i in range(k.shape[0]):
-        b = k[i]
-        if b < 0 or b >= m:
-            raise ValueError("second_sums: a block index outside the output")
-        out[b, 0] += 1.0
-        out[b, 1] += fm[i]
-        out[b, 2] += fm[i] * fm[i]
-        for j in range(3):
-            out[b, 3 + j] += f[i, j]
-            out[b, 6 + j] += w[i, j]
-            out[b, 9 + j] += df[i, j] * df[i, j]
-            out[b, 12 + j] += dw[i, j] * dw[i, j]
-        out[b, 15] += turn[i]
-        out[b, 16] += gap[i]
-
-
-@_jit
-def sub_sums(
-    k: NDArray[np.int64],
-    f: NDArray[np.float64],
-    w: NDArray[np.float64],
-    wz: NDArray[np.float64],
+    table: bool,
+    first_table: bool,
     psi: NDArray[np.float64],
-    out: NDArray[np.float64],
+    gap_limit: float,
+    sums: NDArray[np.float64],
+    sub: NDArray[np.float64],
+    t0: NDArray[np.float64],
+    t1: NDArray[np.float64],
 ) -> None:  # pragma: no cover - numba
-    """The short blocks' sums, in one pass: row ``k[i]`` of ``out`` (m, :data:`SUB_SUMS`),
-    zeros on entry, gets sample ``i``'s count (1), ``f`` (3), ``w[:, 0]``, ``w[:, 1]``,
-    ``wz`` and ``psi``, in the samples' order (as numpy's ``bincount``: the same bits)."""
-    m = out.shape[0]
-    for i in range(k.shape[0]):
-        b = k[i]
+    """One piece's per-second and short-block sums of the first pass, in one pass over its
+    samples and without temporaries.
+
+    Sample ``i`` (interval ``dt[i]`` [s] ending at ``t[i]`` [s]) falls in block
+    ``floor((t − dt/2 − origin) / block_s) − lo`` (row of ``sums`` (m, :data:`SECOND_SUMS`), zeros
+    on entry) and in its ``subs`` short blocks by the fraction of the second (row of ``sub``
+    (m·subs, :data:`SUB_SUMS`), zeros on entry). With the rate ``w = dtheta/dt`` [rad/s] and
+    the force ``f = dv/dt`` [m/s²], a block gets the sample's count (1), ``|f|``, ``|f|²``,
+    ``f`` and ``w`` (3 each), the squares of their first differences (3 each; the first
+    sample's against ``prev_w``, ``prev_f``, the piece before's last), the encoder's
+    ``turn`` [rad] and a gap flag (``dt`` above ``gap_limit`` [s]); a short block the count,
+    ``f``, ``w_x``, ``w_y``, ``w_z`` less the encoder's turn rate (``table``; the first
+    reading's turn unknown, ``first_table``: the next one's) and the table angle ``psi``
+    [rad]. ``t0``/``t1`` (m; +inf/−inf on entry) get each block's first interval start and
+    last sample time [s].
+
+    Every value is rounded as numpy rounds the same expressions element by element
+    (``|f|`` as ``sqrt(einsum("ij,ij->i", f, f))``, which adds x², z², then y²; the index as
+    ``floor`` then ``astype``), and
+    each sum adds the samples in their order, a square rounded first, as numpy's
+    ``bincount(k, weights=x)`` does: the sums of the numpy code this replaced, to the bit.
+    """
+    m = sums.shape[0]
+    n = t.shape[0]
+    for i in range(n):
+        h = dt[i]
+        y = (t[i] - 0.5 * h - origin) / block_s
+        fy = np.floor(y)
+        b = np.int64(fy) - lo
         if b < 0 or b >= m:
-            raise ValueError("sub_sums: a block index outside the output")
-        out[b, 0] += 1.0
-        out[b, 1] += f[i, 0]
-        out[b, 2] += f[i, 1]
-        out[b, 3] += f[i, 2]
-        out[b, 4] += w[i, 0]
-        out[b, 5] += w[i, 1]
-        out[b, 6] += wz[i]
-        out[b, 7] += psi[i]
+            raise ValueError("piece_sums: a block index outside the output")
+        kb = np.int64((y - fy) * subs)
+        kb = b * subs + (kb if kb < subs - 1 else subs - 1)
+        fx_ = dv[i, 0] / h
+        fy_ = dv[i, 1] / h
+        fz_ = dv[i, 2] / h
+        wx = dtheta[i, 0] / h
+        wy = dtheta[i, 1] / h
+        wz = dtheta[i, 2] / h
+        if i == 0:
+            px, py, pz = prev_f[0], prev_f[1], prev_f[2]
+            qx, qy, qz = prev_w[0], prev_w[1], prev_w[2]
+        else:
+            g = dt[i - 1]
+            px, py, pz = dv[i - 1, 0] / g, dv[i - 1, 1] / g, dv[i - 1, 2] / g
+            qx, qy, qz = dtheta[i - 1, 0] / g, dtheta[i - 1, 1] / g, dtheta[i - 1, 2] / g
+        fm = np.sqrt((fx_ * fx_ + fz_ * fz_) + fy_ * fy_)  # einsum's order (see above)
+        if sums[b, 0] == 0.0:
+            t0[b] = t[i] - h
+        t1[b] = t[i]
+        sums[b, 0] += 1.0
+        sums[b, 1] += fm
+        sums[b, 2] += fm * fm
+        sums[b, 3] += fx_
+        sums[b, 4] += fy_
+        sums[b, 5] += fz_
+        sums[b, 6] += wx
+        sums[b, 7] += wy
+        sums[b, 8] += wz
+        d = fx_ - px
+        sums[b, 9] += d * d
+        d = fy_ - py
+        sums[b, 10] += d * d
+        d = fz_ - pz
+        sums[b, 11] += d * d
+        d = wx - qx
+        sums[b, 12] += d * d
+        d = wy - qy
+        sums[b, 13] += d * d
+        d = wz - qz
+        sums[b, 14] += d * d
+        sums[b, 15] += turn[i]
+        sums[b, 16] += 0.0 if h <= gap_limit else 1.0
+        if table:
+            if i == 0 and first_table and n > 1:
+                wz = wz - turn[1] / dt[1]
+            else:
+                wz = wz - turn[i] / h
+        sub[kb, 0] += 1.0
+        sub[kb, 1] += fx_
+        sub[kb, 2] += fy_
+        sub[kb, 3] += fz_
+        sub[kb, 4] += wx
+        sub[kb, 5] += wy
+        sub[kb, 6] += wz
+        sub[kb, 7] += psi[i]
 
 
 # --------------------------------------------------------------------------- alignment filter

@@ -145,15 +145,15 @@ class TableUnwrap:
         self._unwrapped = 0.0
 
     def __call__(self, angle: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Continuous angle [rad] from wrapped readings [rad]."""
-        a = np.asarray(angle, dtype=float)
+        """Continuous angle [rad] from wrapped readings [rad] (one pass,
+        :func:`rinscal._kernels.unwrap_angle`: the bits of ``numpy.unwrap`` across pieces)."""
+        a = np.ascontiguousarray(angle, dtype=float)
         if a.size == 0:
             return a
-        if self._raw is None:
-            u = np.unwrap(a)
-        else:
-            u = np.unwrap(np.concatenate([[self._raw], a]))
-            u = u[1:] - u[0] + self._unwrapped
+        u = np.empty_like(a)
+        first = self._raw is None
+        raw = 0.0 if self._raw is None else self._raw
+        _kernels.unwrap_angle(a, raw, self._unwrapped, first, u)
         self._raw, self._unwrapped = float(a[-1]), float(u[-1])
         return u
 
@@ -187,18 +187,12 @@ class BlockStats:
             self._origin = float(s.t[0] - s.dt[0])
             self._has_table = s.table is not None
         dt = s.dt
-        w = s.dtheta / dt[:, None]
-        f = s.dv / dt[:, None]
-        fm = np.sqrt(np.einsum("ij,ij->i", f, f))
-        ids = np.floor((s.t - 0.5 * dt - self._origin) / BLOCK_S).astype(np.int64)
-        lo = int(ids[0])
-        k = ids - lo
-        m = int(k[-1]) + 1
-        pw = w[:1] if self._prev_w is None else self._prev_w
-        pf = f[:1] if self._prev_f is None else self._prev_f
-        dw = np.diff(w, axis=0, prepend=pw)
-        df = np.diff(f, axis=0, prepend=pf)
-        self._prev_w, self._prev_f = w[-1:].copy(), f[-1:].copy()
+        # the blocks the piece spans: those of its first and last samples (time increases),
+        # the index rounded as the kernel rounds it
+        lo = math.floor((float(s.t[0]) - 0.5 * float(dt[0]) - self._origin) / BLOCK_S)
+        m = math.floor((float(s.t[-1]) - 0.5 * float(dt[-1]) - self._origin) / BLOCK_S) - lo + 1
+        if self._prev_w is None:  # the first sample's difference: none
+            self._prev_w, self._prev_f = s.dtheta[0] / dt[0], s.dv[0] / dt[0]
         first_table = s.table is not None and self._prev_table is None
         if s.table is not None:
             u = self._unwrap(s.table)
@@ -217,35 +211,11 @@ class BlockStats:
                     if len(self.jumps) < 20:
                         self.jumps.append((float(s.t[i]), s.first_row + i, d / units.DEG_TO_RAD))
                 self.n_jumps += int(bad.size)
+            psi = u  # the angle the table stands at
         else:
             turn = np.zeros(s.n)
-        # short blocks: the force and the rate beyond the encoder's turn, and the angle the
-        # table (else the z gyro) stands at, summed every SUB_S within each second
-        x = (s.t - 0.5 * dt - self._origin) / BLOCK_S - ids
-        ks = k * SUBS + np.minimum((x * SUBS).astype(np.int64), SUBS - 1)
-        if s.table is not None:
-            psi = u
-            wz = w[:, 2] - turn / dt
-            if first_table and s.n > 1:  # the first reading's turn is unknown: the next's
-                wz[0] = w[0, 2] - turn[1] / dt[1]
-        else:
-            psi = self._psi + np.cumsum(s.dtheta[:, 2])
+            psi = self._psi + np.cumsum(s.dtheta[:, 2])  # without encoder: the z gyro's
             self._psi = float(psi[-1])
-            wz = w[:, 2]
-        # every sum in one pass over the samples (a kernel that releases the GIL), not one
-        # bincount pass per sum (25 a piece): the same bits, each sum in the samples' order
-        sub = np.zeros((m * SUBS, _kernels.SUB_SUMS))
-        _kernels.sub_sums(ks, f, w, np.ascontiguousarray(wz), np.ascontiguousarray(psi), sub)
-        full = np.flatnonzero(sub[:, 0])
-        sub = sub[full]
-        keys = ("n", "fx", "fy", "fz", "wx", "wy", "wz", "psi")  # the kernel's columns
-        self._subs.append({"id": lo * SUBS + full} | {key: sub[:, j] for j, key in enumerate(keys)})
-        # k is sorted (time increases): each block's first and last sample by bisection
-        lo_i = np.searchsorted(k, np.arange(m), side="left")
-        hi_i = np.searchsorted(k, np.arange(m), side="right") - 1
-        empty = hi_i < lo_i
-        first = np.where(empty, np.inf, (s.t - dt)[np.minimum(lo_i, s.n - 1)])
-        last = np.where(empty, -np.inf, s.t[np.maximum(hi_i, 0)])
         # the nominal step: the mean of the intervals that are not gaps (a clock in whole
         # ms gives 7 and 8 ms intervals for 128 Hz: the median would be 8 ms)
         med = float(np.median(dt))
@@ -253,11 +223,23 @@ class BlockStats:
         self._dt_sum += float(dt[ok].sum())
         self._dt_sq += float((dt[ok] ** 2).sum())
         self._dt_n += int(ok.sum())
+        # every sum of the piece in one pass over its samples (a kernel that releases the
+        # GIL): per second, and every SUB_S within each second
         sums = np.zeros((m, _kernels.SECOND_SUMS))
-        _kernels.second_sums(
-            k, fm, f, w, df, dw, np.ascontiguousarray(turn, dtype=float),
-            (~ok).astype(float), sums,
+        sub = np.zeros((m * SUBS, _kernels.SUB_SUMS))
+        first = np.full(m, np.inf)
+        last = np.full(m, -np.inf)
+        c = np.ascontiguousarray
+        _kernels.piece_sums(
+            c(s.t), c(dt), c(s.dtheta), c(s.dv), self._origin, BLOCK_S, lo, SUBS,
+            self._prev_w, self._prev_f, c(turn), s.table is not None, first_table,
+            c(psi, dtype=float), GAP_FACTOR * med, sums, sub, first, last,
         )  # fmt: skip
+        self._prev_w, self._prev_f = s.dtheta[-1] / dt[-1], s.dv[-1] / dt[-1]
+        full = np.flatnonzero(sub[:, 0])
+        sub = sub[full]
+        keys = ("n", "fx", "fy", "fz", "wx", "wy", "wz", "psi")  # the kernel's columns
+        self._subs.append({"id": lo * SUBS + full} | {key: sub[:, j] for j, key in enumerate(keys)})
         self._parts.append(
             {
                 "id": np.arange(lo, lo + m),
