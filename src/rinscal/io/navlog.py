@@ -157,6 +157,7 @@ class NavLog:
         *,
         max_gap_samples: int = 5,
         allow_gaps: bool = False,
+        threads: bool = True,
     ) -> Iterator[NavSamples]:
         """The recording (its chosen run) as :class:`NavSamples` pieces, in time order.
 
@@ -173,6 +174,9 @@ class NavLog:
             Integrate across every gap (rates: the rate is held over the gap; increments
             and counts: taken as the device reports them). Gaps are recorded in
             :attr:`gaps` either way.
+        threads : bool
+            Let Arrow decode a Parquet file's columns on its threads (False: on the caller's
+            thread alone, for a command told to keep to one core). The same values.
 
         Yields
         ------
@@ -192,7 +196,7 @@ class NavLog:
         if piece_rows < 1:
             raise ValueError(f"piece_rows must be at least 1, got {piece_rows}")
         self.gaps = []
-        return self._pieces(piece_rows, int(max_gap_samples), bool(allow_gaps))
+        return self._pieces(piece_rows, int(max_gap_samples), bool(allow_gaps), bool(threads))
 
     # ------------------------------------------------------------------ reading
 
@@ -215,7 +219,7 @@ class NavLog:
                 canon.extend(cols)
         return list(dict.fromkeys(self._foreign(c) for c in canon))
 
-    def _raw(self, piece_rows: int) -> Iterator[tuple[int, dict[str, Any]]]:
+    def _raw(self, piece_rows: int, threads: bool = True) -> Iterator[tuple[int, dict[str, Any]]]:
         """(rows of the file before it, canonical column -> values) for each piece read."""
         cols = self._needed()
         inverse = {self._foreign(c): c for c in self.names}
@@ -225,7 +229,7 @@ class NavLog:
 
             try:
                 pf = pq.ParquetFile(self.path, buffer_size=1 << 20, pre_buffer=False)
-                batches = pf.iter_batches(batch_size=piece_rows, columns=cols)
+                batches = pf.iter_batches(batch_size=piece_rows, columns=cols, use_threads=threads)
                 row = 0
                 while True:
                     try:
@@ -264,7 +268,9 @@ class NavLog:
             yield row, {inverse[c]: df[c] for c in cols}
             row += len(df)
 
-    def _run_pieces(self, piece_rows: int) -> Iterator[tuple[int, dict[str, Any]]]:
+    def _run_pieces(
+        self, piece_rows: int, threads: bool = True
+    ) -> Iterator[tuple[int, dict[str, Any]]]:
         """The rows of the chosen (or only) run: (rows of the file before, columns)."""
         has_run = RUN in self.names
         target = self.run
@@ -276,7 +282,7 @@ class NavLog:
         seen = ended = False
         current: object = None
         total = 0
-        for row, piece in self._raw(piece_rows):
+        for row, piece in self._raw(piece_rows, threads):
             if not has_run:
                 n = len(piece[TIME])
                 if n:
@@ -453,9 +459,9 @@ class NavLog:
         return out
 
     def _pieces(
-        self, piece_rows: int, max_gap_samples: int, allow_gaps: bool
+        self, piece_rows: int, max_gap_samples: int, allow_gaps: bool, threads: bool = True
     ) -> Iterator[NavSamples]:
-        raw = self._run_pieces(piece_rows)
+        raw = self._run_pieces(piece_rows, threads)
         nominal = 1.0 / self.rate_hz if self.rate_hz else None
         held: list[tuple[int, dict[str, Any], np.ndarray, np.ndarray | None]] = []
         if nominal is None:  # the median interval of the first NOMINAL_SAMPLES samples

@@ -77,6 +77,10 @@ from rinscal.schema import CHANNELS
 
 #: Seconds between the temperature samples kept for the figure.
 TEMPERATURE_STEP_S = 10.0
+#: Pieces the first pass reads ahead on a thread of its own (each of at most
+#: :data:`~rinscal.io.streaming.PIECE_ROWS` samples: about 40 MB of a recording with every
+#: column, so about 0.25 GB held at most).
+FIRST_PASS_AHEAD = 6
 
 
 #: A navigated recording: :class:`rinscal.nav.engine.Navigation` (``result``, ``report``,
@@ -318,7 +322,9 @@ def navigate_log(
     )
 
     def pieces() -> Any:
-        return log.pieces(max_gap_samples=max_gap_samples, allow_gaps=allow_gaps)
+        return log.pieces(
+            max_gap_samples=max_gap_samples, allow_gaps=allow_gaps, threads=n_jobs > 1
+        )
 
     # pass 1: per-second sums, the temperatures for the figure
     stats = BlockStats()
@@ -326,9 +332,10 @@ def navigate_log(
     refs: list[np.ndarray] = []  # the log's own track, a point a second (its speed)
     next_t = next_ref = -math.inf
     t_first = math.nan  # the start of the first sample's interval [s]
-    # two pieces read ahead: the reading goes on while this thread is held by work that
-    # keeps the interpreter (numba's start at the first sums); the second pass holds more
-    for s in read_ahead(pieces(), n_jobs, ahead=2):
+    # pieces read ahead: the reading goes on while this thread is held by work that keeps
+    # the interpreter (numba's start at the first sums, 0.3-0.4 s, in which a reader takes
+    # six to eight pieces of a 200 Hz recording); the second pass holds more of its own
+    for s in read_ahead(pieces(), n_jobs, ahead=FIRST_PASS_AHEAD):
         stats.add(s)
         if s.n and math.isnan(t_first):
             t_first = float(s.t[0] - s.dt[0])
