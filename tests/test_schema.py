@@ -5,6 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from rinscal.errors import LogError
 from rinscal.schema import (
@@ -12,6 +14,7 @@ from rinscal.schema import (
     CHANNELS,
     GYRO_CHANNELS,
     TEMP_CHANNELS,
+    check_finite,
     temp_column,
     temperature_column,
     validate_log,
@@ -229,3 +232,39 @@ def test_mapped_names_show_in_messages():
     df.loc[2, "temp_in"] = np.nan
     with pytest.raises(LogError, match=r"column 'temp_in' \(from 'imu\.temperature'\)"):
         validate_log(df, "x.tsv", names={"temp_in": "imu.temperature"})
+
+
+def _check_finite_reference(x: np.ndarray, allow_nan: bool) -> str | None:
+    """The refusal of check_finite written as it first was: every value looked at."""
+    bad = np.isinf(x) if allow_nan else ~np.isfinite(x)
+    if not bad.any():
+        return None
+    pos = int(np.argmax(bad))
+    return "missing value" if np.isnan(x[pos]) else f"data row {pos + 1}: value {x[pos]}"
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    values=st.lists(
+        st.one_of(
+            st.floats(allow_nan=False, allow_infinity=False),
+            st.sampled_from([np.nan, np.inf, -np.inf, 1e308, -1e308]),
+        ),
+        max_size=40,
+    ),
+    allow_nan=st.booleans(),
+)
+def test_check_finite_refuses_exactly_what_a_value_by_value_look_refuses(
+    values: list[float], allow_nan: bool
+) -> None:
+    """Its one-pass test (a finite sum; finite extremes beside NaN) lets through exactly the
+    columns with no refused value (sums that overflow included) and names the same row."""
+    x = np.array(values, dtype=float)
+    want = _check_finite_reference(x, allow_nan)
+    try:
+        check_finite(x, "f.csv", "gyro_x", None, allow_nan, "why")
+    except LogError as exc:
+        assert want is not None, f"refused a column it should take: {exc}"
+        assert want in str(exc)
+    else:
+        assert want is None, f"took a column with {want}"
