@@ -26,6 +26,7 @@ from rinscal.io.mapping import IDENTITY_AXES, TIME_UNITS, ColumnMapping, parse_a
 from rinscal.io.streaming import PIECE_ROWS
 from rinscal.io.tables import _CSV_READ_KW, _NA_STRINGS, _text_frames
 from rinscal.io.track import _check_latitude
+from rinscal.parallel import read_ahead
 from rinscal.schema import (
     _ROWS,
     CHANNELS,
@@ -462,6 +463,17 @@ class NavLog:
         self, piece_rows: int, max_gap_samples: int, allow_gaps: bool, threads: bool = True
     ) -> Iterator[NavSamples]:
         raw = self._run_pieces(piece_rows, threads)
+        if threads:  # the next batch decoded while this one is converted
+            raw = read_ahead(raw, 2)
+        try:
+            yield from self._timed(raw, max_gap_samples, allow_gaps)
+        finally:  # the batch being decoded ahead waited for, the file closed
+            raw.close()  # type: ignore[attr-defined]
+
+    def _timed(
+        self, raw: Iterator[tuple[int, dict[str, Any]]], max_gap_samples: int, allow_gaps: bool
+    ) -> Iterator[NavSamples]:
+        """The pieces of ``raw`` timed (intervals, gaps checked) and converted."""
         nominal = 1.0 / self.rate_hz if self.rate_hz else None
         held: list[tuple[int, dict[str, Any], np.ndarray, np.ndarray | None]] = []
         if nominal is None:  # the median interval of the first NOMINAL_SAMPLES samples
