@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import contextlib
 import math
-import threading
-from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -389,39 +387,82 @@ def navigate(
     _print_variants(summary)
 
 
-def _save(nav: object, out: Path, jobs: int | None) -> None:
+def _save(nav: object, out: Path, jobs: int | None, ahead: _FiguresAhead | None = None) -> None:
     """errors.csv, truth.csv, summary.json and the figures, each written atomically (the
-    figures drawn while the CSV files are formatted, on ``jobs`` threads)."""
+    figures drawn while the CSV files are formatted, on ``jobs`` threads; those drawn ahead
+    by ``ahead`` taken as they are)."""
     # deferred: loaded when the command runs, so that `rinscal --help` starts fast
-    from rinscal.report.nav_plots import save_navigation
+    from rinscal.report.nav_plots import navigation_figures, save_navigation
 
-    save_navigation(nav, out, n_jobs=jobs)  # type: ignore[arg-type]
+    if ahead is None:
+        save_navigation(nav, out, n_jobs=jobs)  # type: ignore[arg-type]
+        return
+
+    def figures(nav: Any) -> dict[str, Any]:
+        drawn = ahead.drawn()  # waited for first: one figure drawn at a time
+        return {**navigation_figures(nav, skip=tuple(drawn)), **drawn}
+
+    nav.save(out, figures=figures, n_jobs=jobs)  # type: ignore[attr-defined]
 
 
-def _figures_ahead(jobs: int | None) -> Callable[[], None]:
-    """``start()``: with more than one thread (``jobs``, None: every core), import the
-    figures' module (matplotlib, about 0.3 s of one core) on a thread of its own, once,
-    :func:`_save` then finding it imported; nothing with one thread. Called when the reading
-    has begun: its pyarrow, numpy and numba work leaves the interpreter free most of the
-    time (before it, the command's own start-up holds it). A failed import is left to
-    :func:`_save`, which imports it again and says why."""
-    # deferred: loaded when the command runs, so that `rinscal --help` starts fast
-    from rinscal.parallel import resolve_jobs
+class _FiguresAhead:
+    """Figures' work done ahead on a thread of its own, with more than one thread (``jobs``,
+    None: every core); nothing with one.
 
-    started = resolve_jobs(jobs) <= 1
+    :meth:`start`: import the figures' module (matplotlib, about 0.3 s of one core), once,
+    :func:`_save` then finding it imported; called when the reading has begun, as its
+    pyarrow, numpy and numba work leaves the interpreter free most of the time (before it,
+    the command's own start-up holds it). :meth:`temperatures`: draw ``temperatures.png``
+    from the first pass's frame while the second pass navigates (its threads run kernels
+    that release the interpreter). :meth:`drawn`: the PNGs drawn so far, by file name. A
+    failure is left to :func:`_save`, which draws that figure again and says why.
+    """
 
-    def load() -> None:
-        # deferred: on its own thread, ahead of _save (a failure: _save's import says why)
-        with contextlib.suppress(Exception):
-            import rinscal.report.nav_plots  # noqa: F401
+    def __init__(self, jobs: int | None) -> None:
+        # deferred: loaded when the command runs, so that `rinscal --help` starts fast
+        from concurrent.futures import ThreadPoolExecutor
 
-    def start() -> None:
-        nonlocal started
-        if not started:
-            started = True
-            threading.Thread(target=load, name="rinscal-figures", daemon=True).start()
+        from rinscal.parallel import resolve_jobs
 
-    return start
+        self._pool = (
+            ThreadPoolExecutor(max_workers=1, thread_name_prefix="rinscal-figures")
+            if resolve_jobs(jobs) > 1
+            else None
+        )
+        self._started = False
+        self._temperatures: Any = None
+
+    def start(self) -> None:
+        if self._pool is not None and not self._started:
+            self._started = True
+            self._pool.submit(_import_figures)
+
+    def temperatures(self, frame: Any) -> None:
+        if self._pool is not None:
+            self._temperatures = self._pool.submit(_temperature_png, frame)
+
+    def drawn(self) -> dict[str, bytes]:
+        if self._pool is None:
+            return {}
+        self._pool.shutdown(wait=True)
+        if self._temperatures is None or self._temperatures.exception() is not None:
+            return {}
+        return {"temperatures.png": self._temperatures.result()}
+
+
+def _import_figures() -> None:
+    # deferred: on its own thread, ahead of _save (a failure: _save's import says why)
+    with contextlib.suppress(Exception):
+        import rinscal.report.nav_plots  # noqa: F401
+
+
+def _temperature_png(frame: Any) -> bytes:
+    """``temperatures.png`` of a navigation's temperature frame."""
+    # deferred: on the figures' thread, while the second pass navigates
+    from rinscal.nav.engine import figure_png
+    from rinscal.report.nav_plots import plot_temperatures
+
+    return figure_png(plot_temperatures(frame))
 
 
 def _print_variants(summary: dict) -> None:
@@ -486,7 +527,7 @@ def _navigate_log(log: Path, out: Path, models: list[Path], policy: str, **kw: o
         from rinscal.io.mapping import read_mapping
         from rinscal.nav.recording import heading_text, navigate_log, parse_site
 
-        figures_ahead = _figures_ahead(kw["jobs"])  # type: ignore[arg-type]
+        ahead = _FiguresAhead(kw["jobs"])  # type: ignore[arg-type]
         mapping = read_mapping(kw["mapping"], "navigation") if kw["mapping"] else None
         site = parse_site(kw["site"]) if kw["site"] is not None else None  # type: ignore[arg-type]
         with _progress() as progress:  # type: ignore[attr-defined]
@@ -497,19 +538,20 @@ def _navigate_log(log: Path, out: Path, models: list[Path], policy: str, **kw: o
                 stage = "reading" if math.isnan(total) else "navigating"
                 known = max(done, 1.0) if math.isnan(total) else total
                 progress.update(task, description=stage, completed=done, total=known)
-                figures_ahead()  # the first piece has been read
+                ahead.start()  # the first piece has been read
 
             nav = navigate_log(
                 log, mapping=mapping, run=kw["run"], models=[str(m) for m in models],
                 policy=policy, site=site, heading_deg=kw["heading"], track=kw["track"],
                 track_utc_start=kw["track_utc_start"], align_s=kw["align_s"],
                 align_start_s=kw["align_start_s"], imu=kw["imu"], allow_gaps=kw["allow_gaps"],
-                progress=tick, n_jobs=kw["jobs"], **kw["aiding"],  # type: ignore[arg-type]
+                progress=tick, n_jobs=kw["jobs"], temperatures=ahead.temperatures,
+                **kw["aiding"],  # type: ignore[arg-type]
             )  # type: ignore[arg-type]  # fmt: skip
     except RinscalError as exc:
         raise fail(str(exc)) from None
     summary = nav.summary
-    _save(nav, out, kw["jobs"])  # type: ignore[arg-type]
+    _save(nav, out, kw["jobs"], ahead)  # type: ignore[arg-type]
     console.print(nav.report["recording_kind"]["text"], highlight=False, soft_wrap=True)
     console.print(heading_text(nav.report), highlight=False, soft_wrap=True)
     rot = nav.report["rotation"]

@@ -51,6 +51,7 @@ from rinscal.parallel import read_ahead as _read_ahead
 from rinscal.schema import GAP_FACTOR, NavSamples
 
 __all__ = [
+    "FIGURE_DPI",
     "TRUTH_COLUMNS",
     "AidedFilter",
     "EngineRun",
@@ -59,8 +60,20 @@ __all__ = [
     "PieceCorrection",
     "PieceTruth",
     "error_frame",
+    "figure_png",
     "navigate_pieces",
 ]
+
+#: Resolution of a navigation's figures as PNG [dots per inch].
+FIGURE_DPI = 110
+
+
+def figure_png(fig: Any) -> bytes:
+    """A matplotlib figure as the PNG a navigation's folder holds (:data:`FIGURE_DPI`)."""
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=FIGURE_DPI)
+    return buf.getvalue()
+
 
 #: Columns of :meth:`PieceTruth.rows` and :attr:`EngineRun.truth`: time [s], lat, lon
 #: [rad], height [m], ENU velocity [m/s ×3], heading, pitch, roll [rad] (NaN: unknown),
@@ -537,7 +550,8 @@ class Navigation:
         folder : path-like
             Created if needed.
         figures : callable, optional
-            ``figures(nav) -> {file name: figure}`` (PNG at 110 dpi each);
+            ``figures(nav) -> {file name: figure}`` (PNG at :data:`FIGURE_DPI` each, by
+            :func:`figure_png`; a figure already drawn may be given as its PNG's bytes);
             :func:`rinscal.report.nav_plots.navigation_figures` draws the command's three
             (:func:`rinscal.report.nav_plots.save_navigation` saves with them). None: no
             figures (navigation sits below the report layer and draws none itself).
@@ -567,12 +581,8 @@ class Navigation:
         text = json.dumps(self.summary, indent=2, allow_nan=False, default=float) + "\n"
 
         def draw() -> dict[str, bytes]:
-            png = {}
-            for fname, fig in (figures(self) if figures is not None else {}).items():
-                buf = io.BytesIO()
-                fig.savefig(buf, format="png", dpi=110)
-                png[fname] = buf.getvalue()
-            return png
+            made = figures(self) if figures is not None else {}
+            return {k: v if isinstance(v, bytes) else figure_png(v) for k, v in made.items()}
 
         def csv() -> dict[str, Any]:
             # Arrow's CSV writer: every float to round-trip precision, 10× faster than

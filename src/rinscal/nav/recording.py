@@ -132,6 +132,7 @@ def navigate_log(
     track_velocity_sd: float = 0.1,
     progress: Callable[[float, float], None] | None = None,
     n_jobs: int | None = None,
+    temperatures: Callable[[pd.DataFrame], None] | None = None,
 ) -> RecordedNavigation:
     """Navigate a recording with and without each thermal model.
 
@@ -192,6 +193,10 @@ def navigate_log(
         is navigated.
     n_jobs : int or None
         Threads (None/0: every core) for the variants and reading ahead; same result on 1.
+    temperatures : callable, optional
+        ``temperatures(frame)``: called once with the result's ``temperatures`` as soon as
+        the first pass has read them, before the second pass (e.g. to draw their figure
+        meanwhile); the frame is not to be changed.
 
     Returns
     -------
@@ -353,6 +358,9 @@ def navigate_log(
         if progress is not None:
             progress(float(s.t[-1]) if s.n else 0.0, math.nan)
     blocks = stats.finish()
+    frame = _temperature_frame(temps, float(blocks.t0[0]))
+    if temperatures is not None:
+        temperatures(frame)
     dt = blocks.dt
     rate_meta = (log.meta or {}).get("rate_hz")
     if isinstance(rate_meta, int | float) and rate_meta > 0 and abs(1 / rate_meta - dt) < 1e-3 * dt:
@@ -580,13 +588,18 @@ def navigate_log(
         "policy": policy,
         "warnings": warnings,
     }
+    return Navigation(result, frame, report=report, warnings=warnings)
+
+
+def _temperature_frame(temps: list[np.ndarray], t0: float) -> pd.DataFrame:
+    """The temperatures kept by the first pass (rows ``time, outer, six sensors``) as the
+    result's frame, its clock from ``t0`` [s], the recording's start (a log may keep UNIX
+    time): ``time_s, chamber`` (NaN), ``outer, sensor_<channel>`` [s, °C]."""
     temp = np.concatenate(temps) if temps else np.empty((0, 8))
-    # the figure's clock starts with the recording (a log may keep UNIX time)
-    t0 = float(blocks.t0[0])
     frame = pd.DataFrame({"time_s": temp[:, 0] - t0, "chamber": np.nan, "outer": temp[:, 1]})
     for j, c in enumerate(CHANNELS):
         frame[f"sensor_{c}"] = temp[:, 2 + j]
-    return Navigation(result, frame, report=report, warnings=warnings)
+    return frame
 
 
 def _every(t: np.ndarray, step: float, next_t: float) -> np.ndarray:

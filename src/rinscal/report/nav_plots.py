@@ -129,14 +129,16 @@ def plot_temperatures(temps: pd.DataFrame, title: str | None = None) -> Figure:
     return fig
 
 
-def navigation_figures(nav: Navigation) -> dict[str, Figure]:
+def navigation_figures(nav: Navigation, skip: tuple[str, ...] = ()) -> dict[str, Figure]:
     """The figures of a navigation's folder, by file name: ``position_error.png``,
-    ``trajectory.png`` and ``temperatures.png`` (what ``rinscal navigate`` writes)."""
-    return {
-        "position_error.png": plot_position_error(nav.result),
-        "trajectory.png": plot_trajectory(nav.result),
-        "temperatures.png": plot_temperatures(nav.temperatures),
+    ``trajectory.png`` and ``temperatures.png`` (what ``rinscal navigate`` writes), less
+    those named in ``skip`` (drawn already)."""
+    makers = {
+        "position_error.png": lambda: plot_position_error(nav.result),
+        "trajectory.png": lambda: plot_trajectory(nav.result),
+        "temperatures.png": lambda: plot_temperatures(nav.temperatures),
     }
+    return {name: make() for name, make in makers.items() if name not in skip}
 
 
 def save_navigation(
