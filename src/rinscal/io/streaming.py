@@ -514,7 +514,7 @@ class LogStreamWriter:
                     self._tmp, table.schema, use_dictionary=_text_columns(df)
                 )
             else:  # every run in the first one's types
-                table = pa.Table.from_pandas(df, schema=self._writer.schema, preserve_index=False)
+                table = _arrow_table(df, self._writer.schema)
             self._writer.write_table(table, row_group_size=PIECE_ROWS)
         else:
             df.to_csv(
@@ -536,6 +536,39 @@ class LogStreamWriter:
             self._ctx.__exit__(type(exc), exc, None)
             raise exc
         self._ctx.__exit__(exc_type, exc, tb)
+
+
+def _arrow_table(df: pd.DataFrame, schema: Any) -> Any:
+    """``pa.Table.from_pandas(df, schema=schema, preserve_index=False)``, the same table,
+    with each float64 column that holds no NaN wrapped as it is.
+
+    ``from_pandas`` takes NaN for a missing value, so it looks at every element of a float
+    column one by one for it (about 0.06 s a 1 M-row run of 16 columns); numpy's vectorised
+    ``isnan`` says the same for a column that has none, and such a column is then shared
+    (no copy). A column with a NaN, and every other column, is converted as before.
+    """
+    # deferred on purpose: pyarrow is heavy and only Parquet needs it
+    import pyarrow as pa
+
+    names = list(schema.names)
+    if list(df.columns) != names or len(set(names)) != len(names):  # from_pandas decides
+        return pa.Table.from_pandas(df, schema=schema, preserve_index=False)
+    arrays: dict[str, Any] = {}
+    for name, f in zip(names, schema, strict=True):
+        x = df[name]
+        if f.type == pa.float64() and x.dtype == np.float64:
+            v = x.to_numpy()
+            if v.ndim == 1 and v.flags.c_contiguous and not np.isnan(v).any():
+                arrays[name] = pa.array(v, type=f.type)
+    if not arrays:
+        return pa.Table.from_pandas(df, schema=schema, preserve_index=False)
+    rest = [f for f in schema if f.name not in arrays]
+    if rest:
+        others = pa.Table.from_pandas(
+            df[[f.name for f in rest]], schema=pa.schema(rest), preserve_index=False
+        )
+        arrays.update(zip(others.column_names, others.columns, strict=True))
+    return pa.Table.from_arrays([arrays[n] for n in names], schema=schema)
 
 
 def write_log_runs(
