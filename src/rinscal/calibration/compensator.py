@@ -333,10 +333,10 @@ class Compensator:
         order, or what ``then(j, f, flagged)`` makes of them.
 
         Without given features, the log's columns are read once, the temperature rate of
-        every channel found in one pass per run (:func:`column_rates`), and each channel's
-        inputs built and evaluated on a thread of its own (``n_jobs``, as the rate's groups of
-        columns): memory of the rates
-        and of ``n_jobs`` channels' inputs. ``slices``: :func:`run_slices` of the log's run
+        every channel found in a pass per run and group of columns (:func:`column_rates`, the
+        groups on ``n_jobs`` threads), and each channel's inputs built and evaluated on a
+        thread of its own (``n_jobs``): memory of the rates and of ``n_jobs`` channels'
+        inputs. ``slices``: :func:`run_slices` of the log's run
         column, when the caller has it. The first error in channel order is raised, as one
         channel after another would.
         """
