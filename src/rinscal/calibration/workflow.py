@@ -723,7 +723,9 @@ def _write_runs(
             if writer is None:
                 same_kind = format_of(out) != "parquet" and src.sep is not None
                 writer = stack.enter_context(
-                    LogStreamWriter(out, validate=False, sep=src.sep if same_kind else None)
+                    LogStreamWriter(
+                        out, validate=False, sep=src.sep if same_kind else None, writeback=True
+                    )
                 )
                 # and the last written (left before the writer closes: waited for)
                 write = stack.enter_context(one_behind(writer.write)) if several else writer.write
