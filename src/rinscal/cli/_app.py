@@ -227,9 +227,10 @@ def streaming_process() -> None:
 
     jemalloc is also told to keep the pages freed (no decay), before it makes its arenas: a
     run's buffers then reuse the previous run's pages instead of having new ones faulted in
-    and zeroed (on the 7.6 M-row log, 0.28-0.29 instead of 0.38-0.40 million page faults;
-    peak memory 1.32-1.40 GB against 1.28-1.36 GB, 3 runs each at a load of 6). The pages
-    kept are reused, so memory stays bounded by what the command holds at once.
+    and zeroed (on the 7.6 M-row log, 0.29-0.31 instead of 0.40-0.42 million page faults,
+    system time 1.1-1.3 s against 1.2-1.8 s; peak memory 1.36-1.44 GB against 1.24-1.30 GB:
+    3 runs each, load 4.5-6). The pages kept are reused, so memory stays bounded by what the
+    command holds at once.
     """
     # deferred: pyarrow is heavy and only a command that reads a log needs it
     import pyarrow as pa
