@@ -8,6 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from rinscal.calibration.thermal import features
 from rinscal.calibration.thermal.features import (
     DerivativeConfig,
     MissingGradientWarning,
@@ -145,12 +146,13 @@ def test_one_channel_s_features_are_those_of_all_channels(gradient: bool) -> Non
 
 @pytest.mark.parametrize("kind", ["centred", "causal"])
 @pytest.mark.parametrize("layout", ["runs", "interleaved", "temp_in", "no temp_out"])
+@pytest.mark.parametrize(("n_jobs", "block"), [(1, None), (2, None), (2, 1)])
 def test_channel_inputs_from_the_rates_of_every_column_are_the_feature_matrix(
-    kind: str, layout: str
+    kind: str, layout: str, n_jobs: int, block: int | None, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """Compensation finds the rate of every temperature column in one pass of the kernel
-    (column_rates) and builds each channel's inputs from it: bit for bit the matrix of that
-    channel's own features."""
+    """Compensation finds the rate of every temperature column in a few passes of the
+    kernel (column_rates: groups of columns, on threads) and builds each channel's inputs
+    from it: bit for bit the matrix of that channel's own features."""
     rng = np.random.default_rng(9)
     log = synthetic_log(rng, runs=3, n=300)
     if layout == "interleaved":
@@ -164,11 +166,13 @@ def test_channel_inputs_from_the_rates_of_every_column_are_the_feature_matrix(
     deriv = DerivativeConfig(60.0, kind)  # type: ignore[arg-type]
     cols = log_columns(log, CHANNELS)
     names = list(dict.fromkeys(cols.temp_column[c] for c in CHANNELS))
-    rates = column_rates(cols, deriv, names)
-    assert rates.shape == (len(log), len(names))
+    if block is not None:  # blocks of one column: a group per column
+        monkeypatch.setattr(features, "RATE_BLOCK_BYTES", block)
+    rates = column_rates(cols, deriv, names, n_jobs)
+    assert [r.shape for r in rates] == [(len(log),)] * len(names)
     off = OutlierConfig(enabled=False)
     for c in CHANNELS:
-        x = channel_matrix(cols, c, rates[:, names.index(cols.temp_column[c])], grad)
+        x = channel_matrix(cols, c, rates[names.index(cols.temp_column[c])], grad)
         own = build_features(log, deriv, off, (c,), use_gradient=grad).matrix(0)
         assert x.shape == own.shape and x.flags.f_contiguous
         assert x.tobytes(order="F") == own.tobytes(order="F")

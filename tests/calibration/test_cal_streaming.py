@@ -315,3 +315,33 @@ def test_evaluate_in_pieces_equals_the_whole_log(tmp_path, soak_small, fitted_mo
     pd.testing.assert_frame_equal(allan, want_allan, rtol=1e-12)
     assert curves.keys() == want_curves.keys()
     assert (res["crossings"] > 0).any()
+
+
+@pytest.mark.parametrize("writeback", [False, True])
+def test_stream_writer_writes_the_bytes_of_one_table_per_run(
+    tmp_path, soak_small, writeback
+) -> None:
+    """Runs after the first are converted without from_pandas where a float column has no
+    NaN (_arrow_table), and the pages may be handed to the disk as they come: the file is
+    byte for byte what writing each run's from_pandas table gives, NaN (nulls) included."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    log, _, _ = soak_small
+    log = _with_text(log).assign(run=lambda d: d["run"].astype("category"))
+    log.loc[5, "gyro_x"] = np.nan  # a dropped sample in the first run, one in the last
+    log.loc[len(log) - 3, "accel_z"] = np.nan
+    runs = [g for _, g in log.groupby("run", sort=False, observed=True)]
+    assert len(runs) > 2
+    got = tmp_path / "stream.parquet"
+    with io.LogStreamWriter(got, validate=False, writeback=writeback) as w:
+        for run in runs:
+            w.write(run)
+    want = tmp_path / "want.parquet"
+    schema = pa.Table.from_pandas(runs[0], preserve_index=False).schema
+    with pq.ParquetWriter(want, schema, use_dictionary=["run", "note"]) as pw:
+        for run in runs:
+            table = pa.Table.from_pandas(run, schema=schema, preserve_index=False)
+            pw.write_table(table, row_group_size=io.PIECE_ROWS)
+    assert got.read_bytes() == want.read_bytes()
+    assert pq.read_table(got).column("gyro_x").null_count == 1

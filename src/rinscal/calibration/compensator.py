@@ -333,9 +333,10 @@ class Compensator:
         order, or what ``then(j, f, flagged)`` makes of them.
 
         Without given features, the log's columns are read once, the temperature rate of
-        every channel found in one pass per run (:func:`column_rates`), and each channel's
-        inputs built and evaluated on a thread of its own (``n_jobs``): memory of the rates
-        and of ``n_jobs`` channels' inputs. ``slices``: :func:`run_slices` of the log's run
+        every channel found in a pass per run and group of columns (:func:`column_rates`, the
+        groups on ``n_jobs`` threads), and each channel's inputs built and evaluated on a
+        thread of its own (``n_jobs``): memory of the rates and of ``n_jobs`` channels'
+        inputs. ``slices``: :func:`run_slices` of the log's run
         column, when the caller has it. The first error in channel order is raised, as one
         channel after another would.
         """
@@ -348,7 +349,7 @@ class Compensator:
             cols = log_columns(log, self.channels, slices=slices)
             tcols = [cols.temp_column[c] for c in self.channels]
             uniq = list(dict.fromkeys(tcols))
-            rates = column_rates(cols, deriv, uniq)
+            rates = column_rates(cols, deriv, uniq, n_jobs)
             rows = (cols.runs, cols.codes, cols.time_s)
 
         def one(j: int) -> Any:
@@ -356,7 +357,7 @@ class Compensator:
             if features is not None:
                 f, flagged = self.output(j, features.matrix(c), features, first_row)
             else:
-                x = channel_matrix(cols, c, rates[:, uniq.index(tcols[j])], grad)
+                x = channel_matrix(cols, c, rates[uniq.index(tcols[j])], grad)
                 f, flagged = self._output(j, x, rows, first_row)
             return (f, flagged) if then is None else then(j, f, flagged)
 

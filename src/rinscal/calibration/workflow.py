@@ -712,22 +712,25 @@ def _write_runs(
     shares: dict[str, tuple[int, int]] = {}
     writer: LogStreamWriter | None = None
     several = resolve_jobs(n_jobs) > 1
-    # on several threads, the next run read while this one is compensated
-    runs = read_ahead(sources, 2) if several else sources
+    # on several threads, the next run read (and its run_slices found: once, for the channels
+    # and the counts) while this one is compensated
+    with_slices = ((src, run_slices(src.log["run"])) for src in sources)
+    runs = read_ahead(with_slices, 2) if several else with_slices
     if kernel is None:
         _load_rate_kernel(kind or mf.derivative_kind)  # meanwhile, as the first run is read
-    else:
-        kernel()
     with contextlib.ExitStack() as stack:
-        for src in runs:
+        for src, slices in runs:
+            if kernel is not None:  # the first run read meanwhile; at once after that
+                kernel()
             if writer is None:
                 same_kind = format_of(out) != "parquet" and src.sep is not None
                 writer = stack.enter_context(
-                    LogStreamWriter(out, validate=False, sep=src.sep if same_kind else None)
+                    LogStreamWriter(
+                        out, validate=False, sep=src.sep if same_kind else None, writeback=True
+                    )
                 )
                 # and the last written (left before the writer closes: waited for)
                 write = stack.enter_context(one_behind(writer.write)) if several else writer.write
-            slices = run_slices(src.log["run"])  # once, for the channels and the counts
             values, flagged = Compensator(mf, policy).batch(  # type: ignore[arg-type]
                 src.log, kind, first_row=src.first_row, n_jobs=n_jobs, slices=slices
             )

@@ -224,11 +224,19 @@ def streaming_process() -> None:
     about a second of system time: a quarter of the command's CPU was page zeroing; peak
     memory about 0.1 GB more). Process-wide, so for a command's own process only; nothing read
     or written depends on it.
+
+    jemalloc is also told to keep the pages freed (no decay), before it makes its arenas: a
+    run's buffers then reuse the previous run's pages instead of having new ones faulted in
+    and zeroed (on the 7.6 M-row log, 0.29-0.31 instead of 0.40-0.42 million page faults,
+    system time 1.1-1.3 s against 1.2-1.8 s; peak memory 1.36-1.44 GB against 1.24-1.30 GB:
+    3 runs each, load 4.5-6). The pages kept are reused, so memory stays bounded by what the
+    command holds at once.
     """
     # deferred: pyarrow is heavy and only a command that reads a log needs it
     import pyarrow as pa
 
     try:
+        pa.jemalloc_set_decay_ms(-1)  # -1: never give freed pages back (read at arena creation)
         pa.set_memory_pool(pa.jemalloc_memory_pool())
     except NotImplementedError:  # a pyarrow built without jemalloc: its default allocator
         pass

@@ -10,8 +10,10 @@ come, atomically.
 
 from __future__ import annotations
 
+import ctypes
 import itertools
 import os
+import sys
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeVar
@@ -465,6 +467,12 @@ class LogStreamWriter:
         Validate each frame as a calibration log before writing it (off for truth files).
     sep : str, optional
         Field separator of a text file (default: tab for ``.tsv``, comma for ``.csv``).
+    writeback : bool
+        After each frame, have the system start writing the file's pages to disk
+        (:func:`start_writeback`; they stay cached): moved onto an existing file at the end,
+        the file then has little left to flush (ext4 flushes a file renamed over another at
+        once: 0.26 s for a 450 MB file, 0.03-0.1 s after this). For a writer that runs
+        beside other work (``compensate`` writes a run while the next is computed).
     """
 
     def __init__(
@@ -474,6 +482,7 @@ class LogStreamWriter:
         fmt: str | None = None,
         validate: bool = True,
         sep: str | None = None,
+        writeback: bool = False,
     ) -> None:
         self.path = Path(path)
         self.fmt = format_of(self.path, fmt)
@@ -486,6 +495,7 @@ class LogStreamWriter:
         self._writer: Any = None
         self._ctx = atomic_path(self.path)
         self._tmp: Path | None = None
+        self._writeback = writeback
 
     def __enter__(self) -> LogStreamWriter:
         self._tmp = self._ctx.__enter__()
@@ -514,7 +524,7 @@ class LogStreamWriter:
                     self._tmp, table.schema, use_dictionary=_text_columns(df)
                 )
             else:  # every run in the first one's types
-                table = pa.Table.from_pandas(df, schema=self._writer.schema, preserve_index=False)
+                table = _arrow_table(df, self._writer.schema)
             self._writer.write_table(table, row_group_size=PIECE_ROWS)
         else:
             df.to_csv(
@@ -527,6 +537,8 @@ class LogStreamWriter:
                 lineterminator="\n",
             )
         self.rows += len(df)
+        if self._writeback:
+            start_writeback(self._tmp)
 
     def __exit__(self, exc_type: object, exc: BaseException | None, tb: object) -> None:
         if self._writer is not None:
@@ -536,6 +548,73 @@ class LogStreamWriter:
             self._ctx.__exit__(type(exc), exc, None)
             raise exc
         self._ctx.__exit__(exc_type, exc, tb)
+
+
+def start_writeback(path: Path) -> None:
+    """Have Linux start writing the dirty pages of the file ``path`` to disk, waiting for
+    none (``sync_file_range`` with ``SYNC_FILE_RANGE_WRITE``: the pages stay cached, nothing
+    is made durable); nothing where the system has no such call."""
+    fn = _sync_file_range()
+    if fn is None:
+        return
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        fn(fd, 0, 0, _SYNC_FILE_RANGE_WRITE)  # a failure only leaves the flush for later
+    finally:
+        os.close(fd)
+
+
+#: ``SYNC_FILE_RANGE_WRITE`` (linux/fs.h): start writing the range's dirty pages.
+_SYNC_FILE_RANGE_WRITE = 2
+_SYNC: list[Any] = []
+
+
+def _sync_file_range() -> Any:
+    """The C library's ``sync_file_range`` (Linux), or None; looked up once."""
+    if not _SYNC:
+        fn = None
+        if sys.platform.startswith("linux"):
+            try:
+                fn = ctypes.CDLL(None, use_errno=True).sync_file_range
+                fn.argtypes = [ctypes.c_int, ctypes.c_int64, ctypes.c_int64, ctypes.c_uint]
+                fn.restype = ctypes.c_int
+            except (OSError, AttributeError):  # no C library, or none with the call
+                fn = None
+        _SYNC.append(fn)
+    return _SYNC[0]
+
+
+def _arrow_table(df: pd.DataFrame, schema: Any) -> Any:
+    """``pa.Table.from_pandas(df, schema=schema, preserve_index=False)``, the same table,
+    with each float64 column that holds no NaN wrapped as it is.
+
+    ``from_pandas`` takes NaN for a missing value, so it looks at every element of a float
+    column one by one for it (about 0.06 s a 1 M-row run of 16 columns); numpy's vectorised
+    ``isnan`` says the same for a column that has none, and such a column is then shared
+    (no copy). A column with a NaN, and every other column, is converted as before.
+    """
+    # deferred on purpose: pyarrow is heavy and only Parquet needs it
+    import pyarrow as pa
+
+    names = list(schema.names)
+    if list(df.columns) != names or len(set(names)) != len(names):  # from_pandas decides
+        return pa.Table.from_pandas(df, schema=schema, preserve_index=False)
+    arrays: dict[str, Any] = {}
+    for name, f in zip(names, schema, strict=True):
+        x = df[name]
+        if f.type == pa.float64() and x.dtype == np.float64:
+            v = x.to_numpy()
+            if v.ndim == 1 and v.flags.c_contiguous and not np.isnan(v).any():
+                arrays[name] = pa.array(v, type=f.type)
+    if not arrays:
+        return pa.Table.from_pandas(df, schema=schema, preserve_index=False)
+    rest = [f for f in schema if f.name not in arrays]
+    if rest:
+        others = pa.Table.from_pandas(
+            df[[f.name for f in rest]], schema=pa.schema(rest), preserve_index=False
+        )
+        arrays.update(zip(others.column_names, others.columns, strict=True))
+    return pa.Table.from_arrays([arrays[n] for n in names], schema=schema)
 
 
 def write_log_runs(

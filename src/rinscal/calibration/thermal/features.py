@@ -429,28 +429,54 @@ def log_columns(
     )
 
 
-def column_rates(
-    cols: LogColumns, derivative: DerivativeConfig, names: Sequence[str]
-) -> np.ndarray:
-    """The temperature rate of the columns ``names`` of ``cols``, run by run [°C/min].
+#: Most temperature columns whose rate one pass of the rate kernel finds together
+#: (:func:`column_rates`), and most bytes of one such block of a run [bytes]: a block stays
+#: below glibc's mmap threshold (32 MiB), so that it comes from the heap and the next run
+#: reuses its pages instead of having new ones faulted in and zeroed.
+RATE_GROUP = 3
+RATE_BLOCK_BYTES = 24 * 2**20
 
-    All of them in one pass of the rate kernel per run: the rate of a column does not depend
-    on the columns computed with it (bit for bit), so this is what each column's features
-    hold (:func:`features_from_columns`).
+
+def column_rates(
+    cols: LogColumns,
+    derivative: DerivativeConfig,
+    names: Sequence[str],
+    n_jobs: int | None = 1,
+) -> list[np.ndarray]:
+    """The temperature rate of each of the columns ``names`` of ``cols``, run by run
+    [°C/min].
+
+    The columns go through the rate kernel in groups (:data:`RATE_GROUP` columns at most, a
+    run's block of a group at most :data:`RATE_BLOCK_BYTES`), one pass per run and group,
+    the groups on up to ``n_jobs`` threads (None/0: every core): the rate of a column does
+    not depend on the columns computed with it (bit for bit), so this is what each column's
+    features hold (:func:`features_from_columns`) whatever the grouping and the threads.
 
     Returns
     -------
-    ndarray, shape (n, len(names)), row-major [°C/min]
+    list of ndarray, shape (n,)
+        The rate of each of ``names``, in order (views of a group's row-major block).
     """
+    # deferred: the thread fan-out is needed only here
+    from rinscal.parallel import map_jobs
+
     t = cols.time_s
-    x = np.column_stack([cols.values[c] for c in names])  # the kernel runs along rows
-    if len(cols.rows) == 1 and cols.rows[0].size == t.size:  # one run: no copy of the result
-        return temperature_rate(t, x, derivative)
-    out = np.empty_like(x)
-    for idx in cols.rows:
-        r = run_index(idx)
-        out[r] = temperature_rate(t[r], x[r], derivative)
-    return out
+    longest = max((idx.size for idx in cols.rows), default=0)
+    size = max(1, min(RATE_GROUP, RATE_BLOCK_BYTES // max(8 * longest, 1)))
+    groups = [list(names[k : k + size]) for k in range(0, len(names), size)]
+
+    def group_rates(group: list[str]) -> np.ndarray:
+        x = np.column_stack([cols.values[c] for c in group])  # the kernel runs along rows
+        if len(cols.rows) == 1 and cols.rows[0].size == t.size:  # one run: no copy
+            return temperature_rate(t, x, derivative)
+        out = np.empty_like(x)
+        for idx in cols.rows:
+            r = run_index(idx)
+            out[r] = temperature_rate(t[r], x[r], derivative)
+        return out
+
+    blocks = map_jobs(group_rates, groups, n_jobs)
+    return [block[:, j] for block in blocks for j in range(block.shape[1])]
 
 
 def channel_matrix(
