@@ -15,12 +15,12 @@ outputs are in the log's units.
 from __future__ import annotations
 
 import ctypes
-import functools
 from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
 
+from rinscal.calibration._lapack import lapack_function
 from rinscal.calibration.regression import least_squares
 from rinscal.calibration.thermal.guards import COND_ERROR, check_design, design_condition
 
@@ -90,32 +90,14 @@ def one_blas_thread() -> Any:
     return threadpool_limits(limits=1, user_api="blas")
 
 
-@functools.cache
-def _dgeqrf() -> Any:
-    """LAPACK's ``dgeqrf`` of scipy's LAPACK (:mod:`scipy.linalg.cython_lapack`), called
-    through :mod:`ctypes`, which releases the GIL for the call (scipy's
-    ``scipy.linalg.lapack.dgeqrf`` holds it: the channels' threads would take turns)."""
-    from scipy.linalg import cython_lapack
-
-    capsule = cython_lapack.__pyx_capi__["dgeqrf"]
-    api = ctypes.pythonapi
-    api.PyCapsule_GetName.restype = ctypes.c_char_p
-    api.PyCapsule_GetName.argtypes = [ctypes.py_object]
-    api.PyCapsule_GetPointer.restype = ctypes.c_void_p
-    api.PyCapsule_GetPointer.argtypes = [ctypes.py_object, ctypes.c_char_p]
-    address = api.PyCapsule_GetPointer(capsule, api.PyCapsule_GetName(capsule))
-    i, p = ctypes.POINTER(ctypes.c_int), ctypes.c_void_p
-    # dgeqrf(m, n, a, lda, tau, work, lwork, info), Fortran: every argument by reference
-    return ctypes.CFUNCTYPE(None, i, i, p, i, p, p, i, i)(address)
-
-
 def qr_r(a: np.ndarray, overwrite: bool = False) -> np.ndarray:
     """Triangular factor of a QR factorisation: ``np.linalg.qr(a, mode="r")``, the same
     numbers (LAPACK's ``dgeqrf`` with the workspace it asks for, as numpy calls it).
 
-    scipy's LAPACK, called directly: numpy's bundled one took 2.3 times as long for the
-    blocks of :func:`tsqr` (16 384 × 12: 1.6 ms against 0.7 ms, one thread), and numpy
-    copies the matrix in and out around the call.
+    scipy's LAPACK, called directly (:mod:`rinscal.calibration._lapack`, the GIL
+    released): numpy's bundled one took 2.3 times as long for the blocks of :func:`tsqr`
+    (16 384 × 12: 1.6 ms against 0.7 ms, one thread), and numpy copies the matrix in and
+    out around the call.
 
     Parameters
     ----------
@@ -139,7 +121,8 @@ def qr_r(a: np.ndarray, overwrite: bool = False) -> np.ndarray:
     rows, cols = ctypes.c_int(m), ctypes.c_int(n)
 
     def call(work: np.ndarray, lwork: int) -> None:
-        _dgeqrf()(
+        # dgeqrf(m, n, a, lda, tau, work, lwork, info)
+        lapack_function("dgeqrf", "iipippii")(
             rows, cols, a.ctypes.data, rows, tau.ctypes.data, work.ctypes.data,
             ctypes.c_int(lwork), info,
         )  # fmt: skip
