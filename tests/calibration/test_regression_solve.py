@@ -76,3 +76,8 @@ def test_the_solve_is_numpy_s_lstsq_to_the_bit() -> None:
                     want = np.linalg.lstsq(a, y, rcond=None)[0]
                     got = least_squares(a, y)
                     assert got.shape == want.shape and got.tobytes() == want.tobytes()
+                    # equilibrated (np.polyfit's way): the columns scaled, the solve unscaled
+                    scale = np.sqrt((a * a).sum(axis=0))
+                    want = (np.linalg.lstsq(a / scale, y, rcond=None)[0].T / scale).T
+                    got = least_squares(a, y, equilibrate=True)
+                    assert got.shape == want.shape and got.tobytes() == want.tobytes()

@@ -27,14 +27,18 @@ from rinscal.calibration._lapack import lapack_function
 __all__ = ["least_squares", "polynomial_fit"]
 
 
-def _lstsq(a: np.ndarray, y: np.ndarray) -> np.ndarray:
+def _lstsq(a: np.ndarray, y: np.ndarray, overwrite: bool = False) -> np.ndarray:
     """``np.linalg.lstsq(a, y, rcond=None)[0]``: ``dgelsd`` with the workspace it asks for
-    and numpy's cut-off (machine precision × max(rows, columns))."""
+    and numpy's cut-off (machine precision × max(rows, columns)). ``overwrite``: ``a`` may be
+    destroyed where it is a column-major float64 array (no copy)."""
     m, n = a.shape
     nrhs = 1 if y.ndim == 1 else y.shape[1]
     if not (m and n and nrhs):
         return np.asarray(np.linalg.lstsq(a, y, rcond=None)[0], dtype=np.float64)
-    af = np.array(a, dtype=np.float64, order="F")
+    if overwrite and a.dtype == np.float64 and a.flags.f_contiguous:
+        af = a
+    else:
+        af = np.array(a, dtype=np.float64, order="F")
     b = np.zeros((max(m, n), nrhs), order="F")
     b[:m] = y.reshape(m, nrhs)
     sv = np.empty(min(m, n))
@@ -96,7 +100,8 @@ def least_squares(
     if not equilibrate:
         return _lstsq(a, y)
     scale = np.sqrt((a * a).sum(axis=0))
-    coef = _lstsq(a / scale, y)
+    # divided straight into the column-major copy LAPACK factors (and destroys)
+    coef = _lstsq(np.divide(a, scale, out=np.empty(a.shape, order="F")), y, overwrite=True)
     return np.asarray((coef.T / scale).T, dtype=np.float64)
 
 
