@@ -254,8 +254,12 @@ def _polynomial_scores(
 
     def factor(sel: np.ndarray) -> np.ndarray:
         pad = np.zeros((n_terms + 1, n_terms + 1))
-        if sel.any():
-            r = tsqr(basis, x[sel], y[sel], n_terms)
+        idx = np.flatnonzero(sel)
+        if idx.size:
+            # a fold's rows are one block where it is a run left out (views, no copies)
+            one = idx[-1] - idx[0] + 1 == idx.size
+            rows = slice(int(idx[0]), int(idx[-1]) + 1) if one else idx
+            r = tsqr(basis, x[rows], y[rows], n_terms)
             pad[: r.shape[0]] = r
         return pad
 
