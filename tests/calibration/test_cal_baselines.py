@@ -391,11 +391,14 @@ def test_the_moving_average_at_chosen_windows_is_the_whole_run_s_to_the_last_bit
         x = wide[:, 1]  # strided
         step, first = int(rng.integers(1, 12)), int(rng.integers(0, 12))
         starts = np.arange(first, n - w + 1, step)
-        want = moving_average(x, w)[starts]
+        out = 1e3 + np.cumsum(rng.normal(0, 1.0, n))  # an output, summed in the same pass
+        want = moving_average(x, w)[starts], moving_average(out, w)[starts]
         for series in (x, np.ascontiguousarray(x)):
-            got = window_means_at(series, w, starts)
-            assert got.tobytes() == want.tobytes(), (n, w, step, first)
-    assert window_means_at(np.ones(5), 3, np.zeros(0, dtype=np.int64)).size == 0
+            got = window_means_at(series, out, w, starts)
+            assert got[0].tobytes() == want[0].tobytes(), (n, w, step, first)
+            assert got[1].tobytes() == want[1].tobytes(), (n, w, step, first)
+    none = window_means_at(np.ones(5), np.ones(5), 3, np.zeros(0, dtype=np.int64))
+    assert none[0].size == none[1].size == 0
 
 
 def test_the_median_at_kept_rows_is_the_whole_run_s_filter() -> None:

@@ -59,3 +59,25 @@ def test_the_calibration_code_solves_least_squares_in_one_place() -> None:
         if re.search(r"(?<![`\w.])(np|numpy)\.(linalg\.lstsq|polyfit)\(", line)  # not in ``
     ]
     assert not found, found
+
+
+def test_the_solve_is_numpy_s_lstsq_to_the_bit() -> None:
+    """scipy's ``dgelsd``, called with the GIL released, gives ``np.linalg.lstsq(a, y,
+    rcond=None)[0]`` bit for bit: tall, square and wide designs, rank-deficient ones (the
+    minimum-norm solution, numpy's cut-off), one or several right-hand sides."""
+    rng = np.random.default_rng(7)
+    for m in (1, 3, 4, 7, 50, 20_000):
+        for n in (1, 2, 4, 8):
+            for deficient in (False, True):
+                a = rng.normal(size=(m, n)) * rng.uniform(0.01, 100, n)
+                if deficient and n > 1:
+                    a[:, -1] = 2 * a[:, 0]
+                for y in (rng.normal(size=m), rng.normal(size=(m, 3))):
+                    want = np.linalg.lstsq(a, y, rcond=None)[0]
+                    got = least_squares(a, y)
+                    assert got.shape == want.shape and got.tobytes() == want.tobytes()
+                    # equilibrated (np.polyfit's way): the columns scaled, the solve unscaled
+                    scale = np.sqrt((a * a).sum(axis=0))
+                    want = (np.linalg.lstsq(a / scale, y, rcond=None)[0].T / scale).T
+                    got = least_squares(a, y, equilibrate=True)
+                    assert got.shape == want.shape and got.tobytes() == want.tobytes()

@@ -13,6 +13,7 @@ from rinscal.calibration.thermal.fitting import (
     PowerBasis,
     center_scale,
     power_basis,
+    qr_r,
     solve_r,
     tsqr,
 )
@@ -93,3 +94,22 @@ def test_regression_from_run_factors_agrees_with_a_dense_solve() -> None:
     rss = solve_r(r, basis.n_terms)[1]
     dense = float(np.sum((basis(x) @ beta_dense - y) ** 2))
     assert rss == pytest.approx(dense, rel=1e-9)
+
+
+@pytest.mark.parametrize(
+    "shape", [(1, 1), (1, 5), (5, 12), (13, 13), (100, 13), (16_384, 12), (3000, 40), (200, 200)]
+)
+def test_qr_r_is_numpy_s_triangular_factor_to_the_bit(shape) -> None:
+    """:func:`qr_r` (scipy's LAPACK ``dgeqrf``, called directly) gives numpy's
+    ``qr(mode="r")``: tall, square and wide matrices, the blocked LAPACK path (more than 32
+    columns) too, either memory order, factored in place or not."""
+    a = np.random.default_rng(shape[0] * 1000 + shape[1]).normal(size=shape)
+    want = np.linalg.qr(a, mode="r")
+    for m in (a, np.asfortranarray(a)):
+        kept = m.copy()
+        got = qr_r(m)
+        assert got.shape == want.shape and got.tobytes() == want.tobytes()
+        np.testing.assert_array_equal(m, kept)  # not overwritten unless asked
+    f = np.asfortranarray(a)
+    assert qr_r(f, overwrite=True).tobytes() == want.tobytes()
+    assert qr_r(np.zeros((0, 3))).shape == (0, 3)

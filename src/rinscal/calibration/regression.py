@@ -7,18 +7,62 @@ IMU's weighted regressions and laws (:mod:`rinscal.calibration.imu`), the temper
 a ramp, the line under an edge step (:mod:`rinscal.calibration.evaluate`) and the Allan noise
 fit (:mod:`rinscal.calibration.allan`).
 
-It is LAPACK's SVD least squares (``numpy.linalg.lstsq``, ``gelsd``): minimum-norm where the
-design is rank-deficient, singular values below machine precision × max(rows, columns) of
-the largest treated as zero. Callers that must refuse a rank-deficient design check it
-themselves (:mod:`rinscal.calibration.thermal.guards`).
+It is LAPACK's SVD least squares (``gelsd``, as ``numpy.linalg.lstsq`` calls it, the same
+numbers): minimum-norm where the design is rank-deficient, singular values below machine
+precision × max(rows, columns) of the largest treated as zero. scipy's LAPACK is called
+directly (:mod:`rinscal.calibration._lapack`, the GIL released: numpy's ``lstsq`` holds it,
+so the channels' threads of ``auto`` took turns on the field's cubics). Callers that must
+refuse a rank-deficient design check it themselves (:mod:`rinscal.calibration.thermal.guards`).
 """
 
 from __future__ import annotations
 
+import ctypes
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from rinscal.calibration._lapack import lapack_function
+
 __all__ = ["least_squares", "polynomial_fit"]
+
+
+def _lstsq(a: np.ndarray, y: np.ndarray, overwrite: bool = False) -> np.ndarray:
+    """``np.linalg.lstsq(a, y, rcond=None)[0]``: ``dgelsd`` with the workspace it asks for
+    and numpy's cut-off (machine precision × max(rows, columns)). ``overwrite``: ``a`` may be
+    destroyed where it is a column-major float64 array (no copy)."""
+    m, n = a.shape
+    nrhs = 1 if y.ndim == 1 else y.shape[1]
+    if not (m and n and nrhs):
+        return np.asarray(np.linalg.lstsq(a, y, rcond=None)[0], dtype=np.float64)
+    if overwrite and a.dtype == np.float64 and a.flags.f_contiguous:
+        af = a
+    else:
+        af = np.array(a, dtype=np.float64, order="F")
+    b = np.zeros((max(m, n), nrhs), order="F")
+    b[:m] = y.reshape(m, nrhs)
+    sv = np.empty(min(m, n))
+    rcond = ctypes.c_double(np.finfo(np.float64).eps * max(m, n))
+    rank, info = ctypes.c_int(0), ctypes.c_int(0)
+    dims = ctypes.c_int(m), ctypes.c_int(n), ctypes.c_int(nrhs), ctypes.c_int(max(m, n))
+
+    def call(work: np.ndarray, iwork: np.ndarray, lwork: int) -> None:
+        # dgelsd(m, n, nrhs, a, lda, b, ldb, s, rcond, rank, work, lwork, iwork, info)
+        lapack_function("dgelsd", "iiipipipdipipi")(
+            dims[0], dims[1], dims[2], af.ctypes.data, dims[0], b.ctypes.data, dims[3],
+            sv.ctypes.data, rcond, rank, work.ctypes.data, ctypes.c_int(lwork),
+            iwork.ctypes.data, info,
+        )  # fmt: skip
+        if info.value < 0:
+            raise np.linalg.LinAlgError(f"dgelsd: argument {-info.value} is illegal")
+        if info.value > 0:
+            raise np.linalg.LinAlgError("SVD did not converge in Linear Least Squares")
+
+    work, iwork = np.empty(1), np.zeros(1, dtype=np.intc)
+    call(work, iwork, -1)  # the workspace LAPACK asks for
+    lwork = max(1, int(work[0]))
+    call(np.empty(lwork), np.empty(max(1, int(iwork[0])), dtype=np.intc), lwork)
+    return b[:n, 0].copy() if y.ndim == 1 else np.array(b[:n])
 
 
 def least_squares(
@@ -54,9 +98,10 @@ def least_squares(
         a = a / w[:, None]
         y = y / (w if y.ndim == 1 else w[:, None])
     if not equilibrate:
-        return np.asarray(np.linalg.lstsq(a, y, rcond=None)[0], dtype=np.float64)
+        return _lstsq(a, y)
     scale = np.sqrt((a * a).sum(axis=0))
-    coef = np.linalg.lstsq(a / scale, y, rcond=None)[0]
+    # divided straight into the column-major copy LAPACK factors (and destroys)
+    coef = _lstsq(np.divide(a, scale, out=np.empty(a.shape, order="F")), y, overwrite=True)
     return np.asarray((coef.T / scale).T, dtype=np.float64)
 
 

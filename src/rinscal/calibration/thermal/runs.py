@@ -170,8 +170,10 @@ class RowSample:
                 for key in p:  # copies: a view would keep every dropped row alive
                     p[key] = p[key][i0 :: step // self.step].copy()
             self.step = step
-        keep = np.arange((-self.seen) % step, n, step)
-        part = {"x": x[keep], "y": y[keep], "t": t[keep]}
+        first = (-self.seen) % step
+        keep = np.arange(first, n, step)
+        # strided copies (no gather by index): not views, which would keep the run alive
+        part = {k: np.array(v[first::step]) for k, v in (("x", x), ("y", y), ("t", t))}
         if "px4" in self.tools:
             part["px4"] = _median_at(y, keep)
         if "ardupilot" in self.tools:
@@ -244,7 +246,7 @@ def _moving_average_at(
         return temp[keep], y[keep]
     i = keep - w // 2
     ok = (i >= 0) & (i <= temp.size - w)
-    ts[ok], ys[ok] = window_means_at(temp, w, i[ok]), window_means_at(y, w, i[ok])
+    ts[ok], ys[ok] = window_means_at(temp, y, w, i[ok])
     return ts, ys
 
 
