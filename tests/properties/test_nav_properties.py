@@ -34,6 +34,23 @@ def test_rotvec_quaternion_dcm_round_trip(rv: list[float]) -> None:
 
 
 @FAST
+@given(st.lists(st.floats(-1.0, 1.0, allow_nan=False), min_size=4, max_size=4))
+def test_one_quaternions_dcm_is_the_batchs_to_the_bit(q: list[float]) -> None:
+    """A single quaternion's matrix (Python floats) and the same in a batch (numpy): the
+    same bits, and the textbook matrix of a rotation where the quaternion is a unit one."""
+    x = np.asarray(q)
+    one = quat_to_dcm(x)
+    batch = quat_to_dcm(np.stack([x, x]))
+    np.testing.assert_array_equal(one, batch[0])
+    if np.linalg.norm(x) > 0.1:
+        u = x / np.linalg.norm(x)
+        w, v = u[0], u[1:]
+        skew_v = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
+        textbook = np.eye(3) + 2 * w * skew_v + 2 * skew_v @ skew_v  # Rodrigues in quaternions
+        np.testing.assert_allclose(quat_to_dcm(u), textbook, atol=1e-12)
+
+
+@FAST
 @given(angle, st.floats(-1.5, 1.5), angle)
 def test_euler_round_trip(h: float, p: float, r: float) -> None:
     e = euler_from_C_nb(C_nb_from_euler([h, p, r]))

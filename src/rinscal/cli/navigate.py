@@ -506,7 +506,7 @@ def _progress() -> object:
 def _navigate_log(log: Path, out: Path, models: list[Path], policy: str, **kw: object) -> None:
     """``navigate --log``: read, align, navigate, write the same outputs as a scenario."""
     # deferred: loaded when the command runs, so that `rinscal --help` starts fast
-    from rinscal.cli._app import console, fail, flag_text
+    from rinscal.cli._app import console, fail, flag_text, streaming_process
     from rinscal.errors import RinscalError
     from rinscal.io.tables import is_flight_log
 
@@ -523,6 +523,7 @@ def _navigate_log(log: Path, out: Path, models: list[Path], policy: str, **kw: o
     if is_flight_log(log):
         raise fail(f"{log}: a flight log; navigate --log reads CSV, TSV or Parquet recordings")
     prepare_outputs(folders=[("--out", out)])
+    streaming_process()  # the recording is read piece by piece, twice
     try:
         from rinscal.io.mapping import read_mapping
         from rinscal.nav.recording import heading_text, navigate_log, parse_site

@@ -356,6 +356,8 @@ class Aligner:
         self.accel_bias = np.zeros(3)
         self.C_nr_coarse: NDArray[np.float64] | None = None
         self._result: AlignResult | None = None
+        self._F0: NDArray[np.float64] | None = None  # the filter's constant dynamics
+        self._Qc: NDArray[np.float64] | None = None
         self._init_filter()
 
     @property
@@ -439,6 +441,30 @@ class Aligner:
             return
         C_end = self.nav.C_nr
         C = 0.5 * (self._C_start + C_end)
+        if self._F0 is None:
+            self._F0, self._Qc = self._dynamics()
+        F = self._F0.copy()
+        if c.estimate_biases:  # the attitude's and velocity's errors from the biases, in n
+            F[0:3, 5:8] = -C
+            F[3:5, 8:11] = C[0:2, :]
+        v = self.nav.v_n
+        self.P, x = _kernels.kf_zero_velocity_update(
+            self.P, F, self._Qc, T, float(v[0]), float(v[1]), c.velocity_meas_sd**2
+        )
+        # feedback
+        self.nav.correct(phi_n=x[0:3], dv_n=np.array([x[3], x[4], 0.0]))
+        if c.estimate_biases:
+            self.gyro_bias += x[5:8]
+            self.accel_bias += x[8:11]
+        self.nav.reset(lat=self.lat, lon=self.lon, alt=self.alt)
+        self._C_start = self.nav.C_nr
+        self._block_t = 0.0
+
+    def _dynamics(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The filter's continuous dynamics ``F`` (11, 11) but the attitude-dependent blocks
+        (zero), and its white-noise densities ``Qc`` (11,): the same at every block of a
+        static site."""
+        c = self.config
         lat, alt = self.lat, self.alt
         rn, re = earth.principal_radii(lat)
         rn, re = float(rn) + alt, float(re) + alt
@@ -463,8 +489,6 @@ class Aligner:
         Qc[0:3] = c.gyro_noise_density**2
         Qc[3:5] = c.accel_noise_density**2
         if c.estimate_biases:
-            F[0:3, 5:8] = -C
-            F[3:5, 8:11] = C[0:2, :]
             # first-order Gauss-Markov bias errors: ḃ = −b/τ + w, E[w w] = 2σ²/τ
             if c.gyro_bias_markov_sd > 0:
                 F[5:8, 5:8] = -np.eye(3) / c.gyro_bias_tau_s
@@ -472,18 +496,7 @@ class Aligner:
             if c.accel_bias_markov_sd > 0:
                 F[8:11, 8:11] = -np.eye(3) / c.accel_bias_tau_s
                 Qc[8:11] = 2.0 * c.accel_bias_markov_sd**2 / c.accel_bias_tau_s
-        v = self.nav.v_n
-        self.P, x = _kernels.kf_zero_velocity_update(
-            self.P, F, Qc, T, float(v[0]), float(v[1]), c.velocity_meas_sd**2
-        )
-        # feedback
-        self.nav.correct(phi_n=x[0:3], dv_n=np.array([x[3], x[4], 0.0]))
-        if c.estimate_biases:
-            self.gyro_bias += x[5:8]
-            self.accel_bias += x[8:11]
-        self.nav.reset(lat=self.lat, lon=self.lon, alt=self.alt)
-        self._C_start = self.nav.C_nr
-        self._block_t = 0.0
+        return F, Qc
 
     def result(self) -> AlignResult:
         """The alignment outcome (once :attr:`done`)."""

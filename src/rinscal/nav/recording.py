@@ -194,9 +194,9 @@ def navigate_log(
     n_jobs : int or None
         Threads (None/0: every core) for the variants and reading ahead; same result on 1.
     temperatures : callable, optional
-        ``temperatures(frame)``: called once with the result's ``temperatures`` as soon as
-        the first pass has read them, before the second pass (e.g. to draw their figure
-        meanwhile); the frame is not to be changed.
+        ``temperatures(frame)``: called once with the result's ``temperatures`` (read by the
+        first pass) when the second pass has navigated its first piece, e.g. to draw their
+        figure meanwhile; the frame is not to be changed.
 
     Returns
     -------
@@ -359,8 +359,6 @@ def navigate_log(
             progress(float(s.t[-1]) if s.n else 0.0, math.nan)
     blocks = stats.finish()
     frame = _temperature_frame(temps, float(blocks.t0[0]))
-    if temperatures is not None:
-        temperatures(frame)
     dt = blocks.dt
     rate_meta = (log.meta or {}).get("rate_hz")
     if isinstance(rate_meta, int | float) and rate_meta > 0 and abs(1 / rate_meta - dt) < 1e-3 * dt:
@@ -464,7 +462,13 @@ def navigate_log(
 
     total = float(blocks.t1[-1])
 
+    handed = temperatures is None
+
     def tick(done: float) -> None:
+        nonlocal handed
+        if not handed:  # the second pass's threads are at work (numba kernels, mostly)
+            handed = True
+            temperatures(frame)  # type: ignore[misc]
         if progress is not None:
             progress(done, total)
 

@@ -35,6 +35,15 @@ _VMODES = {
 def quat_to_dcm(q: ArrayLike) -> NDArray[np.float64]:
     """Rotation matrix of unit quaternion(s) ``q`` (scalar first), shape (..., 3, 3)."""
     q = np.asarray(q, dtype=float)
+    if q.shape == (4,):  # one: the same expressions on Python floats (the same bits, 10x faster)
+        w, x, y, z = q.tolist()
+        return np.array(
+            [
+                [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+            ]
+        )
     w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
     out = np.empty((*q.shape[:-1], 3, 3))
     out[..., 0, 0] = 1 - 2 * (y * y + z * z)
