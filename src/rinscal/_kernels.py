@@ -236,6 +236,50 @@ def piece_sums(
         sub[kb, 7] += psi[i]
 
 
+# --------------------------------------------------------------------------- model domain
+#: Least and greatest float a float64 → int64 cast keeps (beyond, NaN and ±inf: INT64_MIN).
+_I64_LO = -9.223372036854775808e18
+
+
+@_jit
+def flat_cells(
+    c0: NDArray[np.float64],
+    c1: NDArray[np.float64],
+    c2: NDArray[np.float64],
+    k: int,
+    lo: NDArray[np.float64],
+    hi: NDArray[np.float64],
+    bins: NDArray[np.int64],
+    out: NDArray[np.int64],
+) -> None:  # pragma: no cover - numba
+    """Row-major flat cell number of each sample of the first ``k`` of the inputs ``c0``,
+    ``c1``, ``c2`` (n each) on the grid of ``bins`` cells over ``[lo, hi]`` per input, into
+    ``out`` (n), in one pass: each input's cell is ``floor((x − lo) / width)`` clipped into
+    ``0 .. bins − 1``, ``width = (hi − lo) / bins`` (1 where ``hi ≤ lo``).
+
+    The numbers of :func:`rinscal.calibration._domain._flat_cells`'s numpy passes to the bit,
+    a value numpy's cast to int64 cannot hold (NaN, ±inf, beyond 2⁶³) included: that cast
+    gives the least int64, which the clip makes cell 0.
+    """
+    n = out.shape[0]
+    for i in range(n):
+        flat = 0
+        for v in range(k):
+            x = c0[i] if v == 0 else (c1[i] if v == 1 else c2[i])
+            width = (hi[v] - lo[v]) / bins[v] if hi[v] > lo[v] else 1.0
+            z = np.floor((x - lo[v]) / width)
+            j = 0
+            if _I64_LO <= z < -_I64_LO:  # NaN fails both
+                j = np.int64(z)
+                top = bins[v] - 1
+                if j < 0:
+                    j = 0
+                elif j > top:
+                    j = top
+            flat = flat * bins[v] + j
+        out[i] = flat
+
+
 # --------------------------------------------------------------------------- alignment filter
 @_jit
 def kf_zero_velocity_update(

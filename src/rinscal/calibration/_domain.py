@@ -1,4 +1,4 @@
-"""Where the training data lie in (T, Ṫ, ΔT) jointly: an occupancy grid, numpy only.
+"""Where the training data lie in (T, Ṫ, ΔT) jointly: an occupancy grid.
 
 A range check on each input alone misses combinations a model never saw: on the real MEMS
 thermal cycle, trained on a cooling leg from 52 °C and a heating leg to 74 °C, half of the
@@ -25,6 +25,7 @@ Dictionary form (in a channel's ``domain`` entry)::
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -64,8 +65,27 @@ def _flat_cells(
     ``cols`` holds one input per row, shape (k, n), or is a sequence of the k inputs (each
     contiguous: the columns of a column-major block, no copy). Each input's cell is
     ``floor((x − lo) / width)`` clipped into ``0 .. bins − 1`` (a value just outside the
-    range falls in the edge cell; the box test catches the rest).
+    range falls in the edge cell; the box test catches the rest). Where the process has
+    loaded numba already (a model with a temperature rate, a navigation), one pass of
+    :func:`rinscal._kernels.flat_cells`, the same numbers; else numpy, a few passes an input
+    (a model of T alone does not load numba: its start costs more than this saves).
     """
+    n = len(cols[0])
+    if "numba" in sys.modules:  # numba loaded already: one pass of its kernel, the same bits
+        # deferred: the kernels load numba (0.5 s with its start), more than this saves
+        from rinscal import _kernels
+
+        c = [np.asarray(cols[min(v, lo.size - 1)], dtype=np.float64) for v in range(3)]
+        flat = np.empty(n, dtype=np.int64)
+        _kernels.flat_cells(c[0], c[1], c[2], lo.size, lo, hi, np.asarray(bins), flat)
+        return flat
+    return _flat_cells_numpy(cols, lo, hi, bins)
+
+
+def _flat_cells_numpy(
+    cols: np.ndarray | Sequence[np.ndarray], lo: np.ndarray, hi: np.ndarray, bins: np.ndarray
+) -> np.ndarray:
+    """:func:`_flat_cells` in numpy passes (without numba)."""
     n = len(cols[0])
     flat = np.zeros(n, dtype=np.int64)
     z = np.empty(n)  # floor((x − lo) / width), one buffer for every input
