@@ -242,6 +242,22 @@ _I64_LO = -9.223372036854775808e18
 
 
 @_jit
+def _cell(x: float, lo: float, hi: float, bins: int) -> int:  # pragma: no cover - numba
+    """The cell of ``x`` among ``bins`` over ``[lo, hi]``: ``floor((x − lo) / width)``
+    clipped into ``0 .. bins − 1`` (``width`` 1 where ``hi ≤ lo``), as numpy's passes give
+    it: a value the cast to int64 cannot hold (NaN, ±inf, beyond 2⁶³) gives the least int64,
+    which the clip makes cell 0."""
+    width = (hi - lo) / bins if hi > lo else 1.0
+    z = np.floor((x - lo) / width)
+    if not _I64_LO <= z < -_I64_LO:  # NaN fails both
+        return 0
+    j = np.int64(z)
+    if j < 0:
+        return 0
+    return bins - 1 if j > bins - 1 else j
+
+
+@_jit
 def flat_cells(
     c0: NDArray[np.float64],
     c1: NDArray[np.float64],
@@ -253,31 +269,42 @@ def flat_cells(
     out: NDArray[np.int64],
 ) -> None:  # pragma: no cover - numba
     """Row-major flat cell number of each sample of the first ``k`` of the inputs ``c0``,
-    ``c1``, ``c2`` (n each) on the grid of ``bins`` cells over ``[lo, hi]`` per input, into
-    ``out`` (n), in one pass: each input's cell is ``floor((x − lo) / width)`` clipped into
-    ``0 .. bins − 1``, ``width = (hi − lo) / bins`` (1 where ``hi ≤ lo``).
-
-    The numbers of :func:`rinscal.calibration._domain._flat_cells`'s numpy passes to the bit,
-    a value numpy's cast to int64 cannot hold (NaN, ±inf, beyond 2⁶³) included: that cast
-    gives the least int64, which the clip makes cell 0.
-    """
-    n = out.shape[0]
-    for i in range(n):
+    ``c1``, ``c2`` (n each) on the grid of ``bins`` cells over ``[lo, hi]`` per input
+    (:func:`_cell` each), into ``out`` (n), in one pass: the numbers of
+    :func:`rinscal.calibration._domain._flat_cells`'s numpy passes to the bit."""
+    for i in range(out.shape[0]):
         flat = 0
         for v in range(k):
             x = c0[i] if v == 0 else (c1[i] if v == 1 else c2[i])
-            width = (hi[v] - lo[v]) / bins[v] if hi[v] > lo[v] else 1.0
-            z = np.floor((x - lo[v]) / width)
-            j = 0
-            if _I64_LO <= z < -_I64_LO:  # NaN fails both
-                j = np.int64(z)
-                top = bins[v] - 1
-                if j < 0:
-                    j = 0
-                elif j > top:
-                    j = top
-            flat = flat * bins[v] + j
+            flat = flat * bins[v] + _cell(x, lo[v], hi[v], bins[v])
         out[i] = flat
+
+
+@_jit
+def inside_cells(
+    c0: NDArray[np.float64],
+    c1: NDArray[np.float64],
+    c2: NDArray[np.float64],
+    k: int,
+    lo: NDArray[np.float64],
+    hi: NDArray[np.float64],
+    bins: NDArray[np.int64],
+    grid: NDArray[np.bool_],
+    out: NDArray[np.bool_],
+) -> None:  # pragma: no cover - numba
+    """Whether each sample lies in a joint domain, in one pass: its flat cell (as
+    :func:`flat_cells`) is occupied in ``grid`` (flat, row-major) and every input lies within
+    ``[lo − w, hi + w]``, ``w = (hi − lo) / bins`` (0 where ``hi ≤ lo``); ``out`` (n). The
+    answers of :func:`rinscal.calibration._domain.inside_domain`'s numpy passes."""
+    for i in range(out.shape[0]):
+        flat = 0
+        box = True
+        for v in range(k):
+            x = c0[i] if v == 0 else (c1[i] if v == 1 else c2[i])
+            flat = flat * bins[v] + _cell(x, lo[v], hi[v], bins[v])
+            w = (hi[v] - lo[v]) / bins[v] if hi[v] > lo[v] else 0.0
+            box = box and (x >= lo[v] - w) and (x <= hi[v] + w)
+        out[i] = grid[flat] and box
 
 
 # --------------------------------------------------------------------------- alignment filter

@@ -11,7 +11,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rinscal import _kernels
-from rinscal.calibration._domain import _flat_cells_numpy, fit_domain, inside_domain
+from rinscal.calibration._domain import (
+    _flat_cells_numpy,
+    _inside_numpy,
+    fit_domain,
+    inside_domain,
+)
 
 
 @settings(max_examples=150, deadline=None)
@@ -44,6 +49,14 @@ def test_kernel_cells_are_numpys(
     _kernels.flat_cells(c[0], c[1], c[2], k, lo, hi, nb, got)
     np.testing.assert_array_equal(got, want)
     assert np.all((got >= 0) & (got < np.prod(nb)))
+    # and the whole test of the domain: cell occupied and every input within a cell of it
+    grid = rng.random(int(np.prod(nb))) < 0.5
+    xs = np.column_stack(cols)
+    with np.errstate(invalid="ignore"):
+        want_in = _inside_numpy(xs, lo, hi, nb, grid, np.empty(n, dtype=bool))
+    got_in = np.empty(n, dtype=bool)
+    _kernels.inside_cells(c[0], c[1], c[2], k, lo, hi, nb, grid, got_in)
+    np.testing.assert_array_equal(got_in, want_in)
 
 
 @pytest.mark.parametrize("k", [1, 2, 3])

@@ -256,16 +256,36 @@ def inside_domain(domain: Mapping[str, Any], x: np.ndarray) -> np.ndarray:
     nb = np.asarray(domain["bins"], dtype=np.int64)
     k = lo.size
     xs = np.asarray(x, dtype=np.float64)[:, :k]
-    width = np.where(hi > lo, (hi - lo) / nb, 0.0)
     grid = _grid(domain).ravel()
     out = np.empty(xs.shape[0], dtype=bool)
+    if "numba" in sys.modules:  # numba loaded already: one pass of its kernel (_flat_cells)
+        # deferred: the kernels load numba (0.5 s with its start), more than this saves
+        from rinscal import _kernels
+
+        c = [xs[:, min(v, k - 1)] for v in range(3)]
+        _kernels.inside_cells(c[0], c[1], c[2], k, lo, hi, nb, grid, out)
+        return out
+    return _inside_numpy(xs, lo, hi, nb, grid, out)
+
+
+def _inside_numpy(
+    xs: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    nb: np.ndarray,
+    grid: np.ndarray,
+    out: np.ndarray,
+) -> np.ndarray:
+    """:func:`inside_domain` in numpy passes (without numba), into ``out``."""
+    k = lo.size
+    width = np.where(hi > lo, (hi - lo) / nb, 0.0)
     for s in range(0, xs.shape[0], 1 << 16):  # a block of rows at a time, one input per row
         block = xs[s : s + (1 << 16)]
         if block.strides[0] == block.itemsize:  # column-major: each input contiguous as is
             cols: np.ndarray | list[np.ndarray] = [block[:, v] for v in range(k)]
         else:
             cols = np.ascontiguousarray(block.T)  # transposed once, for cells and box alike
-        ok = grid[_flat_cells(cols, lo, hi, nb)]
+        ok = grid[_flat_cells_numpy(cols, lo, hi, nb)]
         for v in range(k):
             ok &= (cols[v] >= lo[v] - width[v]) & (cols[v] <= hi[v] + width[v])
         out[s : s + block.shape[0]] = ok
