@@ -33,6 +33,7 @@ def lapack_function(name: str, args: str) -> Any:
         One letter an argument: ``i`` a pointer to an int, ``d`` to a double, ``p`` an
         array's data.
     """
+    # deferred: scipy.linalg (about 0.2 s to import) only when a fit solves through it
     from scipy.linalg import cython_lapack
 
     capsule = cython_lapack.__pyx_capi__[name]

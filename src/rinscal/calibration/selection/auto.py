@@ -11,6 +11,11 @@ field's own cubic (ArduPilot's, then PX4's), else the fewest thermal parameters:
 noise, the simpler wins. "No compensation" is a candidate, so on the held-out data the
 choice is never clearly worse than doing nothing.
 
+Why one module: about 700 lines, one idea: the held-out choice of one channel's model, its
+folds' rows taken once for every candidate (the field's tools and the polynomials scored on
+the same rows, so that their scores compare), the table and the rule that reads it; split,
+the shared rows and their thinning would have to cross module boundaries as private state.
+
 Folds (:func:`rinscal.calibration.selection.folds.holdout_folds`)
     Leave-one-run-out when the log has three runs or more. Otherwise each run is cut into its
     heating and cooling legs (turning points of the temperature, with a hysteresis of
