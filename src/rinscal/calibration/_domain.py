@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import sys
 from collections.abc import Mapping, Sequence
+from types import ModuleType
 from typing import Any
 
 import numpy as np
@@ -70,16 +71,29 @@ def _flat_cells(
     :func:`rinscal._kernels.flat_cells`, the same numbers; else numpy, a few passes an input
     (a model of T alone does not load numba: its start costs more than this saves).
     """
-    n = len(cols[0])
-    if "numba" in sys.modules:  # numba loaded already: one pass of its kernel, the same bits
-        # deferred: the kernels load numba (0.5 s with its start), more than this saves
-        from rinscal import _kernels
+    kernels = _loaded_kernels()
+    if kernels is None:
+        return _flat_cells_numpy(cols, lo, hi, bins)
+    flat = np.empty(len(cols[0]), dtype=np.int64)
+    kernels.flat_cells(*_three(cols, lo.size), lo.size, lo, hi, np.asarray(bins), flat)
+    return flat
 
-        c = [np.asarray(cols[min(v, lo.size - 1)], dtype=np.float64) for v in range(3)]
-        flat = np.empty(n, dtype=np.int64)
-        _kernels.flat_cells(c[0], c[1], c[2], lo.size, lo, hi, np.asarray(bins), flat)
-        return flat
-    return _flat_cells_numpy(cols, lo, hi, bins)
+
+def _loaded_kernels() -> ModuleType | None:
+    """:mod:`rinscal._kernels` where the process has numba loaded already (a model with a
+    temperature rate, a navigation), else None: a model of T alone does not load numba for
+    the domain (its start, about 0.5 s, costs more than one pass saves)."""
+    if "numba" not in sys.modules:
+        return None
+    # deferred: the kernels load numba, and only a process that has it already takes them
+    from rinscal import _kernels
+
+    return _kernels
+
+
+def _three(cols: np.ndarray | Sequence[np.ndarray], k: int) -> list[np.ndarray]:
+    """The kernels' three input arguments from the ``k`` inputs (the last repeated: unread)."""
+    return [np.asarray(cols[min(v, k - 1)], dtype=np.float64) for v in range(3)]
 
 
 def _flat_cells_numpy(
@@ -258,14 +272,11 @@ def inside_domain(domain: Mapping[str, Any], x: np.ndarray) -> np.ndarray:
     xs = np.asarray(x, dtype=np.float64)[:, :k]
     grid = _grid(domain).ravel()
     out = np.empty(xs.shape[0], dtype=bool)
-    if "numba" in sys.modules:  # numba loaded already: one pass of its kernel (_flat_cells)
-        # deferred: the kernels load numba (0.5 s with its start), more than this saves
-        from rinscal import _kernels
-
-        c = [xs[:, min(v, k - 1)] for v in range(3)]
-        _kernels.inside_cells(c[0], c[1], c[2], k, lo, hi, nb, grid, out)
-        return out
-    return _inside_numpy(xs, lo, hi, nb, grid, out)
+    kernels = _loaded_kernels()  # one pass of a kernel where numba is loaded (_flat_cells)
+    if kernels is None:
+        return _inside_numpy(xs, lo, hi, nb, grid, out)
+    kernels.inside_cells(*_three([xs[:, v] for v in range(k)], k), k, lo, hi, nb, grid, out)
+    return out
 
 
 def _inside_numpy(
