@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from sklearn.base import clone
 
 from rinscal.calibration.inference import n_inputs, predict_params, validate_params
@@ -414,3 +416,57 @@ def test_the_median_at_kept_rows_is_the_whole_run_s_filter() -> None:
             for first in {0, min(step - 1, n - 1)}:
                 keep = np.arange(first, n, step)
                 assert np.array_equal(_median_at(y, keep), px4_median_filter(y)[keep])
+
+
+def test_the_median_network_selects_the_16th_of_32_values() -> None:
+    """The kernel's compare-exchanges are those :func:`median_network` builds (read from its
+    source), for PX4's 31-sample window, and applied to 31 values and +inf they put the
+    median in position 15: checked here by applying them in Python to windows with ties,
+    signed values and runs of equal values, against ``numpy.median``."""
+    import inspect
+    import re
+
+    from rinscal.calibration.thermal import _running_median
+    from rinscal.calibration.thermal.baselines import PX4_MEDIAN_KERNEL
+
+    assert PX4_MEDIAN_KERNEL == 31  # the kernel is written out for this window
+    net = _running_median.median_network()
+    src = inspect.getsource(_running_median._medians)
+    written = [(int(a), int(b)) for a, b in re.findall(r"v(\d+), v(\d+) = min", src)]
+    assert written == net
+    assert all(a < b < 31 for a, b in net)
+    rng = np.random.default_rng(11)
+    for _ in range(3000):
+        ties = rng.random() < 0.5
+        w = rng.choice([-2.0, -1.0, 0.0, 1.0, 2.5], 31) if ties else rng.normal(size=31)
+        v = [*w.tolist(), np.inf]
+        for a, b in net:
+            v[a], v[b] = min(v[a], v[b]), max(v[a], v[b])
+        assert v[15] == np.median(w)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    n=st.integers(1, 400),
+    step=st.integers(1, 20),
+    first=st.integers(0, 19),
+    levels=st.sampled_from([0, 3, 1000]),
+    seed=st.integers(0, 2**32 - 1),
+)
+def test_medians_at_chosen_rows_are_scipy_s_filter(
+    n: int, step: int, first: int, levels: int, seed: int
+) -> None:
+    """:func:`medians_at` is PX4's filter (``scipy.ndimage.median_filter``, zeros beyond the
+    ends) at any rows, bit for bit but for the sign of a zero (``+ 0.0`` makes ``-0.0``
+    ``0.0``): short runs (a window wider than the run), the first and last 15 rows,
+    quantised outputs with many ties and signed zeros."""
+    from rinscal.calibration.thermal._running_median import medians_at
+    from rinscal.calibration.thermal.baselines import px4_median_filter
+
+    rng = np.random.default_rng(seed)
+    y = rng.normal(0.0, 1.0, n)
+    if levels:
+        y = np.round(y * levels / 4) / (levels / 4)
+    keep = np.arange(min(first, n - 1), n, step)
+    got, want = medians_at(y, keep), px4_median_filter(y)[keep]
+    assert (got + 0.0).tobytes() == (want + 0.0).tobytes()
