@@ -119,3 +119,22 @@ def test_regression_selection_from_per_run_factors_equals_refitting(soak_small) 
             row = res.table[(res.table["channel"] == ch) & (res.table["setting"] == s)].iloc[0]
             assert row["rms_train"] == pytest.approx(train, rel=1e-9), (ch, s)
             assert row["rms_heldout"] == pytest.approx(held, rel=1e-9), (ch, s)
+
+
+def test_a_run_span_from_the_callers_range_is_the_searched_one() -> None:
+    """:func:`run_span` given the run's range (``whole``, a run not cut) is the span it finds
+    itself; a run cut into legs ignores it (each segment's range is searched)."""
+    from rinscal.calibration.selection.folds import run_span
+
+    rng = np.random.default_rng(5)
+    for n in (1, 2, 17, 5000):
+        temp = 20 + np.cumsum(rng.normal(0, 0.1, n))
+        for cut in (False, True):
+            want = run_span(3, temp, cut)
+            got = run_span(3, temp, cut, whole=(float(temp.min()), float(temp.max())))
+            for f in dataclasses.fields(want):
+                a, b = getattr(want, f.name), getattr(got, f.name)
+                if isinstance(a, np.ndarray):
+                    assert a.tobytes() == b.tobytes() and a.dtype == b.dtype, f.name
+                else:
+                    assert a == b, f.name

@@ -6,6 +6,8 @@ import re
 from pathlib import Path
 
 import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import rinscal.calibration
 from rinscal.calibration.regression import least_squares, polynomial_fit
@@ -81,3 +83,37 @@ def test_the_solve_is_numpy_s_lstsq_to_the_bit() -> None:
                     want = (np.linalg.lstsq(a / scale, y, rcond=None)[0].T / scale).T
                     got = least_squares(a, y, equilibrate=True)
                     assert got.shape == want.shape and got.tobytes() == want.tobytes()
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    n=st.integers(1, 3000),
+    degree=st.integers(0, 5),
+    centre=st.floats(-50, 50),
+    seed=st.integers(0, 2**32 - 1),
+)
+def test_the_one_pass_design_is_np_vander_equilibrated_to_the_bit(
+    n: int, degree: int, centre: float, seed: int
+) -> None:
+    """:func:`rinscal.calibration._vander.equilibrated_vander` is ``np.vander`` divided by
+    its column norms (as ``np.polyfit`` forms them) bit for bit, and ``polynomial_fit`` on
+    its path (many samples, numba loaded) is ``np.polyfit`` to the last bit."""
+    from rinscal.calibration import regression
+    from rinscal.calibration._vander import equilibrated_vander
+
+    rng = np.random.default_rng(seed)
+    x = centre + rng.normal(0.0, 10.0, n)
+    a = np.vander(x, degree + 1)
+    scale = np.sqrt((a * a).sum(axis=0))
+    design, got_scale = equilibrated_vander(x, degree)
+    assert design.flags.f_contiguous
+    assert got_scale.tobytes() == scale.tobytes()
+    assert design.tobytes(order="F") == (a / scale).tobytes(order="F")
+    if n > degree:
+        y = 3.0 - 0.2 * x + 1e-3 * x**3 + rng.normal(0.0, 0.5, n)
+        old = regression._KERNEL_ROWS
+        try:
+            regression._KERNEL_ROWS = 1  # the kernel path at this size
+            assert np.array_equal(polynomial_fit(x, y, degree), np.polyfit(x, y, degree))
+        finally:
+            regression._KERNEL_ROWS = old

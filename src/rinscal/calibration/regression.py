@@ -1,4 +1,4 @@
-"""The one linear least-squares solve of the calibration code: numpy only.
+"""The one linear least-squares solve of the calibration code.
 
 Every regression of :mod:`rinscal.calibration` ends here: the thermal models' blocked QR
 (:func:`rinscal.calibration.thermal.fitting.solve_r` solves its small triangular system with
@@ -13,11 +13,16 @@ precision × max(rows, columns) of the largest treated as zero. scipy's LAPACK i
 directly (:mod:`rinscal.calibration._lapack`, the GIL released: numpy's ``lstsq`` holds it,
 so the channels' threads of ``auto`` took turns on the field's cubics). Callers that must
 refuse a rank-deficient design check it themselves (:mod:`rinscal.calibration.thermal.guards`).
+
+numpy only, but for :func:`polynomial_fit` of many samples in a process that has numba
+loaded already: its design then comes from one compiled pass (:mod:`rinscal.calibration.
+_vander`), the same numbers.
 """
 
 from __future__ import annotations
 
 import ctypes
+import sys
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -25,6 +30,10 @@ from numpy.typing import ArrayLike, NDArray
 from rinscal.calibration._lapack import lapack_function
 
 __all__ = ["least_squares", "polynomial_fit"]
+
+#: Samples from which :func:`polynomial_fit` forms its design in one pass
+#: (:mod:`rinscal.calibration._vander`) where the process has numba loaded.
+_KERNEL_ROWS = 10_000
 
 
 def _lstsq(a: np.ndarray, y: np.ndarray, overwrite: bool = False) -> np.ndarray:
@@ -125,4 +134,12 @@ def polynomial_fit(x: ArrayLike, y: ArrayLike, degree: int) -> NDArray[np.float6
     ndarray, shape (degree + 1,) or (degree + 1, m) [unit of y / unit of x^k]
     """
     x = np.asarray(x, dtype=np.float64)
+    if x.ndim == 1 and x.size >= _KERNEL_ROWS and "numba" in sys.modules:
+        # deferred: the one-pass design where numba is loaded already (``auto``'s field
+        # candidates); a process without it does not load it for this
+        from rinscal.calibration._vander import equilibrated_vander
+
+        a, scale = equilibrated_vander(x, degree)
+        coef = _lstsq(a, np.asarray(y, dtype=np.float64), overwrite=True)
+        return np.asarray((coef.T / scale).T, dtype=np.float64)
     return least_squares(np.vander(x, degree + 1), y, equilibrate=True)

@@ -127,7 +127,9 @@ class RunSpan:
     hi: np.ndarray
 
 
-def run_span(code: int, temp: np.ndarray, cut: bool) -> RunSpan:
+def run_span(
+    code: int, temp: np.ndarray, cut: bool, whole: tuple[float, float] | None = None
+) -> RunSpan:
     """The :class:`RunSpan` of one run's usable rows.
 
     Parameters
@@ -138,6 +140,9 @@ def run_span(code: int, temp: np.ndarray, cut: bool) -> RunSpan:
         The run's temperature, rows in time order.
     cut : bool
         Cut the run into its legs (needed when the log has fewer than :data:`MIN_RUNS` runs).
+    whole : (float, float), optional [°C]
+        ``temp.min()`` and ``temp.max()`` where the caller has them: a run not cut is one
+        segment, whose range is then not searched for again.
     """
     n = int(temp.size)
     legs = tuple(_legs(temp)) if cut and n else ((0, n, ""),)
@@ -146,7 +151,9 @@ def run_span(code: int, temp: np.ndarray, cut: bool) -> RunSpan:
         for per in range(1, MIN_FOLDS + 1) if cut else (1,):
             cuts.update((a + np.cumsum([0, *_split_sizes(b - a, per)])).tolist())
     c = np.array(sorted(cuts), dtype=np.int64)
-    if n:
+    if n and whole is not None and c.size == 2:
+        lo, hi = np.array([whole[0]], dtype=np.float64), np.array([whole[1]], dtype=np.float64)
+    elif n:
         lo, hi = np.minimum.reduceat(temp, c[:-1]), np.maximum.reduceat(temp, c[:-1])
     else:
         lo = hi = np.zeros(0)

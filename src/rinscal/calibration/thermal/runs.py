@@ -155,8 +155,16 @@ class RowSample:
         self.codes: list[int] = []
         self.spans: list[RunSpan] = []
 
-    def add(self, code: int, x: np.ndarray, y: np.ndarray, t: np.ndarray) -> None:
-        """Take in one whole run's usable rows (as :meth:`RunFits.add`)."""
+    def add(
+        self,
+        code: int,
+        x: np.ndarray,
+        y: np.ndarray,
+        t: np.ndarray,
+        t_range: tuple[float, float] | None = None,
+    ) -> None:
+        """Take in one whole run's usable rows (as :meth:`RunFits.add`); ``t_range``: the
+        least and greatest ``T`` of the run [°C] where the caller has them."""
         n = x.shape[0]
         step = self.step
         while -(-(self.seen + n) // step) > self.most:  # rows kept: the multiples of step
@@ -177,7 +185,8 @@ class RowSample:
         if "ardupilot" in self.tools:
             part["ap_t"], part["ap_y"] = _moving_average_at(x[:, 0], y, t, keep)
         # legs only matter when the log has fewer than MIN_RUNS runs: its first runs
-        self.spans.append(run_span(code, x[:, 0], cut=len(self.spans) < MIN_RUNS - 1))
+        cut = len(self.spans) < MIN_RUNS - 1
+        self.spans.append(run_span(code, x[:, 0], cut=cut, whole=t_range))
         self.parts.append(part)
         self.offsets.append(self.seen)
         self.codes.append(int(code))
@@ -331,7 +340,7 @@ class RunFits:
             keep = [np.array(a[sel]) if step > 1 else a for a in (x, y, t)]  # no view of the run
             self.rows.append((keep[0], keep[1], np.full(len(keep[1]), code), keep[2]))
         if self.screen is not None:
-            self.screen.add(code, x, y, t)
+            self.screen.add(code, x, y, t, (float(lo[0]), float(hi[0])))
 
     def data(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The kept rows of every run (without: the screen's): inputs, outputs, run codes,
