@@ -20,7 +20,7 @@ import numpy as np
 __all__ = ["equilibrated_vander"]
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, error_model="numpy")  # x / 0: inf or nan, as numpy
 def _design(x, out, scale):  # pragma: no cover - numba
     """``scale[j]`` = the norm of column ``j`` of ``np.vander(x, k)`` (``k`` = columns of
     ``out``), ``out`` = that column divided by it."""
