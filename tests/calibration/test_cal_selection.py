@@ -6,8 +6,6 @@ import dataclasses
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
-from hypothesis import strategies as st
 
 from rinscal.calibration.selection.heldout import select_model
 from rinscal.calibration.thermal.features import build_features
@@ -140,28 +138,3 @@ def test_a_run_span_from_the_callers_range_is_the_searched_one() -> None:
                     assert a.tobytes() == b.tobytes() and a.dtype == b.dtype, f.name
                 else:
                     assert a == b, f.name
-
-
-@settings(max_examples=80, deadline=None)
-@given(
-    m=st.integers(0, 2000),
-    k=st.integers(1, 13),
-    n_blocks=st.integers(1, 60),
-    seed=st.integers(0, 2**32 - 1),
-)
-def test_block_sums_are_bincount_s_to_the_bit(m: int, k: int, n_blocks: int, seed: int) -> None:
-    """:func:`rinscal.calibration.selection._block_sums.block_sums` adds what ``np.bincount``
-    adds, in its order: column by column the same bits, on a column-major design whose
-    values span six decades (where the order of the additions shows)."""
-    from rinscal.calibration.selection._block_sums import block_sums
-
-    rng = np.random.default_rng(seed)
-    ids = np.sort(rng.integers(0, n_blocks, m))
-    a = np.asfortranarray(rng.normal(size=(m, k)) * 10.0 ** rng.integers(-3, 3, (m, k)))
-    y = rng.normal(size=m) * 1e4
-    got = block_sums(ids, a, y, n_blocks)
-    want = [np.bincount(ids, weights=a[:, j], minlength=n_blocks) for j in range(k)]
-    want.append(np.bincount(ids, weights=y, minlength=n_blocks))
-    assert got.shape == (n_blocks, k + 1)
-    for j in range(k + 1):
-        assert got[:, j].tobytes() == want[j].tobytes(), j

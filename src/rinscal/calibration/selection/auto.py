@@ -65,7 +65,6 @@ from __future__ import annotations
 
 import itertools
 import math
-import sys
 import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
@@ -269,11 +268,6 @@ def _polynomial_scores(
             pad[: r.shape[0]] = r
         return pad
 
-    fused = None
-    if "numba" in sys.modules:  # loaded already (auto's field candidates): its one pass
-        # deferred: a process without numba does not load it for this
-        from rinscal.calibration.selection._block_sums import block_sums as fused
-
     def block_factor(sel: np.ndarray) -> tuple[np.ndarray, int]:
         """``R`` of the block means of ``[A | y]`` over the selected rows, and the blocks."""
         idx = np.flatnonzero(sel)
@@ -286,9 +280,6 @@ def _polynomial_scores(
         for s in range(0, idx.size, 1 << 16):
             rows = idx[s : s + (1 << 16)]
             a = basis(x[rows])
-            if fused is not None:  # the same sums in one pass
-                sums += fused(ids[s : s + (1 << 16)], a, y[rows], nb)
-                continue
             for j in range(n_terms):
                 sums[:, j] += np.bincount(ids[s : s + (1 << 16)], weights=a[:, j], minlength=nb)
             sums[:, n_terms] += np.bincount(ids[s : s + (1 << 16)], weights=y[rows], minlength=nb)
