@@ -117,3 +117,20 @@ def test_the_one_pass_design_is_np_vander_equilibrated_to_the_bit(
             assert np.array_equal(polynomial_fit(x, y, degree), np.polyfit(x, y, degree))
         finally:
             regression._KERNEL_ROWS = old
+
+
+def test_the_one_pass_design_divides_by_a_zero_norm_as_numpy_does() -> None:
+    """A column of zeros (every x 0): its norm is 0 and the division gives NaN, as numpy's
+    (with its warning); the kernel does not raise."""
+    import warnings
+
+    from rinscal.calibration._vander import equilibrated_vander
+
+    x = np.zeros(7)
+    design, scale = equilibrated_vander(x, 3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        a = np.vander(x, 4)
+        want = a / np.sqrt((a * a).sum(axis=0))
+    assert scale.tolist() == [0.0, 0.0, 0.0, np.sqrt(7.0)]
+    assert np.array_equal(design, want, equal_nan=True)
