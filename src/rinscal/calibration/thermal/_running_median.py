@@ -23,7 +23,7 @@ import numpy as np
 
 from rinscal.calibration.thermal.baselines import PX4_MEDIAN_KERNEL
 
-__all__ = ["load_kernel", "median_network", "medians_at"]
+__all__ = ["median_network", "medians_at"]
 
 
 def median_network(n: int = 32, rank: int = PX4_MEDIAN_KERNEL // 2) -> list[tuple[int, int]]:
@@ -296,10 +296,3 @@ def medians_at(y: np.ndarray, keep: np.ndarray) -> np.ndarray:
     if keep.size:
         _medians(np.asarray(y, dtype=np.float64), np.ascontiguousarray(keep, dtype=np.int64), out)
     return out
-
-
-def load_kernel() -> None:
-    """Load the compiled kernel now: its first call in a process takes it from numba's cache
-    (about 0.3 s of one core, the unrolled network is long); ``fit`` calls this while its
-    first run is read on another thread, so that the two overlap."""
-    medians_at(np.zeros(1), np.zeros(1, dtype=np.int64))

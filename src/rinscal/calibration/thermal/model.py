@@ -481,11 +481,6 @@ class ThermalFitter:
             from rinscal.calibration.thermal.rate import load_kernel
 
             load_kernel(self.derivative.kind)
-        if self.method == AUTO and "px4" in self.candidates:  # as its screen will
-            # deferred: numba's PX4 median kernel only for auto's field candidates
-            from rinscal.calibration.thermal._running_median import load_kernel as load_median
-
-            load_median()
         with one_blas_thread():
             taken = 0
             for log, (run_codes, names, rows), res, cols in items:  # no enumerate: its tuple
