@@ -167,3 +167,58 @@ def test_a_drive_aligned_in_motion_and_aided_on_threads_is_bit_identical(
         for name in one.errors:
             pd.testing.assert_frame_equal(one.errors[name], many.errors[name], check_exact=True)
         assert one.summary == many.summary
+
+
+@pytest.fixture(scope="module")
+def ring_laser_models(tmp_path_factory):  # type: ignore[no-untyped-def]
+    """Two thermal models of the ring-laser unit, fitted on its own soak: whole pulses of 0.1″
+    and 125 µg·s per sample, a few counts each (the outputs are coarse, ties everywhere)."""
+    from rinscal.io.metadata import write_meta
+    from rinscal.io.tables import write_log
+    from rinscal.sim.protocols import simulate_protocol
+
+    d = tmp_path_factory.mktemp("rlg_models")
+    log, _, meta = simulate_protocol("soak", hours=0.25, rate_hz=10.0, seed=3, imu="ring_laser")
+    assert meta["units"]["gyro_x"] == "pulse"
+    assert np.array_equal(log["gyro_x"], np.rint(log["gyro_x"]))  # whole counts
+    soak = d / "soak.parquet"
+    write_log(log, soak)
+    write_meta(meta, soak)
+    models = []
+    for method, name in (("regression", "reg"), ("poly-t", "polyt")):
+        out = d / f"{name}.json"
+        res = runner.invoke(app, ["fit", str(soak), "--method", method, "--out", str(out)])
+        assert res.exit_code == 0, res.output
+        models.append(str(out))
+    return models
+
+
+@pytest.mark.parametrize("which", ["realistic_rlg", "realistic_rlg_1hz"])
+def test_a_recording_like_the_real_one_gives_the_same_files_on_threads(
+    which, ring_laser_models, request, tmp_path
+) -> None:  # type: ignore[no-untyped-def]
+    """What a real sensor puts out, not the simulator's clean default: integer counts of a
+    dithered ring laser, people about the parked vehicle for its first 9 min, at 100 Hz and
+    summed to 1 Hz; three variants read through the default options. ``navigate --log``
+    with --jobs 1 and -j 3 writes the same summary.json, errors.csv and truth.csv, byte for
+    byte, and the window is found after the disturbance it reports."""
+    rec = request.getfixturevalue(which)
+    assert rec.counts
+    base = ["navigate", "--log", str(rec.path)]
+    for m in ring_laser_models:
+        base += ["-m", m]
+    outs = {}
+    for tag, extra in (("one", ["--jobs", "1"]), ("three", ["-j", "3"])):
+        res = runner.invoke(app, [*base, *extra, "--out", str(tmp_path / tag)])
+        assert res.exit_code == 0, res.output
+        outs[tag] = {n: (tmp_path / tag / n).read_bytes()
+                     for n in ("summary.json", "errors.csv", "truth.csv")}  # fmt: skip
+    assert outs["one"] == outs["three"]
+    summary = json.loads(outs["one"]["summary.json"])
+    assert list(summary["variants"]) == ["none", "reg", "polyt"]
+    window = summary["recording"]["window"]
+    assert window["how"] == "found" and window["disturbed"]
+    assert window["start_s"] >= window["disturbed"][-1]["end_s"] >= 0.9 * rec.disturbed[1]
+    errors = pd.read_csv(tmp_path / "one" / "errors.csv")
+    by = {v: g["horizontal_m"].to_numpy() for v, g in errors.groupby("variant")}
+    assert not np.array_equal(by["none"], by["reg"])  # the models did correct something
