@@ -8,8 +8,9 @@ array and two temporaries as large. :func:`equilibrated_vander` writes the colum
 result directly from ``x``, each power made as ``np.vander`` makes it (the previous power
 times ``x``, ``np.multiply.accumulate``) and each column's sum of squares added row by row
 from the first, as numpy's reduction over the rows of a row-major array adds them: the same
-numbers to the last bit (tested), in two passes over ``x``. ``auto``'s ArduPilot candidate
-fits its cubic on up to a million smoothed samples per channel; this is most of its cost.
+numbers to the last bit (tested), in one pass over ``x`` and one over each column.
+``auto``'s ArduPilot candidate fits its cubic on up to a million smoothed samples per
+channel; this is most of its cost.
 """
 
 from __future__ import annotations
@@ -33,20 +34,15 @@ def _design(x, out, scale):  # pragma: no cover - numba
                 p = x[i]
             elif j < k - 2:
                 p = p * x[i]
+            out[i, j] = p
             if i == 0:
                 ss[j] = p * p
             else:
                 ss[j] += p * p
     for j in range(k):
         scale[j] = np.sqrt(ss[j])
-    for i in range(n):
-        p = 1.0
-        for j in range(k - 1, -1, -1):
-            if j == k - 2:
-                p = x[i]
-            elif j < k - 2:
-                p = p * x[i]
-            out[i, j] = p / scale[j]
+        for i in range(n):  # each column divided in place, contiguous
+            out[i, j] = out[i, j] / scale[j]
 
 
 def equilibrated_vander(x: np.ndarray, degree: int) -> tuple[np.ndarray, np.ndarray]:
